@@ -1,0 +1,311 @@
+//! OpenEXR decoding with the `exr` crate's block-level API.
+//!
+//! Only the blocks of the selected part at the largest resolution level are read; each
+//! block is decompressed (in parallel on the rayon pool) and only the selected channel's
+//! samples are copied out, in the file's own sample type (f16 / f32 / u32). The output is
+//! the data window (like OpenEXR's own readers), row-major.
+
+use std::collections::HashSet;
+use std::io::{BufRead, Seek, SeekFrom};
+
+use ::exr::block::chunk::Chunk;
+use ::exr::block::reader::ChunksReader;
+use ::exr::block::UncompressedBlock;
+use ::exr::math::Vec2;
+use ::exr::meta::attribute::SampleType;
+use ::exr::meta::header::Header;
+use half::f16;
+use rayon::prelude::*;
+
+use super::{check_size, DecodeOptions, Frame, FrameData, Reason};
+
+/// Map an `exr` crate error to a reason.
+fn exr_err(e: ::exr::error::Error) -> Reason {
+    use ::exr::error::Error as E;
+    match e {
+        E::NotSupported(m) => format!("unsupported OpenEXR feature: {m}"),
+        E::Invalid(m) => format!("corrupt or invalid OpenEXR file: {m}"),
+        E::Io(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            "truncated OpenEXR file (unexpected end of file)".to_string()
+        }
+        E::Io(io) => format!("read error: {io}"),
+        E::Aborted => "OpenEXR decoding aborted".to_string(),
+    }
+}
+
+/// One selectable channel: part index, channel index in that part, display name,
+/// bare channel name.
+struct Entry {
+    part: usize,
+    channel: usize,
+    name: String,
+    bare: String,
+}
+
+fn part_label(index: usize, header: &Header) -> String {
+    match &header.own_attributes.layer_name {
+        Some(n) if !n.to_string().is_empty() => n.to_string(),
+        _ => format!("part{index}"),
+    }
+}
+
+fn entries(headers: &[Header]) -> Vec<Entry> {
+    let multi = headers.len() > 1;
+    let mut out = Vec::new();
+    for (p, h) in headers.iter().enumerate() {
+        let label = if multi { Some(part_label(p, h)) } else { None };
+        for (c, ch) in h.channels.list.iter().enumerate() {
+            let bare = ch.name.to_string();
+            let name = match &label {
+                Some(l) => format!("{l}.{bare}"),
+                None => bare.clone(),
+            };
+            out.push(Entry { part: p, channel: c, name, bare });
+        }
+    }
+    out
+}
+
+fn listing(names: impl Iterator<Item = String>) -> String {
+    let all: Vec<String> = names.collect();
+    if all.len() > 40 {
+        format!("{}, ... ({} in all)", all[..40].join(", "), all.len())
+    } else {
+        all.join(", ")
+    }
+}
+
+fn select(headers: &[Header], channel: Option<&str>) -> Result<(usize, usize), Reason> {
+    let es = entries(headers);
+    if es.is_empty() {
+        return Err("corrupt or invalid OpenEXR file: no channels".to_string());
+    }
+    let all = || listing(es.iter().map(|e| e.name.clone()));
+    let by_bare = |want: &str| -> Vec<&Entry> { es.iter().filter(|e| e.bare == want).collect() };
+    match channel {
+        Some(want) => {
+            if let Some(e) = es.iter().find(|e| e.name == want) {
+                return Ok((e.part, e.channel));
+            }
+            let m = by_bare(want);
+            match m.len() {
+                1 => Ok((m[0].part, m[0].channel)),
+                0 => Err(format!("no channel {want:?}; channels are: {}", all())),
+                _ => Err(format!(
+                    "channel {want:?} is ambiguous (in several parts); choose one of: {}",
+                    listing(m.iter().map(|e| e.name.clone()))
+                )),
+            }
+        }
+        None => {
+            if es.len() == 1 {
+                return Ok((es[0].part, es[0].channel));
+            }
+            let ys = by_bare("Y");
+            if ys.len() == 1 {
+                return Ok((ys[0].part, ys[0].channel));
+            }
+            Err(format!("several channels ({}); choose one with channel=...", all()))
+        }
+    }
+}
+
+pub(super) fn channels<R: BufRead + Seek>(reader: R) -> Result<Vec<String>, Reason> {
+    let r = ::exr::block::read(reader, false).map_err(exr_err)?;
+    Ok(entries(r.headers()).into_iter().map(|e| e.name).collect())
+}
+
+/// A sample type as stored in an uncompressed (native-endian) block.
+trait Sample: Copy + Send + Sync + 'static {
+    const ZERO: Self;
+    const SIZE: usize;
+    fn from_ne(b: &[u8]) -> Self;
+}
+
+impl Sample for f16 {
+    const ZERO: Self = f16::ZERO;
+    const SIZE: usize = 2;
+    #[inline]
+    fn from_ne(b: &[u8]) -> Self {
+        f16::from_bits(u16::from_ne_bytes([b[0], b[1]]))
+    }
+}
+
+impl Sample for f32 {
+    const ZERO: Self = 0.0;
+    const SIZE: usize = 4;
+    #[inline]
+    fn from_ne(b: &[u8]) -> Self {
+        f32::from_ne_bytes([b[0], b[1], b[2], b[3]])
+    }
+}
+
+impl Sample for u32 {
+    const ZERO: Self = 0;
+    const SIZE: usize = 4;
+    #[inline]
+    fn from_ne(b: &[u8]) -> Self {
+        u32::from_ne_bytes([b[0], b[1], b[2], b[3]])
+    }
+}
+
+/// Byte layout of one pixel row of a block: bytes per pixel over all channels, and the
+/// offset (per pixel) of the selected channel's run within a row.
+#[derive(Clone, Copy)]
+struct Layout {
+    bytes_per_pixel: usize,
+    channel_offset_per_pixel: usize,
+}
+
+/// Samples of the selected channel from one decompressed block, with its placement.
+struct Piece<T> {
+    x: usize,
+    y: usize,
+    w: usize,
+    h: usize,
+    samples: Vec<T>,
+}
+
+fn extract<T: Sample>(block: &UncompressedBlock, layout: Layout) -> Result<Piece<T>, Reason> {
+    let Vec2(w, h) = block.index.pixel_size;
+    let Vec2(x, y) = block.index.pixel_position;
+    let row_bytes = w
+        .checked_mul(layout.bytes_per_pixel)
+        .ok_or_else(|| "corrupt OpenEXR block size".to_string())?;
+    let expected = row_bytes
+        .checked_mul(h)
+        .ok_or_else(|| "corrupt OpenEXR block size".to_string())?;
+    if block.data.len() != expected {
+        return Err(format!(
+            "corrupt OpenEXR block at ({x}, {y}): {} bytes decompressed, {expected} expected",
+            block.data.len()
+        ));
+    }
+    let mut samples = Vec::with_capacity(w * h);
+    let run = w * T::SIZE;
+    for r in 0..h {
+        let start = r * row_bytes + w * layout.channel_offset_per_pixel;
+        let line = &block.data[start..start + run];
+        samples.extend(line.chunks_exact(T::SIZE).map(T::from_ne));
+    }
+    Ok(Piece { x, y, w, h, samples })
+}
+
+fn assemble<T: Sample, C: ChunksReader>(
+    mut chunks: C,
+    layout: Layout,
+    rows: usize,
+    cols: usize,
+) -> Result<Vec<T>, Reason> {
+    let meta = chunks.meta_data().clone();
+    let mut out: Vec<T> = vec![T::ZERO; rows * cols];
+    let mut seen: HashSet<(usize, usize)> = HashSet::new();
+    let mut covered: usize = 0;
+    let batch = (rayon::current_num_threads().max(1) * 4).max(8);
+    loop {
+        let mut compressed: Vec<Chunk> = Vec::with_capacity(batch);
+        for _ in 0..batch {
+            match chunks.next() {
+                Some(c) => compressed.push(c.map_err(exr_err)?),
+                None => break,
+            }
+        }
+        if compressed.is_empty() {
+            break;
+        }
+        let pieces: Vec<Result<Piece<T>, Reason>> = compressed
+            .into_par_iter()
+            .map(|c| {
+                let block = UncompressedBlock::decompress_chunk(c, &meta, false).map_err(exr_err)?;
+                extract::<T>(&block, layout)
+            })
+            .collect();
+        for piece in pieces {
+            let p = piece?;
+            if p.x.checked_add(p.w).is_none_or(|e| e > cols) || p.y.checked_add(p.h).is_none_or(|e| e > rows) {
+                return Err(format!(
+                    "corrupt OpenEXR file: block at ({}, {}) of {} x {} lies outside the data window",
+                    p.x, p.y, p.w, p.h
+                ));
+            }
+            if !seen.insert((p.x, p.y)) {
+                return Err(format!(
+                    "corrupt OpenEXR file: block at ({}, {}) appears twice",
+                    p.x, p.y
+                ));
+            }
+            for r in 0..p.h {
+                let dst = (p.y + r) * cols + p.x;
+                out[dst..dst + p.w].copy_from_slice(&p.samples[r * p.w..(r + 1) * p.w]);
+            }
+            covered += p.w * p.h;
+        }
+    }
+    if covered != rows * cols {
+        return Err(format!(
+            "truncated or corrupt OpenEXR file: its blocks cover {covered} of {} pixels",
+            rows * cols
+        ));
+    }
+    Ok(out)
+}
+
+pub(super) fn decode<R: BufRead + Seek>(mut reader: R, o: &DecodeOptions) -> Result<Frame, Reason> {
+    let file_len = reader
+        .seek(SeekFrom::End(0))
+        .map_err(|e| format!("read error: {e}"))?;
+    reader.rewind().map_err(|e| format!("read error: {e}"))?;
+
+    let r = ::exr::block::read(reader, false).map_err(exr_err)?;
+    let headers = r.headers();
+    let (part, ch) = select(headers, o.channel.as_deref())?;
+    let h = &headers[part];
+    let label = if headers.len() > 1 { format!(" (part {})", part_label(part, h)) } else { String::new() };
+    if h.deep {
+        return Err(format!("unsupported: deep data{label} (only flat OpenEXR images can be decoded)"));
+    }
+    let sub: Vec<String> = h
+        .channels
+        .list
+        .iter()
+        .filter(|c| c.sampling != Vec2(1, 1))
+        .map(|c| format!("{} ({}x{})", c.name, c.sampling.0, c.sampling.1))
+        .collect();
+    if !sub.is_empty() {
+        return Err(format!(
+            "unsupported: subsampled channels{label}: {} (luminance/chroma images are not supported)",
+            sub.join(", ")
+        ));
+    }
+    let Vec2(cols, rows) = h.layer_size;
+    check_size(cols as u64, rows as u64, o.max_pixels)?;
+
+    // Every chunk has an 8-byte entry in the offset tables: a header that claims more
+    // chunks than the file could hold is corrupt; refuse it before walking the tables.
+    let mut total_chunks: u64 = 0;
+    for hh in headers {
+        total_chunks = total_chunks.saturating_add(hh.chunk_count as u64);
+    }
+    if total_chunks.saturating_mul(8) > file_len {
+        return Err(format!(
+            "truncated or corrupt OpenEXR file: headers claim {total_chunks} chunks but the file has only {file_len} bytes"
+        ));
+    }
+
+    let sample_type = h.channels.list[ch].sample_type;
+    let bytes: Vec<usize> = h.channels.list.iter().map(|c| c.sample_type.bytes_per_sample()).collect();
+    let layout = Layout {
+        bytes_per_pixel: bytes.iter().sum(),
+        channel_offset_per_pixel: bytes[..ch].iter().sum(),
+    };
+
+    let chunks = r
+        .filter_chunks(false, |_, tile, block| block.layer == part && tile.level_index == Vec2(0, 0))
+        .map_err(exr_err)?;
+    let data = match sample_type {
+        SampleType::F16 => FrameData::F16(assemble::<f16, _>(chunks, layout, rows, cols)?),
+        SampleType::F32 => FrameData::F32(assemble::<f32, _>(chunks, layout, rows, cols)?),
+        SampleType::U32 => FrameData::U32(assemble::<u32, _>(chunks, layout, rows, cols)?),
+    };
+    Ok(Frame { rows, cols, data })
+}

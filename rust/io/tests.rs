@@ -1,0 +1,217 @@
+//! Unit tests over the real files in tests/data (no Python needed).
+
+use super::*;
+use std::path::PathBuf;
+
+fn data(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(rel)
+}
+
+fn dec(rel: &str) -> Result<Frame> {
+    decode_frame(&data(rel), &DecodeOptions::default())
+}
+
+fn dec_ch(rel: &str, ch: &str) -> Result<Frame> {
+    decode_frame(&data(rel), &DecodeOptions { channel: Some(ch.to_string()), ..Default::default() })
+}
+
+fn frame_msg(r: Result<Frame>) -> String {
+    match r {
+        Err(Error::Frame(m)) => m,
+        Err(other) => panic!("expected a Frame error, got {other:?}"),
+        Ok(f) => panic!("expected an error, got a {}x{} frame", f.rows, f.cols),
+    }
+}
+
+#[test]
+fn png_16bit_grey() {
+    let f = dec("png/pngsuite_basn0g16.png").unwrap();
+    assert_eq!((f.rows, f.cols), (32, 32));
+    let FrameData::U16(v) = &f.data else { panic!("not u16: {:?}", f.data.dtype_name()) };
+    assert_eq!(*v.iter().max().unwrap(), 65535);
+    assert_eq!(*v.iter().min().unwrap(), 0);
+    // interlaced and split-IDAT variants decode to the same pixels
+    for other in ["png/pngsuite_basi0g16.png", "png/pngsuite_oi4n0g16.png", "png/pngsuite_oi9n0g16.png"] {
+        assert_eq!(dec(other).unwrap(), f, "{other}");
+    }
+}
+
+#[test]
+fn png_colour_needs_channel() {
+    let m = frame_msg(dec("png/pngsuite_basn2c16.png"));
+    assert!(m.contains("pngsuite_basn2c16.png") && m.contains("R, G, B"), "{m}");
+    let g = dec_ch("png/pngsuite_basn2c16.png", "G").unwrap();
+    assert!(matches!(g.data, FrameData::U16(_)));
+    assert_eq!(dec_ch("png/pngsuite_basn2c16.png", "1").unwrap(), g);
+    assert_eq!(list_channels(&data("png/pngsuite_basn6a16.png")).unwrap(), ["R", "G", "B", "A"]);
+}
+
+#[test]
+fn thermal_png_tiff_exr_parity() {
+    let png = dec("thermal/cptv_v2_frame000.png").unwrap();
+    let tif = dec("thermal/cptv_v2_all100frames_uint16.tif").unwrap();
+    assert_eq!(png, tif);
+    let exr = dec("thermal/cptv_v2_frame000_counts_f32_zip.exr").unwrap();
+    let (FrameData::U16(a), FrameData::F32(b)) = (&png.data, &exr.data) else { panic!("types") };
+    assert_eq!((exr.rows, exr.cols), (120, 160));
+    assert!(a.iter().zip(b).all(|(x, y)| *x as f32 == *y));
+    let p1 = dec("thermal/cptv_v2_frame001.png").unwrap();
+    let t1 = decode_frame(
+        &data("thermal/cptv_v2_all100frames_uint16.tif"),
+        &DecodeOptions { page: 1, ..Default::default() },
+    )
+    .unwrap();
+    assert_eq!(p1, t1);
+    assert_eq!(page_count(&data("thermal/cptv_v2_all100frames_uint16.tif")).unwrap(), 100);
+    assert_eq!(page_count(&data("thermal/cptv_v2_frame000.png")).unwrap(), 1);
+    let m = frame_msg(decode_frame(
+        &data("thermal/cptv_v2_all100frames_uint16.tif"),
+        &DecodeOptions { page: 100, ..Default::default() },
+    ));
+    assert!(m.contains("page 100 out of range"), "{m}");
+}
+
+#[test]
+fn tiff_layouts_agree() {
+    let base = dec("tiff/imagetiff_seq-1c-16b-bigendian-68f373a0.tiff").unwrap();
+    assert!(matches!(base.data, FrameData::U16(_)));
+    for v in ["deflate", "lzw", "multistrip", "tiled"] {
+        let f = dec(&format!("tiff/imagetiff_seq-1c-16b-{v}-68f373a0.tiff")).unwrap();
+        assert_eq!(f, base, "{v}");
+    }
+}
+
+#[test]
+fn tiff_sample_types() {
+    assert_eq!(dec("tiff/imagetiff_int16.tif").unwrap().data.dtype_name(), "int16");
+    assert_eq!(dec("tiff/imagetiff_gradient-1c-32b-float.tiff").unwrap().data.dtype_name(), "float32");
+    assert_eq!(dec("tiff/imagetiff_gradient-1c-64b-float.tiff").unwrap().data.dtype_name(), "float64");
+    assert_eq!(dec("tiff/libtiffpic_flower-minisblack-32.tif").unwrap().data.dtype_name(), "uint32");
+    assert_eq!(page_count(&data("tiff/imagetiff_seq-1c-8b-multipage-adeefdcc.tiff")).unwrap(), 3);
+    let rgb = frame_msg(dec("tiff/imagetiff_rgb-3c-16b.tiff"));
+    assert!(rgb.contains("R, G, B"), "{rgb}");
+    let r = dec_ch("tiff/imagetiff_rgb-3c-16b.tiff", "R").unwrap();
+    assert_eq!((r.rows, r.cols), (151, 157));
+}
+
+#[test]
+fn exr_lossless_compressions_agree() {
+    let zip = dec_ch("exr/openexr_comp_zip.exr", "R").unwrap();
+    let piz = dec_ch("exr/openexr_comp_piz.exr", "R").unwrap();
+    assert_eq!((zip.rows, zip.cols), (675, 587));
+    assert!(matches!(zip.data, FrameData::F16(_)));
+    assert_eq!(zip, piz);
+}
+
+#[test]
+fn exr_default_channel_and_listing() {
+    let m = frame_msg(dec("exr/openexr_comp_zip.exr"));
+    assert!(m.contains("openexr_comp_zip.exr") && m.contains("A, B, G, R"), "{m}");
+    let y = dec("exr/exrimages_TestImages_GrayRampsHorizontal.exr").unwrap();
+    assert_eq!((y.rows, y.cols), (800, 800));
+    let chans = list_channels(&data("exr/tinyexr_flaga.exr")).unwrap();
+    assert!(chans.contains(&"Warstwa 1.R".to_string()), "{chans:?}");
+    dec_ch("exr/tinyexr_flaga.exr", "Warstwa 2.G").unwrap();
+    // data window offset: output is the data window
+    let z = dec_ch("exr/openexr_v1.7.test.1.exr", "Z").unwrap();
+    assert_eq!((z.rows, z.cols, z.data.dtype_name()), (155, 178, "float32"));
+    let id = dec_ch("exr/openexr_manifest_id.exr", "id").unwrap();
+    assert_eq!(id.data.dtype_name(), "uint32");
+}
+
+#[test]
+fn exr_tiled_and_mipmapped() {
+    let g = dec_ch("exr/openexr_v1.7.test.tiled.exr", "G").unwrap();
+    assert_eq!((g.rows, g.cols), (197, 217));
+    let y = dec("exr/exrimages_LuminanceChroma_Garden.exr").unwrap();
+    assert_eq!((y.rows, y.cols), (493, 874));
+    let a = dec_ch("exr/exrimages_MultiResolution_ColorCodedLevels.exr", "A").unwrap();
+    assert_eq!((a.rows, a.cols), (512, 512));
+    let one = dec("exr/tinyexr_tiled_half_1x1_alpha.exr").unwrap();
+    assert_eq!((one.rows, one.cols), (1, 1));
+}
+
+#[test]
+fn exr_unsupported_are_clear() {
+    let m = frame_msg(dec("exr/openexr_11.deep.exr"));
+    assert!(m.contains("deep data"), "{m}");
+    let m = frame_msg(dec("exr/openexr_comp_b44.exr"));
+    assert!(m.contains("subsampl"), "{m}");
+}
+
+#[test]
+fn max_pixels_refused_before_decoding() {
+    for (f, ch) in [
+        ("exr/openexr_comp_zip.exr", Some("R".to_string())),
+        ("png/pngsuite_basn0g16.png", None),
+        ("thermal/cptv_v2_all100frames_uint16.tif", None),
+    ] {
+        let m = frame_msg(decode_frame(&data(f), &DecodeOptions { channel: ch, max_pixels: 100, page: 0 }));
+        assert!(m.contains("exceeds the limit of 100 pixels"), "{f}: {m}");
+    }
+    let m = frame_msg(dec("exr/damaged/exrimages_memory_DOS_1"));
+    assert!(m.contains("exrimages_memory_DOS_1"), "{m}");
+}
+
+fn hostile_files() -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for d in ["exr/damaged", "png/corrupt", "tiff/corrupt"] {
+        for e in std::fs::read_dir(data(d)).unwrap() {
+            out.push(e.unwrap().path());
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn damaged_files_error_cleanly() {
+    for p in hostile_files() {
+        let name = p.file_name().unwrap().to_string_lossy().to_string();
+        for ch in [None, Some("R".to_string())] {
+            match decode_frame(&p, &DecodeOptions { channel: ch, ..Default::default() }) {
+                Err(Error::Frame(m)) => assert!(m.contains(&name), "{m}"),
+                other => panic!("{name}: expected FrameError, got {other:?}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn truncations_and_bit_flips_never_panic() {
+    let files = [
+        "thermal/cptv_v2_frame000.png",
+        "thermal/cptv_v2_frame001_counts_f16_piz.exr",
+        "thermal/cptv_v2_frame000_counts_f32_zip.exr",
+        "tiff/imagetiff_seq-1c-16b-deflate-68f373a0.tiff",
+        "tiff/imagetiff_seq-1c-16b-tiled-68f373a0.tiff",
+        "exr/tinyexr_piz-bug-issue-100.exr",
+        "exr/exrimages_TestImages_WideFloatRange.exr",
+        "exr/exrimages_LuminanceChroma_Garden.exr",
+    ];
+    for f in files {
+        let bytes = std::fs::read(data(f)).unwrap();
+        let n = bytes.len();
+        let full = decode_bytes(&bytes, f, &DecodeOptions::default()).unwrap();
+        for cut in [0, 1, 4, 8, 16, 40, n / 4, n / 2, n - n / 8, n - 1] {
+            // a truncated file is an error, or (cut inside trailing metadata only) the
+            // very same frame: never different pixels
+            match decode_bytes(&bytes[..cut], f, &DecodeOptions::default()) {
+                Err(Error::Frame(m)) => assert!(m.starts_with(f), "{m}"),
+                Ok(fr) => assert!(fr == full && cut > n / 2, "{f} cut at {cut}: decoded different pixels"),
+                Err(e) => panic!("{f} cut at {cut}: {e:?}"),
+            }
+        }
+        // bit flips: may decode (to different pixels) or fail, never panic out
+        let mut state = 0x9E3779B97F4A7C15u64;
+        for _ in 0..200 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let mut b = bytes.clone();
+            let i = (state as usize) % n;
+            b[i] ^= 1 << ((state >> 32) % 8);
+            let _ = decode_bytes(&b, f, &DecodeOptions::default());
+        }
+    }
+}
