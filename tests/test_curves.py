@@ -277,6 +277,7 @@ def test_slanted_edge_uint16_and_float32():
     (26.57, "critical angle 26.57"),
     (14.04, "critical angle 14.04"),
 ])
+@pytest.mark.filterwarnings("ignore::irfidelity.edge.EdgeWarning")  # the other warnings of the same call
 def test_slanted_edge_warns_at_bad_angles(angle, pattern):
     with pytest.warns(EdgeWarning, match=pattern):
         mtf_from_edge(render_edge(angle_deg=angle, sigma=1.0))
