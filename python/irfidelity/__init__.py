@@ -1,0 +1,57 @@
+"""irfidelity: how faithfully does an infrared camera simulator reproduce the real camera?
+
+Implements the fuzzy-logic fidelity framework of Acta Photonica Sinica 41(5):547 (2012),
+doi:10.3788/gzxb20124105.0547: five components in [0, 1] (MTF and SiTF curve similarity,
+normalised PSNR, NMI, global SSIM) and their weighted sum, with an exact Rust core.
+"""
+
+from .curves import (
+    Curve,
+    CurveSimilarity,
+    curve_similarity,
+    cy_per_mrad_to_cy_per_px,
+    cy_per_px_to_cy_per_mrad,
+    mtf50,
+    mtf_from_esf,
+    mtf_from_lsf,
+    mtf_similarity,
+)
+from .edge import EdgeWarning, mtf_from_edge
+from .errors import FidelityError, FrameError, RangeError, ShapeError
+from .metrics import NMI, SSIM
+from .normalize import normalize_psnr
+from .sitf import SiTFFit, netd, sitf_fit, sitf_similarity
+from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "FidelityError",
+    "FrameError",
+    "RangeError",
+    "ShapeError",
+    "NMI",
+    "SSIM",
+    "PairStats",
+    "pair_stats",
+    "mse",
+    "psnr",
+    "ssim",
+    "nmi",
+    "normalize_psnr",
+    "Curve",
+    "CurveSimilarity",
+    "curve_similarity",
+    "cy_per_mrad_to_cy_per_px",
+    "cy_per_px_to_cy_per_mrad",
+    "mtf50",
+    "mtf_from_esf",
+    "mtf_from_lsf",
+    "mtf_similarity",
+    "EdgeWarning",
+    "mtf_from_edge",
+    "SiTFFit",
+    "netd",
+    "sitf_fit",
+    "sitf_similarity",
+]

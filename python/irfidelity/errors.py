@@ -1,0 +1,31 @@
+"""Exception classes (DESIGN §5).
+
+Every error raised by irfidelity derives from :class:`FidelityError`, itself a
+``ValueError`` so that callers who only know the standard library still catch it.
+The Rust core raises these same classes (``rust/binding/mod.rs`` maps its error
+kinds here), so there is one hierarchy whatever layer failed.
+"""
+
+from __future__ import annotations
+
+__all__ = ["FidelityError", "FrameError", "ShapeError", "RangeError"]
+
+
+class FidelityError(ValueError):
+    """Base class of every irfidelity error."""
+
+
+class FrameError(FidelityError, OSError):
+    """A frame file is unreadable, corrupt, unsupported or oversized.
+
+    The message names the path and the reason. Also an ``OSError`` so that
+    ``except OSError`` around file handling keeps working.
+    """
+
+
+class ShapeError(FidelityError):
+    """Frames (or masks) whose shapes or dtypes do not match, or are not 2-D."""
+
+
+class RangeError(FidelityError):
+    """Values outside what was declared: above ``2**bits - 1``, negative, or non-finite."""

@@ -1,0 +1,393 @@
+"""Frame-pair statistics (DESIGN §2): :func:`pair_stats` and :class:`PairStats`, the one
+value every image metric is computed from, plus the array-level metric functions
+:func:`mse`, :func:`psnr`, :func:`ssim` and :func:`nmi`.
+
+The pass itself runs in Rust (``irfidelity._core``) with the GIL released: integer
+frames are summed exactly, float frames with centred, compensated sums.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable
+
+import numpy as np
+
+from . import _core
+from .errors import FidelityError, ShapeError
+from .metrics import NMI, SSIM, nmi_from_entropies, psnr_from_mse, ssim_from_moments
+
+__all__ = ["PairStats", "pair_stats", "mse", "psnr", "ssim", "nmi", "plan_need"]
+
+_SUPPORTED = ("uint8", "uint16", "int16", "uint32", "float16", "float32", "float64")
+
+# What each metric needs from the pass (DESIGN §2, "plan only what is needed").
+_NEEDS = {
+    "mse": {"sse"},
+    "psnr": {"sse"},
+    "ssim": {"moments"},
+    "nmi": {"hist"},
+    "sse": {"sse"},
+    "moments": {"moments"},
+    "hist": {"hist"},
+}
+
+
+def plan_need(need: Iterable[str] | None) -> set[str]:
+    """Map metric names (``mse psnr ssim nmi``) to kernel outputs (``sse moments hist``)."""
+    if need is None:
+        return {"sse", "moments", "hist"}
+    if isinstance(need, str):
+        need = (need,)
+    out: set[str] = set()
+    for name in need:
+        if name not in _NEEDS:
+            raise FidelityError(f"need: unknown item {name!r}; expected some of {sorted(_NEEDS)}")
+        out |= _NEEDS[name]
+    return out
+
+
+class PairStats:
+    """Sufficient statistics of a (real, simulated) frame pair.
+
+    Holds the pixel count, exact (integer frames) or centred (float frames) sums and the
+    joint grey-level histogram; every image metric is a function of it. Mergeable
+    (``a.merge(b)`` equals the statistics of the union of both pixel sets, exactly for
+    integer frames) and picklable, so tiles, frames of a sequence and Dask workers
+    combine through it.
+
+    Attributes
+    ----------
+    n : int
+        Pixel pairs counted (after ``mask`` and ``nonfinite="mask"``).
+    masked, nonfinite : int
+        Pairs excluded by the mask, and as NaN/Inf.
+    peak : float or None
+        Peak used by :meth:`psnr` (``2**bits - 1``, the given ``peak``, or the integer
+        dtype's range).
+    bins : int, "levels" or None
+        The histogram's binning, if one was computed.
+    """
+
+    __slots__ = ("_raw", "peak", "bins")
+
+    def __init__(self, raw: _core.PairStats, *, peak: float | None = None, bins: object = None):
+        self._raw = raw
+        self.peak = peak
+        self.bins = bins
+
+    # -- counts -------------------------------------------------------------------
+    @property
+    def n(self) -> int:
+        return self._raw.n
+
+    @property
+    def masked(self) -> int:
+        return self._raw.masked
+
+    @property
+    def nonfinite(self) -> int:
+        return self._raw.nonfinite
+
+    def _nonempty(self) -> None:
+        if self._raw.n == 0:
+            raise FidelityError("no pixel pairs were counted (everything masked or non-finite)")
+
+    def _missing(self, what: str, metric: str) -> FidelityError:
+        return FidelityError(f"these statistics were computed without {what}; include {metric!r} in `need`")
+
+    # -- metrics ------------------------------------------------------------------
+    def mse(self) -> float:
+        """Mean squared error ``E[(S − R)²]`` (eq. 5's denominator)."""
+        self._nonempty()
+        value = self._raw.mse()
+        if value is None:
+            raise self._missing("the squared error", "mse")
+        return value
+
+    def psnr(self, peak: float | None = None) -> float:
+        """PSNR in dB (eq. 5), ``+inf`` when MSE == 0. ``peak`` overrides the stored peak."""
+        peak = self.peak if peak is None else float(peak)
+        if peak is None:
+            raise FidelityError("PSNR of float frames needs an explicit `peak` (the maximum possible value)")
+        return psnr_from_mse(self.mse(), peak)
+
+    def ssim(
+        self,
+        alpha: float = 1.0,
+        beta: float = 1.0,
+        gamma: float = 1.0,
+        *,
+        c1: float = 0.0,
+        c2: float = 0.0,
+        c3: float | None = None,
+    ) -> SSIM:
+        """Global SSIM ``l^α·c^β·s^γ`` (eqs. 11–14) with the limits of DESIGN §4."""
+        self._nonempty()
+        moments = self._raw.moments()
+        if moments is None:
+            raise self._missing("moments", "ssim")
+        mean_r, mean_s, var_r, var_s, cov = moments
+        if c1 == 0 and c2 == 0 and c3 in (None, 0):
+            # Exact-integer route: c and s are ratios of the centred numerators, N cancels.
+            d_r, d_s, d_rs = self._raw.centred()
+            var_r, var_s, cov = d_r, d_s, d_rs
+        return ssim_from_moments(
+            mean_r, mean_s, var_r, var_s, cov, alpha=alpha, beta=beta, gamma=gamma, c1=c1, c2=c2, c3=c3
+        )
+
+    def nmi(self) -> NMI:
+        """Normalised mutual information (eqs. 7–10) from the joint histogram."""
+        self._nonempty()
+        ent = self._raw.entropies()
+        if ent is None:
+            raise self._missing("a histogram", "nmi")
+        return nmi_from_entropies(*ent, bins=self.bins)
+
+    def moments(self) -> dict:
+        """Population means, variances and covariance."""
+        self._nonempty()
+        m = self._raw.moments()
+        if m is None:
+            raise self._missing("moments", "ssim")
+        return dict(zip(("mean_real", "mean_sim", "var_real", "var_sim", "cov"), m))
+
+    def metrics(self) -> dict:
+        """Every metric these statistics support, as a flat JSON-ready dict."""
+        out: dict = {"n": self.n}
+        if self._raw.n == 0:
+            return out
+        if self._raw.has_sse:
+            out["mse"] = self.mse()
+            if self.peak is not None:
+                out["psnr_db"] = self.psnr()
+        if self._raw.has_moments:
+            s = self.ssim()
+            out.update(ssim=s.value, ssim_luminance=s.luminance, ssim_contrast=s.contrast, ssim_structure=s.structure)
+        if self._raw.has_hist:
+            v = self.nmi()
+            out.update(nmi=v.value, h_real=v.h_real, h_sim=v.h_sim, h_joint=v.h_joint, mi=v.mi)
+        return out
+
+    # -- combining ----------------------------------------------------------------
+    def merge(self, other: PairStats) -> PairStats:
+        """Statistics of the union of both pixel sets (exact for integer frames)."""
+        if not isinstance(other, PairStats):
+            raise TypeError(f"can only merge PairStats, not {type(other).__name__}")
+        if self.peak != other.peak:
+            raise FidelityError(f"cannot merge statistics with different peaks ({self.peak} vs {other.peak})")
+        return PairStats(self._raw.merge(other._raw), peak=self.peak, bins=self.bins)
+
+    def __reduce__(self):
+        return (_restore, (self._raw.to_bytes(), self.peak, self.bins))
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, PairStats):
+            return NotImplemented
+        return (self._raw.to_bytes(), self.peak, self.bins) == (other._raw.to_bytes(), other.peak, other.bins)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        parts = [f"n={self.n}"]
+        if self._raw.n:
+            parts += [f"{k}={v:.6g}" for k, v in self.metrics().items() if k != "n"]
+        return f"PairStats({', '.join(parts)})"
+
+
+def _restore(data: bytes, peak, bins) -> PairStats:
+    return PairStats(_core.PairStats.from_bytes(data), peak=peak, bins=bins)
+
+
+def _as_frame(x, name: str) -> np.ndarray:
+    if isinstance(x, (str, os.PathLike)):
+        from .frames import load_frame  # only when a path is given
+
+        x = load_frame(x)
+    arr = np.asarray(x)
+    if arr.ndim != 2:
+        raise ShapeError(f"{name}: expected a 2-D frame, got shape {arr.shape}")
+    if arr.dtype.name not in _SUPPORTED:
+        raise ShapeError(f"{name}: unsupported dtype {arr.dtype}; expected one of {', '.join(_SUPPORTED)}")
+    if not arr.dtype.isnative:
+        arr = arr.astype(arr.dtype.newbyteorder("="))
+    return arr
+
+
+def _peak_and_valid(dtype: np.dtype, bits, peak):
+    """The PSNR peak and (for integer frames) the allowed value range."""
+    if bits is not None and peak is not None:
+        raise FidelityError("give either `bits` or `peak`, not both")
+    is_int = dtype.kind in "ui"
+    if bits is not None:
+        if not is_int:
+            raise FidelityError("`bits` applies to integer frames; give `peak` for float frames")
+        width = dtype.itemsize * 8
+        if not (isinstance(bits, (int, np.integer)) and 1 <= bits <= width):
+            raise FidelityError(f"bits must be an integer in 1..{width} for {dtype} frames, got {bits!r}")
+        top = (1 << int(bits)) - 1
+        return float(top), (0, top)
+    if peak is not None:
+        peak = float(peak)
+        if not (peak > 0 and np.isfinite(peak)):
+            raise FidelityError(f"peak must be a positive finite number, got {peak!r}")
+        return peak, None
+    if is_int:
+        info = np.iinfo(dtype)
+        # unsigned: the dtype's maximum; signed: its full range (as scikit-image does)
+        return float(info.max - min(info.min, 0)), None
+    return None, None
+
+
+def pair_stats(
+    real,
+    sim,
+    *,
+    bits: int | None = None,
+    peak: float | None = None,
+    bins: int | str = 256,
+    hist_range="data",
+    mask=None,
+    need: Iterable[str] | None = None,
+    nonfinite: str = "raise",
+) -> PairStats:
+    """Sufficient statistics of a frame pair, in one pass (Rust, GIL released).
+
+    Parameters
+    ----------
+    real, sim : 2-D arrays or paths
+        Real and simulated frames, same shape and dtype (uint8, uint16, int16, uint32,
+        float16, float32, float64), any memory layout.
+    bits : int, optional
+        Integer frames: values must lie in ``[0, 2**bits − 1]`` (else :class:`RangeError`
+        naming the value and position) and the PSNR peak is ``2**bits − 1`` (eq. 5).
+    peak : float, optional
+        The PSNR peak; required for PSNR of float frames. Default for integer frames:
+        the dtype's maximum (unsigned) or range (signed).
+    bins : int or "levels"
+        Histogram bins for NMI. An int gives uniform bins over ``hist_range``; for integer
+        frames each bin is a whole number of grey levels (width ``ceil(span/bins)``), so a
+        pair spanning at most ``bins`` levels is binned exactly. ``"levels"``: every grey
+        level its own bin (integer frames).
+    hist_range : "data", "full" or (lo, hi)
+        ``"data"``: min..max over both frames; ``"full"``: 0..peak; or explicit edges.
+        Both frames always share the same edges; values outside an explicit range are
+        counted in the edge bins. Use "full" or explicit edges to merge histograms of
+        different frames.
+    mask : 2-D bool array, optional
+        ``False`` excludes a pixel pair.
+    need : iterable of {"mse", "psnr", "ssim", "nmi"}, optional
+        Compute only what these metrics need (default: all).
+    nonfinite : "raise" or "mask"
+        NaN/Inf in float frames: a :class:`RangeError` with counts and the first position,
+        or exclude those pairs (counted in ``PairStats.nonfinite``).
+    """
+    r = _as_frame(real, "real")
+    s = _as_frame(sim, "sim")
+    if r.shape != s.shape:
+        raise ShapeError(f"real and sim frames differ in shape: {r.shape} vs {s.shape}")
+    if r.dtype != s.dtype:
+        raise ShapeError(
+            f"real and sim frames differ in dtype: {r.dtype} vs {s.dtype}; convert one explicitly "
+            "(e.g. sim.astype(real.dtype)) so no silent rounding happens"
+        )
+    if nonfinite not in ("raise", "mask"):
+        raise FidelityError(f"nonfinite must be 'raise' or 'mask', got {nonfinite!r}")
+    wanted = plan_need(need)
+    pk, valid = _peak_and_valid(r.dtype, bits, peak)
+    is_int = r.dtype.kind in "ui"
+
+    levels = bins == "levels"
+    nbins = None
+    rng = None
+    if "hist" in wanted:
+        if levels:
+            if not is_int:
+                raise FidelityError("bins='levels' needs integer frames; give an integer bin count for float frames")
+        elif isinstance(bins, (int, np.integer)) and not isinstance(bins, bool) and 1 <= bins <= (1 << 20):
+            nbins = int(bins)
+        else:
+            raise FidelityError(f"bins must be an integer in 1..1048576 or 'levels', got {bins!r}")
+        if hist_range == "full":
+            if pk is None:
+                raise FidelityError("hist_range='full' on float frames needs `peak`")
+            if r.dtype.kind == "i" and bits is None and peak is None:
+                info = np.iinfo(r.dtype)  # signed frames without bits: the dtype's range
+                rng = (float(info.min), float(info.max))
+            else:
+                rng = (0.0, float(pk))
+        elif isinstance(hist_range, str):
+            if hist_range != "data":
+                raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}")
+        else:
+            try:
+                lo, hi = (float(v) for v in hist_range)
+            except (TypeError, ValueError) as exc:
+                raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}") from exc
+            rng = (lo, hi)
+
+    # Layout: the kernel reads both frames as one flat run in the same pixel order.
+    fortran = False
+    if r.flags.c_contiguous and s.flags.c_contiguous:
+        pass
+    elif r.flags.f_contiguous and s.flags.f_contiguous and r.ndim == 2:
+        fortran = True
+    else:
+        r, s = np.ascontiguousarray(r), np.ascontiguousarray(s)
+    m = None
+    if mask is not None:
+        m = np.asarray(mask)
+        if m.shape != r.shape:
+            raise ShapeError(f"mask: shape {m.shape} differs from the frames' {r.shape}")
+        if m.dtype != np.bool_:
+            raise ShapeError(f"mask: expected a bool array, got dtype {m.dtype}")
+        m = np.asfortranarray(m) if fortran else np.ascontiguousarray(m)
+
+    raw = _core.pair_stats(
+        r,
+        s,
+        sse="sse" in wanted,
+        moments="moments" in wanted,
+        bins=nbins,
+        levels=levels and "hist" in wanted,
+        hist_range=rng,
+        mask=m,
+        valid=valid if is_int else None,
+        mask_nonfinite=nonfinite == "mask",
+        shape=(int(r.shape[0]), int(r.shape[1])),
+        fortran=fortran,
+    )
+    return PairStats(raw, peak=pk, bins=("levels" if levels else nbins) if "hist" in wanted else None)
+
+
+def mse(real, sim, *, mask=None) -> float:
+    """Mean squared error of two frames, exact for integer frames."""
+    return pair_stats(real, sim, need=("mse",), mask=mask).mse()
+
+
+def psnr(real, sim, *, bits: int | None = None, peak: float | None = None, mask=None) -> float:
+    """PSNR in dB (paper eq. 5), ``10·log10(peak²/MSE)``; ``+inf`` for identical frames.
+
+    ``peak = 2**bits − 1`` when ``bits`` is given; float frames need ``peak``.
+    """
+    return pair_stats(real, sim, bits=bits, peak=peak, need=("psnr",), mask=mask).psnr()
+
+
+def ssim(real, sim, *, alpha: float = 1.0, beta: float = 1.0, gamma: float = 1.0, mask=None, nonfinite="raise") -> SSIM:
+    """Global (whole-image) SSIM, eqs. 11–14, no stabilising constants (the paper's form).
+
+    Returns an :class:`SSIM` with ``.value .luminance .contrast .structure``.
+    """
+    st = pair_stats(real, sim, need=("ssim",), mask=mask, nonfinite=nonfinite)
+    return st.ssim(alpha, beta, gamma)
+
+
+def nmi(real, sim, *, bins: int | str = 256, hist_range="data", bits=None, peak=None, mask=None) -> NMI:
+    """Normalised mutual information, eqs. 7–10: ``MI / ((H(R) + H(S)) / 2)``.
+
+    Returns an :class:`NMI` with ``.value .h_real .h_sim .h_joint .mi .bins``. NMI = 1
+    means a one-to-one grey-level relation, not equality. Depends on ``bins``: see the
+    README's numerical notes.
+    """
+    st = pair_stats(real, sim, bins=bins, hist_range=hist_range, bits=bits, peak=peak, need=("nmi",), mask=mask)
+    return st.nmi()

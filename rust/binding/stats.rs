@@ -1,0 +1,165 @@
+//! Python wrappers of the statistics kernel: `pair_stats` and the `PairStats` class.
+//! Arrays arrive contiguous (the Python layer decides the layout); the pass runs with
+//! the GIL released.
+
+use numpy::{PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
+use pyo3::exceptions::PyTypeError;
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+
+use super::IntoPy;
+use crate::hist::HistSpec;
+use crate::stats::{self, HistRequest, Request, Sums};
+
+/// Sufficient statistics of a frame pair (see `irfidelity.PairStats` for the public face).
+#[pyclass(module = "irfidelity._core", name = "PairStats", frozen)]
+pub struct PyPairStats {
+    pub(crate) inner: stats::PairStats,
+}
+
+#[pymethods]
+impl PyPairStats {
+    #[getter]
+    fn n(&self) -> u64 {
+        self.inner.n
+    }
+    #[getter]
+    fn masked(&self) -> u64 {
+        self.inner.masked
+    }
+    #[getter]
+    fn nonfinite(&self) -> u64 {
+        self.inner.nonfinite
+    }
+    #[getter]
+    fn is_int(&self) -> bool {
+        matches!(self.inner.sums, Sums::Int(_))
+    }
+    #[getter]
+    fn has_sse(&self) -> bool {
+        self.inner.has_sse
+    }
+    #[getter]
+    fn has_moments(&self) -> bool {
+        self.inner.has_moments
+    }
+    #[getter]
+    fn has_hist(&self) -> bool {
+        self.inner.hist.is_some()
+    }
+    fn sse(&self) -> Option<f64> {
+        self.inner.sse()
+    }
+    fn mse(&self) -> Option<f64> {
+        self.inner.mse()
+    }
+    /// `(mean_real, mean_sim, var_real, var_sim, cov)`, population moments, or None.
+    fn moments(&self) -> Option<(f64, f64, f64, f64, f64)> {
+        self.inner.moments().map(|m| (m.mean_real, m.mean_sim, m.var_real, m.var_sim, m.cov))
+    }
+    /// `(d_real, d_sim, d_cov)`: centred second sums in a common scale (exact for ints).
+    fn centred(&self) -> Option<(f64, f64, f64)> {
+        self.inner.centred()
+    }
+    /// `(h_real, h_sim, h_joint)` in bits, or None without a histogram.
+    fn entropies(&self) -> Option<(f64, f64, f64)> {
+        self.inner.entropies().map(|e| (e.h_real, e.h_sim, e.h_joint))
+    }
+    /// `("levels",)` or `("bins", bins, lo, width)`, or None.
+    fn hist_spec<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        Ok(match &self.inner.hist {
+            None => None,
+            Some((HistSpec::Levels, _)) => Some(("levels",).into_pyobject(py)?.into_any()),
+            Some((HistSpec::Binned { bins, lo, width }, _)) => {
+                Some(("bins", *bins, *lo, *width).into_pyobject(py)?.into_any())
+            }
+        })
+    }
+    /// Exact integer sums as Python ints (integer frames), for exact references.
+    fn int_sums<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Sums::Int(s) = &self.inner.sums else { return Ok(None) };
+        let d = PyDict::new(py);
+        d.set_item("sum_real", s.sr)?;
+        d.set_item("sum_sim", s.ss)?;
+        d.set_item("sum_real_sq", s.srr)?;
+        d.set_item("sum_sim_sq", s.sss)?;
+        d.set_item("sum_cross", s.srs)?;
+        d.set_item("sse", s.sse)?;
+        Ok(Some(d))
+    }
+    fn merge(&self, py: Python<'_>, other: &PyPairStats) -> PyResult<PyPairStats> {
+        let (a, b) = (&self.inner, &other.inner);
+        let merged = py.detach(|| a.merge(b)).py_err()?;
+        Ok(PyPairStats { inner: merged })
+    }
+    fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        PyBytes::new(py, &self.inner.to_bytes())
+    }
+    #[staticmethod]
+    fn from_bytes(data: &[u8]) -> PyResult<PyPairStats> {
+        Ok(PyPairStats { inner: stats::PairStats::from_bytes(data).py_err()? })
+    }
+}
+
+/// Run the kernel on arrays of one element type.
+macro_rules! dispatch {
+    ($py:expr, $real:expr, $sim:expr, $req:expr, $($t:ty),*) => {{
+        $(
+            if let (Ok(r), Ok(s)) = ($real.extract::<PyReadonlyArrayDyn<$t>>(), $sim.extract::<PyReadonlyArrayDyn<$t>>()) {
+                let (rs, ss) = (slice(&r)?, slice(&s)?);
+                let req = $req;
+                return $py.detach(|| stats::pair_stats(rs, ss, &req)).py_err().map(|inner| PyPairStats { inner });
+            }
+        )*
+    }};
+}
+
+fn slice<'a, T: numpy::Element>(a: &'a PyReadonlyArrayDyn<'_, T>) -> PyResult<&'a [T]> {
+    a.as_slice().map_err(|_| PyTypeError::new_err("internal: frames must be contiguous (the Python layer copies them)"))
+}
+
+/// `pair_stats(real, sim, *, sse, moments, bins, levels, hist_range, mask, valid,
+/// mask_nonfinite, shape, fortran)`: see `irfidelity.stats.pair_stats`.
+#[pyfunction]
+#[pyo3(signature = (real, sim, *, sse=true, moments=true, bins=None, levels=false, hist_range=None,
+                    mask=None, valid=None, mask_nonfinite=false, shape=(0, 0), fortran=false))]
+#[allow(clippy::too_many_arguments)]
+fn pair_stats(
+    py: Python<'_>,
+    real: &Bound<'_, PyUntypedArray>,
+    sim: &Bound<'_, PyUntypedArray>,
+    sse: bool,
+    moments: bool,
+    bins: Option<usize>,
+    levels: bool,
+    hist_range: Option<(f64, f64)>,
+    mask: Option<PyReadonlyArrayDyn<'_, bool>>,
+    valid: Option<(i64, i64)>,
+    mask_nonfinite: bool,
+    shape: (usize, usize),
+    fortran: bool,
+) -> PyResult<PyPairStats> {
+    let hist = if levels {
+        Some(HistRequest::Levels)
+    } else {
+        bins.map(|b| HistRequest::Bins { bins: b, range: hist_range })
+    };
+    let mask_slice = match &mask {
+        Some(m) => Some(slice(m)?),
+        None => None,
+    };
+    let req = Request { sse, moments, hist, mask: mask_slice, valid, mask_nonfinite, shape, fortran };
+    dispatch!(py, real, sim, req.clone(), u8, u16, i16, u32, half::f16, f32, f64);
+    Err(PyTypeError::new_err(format!(
+        "unsupported frame dtype pair ({}, {}): expected two frames of the same dtype among \
+         uint8, uint16, int16, uint32, float16, float32, float64",
+        real.dtype(),
+        sim.dtype()
+    )))
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyPairStats>()?;
+    m.add_function(wrap_pyfunction!(pair_stats, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,263 @@
+//! Joint grey-level histograms with shared edges, and their Shannon entropies
+//! (paper eqs. 7–8). One representation serves every dtype and binning mode:
+//! a dense `bins × bins` table when that is small, otherwise a sorted run list of
+//! packed `(row_bin << 32) | col_bin` keys. Marginals always come from the joint.
+
+use crate::error::{Error, Result};
+
+/// How the grey levels were mapped to bins: needed to decide whether two histograms
+/// can be merged (same edges) and to report what was measured.
+#[derive(Clone, Debug, PartialEq)]
+pub enum HistSpec {
+    /// `bins` uniform bins starting at `lo`, each `width` wide (integers for integer frames).
+    Binned { bins: usize, lo: f64, width: f64 },
+    /// Every grey level its own bin (integer frames only).
+    Levels,
+}
+
+/// Joint counts of (real bin, simulated bin).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Joint {
+    /// `counts[r * bins + s]`; `offset` is added to a bin index to make it a key in the
+    /// sparse domain (non-zero only for `levels` stored densely).
+    Dense { bins: usize, offset: u64, counts: Vec<u64> },
+    /// Sorted `(key, count)` runs with `key = (r << 32) | s`, no zero counts.
+    Sparse(Vec<(u64, u64)>),
+}
+
+/// Largest `bins` stored densely: `bins²` u64 counters per worker must stay cache-sized.
+pub const DENSE_MAX_BINS: usize = 512;
+
+#[inline]
+pub fn pack(r: u64, s: u64) -> u64 {
+    (r << 32) | s
+}
+
+/// Entropies of a joint histogram, in bits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Entropies {
+    pub h_real: f64,
+    pub h_sim: f64,
+    pub h_joint: f64,
+}
+
+/// Shannon entropy (bits) of a histogram given by its non-zero counts summing to `n`.
+///
+/// Uses `H = Σ p·log2(N/c)` with `log2(N/c) = ln_1p((N−c)/c)/ln 2`, all terms ≥ 0 and
+/// `N − c` exact, so a nearly constant frame (H ≈ 1e-6 bit) keeps full relative precision —
+/// `log2 N − Σc·log2 c / N` would cancel there.
+pub fn entropy<I: IntoIterator<Item = u64>>(counts: I, n: u64) -> f64 {
+    if n == 0 {
+        return 0.0;
+    }
+    let nf = n as f64;
+    let mut h = 0.0f64;
+    let mut comp = 0.0f64; // Neumaier compensation: many small terms
+    for c in counts {
+        if c == 0 {
+            continue;
+        }
+        let t = (c as f64 / nf) * (((n - c) as f64) / c as f64).ln_1p() / std::f64::consts::LN_2;
+        let s = h + t;
+        comp += if h.abs() >= t.abs() { (h - s) + t } else { (t - s) + h };
+        h = s;
+    }
+    h + comp
+}
+
+/// Sort `keys`, and append their run-length counts to a new sorted run list.
+pub fn runs_from_keys(keys: &mut [u64]) -> Vec<(u64, u64)> {
+    keys.sort_unstable();
+    let mut runs: Vec<(u64, u64)> = Vec::new();
+    for &k in keys.iter() {
+        match runs.last_mut() {
+            Some((lk, c)) if *lk == k => *c += 1,
+            _ => runs.push((k, 1)),
+        }
+    }
+    runs
+}
+
+/// Merge two sorted run lists, adding the counts of equal keys.
+pub fn merge_runs(a: &[(u64, u64)], b: &[(u64, u64)]) -> Vec<(u64, u64)> {
+    let mut out = Vec::with_capacity(a.len().max(b.len()));
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        let (ka, ca) = a[i];
+        let (kb, cb) = b[j];
+        if ka < kb {
+            out.push((ka, ca));
+            i += 1;
+        } else if kb < ka {
+            out.push((kb, cb));
+            j += 1;
+        } else {
+            out.push((ka, ca + cb));
+            i += 1;
+            j += 1;
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+    out
+}
+
+impl Joint {
+    pub fn dense(bins: usize, offset: u64) -> Joint {
+        Joint::Dense { bins, offset, counts: vec![0; bins * bins] }
+    }
+
+    /// Total count.
+    pub fn total(&self) -> u64 {
+        match self {
+            Joint::Dense { counts, .. } => counts.iter().sum(),
+            Joint::Sparse(runs) => runs.iter().map(|&(_, c)| c).sum(),
+        }
+    }
+
+    /// The same counts as a sparse run list (keys in the absolute level/bin domain).
+    pub fn to_runs(&self) -> Vec<(u64, u64)> {
+        match self {
+            Joint::Sparse(runs) => runs.clone(),
+            Joint::Dense { bins, offset, counts } => {
+                let mut runs = Vec::new();
+                for (idx, &c) in counts.iter().enumerate() {
+                    if c > 0 {
+                        let (r, s) = ((idx / bins) as u64, (idx % bins) as u64);
+                        runs.push((pack(r + offset, s + offset), c));
+                    }
+                }
+                runs // row-major order of (r, s) is already key order
+            }
+        }
+    }
+
+    /// Add `other`'s counts. Both must share the same edges (checked by the caller via
+    /// [`HistSpec`]); dense tables with the same layout add element-wise, anything else
+    /// goes through the sparse domain.
+    pub fn merge(&self, other: &Joint) -> Joint {
+        match (self, other) {
+            (
+                Joint::Dense { bins: b1, offset: o1, counts: c1 },
+                Joint::Dense { bins: b2, offset: o2, counts: c2 },
+            ) if b1 == b2 && o1 == o2 => {
+                let counts = c1.iter().zip(c2).map(|(a, b)| a + b).collect();
+                Joint::Dense { bins: *b1, offset: *o1, counts }
+            }
+            _ => Joint::Sparse(merge_runs(&self.to_runs(), &other.to_runs())),
+        }
+    }
+
+    /// Marginal and joint entropies (paper eqs. 7 and 8).
+    pub fn entropies(&self) -> Entropies {
+        let n = self.total();
+        match self {
+            Joint::Dense { bins, counts, .. } => {
+                let b = *bins;
+                let mut row = vec![0u64; b];
+                let mut col = vec![0u64; b];
+                for r in 0..b {
+                    let line = &counts[r * b..(r + 1) * b];
+                    for (s, &c) in line.iter().enumerate() {
+                        row[r] += c;
+                        col[s] += c;
+                    }
+                }
+                Entropies {
+                    h_real: entropy(row, n),
+                    h_sim: entropy(col, n),
+                    h_joint: entropy(counts.iter().copied(), n),
+                }
+            }
+            Joint::Sparse(runs) => {
+                // Rows are contiguous in key order; columns need one sort.
+                let mut row_counts = Vec::new();
+                let mut cur: Option<(u64, u64)> = None;
+                for &(k, c) in runs {
+                    let r = k >> 32;
+                    match cur.as_mut() {
+                        Some((cr, cc)) if *cr == r => *cc += c,
+                        _ => {
+                            if let Some((_, cc)) = cur {
+                                row_counts.push(cc);
+                            }
+                            cur = Some((r, c));
+                        }
+                    }
+                }
+                if let Some((_, cc)) = cur {
+                    row_counts.push(cc);
+                }
+                let mut cols: Vec<(u64, u64)> = runs.iter().map(|&(k, c)| (k & 0xFFFF_FFFF, c)).collect();
+                cols.sort_unstable_by_key(|&(s, _)| s);
+                let mut col_counts = Vec::new();
+                let mut last = u64::MAX;
+                for (s, c) in cols {
+                    if s == last {
+                        *col_counts.last_mut().unwrap() += c;
+                    } else {
+                        col_counts.push(c);
+                        last = s;
+                    }
+                }
+                Entropies {
+                    h_real: entropy(row_counts, n),
+                    h_sim: entropy(col_counts, n),
+                    h_joint: entropy(runs.iter().map(|&(_, c)| c), n),
+                }
+            }
+        }
+    }
+}
+
+/// Check that two histogram specs share edges, so their counts may be added.
+pub fn check_mergeable(a: &HistSpec, b: &HistSpec) -> Result<()> {
+    if a == b {
+        Ok(())
+    } else {
+        Err(Error::Value(format!(
+            "cannot merge histograms with different edges ({a:?} vs {b:?}); \
+             use hist_range='full' or an explicit (lo, hi), or bins='levels', to pool NMI"
+        )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn entropy_of_uniform_and_constant() {
+        assert!((entropy([1, 1, 1, 1], 4) - 2.0).abs() < 1e-15);
+        assert_eq!(entropy([7], 7), 0.0);
+        assert_eq!(entropy([], 0), 0.0);
+        // one odd pixel in a million: H = p log2(1/p) + q log2(1/q), no cancellation
+        let n = 1_000_000u64;
+        let p = 1.0 / n as f64;
+        let want = p * (n as f64).log2() - (1.0 - p) * (-p).ln_1p() / std::f64::consts::LN_2;
+        let got = entropy([1, n - 1], n);
+        assert!(((got - want) / want).abs() < 1e-13, "{got} vs {want}");
+    }
+
+    #[test]
+    fn dense_and_sparse_agree_and_merge() {
+        let mut d = Joint::dense(4, 0);
+        let pairs = [(0u64, 0u64), (1, 1), (1, 2), (3, 3), (3, 3), (2, 0)];
+        let mut keys = Vec::new();
+        if let Joint::Dense { counts, .. } = &mut d {
+            for &(r, s) in &pairs {
+                counts[(r * 4 + s) as usize] += 1;
+                keys.push(pack(r, s));
+            }
+        }
+        let sp = Joint::Sparse(runs_from_keys(&mut keys));
+        assert_eq!(d.to_runs(), sp.to_runs());
+        let (e1, e2) = (d.entropies(), sp.entropies());
+        assert!((e1.h_real - e2.h_real).abs() < 1e-15);
+        assert!((e1.h_sim - e2.h_sim).abs() < 1e-15);
+        assert!((e1.h_joint - e2.h_joint).abs() < 1e-15);
+        let m = d.merge(&sp);
+        assert_eq!(m.total(), 12);
+        assert_eq!(m.merge(&Joint::Sparse(vec![])).total(), 12);
+    }
+}

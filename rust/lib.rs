@@ -1,0 +1,13 @@
+//! irfidelity core: exact frame-pair statistics and frame decoding, as plain Rust over
+//! slices. The PyO3 binding (`irfidelity._core`) is behind the `python` feature, so
+//! `cargo test` needs no Python.
+
+pub mod error;
+pub mod hist;
+pub mod io;
+pub mod stats;
+
+#[cfg(feature = "python")]
+mod binding;
+
+pub use error::{Error, Result};
