@@ -113,12 +113,17 @@ def ssim_from_moments(
     for name, p in (("alpha", alpha), ("beta", beta), ("gamma", gamma)):
         _check_exponent(name, p)
     c3 = c2 / 2.0 if c3 is None else c3
+    # l and c written as 1 − (a − b)²/(a² + b² + C): equal inputs give exactly 1.
     den_l = mean_real * mean_real + mean_sim * mean_sim + c1
-    lum = 1.0 if den_l == 0 else (2.0 * mean_real * mean_sim + c1) / den_l
-    sd_r, sd_s = math.sqrt(max(var_real, 0.0)), math.sqrt(max(var_sim, 0.0))
+    lum = 1.0 if den_l == 0 else 1.0 - (mean_real - mean_sim) ** 2 / den_l
+    var_real, var_sim = max(var_real, 0.0), max(var_sim, 0.0)
+    sd_r, sd_s = math.sqrt(var_real), math.sqrt(var_sim)
     den_c = var_real + var_sim + c2
-    con = 1.0 if den_c == 0 else (2.0 * sd_r * sd_s + c2) / den_c
-    den_s = sd_r * sd_s + c3
+    con = 1.0 if den_c == 0 else 1.0 - (sd_r - sd_s) ** 2 / den_c
+    prod = var_real * var_sim
+    # sqrt(fl(v·v)) == v, so identical frames give s == 1 exactly
+    sd_prod = math.sqrt(prod) if math.isfinite(prod) else sd_r * sd_s
+    den_s = sd_prod + c3
     if sd_r == 0 and sd_s == 0 and c3 == 0:
         struct = 1.0
     elif den_s == 0:
