@@ -5,6 +5,7 @@
 pub mod error;
 pub mod hist;
 pub mod io;
+pub mod sequence;
 pub mod stats;
 
 #[cfg(feature = "python")]
