@@ -1,0 +1,577 @@
+"""The fuzzy layer (paper §3): weights K, the fidelity sum (eq. 15), grades, AHP, comparison.
+
+* :class:`Weights` — the weight set ``K = {k1..k5}`` of the paper (``k_i >= 0``,
+  ``Σ k_i = 1``), with presets for the two mission types the paper names and
+  :meth:`Weights.from_ahp` (analytic hierarchy process) for principled weights.
+* :func:`fidelity_sum` — eq. (15), ``Σ k_i·f_i``.
+* :class:`GradeScale` — fuzzy comprehensive evaluation beyond eq. (15): every
+  component gets a membership in each grade (default excellent / good / fair / poor),
+  the rows form the evaluation matrix ``R``, and ``B = K·R`` is the membership of the
+  simulator in each grade; the grade of maximum membership is reported.
+* :func:`compare` — ranks several simulators and tells how stable the ranking is when
+  the weights vary (Dirichlet samples around ``K``).
+
+Nothing in this module touches frames or curves; it works on component values.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import warnings
+from dataclasses import dataclass, field, fields
+from typing import Any, Iterable, Mapping
+
+import numpy as np
+
+from .errors import FidelityError
+
+__all__ = [
+    "COMPONENTS",
+    "Weights",
+    "AHPResult",
+    "AHPConsistencyWarning",
+    "ahp",
+    "fidelity_sum",
+    "GradeScale",
+    "Grading",
+    "Comparison",
+    "compare",
+]
+
+#: Component names in the paper's order f1..f5.
+COMPONENTS = ("mtf", "sitf", "psnr", "nmi", "ssim")
+
+_TOL = 1e-9
+
+
+# --------------------------------------------------------------------------- weights
+def _number(v: Any, name: str) -> float:
+    if isinstance(v, bool):
+        raise FidelityError(f"weight {name} must be a number, got {v!r}")
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        raise FidelityError(f"weight {name} must be a number, got {v!r}") from None
+    if not math.isfinite(f):
+        raise FidelityError(f"weight {name} must be finite, got {v!r}")
+    if f < 0:
+        raise FidelityError(f"weight {name} must be >= 0, got {v!r}")
+    return f
+
+
+@dataclass(frozen=True)
+class Weights:
+    """The weight set ``K`` of eq. (15): one non-negative weight per component.
+
+    Rules (each violation raises :class:`~irfidelity.FidelityError`, a ``ValueError``,
+    naming the rule): every weight is a finite number, every weight is ``>= 0``, and the
+    weights sum to 1 within 1e-9. A weight of 0 means the component is not computed at
+    all by :func:`irfidelity.evaluate`.
+
+    The default (``Weights()``) is the paper's: 1/5 each.
+
+    Examples
+    --------
+    >>> Weights.parse("psnr=0.5,ssim=0.5").as_dict()["nmi"]
+    0.0
+    >>> Weights.normalized(mtf=2, sitf=2, psnr=1).mtf
+    0.4
+    """
+
+    mtf: float = 0.2
+    sitf: float = 0.2
+    psnr: float = 0.2
+    nmi: float = 0.2
+    ssim: float = 0.2
+
+    def __post_init__(self) -> None:
+        vals = {}
+        for f in fields(self):
+            vals[f.name] = _number(getattr(self, f.name), f.name)
+            object.__setattr__(self, f.name, vals[f.name])
+        total = math.fsum(vals.values())
+        if abs(total - 1.0) > _TOL:
+            raise FidelityError(
+                f"weights must sum to 1 (within 1e-9), got {total!r} "
+                f"({', '.join(f'{k}={v:g}' for k, v in vals.items())}); "
+                f"use Weights.normalized(...) to scale raw importances")
+
+    # -- construction ---------------------------------------------------------------
+    @classmethod
+    def normalized(cls, **raw: float) -> Weights:
+        """Weights proportional to raw importances; unnamed components get 0.
+
+        ``Weights.normalized(mtf=3, psnr=1)`` → mtf 0.75, psnr 0.25, the rest 0.
+        """
+        unknown = set(raw) - set(COMPONENTS)
+        if unknown:
+            raise FidelityError(f"unknown weight name(s) {sorted(unknown)}; expected some of {list(COMPONENTS)}")
+        vals = {k: _number(raw.get(k, 0.0), k) for k in COMPONENTS}
+        total = math.fsum(vals.values())
+        if total <= 0:
+            raise FidelityError("weights must not all be 0: at least one component needs a positive weight")
+        out = {k: v / total for k, v in vals.items()}
+        # make the sum exactly representable as close to 1 as floats allow
+        return cls(**out)
+
+    @classmethod
+    def balanced(cls) -> Weights:
+        """The paper's demonstration weights: 1/5 each (also the default)."""
+        return cls()
+
+    @classmethod
+    def performance(cls) -> Weights:
+        """A mission emphasising system performance (paper §3, larger k1, k2):
+        MTF 0.35, SiTF 0.35, PSNR / NMI / SSIM 0.1 each."""
+        return cls(mtf=0.35, sitf=0.35, psnr=0.1, nmi=0.1, ssim=0.1)
+
+    @classmethod
+    def image_quality(cls) -> Weights:
+        """A mission emphasising image quality (paper §3, larger k3..k5):
+        MTF / SiTF 0.1 each, PSNR 0.3, NMI 0.2, SSIM 0.3 (NMI a little lower: it depends
+        on the binning and equals 1 for any one-to-one grey-level relation)."""
+        return cls(mtf=0.1, sitf=0.1, psnr=0.3, nmi=0.2, ssim=0.3)
+
+    PRESETS = ("balanced", "performance", "image_quality")
+
+    @classmethod
+    def parse(cls, text: str) -> Weights:
+        """Weights from a string (the CLI's ``--weights``).
+
+        ``"balanced"``, ``"performance"``, ``"image_quality"`` (or ``image-quality``), or
+        ``"mtf=0.3,sitf=0.3,psnr=0.2,nmi=0.1,ssim=0.1"``: components not named get 0 and
+        the given values must sum to 1 (add ``normalize`` as an item, e.g.
+        ``"mtf=3,psnr=1,normalize"``, to scale raw importances instead).
+        """
+        if not isinstance(text, str):
+            raise FidelityError(f"weights must be a string, got {type(text).__name__}")
+        s = text.strip()
+        key = s.lower().replace("-", "_")
+        if key in cls.PRESETS:
+            return getattr(cls, key)()
+        if "=" not in s:
+            raise FidelityError(f"weights {text!r}: expected a preset ({', '.join(cls.PRESETS)}) "
+                                f"or name=value pairs such as 'mtf=0.2,sitf=0.2,psnr=0.2,nmi=0.2,ssim=0.2'")
+        raw: dict[str, float] = {}
+        norm = False
+        for item in re.split(r"[,;\s]+", s):
+            if not item:
+                continue
+            if item.lower() in ("normalize", "normalise"):
+                norm = True
+                continue
+            name, sep, val = item.partition("=")
+            name = name.strip().lower()
+            if not sep or name not in COMPONENTS:
+                raise FidelityError(f"weights {text!r}: bad item {item!r}; expected name=value with name "
+                                    f"one of {', '.join(COMPONENTS)}")
+            if name in raw:
+                raise FidelityError(f"weights {text!r}: {name} given twice")
+            try:
+                raw[name] = float(val)
+            except ValueError:
+                raise FidelityError(f"weights {text!r}: {name}={val!r} is not a number") from None
+        if not raw:
+            raise FidelityError(f"weights {text!r}: no name=value pairs")
+        if norm:
+            return cls.normalized(**raw)
+        return cls(**{k: raw.get(k, 0.0) for k in COMPONENTS})
+
+    @classmethod
+    def coerce(cls, w: Any) -> Weights:
+        """``None`` → balanced; a Weights; a preset/“name=value” string; a mapping (must sum to 1)."""
+        if w is None:
+            return cls()
+        if isinstance(w, Weights):
+            return w
+        if isinstance(w, str):
+            return cls.parse(w)
+        if isinstance(w, Mapping):
+            unknown = set(w) - set(COMPONENTS)
+            if unknown:
+                raise FidelityError(f"unknown weight name(s) {sorted(unknown)}; expected some of {list(COMPONENTS)}")
+            return cls(**{k: w.get(k, 0.0) for k in COMPONENTS})
+        raise FidelityError(f"weights must be a Weights, a preset name, a 'name=value' string or a mapping, "
+                            f"got {type(w).__name__}")
+
+    @classmethod
+    def from_ahp(cls, matrix: Any, *, names: Iterable[str] = COMPONENTS, on_inconsistent: str = "warn",
+                 threshold: float = 0.1) -> Weights:
+        """Weights from an AHP pairwise-comparison matrix (see :func:`ahp`).
+
+        ``matrix[i][j]`` says how much more important component ``names[i]`` is than
+        ``names[j]`` (Saaty's 1–9 scale; reciprocal: ``m[j][i] = 1/m[i][j]``). The
+        weights are the normalised principal eigenvector; components not in ``names``
+        get 0. If Saaty's consistency ratio exceeds ``threshold`` (0.1):
+        ``on_inconsistent="warn"`` (default) issues :class:`AHPConsistencyWarning` and
+        still returns the weights, ``"raise"`` raises FidelityError, ``"ignore"`` does
+        neither. Use :func:`ahp` to get the ratio itself.
+        """
+        return ahp(matrix, names=names, on_inconsistent=on_inconsistent, threshold=threshold).weights
+
+    # -- views ----------------------------------------------------------------------
+    def as_dict(self) -> dict[str, float]:
+        return {k: getattr(self, k) for k in COMPONENTS}
+
+    def __getitem__(self, name: str) -> float:
+        if name not in COMPONENTS:
+            raise KeyError(name)
+        return getattr(self, name)
+
+    def active(self) -> tuple[str, ...]:
+        """Components with a positive weight, in the paper's order."""
+        return tuple(k for k in COMPONENTS if getattr(self, k) > 0)
+
+    def __str__(self) -> str:
+        return ", ".join(f"{k}={getattr(self, k):.4g}" for k in COMPONENTS)
+
+
+def fidelity_sum(weights: Weights, components: Mapping[str, float]) -> float:
+    """Eq. (15): ``Σ k_i·f_i`` over the given components (paper order, :func:`math.fsum`).
+
+    Every component with a positive weight must be present.
+    """
+    w = Weights.coerce(weights)
+    missing = [k for k in w.active() if k not in components]
+    if missing:
+        raise FidelityError(f"component(s) {missing} have a positive weight but no value")
+    return math.fsum(w[k] * float(components[k]) for k in COMPONENTS if k in components and w[k] > 0)
+
+
+# --------------------------------------------------------------------------- AHP
+class AHPConsistencyWarning(UserWarning):
+    """An AHP comparison matrix whose consistency ratio exceeds the threshold (Saaty: 0.1):
+    the judgements contradict each other too much for the weights to be trusted."""
+
+
+#: Saaty's random consistency index RI(n) (Saaty 1980), n = 1..10.
+RANDOM_INDEX = {1: 0.0, 2: 0.0, 3: 0.58, 4: 0.90, 5: 1.12, 6: 1.24, 7: 1.32, 8: 1.41, 9: 1.45, 10: 1.49}
+
+
+@dataclass(frozen=True)
+class AHPResult:
+    """Outcome of :func:`ahp`.
+
+    Attributes
+    ----------
+    weights : Weights
+        Normalised principal eigenvector (0 for components not in ``names``).
+    priorities : dict
+        The eigenvector over ``names`` only.
+    lambda_max : float
+        Principal eigenvalue (``>= n``; ``== n`` for a consistent matrix).
+    ci, cr : float
+        Consistency index ``(λmax − n)/(n − 1)`` and ratio ``CI / RI(n)`` (0 for n <= 2).
+    consistent : bool
+        ``cr <= threshold``.
+    """
+
+    weights: Weights
+    priorities: dict
+    lambda_max: float
+    ci: float
+    cr: float
+    consistent: bool
+
+    def to_dict(self) -> dict:
+        return {"weights": self.weights.as_dict(), "priorities": dict(self.priorities),
+                "lambda_max": self.lambda_max, "ci": self.ci, "cr": self.cr, "consistent": self.consistent}
+
+
+def ahp(matrix: Any, *, names: Iterable[str] = COMPONENTS, on_inconsistent: str = "warn",
+        threshold: float = 0.1, rtol: float = 0.02) -> AHPResult:
+    """Analytic hierarchy process: weights from a pairwise-comparison matrix.
+
+    Parameters
+    ----------
+    matrix : n×n array_like
+        Positive, finite, ones on the diagonal, reciprocal (``m[i][j]·m[j][i] = 1``
+        within ``rtol``, so ``0.33`` for 1/3 is accepted). Row/column order = ``names``.
+    names : iterable of component names
+        Which components the matrix compares (default all five, in the paper's order).
+    on_inconsistent : "warn" | "raise" | "ignore"
+        What to do when ``CR > threshold`` (see :meth:`Weights.from_ahp`).
+
+    The weights are the principal right eigenvector, normalised to sum 1; the
+    consistency ratio is ``CR = ((λmax − n)/(n − 1)) / RI(n)`` with Saaty's random
+    indices (n <= 10).
+    """
+    names = tuple(names)
+    bad = [n for n in names if n not in COMPONENTS]
+    if bad or len(set(names)) != len(names) or not names:
+        raise FidelityError(f"AHP names must be distinct component names from {list(COMPONENTS)}, got {list(names)}")
+    if on_inconsistent not in ("warn", "raise", "ignore"):
+        raise FidelityError(f"on_inconsistent must be 'warn', 'raise' or 'ignore', got {on_inconsistent!r}")
+    try:
+        m = np.array(matrix, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise FidelityError("AHP matrix must be a square array of positive numbers") from None
+    n = len(names)
+    if m.shape != (n, n):
+        raise FidelityError(f"AHP matrix must be {n}x{n} (one row/column per name {list(names)}), got shape {m.shape}")
+    if not np.isfinite(m).all() or (m <= 0).any():
+        raise FidelityError("AHP matrix entries must be positive and finite")
+    for i in range(n):
+        if abs(m[i, i] - 1) > rtol:
+            raise FidelityError(f"AHP matrix diagonal must be 1; m[{i}][{i}] = {m[i, i]!r}")
+        for j in range(i + 1, n):
+            if abs(m[i, j] * m[j, i] - 1) > rtol:
+                raise FidelityError(
+                    f"AHP matrix must be reciprocal: m[{i}][{j}]·m[{j}][{i}] = {m[i, j]:g}·{m[j, i]:g} "
+                    f"= {m[i, j] * m[j, i]:.4g}, expected 1 ({names[i]} vs {names[j]})")
+    if n == 1:
+        vec = np.ones(1)
+        lam = 1.0
+    else:
+        vals, vecs = np.linalg.eig(m)
+        i = int(np.argmax(vals.real))
+        lam = float(vals[i].real)
+        vec = np.abs(vecs[:, i].real)
+    vec = vec / vec.sum()
+    ci = max(0.0, (lam - n) / (n - 1)) if n > 1 else 0.0
+    ri = RANDOM_INDEX.get(n)
+    if ri is None:
+        raise FidelityError(f"AHP random index is tabulated for n <= 10, got n = {n}")
+    cr = ci / ri if ri > 0 else 0.0
+    ok = cr <= threshold
+    if not ok:
+        msg = (f"AHP consistency ratio CR = {cr:.3f} exceeds {threshold:g} (λmax = {lam:.4f}, n = {n}): "
+               f"the pairwise judgements are inconsistent; revise the matrix")
+        if on_inconsistent == "raise":
+            raise FidelityError(msg)
+        if on_inconsistent == "warn":
+            warnings.warn(msg, AHPConsistencyWarning, stacklevel=3)
+    pri = {k: float(v) for k, v in zip(names, vec)}
+    w = Weights.normalized(**pri)
+    return AHPResult(weights=w, priorities=pri, lambda_max=lam, ci=float(ci), cr=float(cr), consistent=ok)
+
+
+# --------------------------------------------------------------------------- grades
+#: Default grade boundaries per component (ascending: poor|fair, fair|good, good|excellent).
+DEFAULT_CUTS = {
+    "mtf": (0.70, 0.85, 0.95),
+    "sitf": (0.70, 0.85, 0.95),
+    "psnr": (0.60, 0.80, 0.90),   # normalised PSNR: ≈ 17.2 dB, 23.4 dB, 30 dB
+    "nmi": (0.15, 0.30, 0.50),
+    "ssim": (0.70, 0.85, 0.95),
+}
+
+
+def _ramp_up(x: float, c: float, w: float) -> float:
+    """0 below c − w, 1 above c + w, linear in between (a step when w = 0)."""
+    if w == 0:
+        return 1.0 if x >= c else 0.0
+    return min(1.0, max(0.0, (x - (c - w)) / (2 * w)))
+
+
+@dataclass(frozen=True)
+class Grading:
+    """Fuzzy comprehensive evaluation of one set of components.
+
+    Attributes
+    ----------
+    grades : tuple of str
+        Grade names, best first.
+    matrix : dict
+        ``R``: ``{component: {grade: membership}}`` (each row sums to 1).
+    membership : dict
+        ``B = K·R``: ``{grade: membership}`` (sums to 1).
+    grade : str
+        The grade of maximum membership (ties go to the lower grade).
+    """
+
+    grades: tuple
+    matrix: dict
+    membership: dict
+    grade: str
+
+    def to_dict(self) -> dict:
+        return {"grades": list(self.grades), "matrix": {k: dict(v) for k, v in self.matrix.items()},
+                "membership": dict(self.membership), "grade": self.grade}
+
+
+@dataclass(frozen=True)
+class GradeScale:
+    """Grade set and membership functions for the fuzzy comprehensive evaluation.
+
+    Each component value ``f`` in [0, 1] gets a membership in every grade from a
+    trapezoidal fuzzy partition of [0, 1]: for the component's ascending boundaries
+    ``c_1 < … < c_{m−1}`` (m grades) and half-width ``width`` = w, grade ``j`` (counted
+    from the worst) has the trapezoid
+
+        μ_j(f) = ramp(f; c_j) − ramp(f; c_{j+1}),   ramp(f; c) = clip((f − c + w) / 2w, 0, 1)
+
+    i.e. 1 well inside ``[c_j, c_{j+1}]``, falling linearly to 0 across ``c ± w`` — so
+    the memberships of every value sum to 1 (a Ruspini partition) and ``B = K·R`` sums
+    to 1 as well. With ``width = 0`` the grading is crisp.
+
+    Default grades: ``("excellent", "good", "fair", "poor")``; default boundaries
+    (:data:`DEFAULT_CUTS`): MTF, SiTF and SSIM 0.70 / 0.85 / 0.95; normalised PSNR
+    0.60 / 0.80 / 0.90 (0.9 = 30 dB, the paper's "indistinguishable" anchor); NMI
+    0.15 / 0.30 / 0.50 (NMI of a real and simulated frame runs much lower than the
+    other components: the paper's example has 0.22 next to SSIM 0.93). These are
+    judgement calls, not from the paper: pass your own ``cuts`` for a mission.
+    """
+
+    grades: tuple = ("excellent", "good", "fair", "poor")
+    cuts: Mapping[str, tuple] = field(default_factory=lambda: dict(DEFAULT_CUTS))
+    width: float = 0.04
+
+    def __post_init__(self) -> None:
+        g = tuple(self.grades)
+        if len(g) < 2 or len(set(g)) != len(g) or not all(isinstance(x, str) and x for x in g):
+            raise FidelityError(f"grades must be at least 2 distinct non-empty names, got {self.grades!r}")
+        object.__setattr__(self, "grades", g)
+        w = float(self.width)
+        if not (math.isfinite(w) and w >= 0):
+            raise FidelityError(f"grade width must be finite and >= 0, got {self.width!r}")
+        object.__setattr__(self, "width", w)
+        cuts = {}
+        for name in COMPONENTS:
+            if name not in self.cuts:
+                raise FidelityError(f"grade cuts missing for component {name!r}")
+            c = tuple(float(v) for v in self.cuts[name])
+            if len(c) != len(g) - 1:
+                raise FidelityError(f"grade cuts for {name}: need {len(g) - 1} boundaries for grades {g}, got {len(c)}")
+            if not all(0 < v < 1 for v in c) or any(b - a < 2 * w - 1e-12 for a, b in zip(c, c[1:])):
+                raise FidelityError(f"grade cuts for {name} must lie in (0, 1), ascending, at least "
+                                    f"2*width = {2 * w:g} apart; got {c}")
+            cuts[name] = c
+        unknown = set(self.cuts) - set(COMPONENTS)
+        if unknown:
+            raise FidelityError(f"grade cuts for unknown component(s) {sorted(unknown)}")
+        object.__setattr__(self, "cuts", cuts)
+
+    def memberships(self, component: str, value: float) -> dict:
+        """Row of ``R`` for one component value: ``{grade: membership}`` (sums to 1)."""
+        c = self.cuts[component]
+        x = float(value)
+        ups = [1.0] + [_ramp_up(x, ci, self.width) for ci in c] + [0.0]
+        # ups[j] = membership in "grade j or better" counted from the worst; grade j (worst=0)
+        worst_first = [ups[j] - ups[j + 1] for j in range(len(c) + 1)]
+        return dict(zip(self.grades, reversed(worst_first)))
+
+    def evaluate(self, weights: Weights, components: Mapping[str, float]) -> Grading:
+        """``R`` from the components, ``B = K·R`` and the grade of maximum membership."""
+        w = Weights.coerce(weights)
+        R = {k: self.memberships(k, components[k]) for k in COMPONENTS if k in components and w[k] > 0}
+        if not R:
+            raise FidelityError("no component with a positive weight to grade")
+        B = {g: math.fsum(w[k] * R[k][g] for k in R) for g in self.grades}
+        # ties go to the lower (worse) grade: scan from worst to best, keep the first maximum
+        best = max(reversed(self.grades), key=lambda g: B[g])
+        return Grading(grades=self.grades, matrix=R, membership=B, grade=best)
+
+
+# --------------------------------------------------------------------------- compare
+@dataclass(frozen=True)
+class Comparison:
+    """Result of :func:`compare`.
+
+    Attributes
+    ----------
+    ranking : list of str
+        Simulators by fidelity under ``weights``, best first.
+    fidelity : dict
+        ``{name: Σ k_i f_i}`` under ``weights``.
+    p_first : dict
+        ``{name: probability of ranking first}`` over the weight samples (ties share).
+    mean_rank : dict
+        ``{name: average rank (1 = best)}`` over the samples.
+    weights : Weights
+    samples : int
+    concentration : float
+    components : tuple of str
+        The components compared (positive weight).
+    """
+
+    ranking: list
+    fidelity: dict
+    p_first: dict
+    mean_rank: dict
+    weights: Weights
+    samples: int
+    concentration: float
+    components: tuple
+
+    def to_dict(self) -> dict:
+        return {"ranking": list(self.ranking), "fidelity": dict(self.fidelity), "p_first": dict(self.p_first),
+                "mean_rank": dict(self.mean_rank), "weights": self.weights.as_dict(), "samples": self.samples,
+                "concentration": self.concentration, "components": list(self.components)}
+
+    def summary_text(self) -> str:
+        lines = [f"{'simulator':<24} {'fidelity':>9} {'P(first)':>9} {'mean rank':>10}"]
+        for n in self.ranking:
+            lines.append(f"{n:<24} {self.fidelity[n]:>9.4f} {self.p_first[n]:>9.3f} {self.mean_rank[n]:>10.2f}")
+        lines.append(f"weights: {self.weights}; {self.samples} Dirichlet samples, concentration {self.concentration:g}")
+        return "\n".join(lines)
+
+
+def compare(reports: Mapping[str, Any], *, weights: Any = None, samples: int = 2000,
+            concentration: float = 50.0, seed: int | None = 0) -> Comparison:
+    """Rank simulators scored on the same mission, and test the ranking's stability.
+
+    Parameters
+    ----------
+    reports : {name: FidelityReport}
+        At least one report (anything with ``.components`` and ``.weights`` works).
+    weights : Weights, optional
+        ``K``. Default: the reports' weights, which must then all be equal.
+    samples : int
+        Number of weight vectors drawn from ``Dirichlet(concentration · K)`` (over the
+        components with positive weight; the others stay 0). The mean of the samples is
+        ``K``; a larger ``concentration`` keeps them closer to ``K`` (each weight's
+        standard deviation is ``sqrt(k(1−k)/(concentration+1))``, e.g. 0.057 for
+        k = 0.2 and concentration 50).
+    seed : int or None
+        Seed of numpy's default generator (reproducible by default).
+
+    Every simulator must have a value for every component with positive weight;
+    otherwise FidelityError names the report and the component (scores over different
+    component sets are not comparable).
+    """
+    if not isinstance(reports, Mapping) or not reports:
+        raise FidelityError("compare needs a non-empty mapping {name: FidelityReport}")
+    names = [str(k) for k in reports]
+    if weights is None:
+        ws = {r.weights for r in reports.values()}
+        if len(ws) != 1:
+            raise FidelityError("the reports were scored with different weights; pass weights= to compare them")
+        w = Weights.coerce(next(iter(ws)))
+    else:
+        w = Weights.coerce(weights)
+    comps = w.active()
+    for n, r in reports.items():
+        miss = [k for k in comps if k not in r.components]
+        if miss:
+            raise FidelityError(f"report {n!r} has no value for component(s) {miss} (positive weight); "
+                                f"compare simulators on the same components")
+    ns = int(samples)
+    if ns != samples or ns < 1:
+        raise FidelityError(f"samples must be a positive integer, got {samples!r}")
+    conc = float(concentration)
+    if not (math.isfinite(conc) and conc > 0):
+        raise FidelityError(f"concentration must be finite and > 0, got {concentration!r}")
+    F = np.array([[float(r.components[k]) for k in comps] for r in reports.values()])  # sims × comps
+    K = np.array([w[k] for k in comps])
+    base = {n: math.fsum(float(k) * f for k, f in zip(K, row)) for n, row in zip(names, F)}
+    ranking = sorted(names, key=lambda n: -base[n])
+    rng = np.random.default_rng(seed)
+    if len(comps) == 1:
+        W = np.ones((ns, 1))
+    else:
+        W = rng.dirichlet(conc * K, size=ns)
+    S = W @ F.T  # samples × sims
+    top = S.max(axis=1, keepdims=True)
+    is_top = np.isclose(S, top, rtol=0, atol=1e-12)
+    p_first = (is_top / is_top.sum(axis=1, keepdims=True)).mean(axis=0)
+    # rank 1 = best; ties get the average rank
+    order = np.argsort(-S, axis=1, kind="stable")
+    ranks = np.empty_like(order, dtype=np.float64)
+    rows = np.arange(ns)[:, None]
+    ranks[rows, order] = np.arange(1, len(names) + 1)[None, :]
+    mean_rank = ranks.mean(axis=0)
+    return Comparison(ranking=ranking, fidelity=base, p_first={n: float(p) for n, p in zip(names, p_first)},
+                      mean_rank={n: float(r) for n, r in zip(names, mean_rank)}, weights=w, samples=ns,
+                      concentration=conc, components=comps)
