@@ -297,7 +297,7 @@ def _load_frame(x: Any, name: str, channel: Any) -> Any:
     return x
 
 
-def _as_curve(x: Any, what: str, *, edge_ok: bool) -> Curve:
+def _as_curve(x: Any, what: str, *, edge_ok: bool, channel: str | None = None) -> Curve:
     """A Curve from a Curve, an (x, y) pair, a CSV path, or (MTF only) an edge image/path."""
     if isinstance(x, Curve):
         return x
@@ -310,7 +310,7 @@ def _as_curve(x: Any, what: str, *, edge_ok: bool) -> Curve:
         from .edge import mtf_from_edge
         from .frames import load_frame
 
-        img = load_frame(p)
+        img = load_frame(p, channel=channel)
         try:
             return mtf_from_edge(img, name=what)
         except FidelityError as exc:
@@ -342,7 +342,8 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
              real_sitf: Any = None, sim_sitf: Any = None, weights: Any = None, bits: int | None = None,
              peak: float | None = None, bins: int | str = 256, hist_range: Any = "data",
              missing: str = "raise", psnr_anchors=DEFAULT_PSNR_ANCHORS, ssim_exponents=(1.0, 1.0, 1.0),
-             mask: Any = None, channel: str | None = None, nonfinite: str = "raise",
+             mask: Any = None, channel: str | None = None, edge_channel: str | None = None,
+             nonfinite: str = "raise",
              mtf_options: Mapping[str, Any] | None = None, sitf_options: Mapping[str, Any] | None = None,
              grades: GradeScale | None = None) -> FidelityReport:
     """Fidelity of a simulator on one scene (paper eq. 15) with its five components.
@@ -367,6 +368,9 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     psnr_anchors : the two (dB, value) anchors of eq. (6).
     ssim_exponents : (alpha, beta, gamma) of eq. (14).
     mask, nonfinite : passed to :func:`irfidelity.pair_stats`.
+    channel : channel of the frame files (multi-channel EXR/PNG/TIFF).
+    edge_channel : channel of edge image files given as ``real_mtf``/``sim_mtf``
+        (e.g. ``"R"`` for an RGBA PNG).
     mtf_options, sitf_options : extra keyword arguments for
         :func:`irfidelity.mtf_similarity` / :func:`irfidelity.sitf_similarity`.
     grades : GradeScale, optional
@@ -397,8 +401,8 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         if w.mtf > 0:
-            rc = _as_curve(real_mtf, "real MTF", edge_ok=True)
-            sc = _as_curve(sim_mtf, "simulated MTF", edge_ok=True)
+            rc = _as_curve(real_mtf, "real MTF", edge_ok=True, channel=edge_channel)
+            sc = _as_curve(sim_mtf, "simulated MTF", edge_ok=True, channel=edge_channel)
             s = mtf_similarity(rc, sc, **dict(mtf_options or {}))
             components["mtf"] = float(s.value)
             metrics.update(mtf50_real=s.a, mtf50_sim=s.b, mtf_mu=s.mu, mtf_rho=s.rho, mtf_ccc=s.ccc,
