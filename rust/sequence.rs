@@ -129,7 +129,7 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
         out.shape = Some((r.rows, r.cols));
         out.dtype = Some(r.data.dtype_name());
         let s = decode(sim, req)?;
-        let what = || format!("frame {index} ({} vs {})", real.label(), sim.label());
+        let what = || format!("{} vs {}", real.label(), sim.label());
         if (r.rows, r.cols) != (s.rows, s.cols) {
             return Err(Error::Shape(format!(
                 "{}: real and sim frames differ in shape: ({}, {}) vs ({}, {})",
@@ -162,7 +162,7 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
                 .or_else(|| payload.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "panic".into());
             Err(Error::Value(format!(
-                "frame {index} ({} vs {}): internal error: {msg}",
+                "{} vs {}: internal error: {msg}",
                 real.label(),
                 sim.label()
             )))
@@ -178,19 +178,22 @@ pub struct Progress {
     pub cancel: AtomicBool,
 }
 
-/// Score `real[i]` against `sim[i]` for every `i`, with `workers` threads (0 = all cores).
+/// Score `real[i]` against `sim[i]` for every `i`, with `workers` threads (0 = all cores),
+/// handing each outcome to `sink` as soon as it is ready (completion order, from the
+/// worker threads). `sink` may block to apply back-pressure: the worker then waits before
+/// decoding its next pair, so memory stays bounded.
 ///
-/// Returns one entry per index, in index order; `None` for pairs skipped because
-/// `progress.cancel` was set. Errors only for bad arguments (different lengths) or when
-/// the thread pool cannot be built; frame problems are per-pair errors.
-pub fn score_pairs(
+/// Errors only for bad arguments (different lengths) or when the thread pool cannot be
+/// built; frame problems are per-pair errors. Pairs not started when `progress.cancel`
+/// is set are never given to `sink`.
+pub fn score_pairs_with(
     real: &[Source],
     sim: &[Source],
     req: &SeqRequest,
     workers: usize,
     progress: &Progress,
-    on_done: Option<&(dyn Fn(usize) + Sync)>,
-) -> Result<Vec<Option<PairOutcome>>> {
+    sink: &(dyn Fn(PairOutcome) + Sync),
+) -> Result<()> {
     if real.len() != sim.len() {
         return Err(Error::Value(format!(
             "the real sequence has {} frames and the simulated sequence {}; they must have the same number",
@@ -200,20 +203,14 @@ pub fn score_pairs(
     }
     let n = real.len();
     if n == 0 {
-        return Ok(Vec::new());
+        return Ok(());
     }
-    let workers = if workers == 0 {
-        std::thread::available_parallelism().map_or(1, |p| p.get())
-    } else {
-        workers
-    }
-    .min(n);
+    let workers = effective_workers(workers).min(n);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(workers)
         .thread_name(|i| format!("irfidelity-seq-{i}"))
         .build()
         .map_err(|e| Error::Value(format!("cannot start {workers} worker threads: {e}")))?;
-    let slots: Vec<OnceLock<PairOutcome>> = (0..n).map(|_| OnceLock::new()).collect();
     let next = AtomicUsize::new(0);
     let work = || loop {
         if progress.cancel.load(Ordering::Relaxed) {
@@ -224,17 +221,46 @@ pub fn score_pairs(
             break;
         }
         let outcome = score_pair(i, &real[i], &sim[i], req);
-        let _ = slots[i].set(outcome);
-        let d = progress.done.fetch_add(1, Ordering::AcqRel) + 1;
-        if let Some(cb) = on_done {
-            cb(d);
-        }
+        progress.done.fetch_add(1, Ordering::AcqRel);
+        sink(outcome);
     };
     pool.scope(|s| {
         for _ in 0..workers {
             s.spawn(|_| work());
         }
     });
+    Ok(())
+}
+
+/// `workers`, or the number of cores when 0.
+pub fn effective_workers(workers: usize) -> usize {
+    if workers == 0 {
+        std::thread::available_parallelism().map_or(1, |p| p.get())
+    } else {
+        workers
+    }
+}
+
+/// [`score_pairs_with`] collecting the outcomes: one entry per index, in index order,
+/// `None` for pairs skipped because `progress.cancel` was set. `on_done(count)` is called
+/// after each pair.
+pub fn score_pairs(
+    real: &[Source],
+    sim: &[Source],
+    req: &SeqRequest,
+    workers: usize,
+    progress: &Progress,
+    on_done: Option<&(dyn Fn(usize) + Sync)>,
+) -> Result<Vec<Option<PairOutcome>>> {
+    let slots: Vec<OnceLock<PairOutcome>> = (0..real.len().min(sim.len())).map(|_| OnceLock::new()).collect();
+    let sink = |o: PairOutcome| {
+        let i = o.index;
+        let _ = slots[i].set(o);
+        if let Some(cb) = on_done {
+            cb(progress.done.load(Ordering::Acquire));
+        }
+    };
+    score_pairs_with(real, sim, req, workers, progress, &sink)?;
     Ok(slots.into_iter().map(|s| s.into_inner()).collect())
 }
 
@@ -393,7 +419,7 @@ mod tests {
         let err = |i: usize| out[i].stats.clone().unwrap_err();
         assert!(matches!(err(1), Error::Frame(m) if m.contains("truncated.png")));
         assert!(matches!(err(3), Error::Frame(m) if m.contains("missing.png")));
-        assert!(matches!(err(4), Error::Shape(m) if m.contains("shape") && m.contains("frame 4")));
+        assert!(matches!(err(4), Error::Shape(m) if m.contains("shape") && m.contains("ptw_lwir_frame000.png")));
         assert!(matches!(err(5), Error::Shape(m) if m.contains("uint16 vs float32")));
         std::fs::remove_dir_all(&tmp).ok();
     }

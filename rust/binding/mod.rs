@@ -5,6 +5,7 @@
 use pyo3::prelude::*;
 
 mod io;
+mod sequence;
 mod stats;
 
 /// Map a core error to the matching `irfidelity.errors` class (DESIGN §5).
@@ -41,5 +42,6 @@ impl<T> IntoPy<T> for crate::Result<T> {
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     stats::register(m)?;
     io::register(m)?;
+    sequence::register(m)?;
     Ok(())
 }
