@@ -18,7 +18,7 @@ const CHUNK: usize = 1 << 16;
 
 /// A pixel type the kernels accept. Implemented for u8, u16, i16, u32 (exact integer
 /// path) and f16, f32, f64 (float path) by the macros below.
-pub trait Sample: Copy + Send + Sync + 'static {
+pub trait Sample: Copy + PartialOrd + Send + Sync + 'static {
     const IS_INT: bool;
     /// Smallest value of the type (integer types), used to make level keys non-negative.
     const MIN: i64;
@@ -527,7 +527,7 @@ struct Binner {
     width: f64,
     inv_width: f64,
     /// integer frames with ≤ 16-bit types: value − MIN → bin
-    lut: Vec<u32>,
+    lut: Vec<u16>,
 }
 
 impl Binner {
@@ -567,7 +567,7 @@ struct Acc {
     n: u64,
     int: IntSums,
     float: FloatSums,
-    dense: Vec<u64>,
+    dense: Vec<u32>, // per-worker counts; frames are < 2^32 pixels (checked)
     keys: Vec<u64>,
     runs: Vec<(u64, u64)>,
 }
@@ -636,13 +636,23 @@ fn chunk_ranges(n: usize) -> Vec<(usize, usize)> {
 /// Min and max over the counted pixels of both frames (f64 for floats, exact for ints).
 fn data_range<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<(f64, f64)> {
     let chunks = chunk_ranges(r.len());
-    let fold = |(a, b): (usize, usize)| {
+    let fold = |(a, b): (usize, usize)| -> (f64, f64) {
+        if T::IS_INT && req.mask.is_none() {
+            // integers: no finiteness test, a branch-free loop the compiler vectorises
+            if a == b {
+                return (f64::INFINITY, f64::NEG_INFINITY);
+            }
+            let (mut lo, mut hi) = (r[a], r[a]);
+            for &v in r[a..b].iter().chain(&s[a..b]) {
+                lo = if v < lo { v } else { lo };
+                hi = if v > hi { v } else { hi };
+            }
+            return (lo.to_f64(), hi.to_f64());
+        }
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for i in a..b {
-            if let Some(m) = req.mask {
-                if !m[i] {
-                    continue;
-                }
+            if req.mask.is_some_and(|m| !m[i]) {
+                continue;
             }
             let (x, y) = (r[i].to_f64(), s[i].to_f64());
             if !(x.is_finite() && y.is_finite()) {
@@ -719,7 +729,7 @@ fn plan_hist<T: Sample>(r: &[T], s: &[T], req: &Request, hreq: &HistRequest) -> 
 }
 
 fn make_int_binner<T: Sample>(bins: usize, lo: i64, width: i64) -> Binner {
-    let bin_of = |v: i64| -> u32 { ((v - lo).max(0) / width).min(bins as i64 - 1) as u32 };
+    let bin_of = |v: i64| -> u16 { ((v - lo).max(0) / width).min(bins as i64 - 1) as u16 };
     let lut = (0..T::LUT).map(|k| bin_of(k as i64 + T::MIN)).collect();
     Binner { bins, lo: lo as f64, width: width as f64, inv_width: 1.0 / width as f64, lut }
 }
@@ -741,18 +751,11 @@ fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST: bool>(
         let end = (start + T::BLOCK).min(b);
         let (mut sr, mut ss, mut srs) = (0i64, 0i64, 0i64);
         let (mut srr, mut sss, mut sse) = (0u64, 0u64, 0u64);
-        let (mut lo, mut hi) = (i64::MAX, i64::MIN);
         let mut n = 0u64;
-        for i in start..end {
-            if let Some(m) = req.mask {
-                if !m[i] {
-                    continue;
-                }
-            }
-            let (x, y) = (r[i].to_i64(), s[i].to_i64());
+        // Moments and SSE first (a branch-free loop the compiler vectorises), then the
+        // histogram scatter over the same block while it is still in cache.
+        let mut moments = |x: i64, y: i64, acc: &mut Acc| {
             n += 1;
-            lo = lo.min(x.min(y));
-            hi = hi.max(x.max(y));
             if SSE {
                 let d = x.abs_diff(y);
                 sse += d * d;
@@ -774,23 +777,58 @@ fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST: bool>(
                     srs += x * y;
                 }
             }
-            if HIST {
-                match binner {
-                    Some(bn) => acc.count(dense_bins, bn.int_bin(x, T::MIN), bn.int_bin(y, T::MIN)),
-                    None => acc.count(0, (x - T::MIN) as usize, (y - T::MIN) as usize),
+        };
+        let (rr, sb) = (&r[start..end], &s[start..end]);
+        match req.mask {
+            None => {
+                for (&x, &y) in rr.iter().zip(sb) {
+                    moments(x.to_i64(), y.to_i64(), acc);
+                }
+            }
+            Some(m) => {
+                for ((&x, &y), &keep) in rr.iter().zip(sb).zip(&m[start..end]) {
+                    if keep {
+                        moments(x.to_i64(), y.to_i64(), acc);
+                    }
+                }
+            }
+        }
+        if HIST {
+            let mut bin = |x: i64, y: i64, acc: &mut Acc| match binner {
+                Some(bn) => acc.count(dense_bins, bn.int_bin(x, T::MIN), bn.int_bin(y, T::MIN)),
+                None => acc.count(0, (x - T::MIN) as usize, (y - T::MIN) as usize),
+            };
+            match req.mask {
+                None => {
+                    for (&x, &y) in rr.iter().zip(sb) {
+                        bin(x.to_i64(), y.to_i64(), acc);
+                    }
+                }
+                Some(m) => {
+                    for ((&x, &y), &keep) in rr.iter().zip(sb).zip(&m[start..end]) {
+                        if keep {
+                            bin(x.to_i64(), y.to_i64(), acc);
+                        }
+                    }
                 }
             }
         }
         if let Some((vlo, vhi)) = req.valid {
-            if n > 0 && (lo < vlo || hi > vhi) {
-                for i in start..end {
-                    if req.mask.is_some_and(|m| !m[i]) {
-                        continue;
-                    }
-                    for (frame, v) in [("real", r[i].to_i64()), ("sim", s[i].to_i64())] {
-                        if v < vlo || v > vhi {
-                            return Err(Bad::Range { frame, value: v, index: i });
-                        }
+            // a vectorised min/max first; the scan for the message only on failure
+            let (mut lo, mut hi) = (rr[0], rr[0]);
+            for &v in rr.iter().chain(sb) {
+                // native-width compares (vpminuw & co.), not i64
+                lo = if v < lo { v } else { lo };
+                hi = if v > hi { v } else { hi };
+            }
+            let outside = lo.to_i64() < vlo || hi.to_i64() > vhi;
+            for i in (start..end).filter(|_| outside) {
+                if req.mask.is_some_and(|m| !m[i]) {
+                    continue;
+                }
+                for (frame, v) in [("real", r[i].to_i64()), ("sim", s[i].to_i64())] {
+                    if v < vlo || v > vhi {
+                        return Err(Bad::Range { frame, value: v, index: i });
                     }
                 }
             }
@@ -923,6 +961,9 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
             s.len()
         )));
     }
+    if r.len() as u64 >= u32::MAX as u64 {
+        return Err(Error::Value(format!("frames of {} pixels are too large (limit 2^32 - 1)", r.len())));
+    }
     if let Some(m) = req.mask {
         if m.len() != r.len() {
             return Err(Error::Shape(format!("mask has {} elements, frames have {}", m.len(), r.len())));
@@ -970,7 +1011,7 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
     }
     if let Some(p) = plan {
         let joint = match p.dense_bins {
-            Some(b) => Joint::Dense { bins: b, offset: p.offset, counts: acc.dense },
+            Some(b) => Joint::Dense { bins: b, offset: p.offset, counts: acc.dense.iter().map(|&c| c as u64).collect() },
             None => Joint::Sparse(acc.runs),
         };
         out.hist = Some((p.spec, joint));
