@@ -23,6 +23,10 @@ use super::{check_size, DecodeOptions, Frame, FrameData, Reason};
 fn exr_err(e: ::exr::error::Error) -> Reason {
     use ::exr::error::Error as E;
     match e {
+        E::NotSupported(m) if m.contains("deep") => {
+            format!("unsupported: deep data ({m}); only flat OpenEXR images can be decoded")
+        }
+        E::NotSupported(m) if m.contains("compression") => format!("unsupported compression ({m})"),
         E::NotSupported(m) => format!("unsupported OpenEXR feature: {m}"),
         E::Invalid(m) => format!("corrupt or invalid OpenEXR file: {m}"),
         E::Io(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {

@@ -5,7 +5,7 @@
 //! default), so a legitimate 16k x 16k 16-bit frame decodes and a lying header does not
 //! allocate.
 
-use std::io::{BufRead, Seek};
+use std::io::{BufRead, Read, Seek};
 
 use image::codecs::png::PngDecoder;
 use image::{ColorType as PngColor, ImageDecoder};
@@ -53,7 +53,29 @@ pub(super) fn png_channels<R: BufRead + Seek>(reader: R) -> Result<Vec<String>, 
     png_names(dec.color_type())
 }
 
-pub(super) fn decode_png<R: BufRead + Seek>(reader: R, o: &DecodeOptions) -> Result<Frame, Reason> {
+/// Width, height, bit depth and colour type from the IHDR chunk of a PNG file.
+fn png_ihdr<R: BufRead + Seek>(reader: &mut R) -> Option<(u32, u32, u8, u8)> {
+    let mut head = [0u8; 26];
+    let ok = reader.read_exact(&mut head).is_ok();
+    reader.rewind().ok()?;
+    let be = |i: usize| u32::from_be_bytes([head[i], head[i + 1], head[i + 2], head[i + 3]]);
+    (ok && &head[12..16] == b"IHDR").then(|| (be(16), be(20), head[24], head[25]))
+}
+
+pub(super) fn decode_png<R: BufRead + Seek>(mut reader: R, o: &DecodeOptions) -> Result<Frame, Reason> {
+    // The `image` crate expands 1/2/4-bit grey to 8 bits by scaling (x255, x85, x17);
+    // undo that exactly so the frame holds the file's own sample values (like pypng).
+    let ihdr = png_ihdr(&mut reader);
+    if let Some((w, h, _, _)) = ihdr {
+        // refuse a lying header before the decoder sizes any buffer from it
+        check_size(w as u64, h as u64, o.max_pixels)?;
+    }
+    let low_grey_scale: Option<u8> = match ihdr {
+        Some((_, _, 1, 0)) => Some(255),
+        Some((_, _, 2, 0)) => Some(85),
+        Some((_, _, 4, 0)) => Some(17),
+        _ => None,
+    };
     let dec = png_open(reader, o.max_pixels)?;
     let (w, h) = dec.dimensions();
     check_size(w as u64, h as u64, o.max_pixels)?;
@@ -76,6 +98,9 @@ pub(super) fn decode_png<R: BufRead + Seek>(reader: R, o: &DecodeOptions) -> Res
     } else {
         let mut buf = vec![0u8; n * spp];
         dec.read_image(&mut buf).map_err(png_err)?;
+        if let (Some(k), PngColor::L8) = (low_grey_scale, color) {
+            buf.iter_mut().for_each(|v| *v /= k);
+        }
         FrameData::U8(pick(buf, spp, c, false))
     };
     Ok(Frame { rows, cols, data })

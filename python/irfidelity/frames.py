@@ -1,0 +1,337 @@
+"""Loading frames: single files and lazy sequences.
+
+OpenEXR, PNG and TIFF files are decoded by the Rust core (``irfidelity._core``) with the
+GIL released; ``.npy`` files are read with numpy. Every failure -- missing, unreadable,
+truncated, corrupt, unsupported or oversized file -- raises
+:class:`irfidelity.errors.FrameError` whose message names the path and the reason.
+
+Decoded frames keep the file's own sample type: ``uint8``/``uint16`` PNG, ``uint8``,
+``uint16``, ``int16``, ``uint32``, ``float16``, ``float32``, ``float64`` TIFF, and
+``float16``/``float32``/``uint32`` EXR (float16 stays float16).
+"""
+
+from __future__ import annotations
+
+import glob as _glob
+import os
+import re
+from collections.abc import Iterable, Iterator, Sequence
+from typing import Any, Union, overload
+
+import numpy as np
+
+from . import _core
+from .errors import FrameError
+
+__all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "natural_key"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+#: File extensions a directory or glob source picks up (case-insensitive).
+FRAME_EXTENSIONS = (".exr", ".png", ".tif", ".tiff", ".npy")
+
+#: dtypes a frame may have (the dtypes the metrics accept).
+FRAME_DTYPES = tuple(
+    np.dtype(t) for t in ("uint8", "uint16", "int16", "uint32", "float16", "float32", "float64")
+)
+
+_GLOB_CHARS = re.compile(r"[*?\[]")
+
+
+def default_max_pixels() -> int:
+    """The default pixel limit: one 16384 x 16384 frame."""
+    return int(_core.default_max_pixels())
+
+
+def _is_npy(path: str) -> bool:
+    return path.lower().endswith(".npy")
+
+
+def _check_page(path: str, page: Any) -> int:
+    if isinstance(page, bool) or not isinstance(page, (int, np.integer)) or page < 0:
+        raise FrameError(f"{path}: page must be a non-negative integer, got {page!r}")
+    return int(page)
+
+
+def _check_max_pixels(path: str, max_pixels: Any) -> int | None:
+    if max_pixels is None:
+        return None
+    if isinstance(max_pixels, bool) or not isinstance(max_pixels, (int, np.integer)) or max_pixels < 1:
+        raise FrameError(f"{path}: max_pixels must be a positive integer, got {max_pixels!r}")
+    return int(max_pixels)
+
+
+def _load_npy(path: str, channel: str | None, page: int, max_pixels: int | None) -> np.ndarray:
+    if channel is not None:
+        raise FrameError(f"{path}: .npy files have no channels (got channel={channel!r})")
+    limit = default_max_pixels() if max_pixels is None else max_pixels
+    try:
+        # mmap reads the header only, so a lying shape is refused before allocating
+        mapped = np.load(path, mmap_mode="r", allow_pickle=False)
+    except FileNotFoundError as e:
+        raise FrameError(f"{path}: cannot open: {e.strerror or e}") from None
+    except IsADirectoryError:
+        raise FrameError(f"{path}: is a directory, not an image file") from None
+    except (OSError, ValueError, EOFError, TypeError, OverflowError, MemoryError) as e:
+        raise FrameError(f"{path}: corrupt or invalid .npy file: {e}") from None
+    if not isinstance(mapped, np.ndarray):
+        raise FrameError(f"{path}: not a single numpy array (.npz archives are not frames)")
+    if mapped.dtype not in FRAME_DTYPES:
+        raise FrameError(
+            f"{path}: unsupported dtype {mapped.dtype}; frames are one of "
+            + ", ".join(str(d) for d in FRAME_DTYPES)
+        )
+    if mapped.ndim == 3:
+        if page >= mapped.shape[0]:
+            raise FrameError(f"{path}: page {page} out of range ({mapped.shape[0]} frames)")
+        mapped = mapped[page]
+    elif mapped.ndim == 2:
+        if page != 0:
+            raise FrameError(f"{path}: page {page} out of range (a 2-D array has one frame)")
+    else:
+        raise FrameError(f"{path}: expected a 2-D frame (or a 3-D stack), got shape {mapped.shape}")
+    rows, cols = mapped.shape
+    if rows == 0 or cols == 0:
+        raise FrameError(f"{path}: empty image ({cols} x {rows} pixels)")
+    if rows * cols > limit:
+        raise FrameError(
+            f"{path}: image of {cols} x {rows} pixels exceeds the limit of {limit} pixels (max_pixels)"
+        )
+    try:
+        return np.array(mapped, copy=True, order="C")
+    except (OSError, ValueError) as e:  # truncated data section
+        raise FrameError(f"{path}: corrupt or truncated .npy file: {e}") from None
+
+
+def load_frame(
+    path: PathLike,
+    *,
+    channel: str | None = None,
+    page: int = 0,
+    max_pixels: int | None = None,
+) -> np.ndarray:
+    """Load one frame as a 2-D numpy array in the file's own sample type.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An OpenEXR, PNG or TIFF file (recognised by its magic bytes), or a ``.npy`` file
+        holding a 2-D array (or a 3-D stack, indexed by ``page``).
+    channel : str, optional
+        Channel to decode. EXR: a channel name such as ``"Y"``, ``"R"``, ``"left.Y"``
+        (``"part.channel"`` in multi-part files; a bare name works when unique).
+        PNG/TIFF: ``"Y"``, ``"R"``, ``"G"``, ``"B"``, ``"A"`` or an index ``"0"``, ``"1"``...
+        Default: the only channel, or ``"Y"`` if present; files with several colour
+        channels and no ``"Y"`` raise :class:`FrameError` listing the channels.
+    page : int, default 0
+        Page of a multi-page TIFF (or frame of a 3-D ``.npy`` stack).
+    max_pixels : int, optional
+        Refuse files whose header claims more pixels (default 16384 * 16384). Checked
+        before the pixel buffer is allocated.
+
+    Returns
+    -------
+    numpy.ndarray
+        2-D array (rows, cols): the data window for EXR. dtype ``uint8``, ``uint16``,
+        ``int16``, ``uint32``, ``float16``, ``float32`` or ``float64``.
+
+    Raises
+    ------
+    FrameError
+        The file is missing, unreadable, truncated, corrupt, unsupported (deep or
+        subsampled EXR, palette TIFF, ...) or larger than ``max_pixels``; the message
+        names the path and the reason.
+    """
+    try:
+        spath = os.fspath(path)
+    except TypeError:
+        raise FrameError(f"{path!r}: not a path") from None
+    if isinstance(spath, bytes):
+        spath = os.fsdecode(spath)
+    page = _check_page(spath, page)
+    max_pixels = _check_max_pixels(spath, max_pixels)
+    if channel is not None and not isinstance(channel, str):
+        raise FrameError(f"{spath}: channel must be a string, got {channel!r}")
+    if _is_npy(spath):
+        return _load_npy(spath, channel, page, max_pixels)
+    return _core.load_frame(spath, channel, page, max_pixels)
+
+
+def list_channels(path: PathLike) -> list[str]:
+    """Channel names that ``channel=`` accepts for this file.
+
+    EXR: the channel names (``"part.channel"`` in multi-part files); PNG/TIFF: e.g.
+    ``["Y"]``, ``["Y", "A"]``, ``["R", "G", "B"]``; ``.npy``: ``["Y"]``.
+    """
+    spath = os.fspath(path)
+    if _is_npy(spath):
+        load_frame(spath)
+        return ["Y"]
+    return list(_core.list_channels(spath))
+
+
+def page_count(path: PathLike) -> int:
+    """Number of pages: TIFF IFDs, the first axis of a 3-D ``.npy``, else 1."""
+    spath = os.fspath(path)
+    if _is_npy(spath):
+        try:
+            a = np.load(spath, mmap_mode="r", allow_pickle=False)
+        except (OSError, ValueError, EOFError, TypeError) as e:
+            raise FrameError(f"{spath}: corrupt or invalid .npy file: {e}") from None
+        return int(a.shape[0]) if getattr(a, "ndim", 0) == 3 else 1
+    return int(_core.page_count(spath))
+
+
+def natural_key(text: str) -> list[Any]:
+    """Sort key that orders embedded numbers by value: ``frame_2`` before ``frame_10``."""
+    return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", text)]
+
+
+def _is_tiff(path: str) -> bool:
+    return path.lower().endswith((".tif", ".tiff"))
+
+
+class FrameSequence(Sequence[np.ndarray]):
+    """A lazy, indexable sequence of frames.
+
+    Parameters
+    ----------
+    source : str, os.PathLike, sequence of paths, or numpy.ndarray
+        * a directory: its ``.exr``, ``.png``, ``.tif``, ``.tiff`` and ``.npy`` files;
+        * a glob pattern (``"run1/frame_*.png"``);
+        * a list or tuple of paths;
+        * one file: a multi-page TIFF gives one frame per page, other files one frame;
+        * a 3-D array ``(frames, rows, cols)``.
+
+        Files are ordered naturally (``frame_2`` before ``frame_10``); an explicit list
+        keeps its order. Multi-page TIFFs inside a directory, glob or list are expanded
+        into their pages (a cheap header walk); pixels are only decoded when a frame is
+        accessed.
+    channel : str, optional
+        Channel passed to :func:`load_frame` for every file.
+    max_pixels : int, optional
+        Pixel limit passed to :func:`load_frame`.
+
+    Notes
+    -----
+    ``len(seq)``, ``seq[i]`` (a 2-D array), ``seq[a:b]`` (a new ``FrameSequence``),
+    iteration, and ``seq.names`` (display names such as ``"frame_0003.png"`` or
+    ``"stack.tif[3]"``) are supported. Errors raise :class:`FrameError` naming the path.
+    """
+
+    def __init__(
+        self,
+        source: PathLike | Sequence[PathLike] | np.ndarray,
+        *,
+        channel: str | None = None,
+        max_pixels: int | None = None,
+    ) -> None:
+        self.channel = channel
+        self.max_pixels = max_pixels
+        self._array: np.ndarray | None = None
+        # entries: (path, page, display name); for arrays: (None, index, name)
+        self._entries: list[tuple[str | None, int, str]]
+        if isinstance(source, np.ndarray):
+            if source.ndim != 3:
+                raise FrameError(f"array source: expected a 3-D array (frames, rows, cols), got shape {source.shape}")
+            self._array = source
+            self._entries = [(None, i, f"[{i}]") for i in range(source.shape[0])]
+        elif isinstance(source, (str, os.PathLike)):
+            self._entries = self._from_path(os.fspath(source))
+        elif isinstance(source, Iterable):
+            paths = [os.fspath(p) for p in source]
+            if not paths:
+                raise FrameError("empty list of frame paths")
+            self._entries = self._expand(paths, label_dirs=True)
+        else:
+            raise FrameError(f"{source!r}: not a directory, glob, file, list of paths or 3-D array")
+
+    @classmethod
+    def _subset(cls, parent: FrameSequence, entries: list[tuple[str | None, int, str]]) -> FrameSequence:
+        new = cls.__new__(cls)
+        new.channel = parent.channel
+        new.max_pixels = parent.max_pixels
+        new._array = parent._array
+        new._entries = entries
+        return new
+
+    def _from_path(self, spath: str) -> list[tuple[str | None, int, str]]:
+        if os.path.isdir(spath):
+            names = [
+                n
+                for n in os.listdir(spath)
+                if n.lower().endswith(FRAME_EXTENSIONS) and os.path.isfile(os.path.join(spath, n))
+            ]
+            if not names:
+                raise FrameError(f"{spath}: directory holds no frame files ({', '.join(FRAME_EXTENSIONS)})")
+            names.sort(key=natural_key)
+            return self._expand([os.path.join(spath, n) for n in names], label_dirs=False)
+        if os.path.isfile(spath):
+            return self._expand([spath], label_dirs=False)
+        if _GLOB_CHARS.search(spath):
+            hits = [p for p in _glob.glob(spath) if os.path.isfile(p)]
+            if not hits:
+                raise FrameError(f"{spath}: glob pattern matches no files")
+            hits.sort(key=natural_key)
+            return self._expand(hits, label_dirs=False)
+        raise FrameError(f"{spath}: no such file or directory")
+
+    def _expand(self, paths: list[str], *, label_dirs: bool) -> list[tuple[str | None, int, str]]:
+        out: list[tuple[str | None, int, str]] = []
+        for p in paths:
+            base = os.path.basename(p) or p
+            if _is_tiff(p):
+                n = page_count(p)
+                if n > 1:
+                    out.extend((p, i, f"{base}[{i}]") for i in range(n))
+                    continue
+            out.append((p, 0, base))
+        return out
+
+    # --- Sequence protocol -------------------------------------------------------
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def _load(self, entry: tuple[str | None, int, str]) -> np.ndarray:
+        path, page, _ = entry
+        if path is None:
+            assert self._array is not None
+            return np.asarray(self._array[page])
+        return load_frame(path, channel=self.channel, page=page, max_pixels=self.max_pixels)
+
+    @overload
+    def __getitem__(self, index: int) -> np.ndarray: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> FrameSequence: ...
+
+    def __getitem__(self, index: int | slice) -> np.ndarray | FrameSequence:
+        if isinstance(index, slice):
+            return FrameSequence._subset(self, self._entries[index])
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+            raise TypeError(f"FrameSequence indices must be integers or slices, not {type(index).__name__}")
+        i = int(index)
+        n = len(self._entries)
+        if i < -n or i >= n:
+            raise IndexError(f"frame index {i} out of range for a sequence of {n} frames")
+        return self._load(self._entries[i])
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        for entry in self._entries:
+            yield self._load(entry)
+
+    @property
+    def names(self) -> list[str]:
+        """Display name of each frame: file name, ``"file.tif[3]"`` for TIFF pages, ``"[i]"`` for arrays."""
+        return [e[2] for e in self._entries]
+
+    @property
+    def sources(self) -> list[tuple[str | None, int]]:
+        """``(path, page)`` of each frame (``(None, i)`` for a 3-D array source)."""
+        return [(e[0], e[1]) for e in self._entries]
+
+    def __repr__(self) -> str:
+        head = ", ".join(self.names[:3])
+        more = ", ..." if len(self) > 3 else ""
+        return f"FrameSequence({len(self)} frames: {head}{more})"

@@ -1,0 +1,80 @@
+//! Python wrappers of the frame decoders (`crate::io`): `load_frame`, `page_count`,
+//! `list_channels`. Decoding runs with the GIL released; the decoded `Vec` is handed to
+//! numpy without a copy.
+
+use std::path::PathBuf;
+
+use numpy::ndarray::Array2;
+use numpy::IntoPyArray;
+use pyo3::prelude::*;
+
+use super::IntoPy;
+use crate::io::{self, DecodeOptions, Frame, FrameData};
+
+fn to_array<'py>(py: Python<'py>, f: Frame, name: &str) -> PyResult<Bound<'py, PyAny>> {
+    let shape = (f.rows, f.cols);
+    macro_rules! arr {
+        ($v:expr) => {
+            Array2::from_shape_vec(shape, $v)
+                .map_err(|e| crate::Error::Frame(format!("{name}: decoder returned a bad shape: {e}")))
+                .py_err()?
+                .into_pyarray(py)
+                .into_any()
+        };
+    }
+    Ok(match f.data {
+        FrameData::U8(v) => arr!(v),
+        FrameData::U16(v) => arr!(v),
+        FrameData::I16(v) => arr!(v),
+        FrameData::U32(v) => arr!(v),
+        FrameData::F16(v) => arr!(v),
+        FrameData::F32(v) => arr!(v),
+        FrameData::F64(v) => arr!(v),
+    })
+}
+
+/// Decode one frame of an OpenEXR, PNG or TIFF file into a 2-D numpy array in the file's
+/// own sample type. Raises `irfidelity.errors.FrameError` naming the path and the reason.
+#[pyfunction]
+#[pyo3(signature = (path, channel=None, page=0, max_pixels=None))]
+fn load_frame<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    channel: Option<String>,
+    page: usize,
+    max_pixels: Option<u64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let opts = DecodeOptions {
+        channel,
+        page,
+        max_pixels: max_pixels.unwrap_or(io::DEFAULT_MAX_PIXELS),
+    };
+    let frame = py.detach(|| io::decode_frame(&path, &opts)).py_err()?;
+    to_array(py, frame, &path.display().to_string())
+}
+
+/// Number of pages of a (multi-page) TIFF; 1 for EXR and PNG.
+#[pyfunction]
+fn page_count(py: Python<'_>, path: PathBuf) -> PyResult<usize> {
+    py.detach(|| io::page_count(&path)).py_err()
+}
+
+/// Selectable channel names of a frame file.
+#[pyfunction]
+fn list_channels(py: Python<'_>, path: PathBuf) -> PyResult<Vec<String>> {
+    py.detach(|| io::list_channels(&path)).py_err()
+}
+
+/// The default pixel limit (16384 x 16384).
+#[pyfunction]
+fn default_max_pixels() -> u64 {
+    io::DEFAULT_MAX_PIXELS
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(load_frame, m)?)?;
+    m.add_function(wrap_pyfunction!(page_count, m)?)?;
+    m.add_function(wrap_pyfunction!(list_channels, m)?)?;
+    m.add_function(wrap_pyfunction!(default_max_pixels, m)?)?;
+    Ok(())
+}
