@@ -49,3 +49,17 @@ def pair_stats(
     shape: tuple[int, int] = (0, 0),
     fortran: bool = False,
 ) -> PairStats: ...
+
+# ---- frame I/O (issue 3: rust/binding/io.rs) -------------------------------------------
+import os
+
+def load_frame(
+    path: str | os.PathLike[str],
+    channel: str | None = None,
+    page: int = 0,
+    max_pixels: int | None = None,
+) -> npt.NDArray[Any]: ...
+def page_count(path: str | os.PathLike[str]) -> int: ...
+def list_channels(path: str | os.PathLike[str]) -> list[str]: ...
+def default_max_pixels() -> int: ...
+# ---- end frame I/O ------------------------------------------------------------------------
