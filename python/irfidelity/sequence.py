@@ -418,8 +418,9 @@ class _Scorer:
     """Turns outcomes into frame dicts, streams them, and pools statistics in index order."""
 
     def __init__(self, *, n, real_names, sim_names, weights, pk, bin_label, ref_dtype, keep_hist, anchors,
-                 exponents, store, bar, progress_cb):
+                 exponents, store, bar, progress_cb, columns):
         self.n = n
+        self.keys = [c for c in columns if not c.startswith("f_")]
         self.real_names, self.sim_names = real_names, sim_names
         self.w = weights
         self.pk = pk
@@ -466,6 +467,7 @@ class _Scorer:
             else:
                 mets.pop("bins", None)
                 mets.pop("masked", None)
+                mets["nonfinite"] = int(raw.nonfinite)
                 fr.update(mets)
                 fr["components"] = comps
                 fr["fidelity"] = float(fid)
@@ -475,6 +477,8 @@ class _Scorer:
             raw = None
         else:
             fr["error"] = None
+        # every frame has the same keys: the CSV columns (None when not computed) + components
+        fr = {k: fr.get(k) for k in self.keys} | {"components": fr.get("components", {})}
         self.frames[index] = fr
         if self.store is not None:
             self.store.write(fr, None if raw is None else raw.to_bytes())
@@ -731,7 +735,7 @@ def score_sequence(
         cb = progress if callable(progress) else None
         scorer = _Scorer(n=n, real_names=rseq.names, sim_names=sseq.names, weights=w, pk=pk, bin_label=bin_label,
                          ref_dtype=ref_dtype.name, keep_hist=keep_hist, anchors=psnr_anchors,
-                         exponents=ssim_exponents, store=store, bar=bar, progress_cb=cb)
+                         exponents=ssim_exponents, store=store, bar=bar, progress_cb=cb, columns=columns)
         if store is not None:
             scorer.add_resumed(store.done_rows, store.done_stats)
 

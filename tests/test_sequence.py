@@ -1,0 +1,386 @@
+"""Sequences (issue 6): score_sequence over files (Rust engine), arrays (Python loop) and a
+Dask cluster; per-frame values vs the single-pair API, exact pooled PSNR, failed frames,
+CSV streaming and resume after an interruption.
+
+Data: the real 100-frame Lepton recording (multi-page uint16 TIFF) and 12 consecutive
+Lepton frames as 16-bit PNG (tests/data/thermal, see tests/data/README.md). "Simulated"
+sequences are the real frames plus seeded noise and a gain, written into tmp_path.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import pathlib
+import shutil
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+import irfidelity as irf
+from irfidelity import _core
+from irfidelity.errors import FidelityError
+from irfidelity.evaluate import evaluate
+from irfidelity.metrics import psnr_from_mse
+from irfidelity.sequence import SequenceReport, score_sequence
+
+tifffile = pytest.importorskip("tifffile")
+cv2 = pytest.importorskip("cv2")
+
+DATA = pathlib.Path(__file__).parent / "data" / "thermal"
+STACK = DATA / "cptv_v2_all100frames_uint16.tif"
+PNGS = [DATA / f"cptv_v2_frame{i:03d}.png" for i in range(12)]
+
+
+def _simulate(frames: np.ndarray, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    x = frames.astype(np.int64) * 1.01 - 20 + rng.normal(0, 6, frames.shape)
+    return np.clip(np.rint(x), 0, 16383).astype(np.uint16)
+
+
+@pytest.fixture(scope="module")
+def lepton(tmp_path_factory):
+    """(real tif path, sim tif path, real array, sim array) for the 100-frame recording."""
+    real = tifffile.imread(STACK)
+    assert real.shape == (100, 120, 160) and real.dtype == np.uint16
+    sim = _simulate(real, 1)
+    d = tmp_path_factory.mktemp("lepton")
+    path = d / "sim.tif"
+    tifffile.imwrite(path, sim, compression="zlib")
+    return STACK, path, real, sim
+
+
+@pytest.fixture()
+def png_dirs(tmp_path):
+    """Directories of 12 real and 12 simulated 16-bit PNG frames."""
+    rdir, sdir = tmp_path / "real", tmp_path / "sim"
+    rdir.mkdir()
+    sdir.mkdir()
+    real = []
+    for i, p in enumerate(PNGS):
+        shutil.copy(p, rdir / f"frame_{i}.png")
+        real.append(cv2.imread(str(p), cv2.IMREAD_UNCHANGED))
+    sim = _simulate(np.stack(real), 7)
+    for i, s in enumerate(sim):
+        assert cv2.imwrite(str(sdir / f"frame_{i}.png"), s)
+    return rdir, sdir, np.stack(real), sim
+
+
+def _frame_metrics(frame: dict) -> dict:
+    keys = ("n", "mse", "psnr_db", "ssim", "ssim_luminance", "ssim_contrast", "ssim_structure", "nmi", "mi",
+            "h_real", "h_sim", "h_joint")
+    return {k: frame[k] for k in keys if k in frame}
+
+
+# --------------------------------------------------------------------------- per frame
+@pytest.mark.parametrize("workers", [1, 2])
+def test_per_frame_values_equal_the_single_pair_api(lepton, workers):
+    real_path, sim_path, real, sim = lepton
+    rep = score_sequence(real_path, sim_path, bits=14, workers=workers, progress=False)
+    assert isinstance(rep, SequenceReport)
+    assert len(rep.frames) == 100 and rep.failed == []
+    assert [f["index"] for f in rep.frames] == list(range(100))
+    assert rep.frames[3]["real"] == "cptv_v2_all100frames_uint16.tif[3]"
+    assert rep.frames[3]["sim"] == "sim.tif[3]"
+    for i in (0, 1, 37, 99):
+        f = rep.frames[i]
+        st = irf.pair_stats(real[i], sim[i], bits=14)
+        want = st.metrics()
+        assert _frame_metrics(f) == want, i  # identical, not approximately
+        one = evaluate(real[i], sim[i], bits=14, missing="renormalize")
+        assert f["components"] == one.components
+        assert f["fidelity"] == one.fidelity
+        assert (f["rows"], f["cols"], f["dtype"]) == (120, 160, "uint16")
+        assert f["error"] is None
+
+
+def test_arrays_and_files_agree(lepton):
+    real_path, sim_path, real, sim = lepton
+    a = score_sequence(real[:20], sim[:20], bits=14, progress=False)
+    b = score_sequence(real_path, sim_path, bits=14, progress=False)
+    assert a.frames[:20] == [dict(f, real=f"[{i}]", sim=f"[{i}]") for i, f in enumerate(b.frames[:20])]
+    # list of 2-D arrays
+    c = score_sequence(list(real[:3]), list(sim[:3]), bits=14, progress=False)
+    assert [f["fidelity"] for f in c.frames] == [f["fidelity"] for f in a.frames[:3]]
+
+
+# --------------------------------------------------------------------------- pooled
+def test_pooled_psnr_is_exact_from_summed_errors(lepton):
+    real_path, sim_path, real, sim = lepton
+    rep = score_sequence(real_path, sim_path, bits=14, progress=False)
+    # reference with Python ints: ΣSSE and ΣN over all frames
+    sse = sum(int(((r.astype(np.int64) - s.astype(np.int64)) ** 2).sum()) for r, s in zip(real, sim))
+    n = real.size
+    peak = 2**14 - 1
+    assert rep.pooled["n"] == n and rep.pooled["frames"] == 100
+    assert rep.pooled["mse"] == float(Fraction(sse, n))  # one rounding of the exact ratio
+    assert rep.pooled["psnr_db"] == psnr_from_mse(float(Fraction(sse, n)), peak)
+    exact = 10 * math.log10(Fraction(peak * peak * n, sse))
+    assert rep.pooled["psnr_db"] == pytest.approx(exact, rel=1e-15, abs=0)
+    # not a mean of dB values
+    mean_db = np.mean([f["psnr_db"] for f in rep.frames])
+    assert rep.pooled["psnr_db"] != mean_db
+    assert rep.frame_stats["psnr_db"]["mean"] == pytest.approx(mean_db, rel=1e-15)
+
+
+def test_pooled_stats_equal_one_pass_over_all_frames(lepton):
+    """With shared histogram edges the pooled statistics are those of the whole recording."""
+    real_path, sim_path, real, sim = lepton
+    rep = score_sequence(real_path, sim_path, bits=14, hist_range="full", workers=2, progress=False)
+    whole = irf.pair_stats(real.reshape(-1, 160), sim.reshape(-1, 160), bits=14, hist_range="full")
+    want = whole.metrics()
+    got = {k: rep.pooled[k] for k in want}
+    assert got == want
+    assert rep.pooled["nmi_pooling"] == "histogram"
+    assert rep.pooled["components"]["nmi"] == want["nmi"]
+
+
+def test_default_hist_range_pools_nmi_as_frame_mean(lepton):
+    real_path, sim_path, real, sim = lepton
+    rep = score_sequence(real_path, sim_path, bits=14, progress=False)
+    assert rep.pooled["nmi_pooling"] == "frame_mean"
+    assert rep.pooled["nmi"] == pytest.approx(np.mean([f["nmi"] for f in rep.frames]), rel=1e-15)
+    s = rep.frame_stats["fidelity"]
+    assert s["p5"] <= s["p50"] <= s["p95"] and s["min"] <= s["mean"] <= s["max"]
+    assert set(rep.frame_stats) >= {"mse", "psnr_db", "ssim", "nmi", "fidelity", "f_psnr", "f_nmi", "f_ssim"}
+    text = rep.summary_text()
+    assert "100 scored, 0 failed" in text and "pooled fidelity" in text
+    d = rep.to_dict()
+    assert d["failed"] == [] and len(d["frames"]) == 100 and d["weights"]["mtf"] == 0.0
+    assert "mtf" in d["skipped"] and "sitf" in d["skipped"]
+
+
+def test_only_the_plan_is_computed(lepton):
+    real_path, sim_path, _, _ = lepton
+    rep = score_sequence(real_path, sim_path, bits=14, weights="psnr=1", progress=False)
+    f = rep.frames[0]
+    assert "psnr_db" in f and "ssim" not in f and "nmi" not in f
+    assert set(f["components"]) == {"psnr"}
+    assert rep.columns == ["index", "real", "sim", "rows", "cols", "dtype", "n", "mse", "psnr_db", "f_psnr",
+                           "fidelity", "error"]
+    # the engine itself skips moments and histograms
+    out = _core.score_pairs([str(real_path)], [str(real_path)], [0], [1], sse=True, moments=False, bins=None)
+    (_, st, err, shape, dtype), = out
+    assert err is None and st.has_sse and not st.has_moments and not st.has_hist
+
+
+# --------------------------------------------------------------------------- errors
+def test_mismatched_counts_fail_before_any_work(png_dirs, tmp_path):
+    rdir, sdir, _, _ = png_dirs
+    os.remove(sdir / "frame_11.png")
+    out = tmp_path / "rows.csv"
+    with pytest.raises(FidelityError, match=r"12 frames .* 11"):
+        score_sequence(rdir, sdir, csv=out, progress=False)
+    assert not out.exists()
+    with pytest.raises(FidelityError, match="3 frames and the simulated sequence 2"):
+        _core.score_pairs(["a", "b", "c"], ["a", "b"])
+
+
+def test_truncated_frame_fails_alone(png_dirs, tmp_path):
+    rdir, sdir, real, sim = png_dirs
+    bad = sdir / "frame_5.png"
+    data = bad.read_bytes()
+    bad.write_bytes(data[: len(data) // 3])
+    out = tmp_path / "rows.csv"
+    rep = score_sequence(rdir, sdir, bits=14, workers=2, csv=out, progress=False)
+    assert rep.failed == [5]
+    assert "frame_5.png" in rep.frames[5]["error"]
+    assert rep.frames[5]["fidelity"] is None
+    for i in range(12):
+        if i != 5:
+            assert rep.frames[i]["error"] is None
+            assert _frame_metrics(rep.frames[i]) == irf.pair_stats(real[i], sim[i], bits=14).metrics()
+    assert rep.pooled["frames"] == 11 and rep.pooled["n"] == 11 * real[0].size
+    rows = list(csv.DictReader(open(out)))
+    assert sorted(int(r["index"]) for r in rows) == list(range(12))
+    assert [r["error"] != "" for r in sorted(rows, key=lambda r: int(r["index"]))] == [i == 5 for i in range(12)]
+    assert "1 failed" in rep.summary_text()
+
+
+def test_shape_and_range_errors_are_rows(png_dirs):
+    rdir, sdir, real, sim = png_dirs
+    cv2.imwrite(str(sdir / "frame_2.png"), sim[2][:, :100].copy())
+    rep = score_sequence(rdir, sdir, bits=14, progress=False)
+    assert rep.failed == [2] and "shape" in rep.frames[2]["error"]
+    rep = score_sequence(rdir, sdir, bits=11, progress=False)  # values above 2047 everywhere
+    assert rep.failed == list(range(12))
+    assert "outside the valid range [0, 2047]" in rep.frames[0]["error"]
+    assert rep.pooled["frames"] == 0 and rep.pooled.get("fidelity") is None
+
+
+def test_bad_arguments(lepton):
+    real_path, sim_path, _, _ = lepton
+    with pytest.raises(FidelityError, match="resume=True needs csv"):
+        score_sequence(real_path, sim_path, resume=True, progress=False)
+    with pytest.raises(FidelityError, match="bits must be"):
+        score_sequence(real_path, sim_path, bits=17, progress=False)
+    with pytest.raises(FidelityError, match="hist_range"):
+        score_sequence(real_path, sim_path, hist_range="everything", progress=False)
+
+
+# --------------------------------------------------------------------------- CSV and resume
+def _rows(path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_csv_rows_match_report_and_to_csv(lepton, tmp_path):
+    real_path, sim_path, _, _ = lepton
+    out = tmp_path / "stream.csv"
+    rep = score_sequence(real_path, sim_path, bits=14, csv=out, workers=2, progress=False)
+    streamed = sorted(_rows(out), key=lambda r: int(r["index"]))
+    rep.to_csv(tmp_path / "after.csv")
+    written = _rows(tmp_path / "after.csv")
+    assert streamed == written
+    assert len(written) == 100
+    assert float(written[7]["fidelity"]) == rep.frames[7]["fidelity"]
+    assert float(written[7]["psnr_db"]) == rep.frames[7]["psnr_db"]
+
+
+def test_resume_after_an_interruption(lepton, tmp_path):
+    real_path, sim_path, _, _ = lepton
+    full = score_sequence(real_path, sim_path, bits=14, progress=False)
+    out = tmp_path / "rows.csv"
+
+    class Stop(Exception):
+        pass
+
+    def stop_after_30(done, total):
+        if done >= 30:
+            raise Stop
+
+    with pytest.raises(Stop):
+        score_sequence(real_path, sim_path, bits=14, csv=out, workers=2, progress=stop_after_30)
+    first = _rows(out)
+    assert 30 <= len(first) < 100
+    # a row cut off mid-write by a kill, without its newline
+    with open(out, "a") as f:
+        f.write("99,cptv_v2_all100frames_uint16.tif[99],sim.tif[99],120,160,uint16,19200,3.5")
+    seen = []
+    rep = score_sequence(real_path, sim_path, bits=14, csv=out, resume=True, progress=lambda d, t: seen.append(d))
+    assert seen[0] == len(first) + 1 and seen[-1] == 100  # only the rest was scored
+    rows = _rows(out)
+    idx = [int(r["index"]) for r in rows]
+    assert sorted(idx) == list(range(100))  # no duplicate, no missing row
+    assert rep.frames == full.frames
+    assert rep.pooled == full.pooled
+    assert rep.settings["resumed"] == len(first)
+    # resuming a finished run scores nothing
+    again = score_sequence(real_path, sim_path, bits=14, csv=out, resume=True, progress=False)
+    assert again.pooled == full.pooled and len(_rows(out)) == 100
+
+
+def test_resume_rescores_failed_frames_without_duplicates(png_dirs, tmp_path):
+    rdir, sdir, _, sim = png_dirs
+    good = (sdir / "frame_3.png").read_bytes()
+    (sdir / "frame_3.png").write_bytes(good[:200])
+    out = tmp_path / "rows.csv"
+    assert score_sequence(rdir, sdir, bits=14, csv=out, progress=False).failed == [3]
+    (sdir / "frame_3.png").write_bytes(good)  # fixed
+    rep = score_sequence(rdir, sdir, bits=14, csv=out, resume=True, progress=False)
+    assert rep.failed == []
+    rows = _rows(out)
+    assert sorted(int(r["index"]) for r in rows) == list(range(12))
+    assert all(r["error"] == "" for r in rows)
+
+
+def test_resume_refuses_other_settings(lepton, tmp_path):
+    real_path, sim_path, _, _ = lepton
+    out = tmp_path / "rows.csv"
+    score_sequence(real_path, sim_path, bits=14, csv=out, progress=False, weights="psnr=0.5,ssim=0.5")
+    with pytest.raises(FidelityError, match="cannot resume"):
+        score_sequence(real_path, sim_path, bits=14, csv=out, resume=True, progress=False)
+    with pytest.raises(FidelityError, match="cannot resume"):
+        score_sequence(real_path, sim_path, bits=12, csv=out, resume=True, progress=False,
+                       weights="psnr=0.5,ssim=0.5")
+
+
+_KILL_SCRIPT = textwrap.dedent(
+    """
+    import sys, time
+    from irfidelity.sequence import score_sequence
+    def slow(done, total):
+        time.sleep(0.03)
+    score_sequence(sys.argv[1], sys.argv[2], bits=14, csv=sys.argv[3], workers=2, progress=slow)
+    """
+)
+
+
+def test_resume_after_kill(lepton, tmp_path):
+    real_path, sim_path, _, _ = lepton
+    out = tmp_path / "killed.csv"
+    proc = subprocess.Popen([sys.executable, "-c", _KILL_SCRIPT, str(real_path), str(sim_path), str(out)])
+    try:
+        deadline = time.time() + 60
+        while time.time() < deadline:
+            if out.exists() and out.read_text().count("\n") >= 25:
+                break
+            time.sleep(0.01)
+        proc.send_signal(signal.SIGKILL)
+    finally:
+        proc.wait()
+    n_before = out.read_text().count("\n") - 1
+    assert 0 < n_before < 100, "the run was not interrupted"
+    rep = score_sequence(real_path, sim_path, bits=14, csv=out, resume=True, progress=False)
+    idx = sorted(int(r["index"]) for r in _rows(out))
+    assert idx == list(range(100))
+    full = score_sequence(real_path, sim_path, bits=14, progress=False)
+    assert rep.frames == full.frames and rep.pooled == full.pooled
+
+
+# --------------------------------------------------------------------------- progress
+def test_progress_reaches_python_and_tqdm_is_optional(lepton, monkeypatch):
+    real_path, sim_path, _, _ = lepton
+    calls = []
+    out = _core.score_pairs([str(real_path)] * 40, [str(sim_path)] * 40, list(range(40)), list(range(40)),
+                            workers=2, progress=calls.append, bins=256)
+    assert len(out) == 40 and calls and calls[-1] == 40 and calls == sorted(calls)
+    # progress=True without tqdm: no bar, no error
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_tqdm(name, *a, **k):
+        if name.startswith("tqdm"):
+            raise ImportError(name)
+        return real_import(name, *a, **k)
+
+    monkeypatch.setattr(builtins, "__import__", no_tqdm)
+    rep = score_sequence(real_path, sim_path, bits=14, progress=True)
+    assert rep.failed == []
+
+
+def test_callback_errors_stop_the_engine(lepton):
+    real_path, sim_path, _, _ = lepton
+    got = []
+
+    def on_result(batch):
+        got.extend(batch)
+        raise RuntimeError("stop")
+
+    with pytest.raises(RuntimeError, match="stop"):
+        _core.score_pairs([str(real_path)] * 100, [str(sim_path)] * 100, list(range(100)), list(range(100)),
+                          workers=1, on_result=on_result)
+    assert 1 <= len(got) < 100
+
+
+# --------------------------------------------------------------------------- Dask
+def test_dask_local_cluster_gives_identical_results(lepton, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    real_path, sim_path, _, _ = lepton
+    local = score_sequence(real_path, sim_path, bits=14, hist_range="full", progress=False)
+    with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None,
+                                  silence_logs=40) as cluster, distributed.Client(cluster) as client:
+        out = tmp_path / "dask.csv"
+        remote = score_sequence(real_path, sim_path, bits=14, hist_range="full", client=client, chunk_size=8,
+                                csv=out, progress=False)
+    assert remote.frames == local.frames
+    assert remote.pooled == local.pooled
+    assert sorted(int(r["index"]) for r in _rows(out)) == list(range(100))
