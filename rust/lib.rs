@@ -4,6 +4,7 @@
 
 pub mod error;
 pub mod hist;
+pub mod kernel;
 pub mod io;
 pub mod sequence;
 pub mod stats;
