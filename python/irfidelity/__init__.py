@@ -18,6 +18,8 @@ from .curves import (
 )
 from .edge import EdgeWarning, mtf_from_edge
 from .errors import FidelityError, FrameError, RangeError, ShapeError
+from .evaluate import FidelityReport, evaluate, image_components, plan_components
+from .fuzzy import AHPConsistencyWarning, Comparison, GradeScale, Weights, ahp, compare
 from .metrics import NMI, SSIM
 from .normalize import normalize_psnr
 from .sitf import SiTFFit, netd, sitf_fit, sitf_similarity
@@ -54,4 +56,14 @@ __all__ = [
     "netd",
     "sitf_fit",
     "sitf_similarity",
+    "FidelityReport",
+    "evaluate",
+    "plan_components",
+    "image_components",
+    "Weights",
+    "GradeScale",
+    "ahp",
+    "AHPConsistencyWarning",
+    "compare",
+    "Comparison",
 ]
