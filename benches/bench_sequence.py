@@ -1,0 +1,216 @@
+"""Sequence throughput (issue 6): frames per second of ``irf.score_sequence``.
+
+Workloads (generated into a temporary directory from the real Lepton recording in
+tests/data/thermal, upscaled to 640x512 with cubic interpolation; the "simulated" frame is
+the real one with a 1 % gain, an offset and Gaussian noise):
+
+* 16-bit grayscale PNG,
+* single-channel EXR: float32 / float16, ZIP / PIZ (written with the ``OpenEXR`` package).
+
+Measured in the same run:
+
+* irfidelity, all image components (PSNR, NMI with 256 bins, global SSIM), 1 vs 2 workers;
+* a Python pipeline doing the same work: decode (cv2 for PNG, the OpenEXR package with one
+  thread for EXR) + scikit-image ``peak_signal_noise_ratio`` and
+  ``normalized_mutual_information(bins=256)`` + a numpy float64 global SSIM;
+* the PSNR-only plan (``weights="psnr=1"``) vs ffmpeg's ``psnr`` filter on the same PNG
+  sequence (skipped with a message if ffmpeg is not installed).
+
+Usage: ``python benches/bench_sequence.py [--pairs N] [--quick] [--keep DIR]``
+(default 200 pairs; ``--quick``: 40 pairs, PNG and float32-ZIP only).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import pathlib
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+import irfidelity  # noqa: F401  (import check before the slow part)
+from irfidelity.sequence import score_sequence
+
+HERE = pathlib.Path(__file__).resolve().parent
+STACK = HERE.parent / "tests" / "data" / "thermal" / "cptv_v2_all100frames_uint16.tif"
+ROWS, COLS = 512, 640
+PEAK = 65535.0
+
+
+def _frames(pairs: int):
+    import cv2
+    import tifffile
+
+    stack = tifffile.imread(STACK)
+    rng = np.random.default_rng(2024)
+    for i in range(pairs):
+        src = stack[i % len(stack)].astype(np.float32)
+        real = cv2.resize(src, (COLS, ROWS), interpolation=cv2.INTER_CUBIC)
+        if (i // len(stack)) % 2:
+            real = real[::-1]  # second pass over the recording: flipped, so frames differ
+        real = np.clip(np.rint(real), 0, 16383)
+        sim = np.clip(np.rint(real * 1.01 - 25 + rng.normal(0, 8, real.shape)), 0, 16383)
+        yield i, real.astype(np.uint16), sim.astype(np.uint16)
+
+
+def _write_exr(path: str, data: np.ndarray, compression) -> None:
+    import OpenEXR
+
+    header = {"compression": compression, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"Y": data}) as f:
+        f.write(path)
+
+
+def generate(root: pathlib.Path, pairs: int, exr_kinds) -> dict:
+    import cv2
+    import OpenEXR
+
+    comp = {"zip": OpenEXR.ZIP_COMPRESSION, "piz": OpenEXR.PIZ_COMPRESSION}
+    dirs = {"png16": root / "png16"}
+    for dt, c in exr_kinds:
+        dirs[f"exr-{dt}-{c}"] = root / f"exr-{dt}-{c}"
+    for d in dirs.values():
+        (d / "real").mkdir(parents=True, exist_ok=True)
+        (d / "sim").mkdir(parents=True, exist_ok=True)
+    for i, real, sim in _frames(pairs):
+        for side, img in (("real", real), ("sim", sim)):
+            cv2.imwrite(str(dirs["png16"] / side / f"f_{i:04d}.png"), img)
+            for dt, c in exr_kinds:
+                arr = img.astype(np.float32 if dt == "f32" else np.float16)
+                _write_exr(str(dirs[f"exr-{dt}-{c}"] / side / f"f_{i:04d}.exr"), arr, comp[c])
+    return dirs
+
+
+# --------------------------------------------------------------------------- baseline
+def _read_exr(path: str) -> np.ndarray:
+    import OpenEXR
+
+    with OpenEXR.File(path, separate_channels=True, num_threads=1) as f:
+        return f.channels()["Y"].pixels
+
+
+def _ssim_global(a: np.ndarray, b: np.ndarray) -> float:
+    a = a.astype(np.float64)
+    b = b.astype(np.float64)
+    ma, mb = a.mean(), b.mean()
+    da, db = a - ma, b - mb
+    va, vb, cov = (da * da).mean(), (db * db).mean(), (da * db).mean()
+    lum = 2 * ma * mb / (ma * ma + mb * mb)
+    con = 2 * math.sqrt(va * vb) / (va + vb)
+    struct = cov / math.sqrt(va * vb)
+    return lum * con * struct
+
+
+class Timer:
+    """Wall time and CPU time (this process and its children) of a block."""
+
+    def __enter__(self):
+        self.r0 = resource.getrusage(resource.RUSAGE_SELF)
+        self.c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        self.t0 = time.perf_counter()
+        return self
+
+    def __exit__(self, *exc):
+        self.wall = time.perf_counter() - self.t0
+        r1 = resource.getrusage(resource.RUSAGE_SELF)
+        c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        self.cpu = sum(getattr(b, f) - getattr(a, f) for a, b in ((self.r0, r1), (self.c0, c1))
+                       for f in ("ru_utime", "ru_stime"))
+
+
+def baseline(d: pathlib.Path, png: bool) -> tuple[float, float]:
+    """(frames/s, CPU ms/frame) of decode + scikit-image PSNR and NMI(256 bins) + numpy global SSIM."""
+    import cv2
+    from skimage.metrics import normalized_mutual_information, peak_signal_noise_ratio
+
+    names = sorted(os.listdir(d / "real"))
+    with Timer() as tm:
+        for name in names:
+            if png:
+                r = cv2.imread(str(d / "real" / name), cv2.IMREAD_UNCHANGED)
+                s = cv2.imread(str(d / "sim" / name), cv2.IMREAD_UNCHANGED)
+            else:
+                r = _read_exr(str(d / "real" / name))
+                s = _read_exr(str(d / "sim" / name))
+            if r.dtype == np.float16:  # scikit-image's histogram needs float32/64
+                r, s = r.astype(np.float32), s.astype(np.float32)
+            peak_signal_noise_ratio(r, s, data_range=PEAK)
+            normalized_mutual_information(r, s, bins=256)
+            _ssim_global(r, s)
+    return len(names) / tm.wall, tm.cpu / len(names) * 1e3
+
+
+def irf_rate(d: pathlib.Path, workers: int, weights=None) -> tuple[float, float]:
+    """(frames/s, CPU ms/frame) of score_sequence on a directory pair (CSV-free, no bar)."""
+    n = len(os.listdir(d / "real"))
+    with Timer() as tm:
+        rep = score_sequence(d / "real", d / "sim", peak=PEAK, workers=workers, weights=weights, progress=False)
+    assert not rep.failed, rep.summary_text()
+    return n / tm.wall, tm.cpu / n * 1e3
+
+
+def ffmpeg_rate(d: pathlib.Path, pairs: int) -> tuple[float, float] | None:
+    exe = shutil.which("ffmpeg")
+    if exe is None:
+        return None
+    cmd = [exe, "-v", "error", "-nostats", "-f", "image2", "-i", str(d / "real" / "f_%04d.png"),
+           "-f", "image2", "-i", str(d / "sim" / "f_%04d.png"), "-lavfi", "[0:v][1:v]psnr", "-f", "null", "-"]
+    with Timer() as tm:
+        subprocess.run(cmd, check=True, capture_output=True)
+    return pairs / tm.wall, tm.cpu / pairs * 1e3
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pairs", type=int, default=None, help="frame pairs per workload (default 200; --quick 40)")
+    ap.add_argument("--quick", action="store_true", help="40 pairs, PNG and float32-ZIP EXR only")
+    ap.add_argument("--keep", type=pathlib.Path, default=None, help="generate into (and keep) this directory")
+    args = ap.parse_args(argv)
+    pairs = args.pairs or (40 if args.quick else 200)
+    exr_kinds = [("f32", "zip")] if args.quick else [("f32", "zip"), ("f32", "piz"), ("f16", "zip"), ("f16", "piz")]
+    root = args.keep or pathlib.Path(tempfile.mkdtemp(prefix="irf_bench_seq_"))
+    print(f"cores: {os.cpu_count()}  pairs per workload: {pairs}  frames: {COLS}x{ROWS}")
+    t = time.perf_counter()
+    dirs = generate(root, pairs, exr_kinds)
+    print(f"generated {len(dirs)} workloads in {time.perf_counter() - t:.1f} s under {root}\n")
+    try:
+        load = os.getloadavg()[0]
+        if load > 0.5:
+            print(f"note: load average {load:.1f} before the run; wall-clock rates (and the 2w/1w scaling) are "
+                  "affected by other processes, CPU ms/frame much less")
+        print("all image components (PSNR + NMI 256 bins + global SSIM)")
+        print(f"{'workload':<13} {'irf 1w':>7} {'irf 2w':>7} {'2w/1w':>6} {'python':>7} {'2w/py':>6} {'1w/py':>6}"
+              f"   CPU ms/frame: {'irf':>5} {'python':>6} {'py/irf':>6}")
+        for name, d in dirs.items():
+            one, cpu_one = irf_rate(d, 1)
+            two, _ = irf_rate(d, 2)
+            py, cpu_py = baseline(d, png=name == "png16")
+            print(f"{name:<13} {one:7.1f} {two:7.1f} {two / one:6.2f} {py:7.1f} {two / py:6.1f} {one / py:6.1f}"
+                  f"                 {cpu_one:5.1f} {cpu_py:6.1f} {cpu_py / cpu_one:6.1f}")
+        print("(frames/s; python = cv2/OpenEXR decode + scikit-image PSNR, NMI(bins=256) + numpy float64 SSIM)")
+        print("\nPSNR-only plan on the 16-bit PNG sequence")
+        d = dirs["png16"]
+        one, cpu_one = irf_rate(d, 1, weights="psnr=1")
+        two, _ = irf_rate(d, 2, weights="psnr=1")
+        ff = ffmpeg_rate(d, pairs)
+        line = f"irf 1w {one:.1f} frames/s ({cpu_one:.1f} CPU ms/frame)  irf 2w {two:.1f} frames/s"
+        if ff is None:
+            print(line + "  ffmpeg: not installed (apt-get install -y ffmpeg), row skipped")
+        else:
+            print(line + f"  ffmpeg psnr {ff[0]:.1f} frames/s ({ff[1]:.1f} CPU ms/frame)  "
+                  f"irf2w/ffmpeg {two / ff[0]:.2f}  irf1w/ffmpeg {one / ff[0]:.2f}")
+    finally:
+        if args.keep is None:
+            shutil.rmtree(root, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
