@@ -384,3 +384,50 @@ def test_dask_local_cluster_gives_identical_results(lepton, tmp_path):
     assert remote.frames == local.frames
     assert remote.pooled == local.pooled
     assert sorted(int(r["index"]) for r in _rows(out)) == list(range(100))
+
+
+_SIGINT_SCRIPT = textwrap.dedent(
+    """
+    import sys
+    from irfidelity.sequence import score_sequence
+    real = [sys.argv[1]] * 10  # 1000 frame pairs: long enough to interrupt
+    sim = [sys.argv[2]] * 10
+    try:
+        score_sequence(real, sim, bits=14, csv=sys.argv[3], workers=2, progress=False)
+    except KeyboardInterrupt:
+        print("interrupted", flush=True)
+        sys.exit(130)
+    print("finished", flush=True)
+    """
+)
+
+
+def test_ctrl_c_stops_the_run_and_resume_completes_it(lepton, tmp_path):
+    real_path, sim_path, _, _ = lepton
+    out = tmp_path / "sigint.csv"
+    proc = subprocess.Popen([sys.executable, "-c", _SIGINT_SCRIPT, str(real_path), str(sim_path), str(out)],
+                            stdout=subprocess.PIPE, text=True)
+    try:
+        deadline = time.time() + 60
+        while time.time() < deadline and proc.poll() is None:
+            if out.exists() and out.read_text().count("\n") >= 30:
+                break
+            time.sleep(0.01)
+        t = time.time()
+        proc.send_signal(signal.SIGINT)
+        stdout, _ = proc.communicate(timeout=30)
+        assert time.time() - t < 10
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    if "finished" in stdout:
+        pytest.skip("the run finished before it could be interrupted")
+    assert proc.returncode == 130 and "interrupted" in stdout
+    rows = _rows(out)
+    assert 29 <= len(rows) < 1000  # 30 lines incl. the header were there at the signal
+    idx = [int(r["index"]) for r in rows]
+    assert len(set(idx)) == len(idx)
+    # resume the same (long) run, but only check the rows: no duplicate, no missing
+    rep = score_sequence([real_path] * 10, [sim_path] * 10, bits=14, csv=out, resume=True, progress=False)
+    assert rep.failed == [] and rep.settings["resumed"] == len(rows)
+    assert sorted(int(r["index"]) for r in _rows(out)) == list(range(1000))
