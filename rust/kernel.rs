@@ -236,9 +236,11 @@ fn data_range<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<(f64, f64)> 
                 return (f64::INFINITY, f64::NEG_INFINITY);
             }
             let (mut lo, mut hi) = (r[a], r[a]);
-            for &v in r[a..b].iter().chain(&s[a..b]) {
-                lo = if v < lo { v } else { lo };
-                hi = if v > hi { v } else { hi };
+            for part in [&r[a..b], &s[a..b]] {
+                for &v in part {
+                    lo = if v < lo { v } else { lo };
+                    hi = if v > hi { v } else { hi };
+                }
             }
             return (lo.to_f64(), hi.to_f64());
         }
@@ -346,61 +348,85 @@ fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST: bool>(
         let (mut srr, mut sss, mut sse) = (0u64, 0u64, 0u64);
         let mut n = 0u64;
         // Moments and SSE first (a branch-free loop the compiler vectorises), then the
-        // histogram scatter over the same block while it is still in cache.
-        let mut moments = |x: i64, y: i64, acc: &mut Acc| {
-            n += 1;
-            if SSE {
-                let d = x.abs_diff(y);
-                sse += d * d;
-            }
-            if MOM {
-                if T::BLOCK == 1 {
-                    // 32-bit values: products need 128 bits from the start
-                    let t = &mut acc.int;
-                    t.sr += x as i128;
-                    t.ss += y as i128;
-                    t.srr += (x as u128) * (x as u128);
-                    t.sss += (y as u128) * (y as u128);
-                    t.srs += (x as i128) * (y as i128);
-                } else {
-                    sr += x;
-                    ss += y;
-                    srr += x.unsigned_abs() * x.unsigned_abs();
-                    sss += y.unsigned_abs() * y.unsigned_abs();
-                    srs += x * y;
+        // histogram scatter over the same block while it is still in cache. The bodies
+        // are macros, not closures, so they inline into both the masked and plain loops.
+        macro_rules! moments {
+            ($x:expr, $y:expr) => {{
+                let (x, y): (i64, i64) = ($x, $y);
+                n += 1;
+                if SSE {
+                    let d = x.abs_diff(y);
+                    sse += d * d;
                 }
-            }
-        };
+                if MOM {
+                    if T::BLOCK == 1 {
+                        // 32-bit values: products need 128 bits from the start
+                        let t = &mut acc.int;
+                        t.sr += x as i128;
+                        t.ss += y as i128;
+                        t.srr += (x as u128) * (x as u128);
+                        t.sss += (y as u128) * (y as u128);
+                        t.srs += (x as i128) * (y as i128);
+                    } else {
+                        sr += x;
+                        ss += y;
+                        srr += x.unsigned_abs() * x.unsigned_abs();
+                        sss += y.unsigned_abs() * y.unsigned_abs();
+                        srs += x * y;
+                    }
+                }
+            }};
+        }
+        macro_rules! bin {
+            ($x:expr, $y:expr) => {{
+                let (x, y): (i64, i64) = ($x, $y);
+                match binner {
+                    Some(bn) => acc.count(dense_bins, bn.int_bin(x, T::MIN), bn.int_bin(y, T::MIN)),
+                    None => acc.count(0, (x - T::MIN) as usize, (y - T::MIN) as usize),
+                }
+            }};
+        }
         let (rr, sb) = (&r[start..end], &s[start..end]);
         match req.mask {
             None => {
-                for (&x, &y) in rr.iter().zip(sb) {
-                    moments(x.to_i64(), y.to_i64(), acc);
+                if SSE || MOM || !HIST {
+                    for (&x, &y) in rr.iter().zip(sb) {
+                        moments!(x.to_i64(), y.to_i64());
+                    }
+                } else {
+                    n += rr.len() as u64;
+                }
+                if HIST {
+                    match binner {
+                        Some(bn) if dense_bins > 0 && bn.lut.len() == T::LUT && T::LUT > 0 => {
+                            // The hot case (8/16-bit frames, dense table): LUT gather + increment.
+                            let (lut, dense) = (&bn.lut[..], &mut acc.dense[..]);
+                            assert!(bn.bins == dense_bins && dense.len() == dense_bins * dense_bins);
+                            for (&x, &y) in rr.iter().zip(sb) {
+                                let (i, j) = ((x.to_i64() - T::MIN) as usize, (y.to_i64() - T::MIN) as usize);
+                                // SAFETY: `lut` has one entry per value of T (len == T::LUT, checked
+                                // above) and `make_int_binner` clamps every entry below bn.bins ==
+                                // dense_bins, so both indices are in range.
+                                unsafe {
+                                    let k = *lut.get_unchecked(i) as usize * dense_bins + *lut.get_unchecked(j) as usize;
+                                    *dense.get_unchecked_mut(k) += 1;
+                                }
+                            }
+                        }
+                        _ => {
+                            for (&x, &y) in rr.iter().zip(sb) {
+                                bin!(x.to_i64(), y.to_i64());
+                            }
+                        }
+                    }
                 }
             }
             Some(m) => {
                 for ((&x, &y), &keep) in rr.iter().zip(sb).zip(&m[start..end]) {
                     if keep {
-                        moments(x.to_i64(), y.to_i64(), acc);
-                    }
-                }
-            }
-        }
-        if HIST {
-            let bin = |x: i64, y: i64, acc: &mut Acc| match binner {
-                Some(bn) => acc.count(dense_bins, bn.int_bin(x, T::MIN), bn.int_bin(y, T::MIN)),
-                None => acc.count(0, (x - T::MIN) as usize, (y - T::MIN) as usize),
-            };
-            match req.mask {
-                None => {
-                    for (&x, &y) in rr.iter().zip(sb) {
-                        bin(x.to_i64(), y.to_i64(), acc);
-                    }
-                }
-                Some(m) => {
-                    for ((&x, &y), &keep) in rr.iter().zip(sb).zip(&m[start..end]) {
-                        if keep {
-                            bin(x.to_i64(), y.to_i64(), acc);
+                        moments!(x.to_i64(), y.to_i64());
+                        if HIST {
+                            bin!(x.to_i64(), y.to_i64());
                         }
                     }
                 }
@@ -409,10 +435,12 @@ fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST: bool>(
         if let Some((vlo, vhi)) = req.valid {
             // a vectorised min/max first; the scan for the message only on failure
             let (mut lo, mut hi) = (rr[0], rr[0]);
-            for &v in rr.iter().chain(sb) {
-                // native-width compares (vpminuw & co.), not i64
-                lo = if v < lo { v } else { lo };
-                hi = if v > hi { v } else { hi };
+            for part in [rr, sb] {
+                for &v in part {
+                    // native-width compares (vpminuw & co.), not i64
+                    lo = if v < lo { v } else { lo };
+                    hi = if v > hi { v } else { hi };
+                }
             }
             let outside = lo.to_i64() < vlo || hi.to_i64() > vhi;
             for i in (start..end).filter(|_| outside) {
