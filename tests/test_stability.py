@@ -463,14 +463,10 @@ def test_anticorrelated_fractional_gamma_is_sign_preserving(gamma):
     assert ex["s"] < 0 and abs(v.value - want) < 1e-13
 
 
-# Contrast and luminance written as 1 − (a − b)²/(a² + b²) (exact 1 at equality) cancel when
-# the factor is small: the direct 2ab/(a² + b²) with sqrt(var_r·var_s) is exact at equality too.
-_CANCEL = ("core bug (reported to lead): metrics.ssim_from_moments forms l and c as 1 − (a−b)²/(a²+b²), "
-           "which cancels: c = −2.2e-16 instead of 0 with one constant frame, and relative errors ~1e-8 "
-           "when l or c are small")
+# l and c are formed as 2ab/(a² + b²) and 2·sqrt(var_r·var_s)/(var_r + var_s): exact at
+# equality, and no cancellation when the factor is small.
 
 
-@pytest.mark.xfail(strict=True, reason=_CANCEL)
 def test_contrast_exactly_zero_with_one_constant_frame():
     r = np.full((4, 4), 65535, U16)
     s = r.copy()
@@ -479,7 +475,6 @@ def test_contrast_exactly_zero_with_one_constant_frame():
     assert sm.contrast == 0.0 and sm.structure == 0.0
 
 
-@pytest.mark.xfail(strict=True, reason=_CANCEL)
 def test_small_luminance_and_contrast_keep_relative_accuracy():
     # means 1.25 vs 1.25e9: l = 2e-9 (to 1e-16 relative with the direct formula)
     r = np.array([[1, 1], [1, 2]], np.uint32)

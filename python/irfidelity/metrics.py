@@ -87,6 +87,18 @@ def _check_exponent(name: str, p: float) -> None:
         raise FidelityError(f"{name} must be a finite number >= 0, got {p!r}")
 
 
+def _ratio_2ab(a: float, b: float, c: float) -> float:
+    """``(2ab + c)/(a² + b² + c)`` without overflow or cancellation; 1 when all are 0."""
+    if a == 0 and b == 0 and c == 0:
+        return 1.0
+    if c == 0:
+        # scale by an exact power of two so the squares cannot overflow or underflow
+        e = math.frexp(max(abs(a), abs(b)))[1]
+        a, b = math.ldexp(a, -e), math.ldexp(b, -e)
+        return 2.0 * a * b / (a * a + b * b)
+    return (2.0 * a * b + c) / (a * a + b * b + c)
+
+
 def ssim_from_moments(
     mean_real: float,
     mean_sim: float,
@@ -113,16 +125,15 @@ def ssim_from_moments(
     for name, p in (("alpha", alpha), ("beta", beta), ("gamma", gamma)):
         _check_exponent(name, p)
     c3 = c2 / 2.0 if c3 is None else c3
-    # l and c written as 1 − (a − b)²/(a² + b² + C): equal inputs give exactly 1.
-    den_l = mean_real * mean_real + mean_sim * mean_sim + c1
-    lum = 1.0 if den_l == 0 else 1.0 - (mean_real - mean_sim) ** 2 / den_l
+    lum = _ratio_2ab(mean_real, mean_sim, c1)
     var_real, var_sim = max(var_real, 0.0), max(var_sim, 0.0)
     sd_r, sd_s = math.sqrt(var_real), math.sqrt(var_sim)
+    # sqrt(fl(v·v)) == v: equal variances give c == s == 1 exactly (σr·σs would not)
+    e = math.frexp(max(var_real, var_sim))[1] if max(var_real, var_sim) > 0 else 0
+    vr, vs = math.ldexp(var_real, -e), math.ldexp(var_sim, -e)  # exact power-of-two scaling
+    sd_prod = math.ldexp(math.sqrt(vr * vs), e)
     den_c = var_real + var_sim + c2
-    con = 1.0 if den_c == 0 else 1.0 - (sd_r - sd_s) ** 2 / den_c
-    prod = var_real * var_sim
-    # sqrt(fl(v·v)) == v, so identical frames give s == 1 exactly
-    sd_prod = math.sqrt(prod) if math.isfinite(prod) else sd_r * sd_s
+    con = 1.0 if den_c == 0 else (2.0 * sd_prod + c2) / den_c
     den_s = sd_prod + c3
     if sd_r == 0 and sd_s == 0 and c3 == 0:
         struct = 1.0
