@@ -43,7 +43,10 @@ cv2 = optional("cv2")
 
 
 def best_time(fn: Callable[[], object], repeat: int) -> float:
-    fn()  # warm up (page cache, thread pools)
+    out = fn()  # warm up (page cache, thread pools)
+    if out is None or (isinstance(out, tuple) and not out[0]):
+        # cv2.imread returns None (imreadmulti (False, ...)) when a codec is disabled
+        raise RuntimeError("decoder returned no image (codec disabled in this build?)")
     times = []
     for _ in range(repeat):
         t0 = time.perf_counter()
