@@ -19,6 +19,7 @@ from .curves import (
 from .edge import EdgeWarning, mtf_from_edge
 from .errors import FidelityError, FrameError, RangeError, ShapeError
 from .evaluate import FidelityReport, evaluate, image_components, plan_components
+from .frames import FrameSequence, list_channels, load_frame, page_count
 from .fuzzy import AHPConsistencyWarning, Comparison, GradeScale, Weights, ahp, compare
 from .metrics import NMI, SSIM
 from .normalize import normalize_psnr
@@ -66,4 +67,8 @@ __all__ = [
     "AHPConsistencyWarning",
     "compare",
     "Comparison",
+    "FrameSequence",
+    "load_frame",
+    "list_channels",
+    "page_count",
 ]
