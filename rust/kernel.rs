@@ -129,21 +129,17 @@ impl Binner {
         if !self.lut.is_empty() {
             return self.lut[(v - min) as usize] as usize;
         }
-        let b = ((v as f64 - self.lo) / self.width).floor();
-        b.clamp(0.0, (self.bins - 1) as f64) as usize
+        // 32-bit frames: exact integer division (lo and width are whole grey levels)
+        let b = (v - self.lo as i64).max(0) / self.width as i64;
+        (b as usize).min(self.bins - 1)
     }
 
     #[inline(always)]
     fn float_bin(&self, v: f64) -> usize {
-        let b = ((v - self.lo) * self.inv_width).floor();
-        // NaN never reaches here (excluded or an error); clamp puts the top edge in the last bin
-        if b <= 0.0 {
-            0
-        } else if b >= (self.bins - 1) as f64 {
-            self.bins - 1
-        } else {
-            b as usize
-        }
+        // Truncation equals floor wherever the result is kept (negatives clamp to bin 0) and,
+        // unlike floor(), is one instruction on baseline x86-64. The top edge goes in the last bin.
+        let b = ((v - self.lo) * self.inv_width) as i64;
+        b.clamp(0, self.bins as i64 - 1) as usize
     }
 }
 
@@ -163,6 +159,7 @@ struct Acc {
     dense: Vec<u32>, // per-worker counts; frames are < 2^32 pixels (checked)
     keys: Vec<u64>,
     runs: Vec<(u64, u64)>,
+    max_abs: f64, // float frames: largest magnitude seen (underflow check)
 }
 
 impl Acc {
@@ -171,7 +168,7 @@ impl Acc {
             Some(b) => vec![0; b * b],
             None => Vec::new(),
         };
-        Acc { n: 0, int: IntSums::default(), float: FloatSums::default(), dense, keys: Vec::new(), runs: Vec::new() }
+        Acc { n: 0, int: IntSums::default(), float: FloatSums::default(), dense, keys: Vec::new(), runs: Vec::new(), max_abs: 0.0 }
     }
 
     #[inline(always)]
@@ -192,6 +189,7 @@ impl Acc {
     }
 
     fn merge(mut self, mut other: Acc, is_int: bool) -> Acc {
+        self.max_abs = self.max_abs.max(other.max_abs);
         if is_int {
             let (a, b) = (&mut self.int, &other.int);
             a.sr += b.sr;
@@ -467,7 +465,36 @@ fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST: bool>(
     Ok(())
 }
 
+/// Neumaier-compensated running sum: totals of per-block lane sums.
+#[derive(Clone, Copy, Default)]
+struct Neumaier {
+    sum: f64,
+    comp: f64,
+}
+
+impl Neumaier {
+    #[inline(always)]
+    fn add(&mut self, x: f64) {
+        let (s, e) = two_sum(self.sum, x);
+        self.sum = s;
+        self.comp += e;
+    }
+    fn value(&self) -> f64 {
+        self.sum + self.comp
+    }
+}
+
+/// Lanes of independent partial sums (vectorised; also a first level of pairwise summation)
+/// and values per block before the lanes are folded into a compensated total.
+const LANES: usize = 8;
+/// The centred pass keeps six sums: four lanes each fit the SSE2 register file unspilled.
+const LANES_C: usize = 4;
+const SUB: usize = 512;
+
 /// The float pass over `[a, b)`: mean first, then centred sums, on cache-resident data.
+/// Values are shifted by a per-call `pivot` (one value of each frame) so chunk means are
+/// small and Chan's merge does not lose digits to a large common offset.
+#[allow(clippy::too_many_arguments)]
 fn float_chunk<T: Sample>(
     r: &[T],
     s: &[T],
@@ -476,73 +503,181 @@ fn float_chunk<T: Sample>(
     plan: Option<&HistPlan>,
     acc: &mut Acc,
     nonfinite: &mut u64,
+    pivot: (f64, f64),
 ) -> std::result::Result<(), Bad> {
-    let keep = |i: usize| req.mask.is_none_or(|m| m[i]);
-    let (mut n, mut sum_r, mut sum_s) = (0u64, 0.0f64, 0.0f64);
-    for i in a..b {
-        if !keep(i) {
+    let (rr, sb) = (&r[a..b], &s[a..b]);
+    if req.mask.is_none() && !req.moments && req.hist.is_none() {
+        // PSNR-only plan: one pass, no means needed
+        let (sse, max_abs) = float_sse(rr, sb);
+        if sse.value().is_finite() {
+            acc.max_abs = acc.max_abs.max(max_abs);
+            let part = FloatSums { sse: sse.sum, sse_c: sse.comp, ..FloatSums::default() };
+            acc.float = merge_float(&acc.float, acc.n, &part, rr.len() as u64);
+            acc.n += rr.len() as u64;
+            return Ok(());
+        }
+    }
+    if req.mask.is_none() {
+        let (sum_r, sum_s, max_abs) = float_sums(rr, sb, pivot);
+        // a NaN/Inf anywhere makes the sums non-finite: only then look pixel by pixel
+        if sum_r.is_finite() && sum_s.is_finite() {
+            acc.max_abs = acc.max_abs.max(max_abs);
+            float_centred(rr, sb, sum_r, sum_s, req, plan, acc, pivot);
+            return Ok(());
+        }
+    }
+    // General path: keep the counted pairs (mask, finiteness) as f64, then the same kernel.
+    let (mut xs, mut ys) = (Vec::with_capacity(rr.len()), Vec::with_capacity(rr.len()));
+    for (k, (&x, &y)) in rr.iter().zip(sb).enumerate() {
+        if req.mask.is_some_and(|m| !m[a + k]) {
             continue;
         }
-        let (x, y) = (r[i].to_f64(), s[i].to_f64());
+        let (x, y) = (x.to_f64(), y.to_f64());
         if !(x.is_finite() && y.is_finite()) {
             if req.mask_nonfinite {
                 *nonfinite += 1;
                 continue;
             }
-            return Err(Bad::NonFinite { index: i });
+            return Err(Bad::NonFinite { index: a + k });
         }
-        n += 1;
-        sum_r += x;
-        sum_s += y;
+        xs.push(x);
+        ys.push(y);
     }
+    if !xs.is_empty() {
+        let (sum_r, sum_s, max_abs) = float_sums(&xs, &ys, pivot);
+        acc.max_abs = acc.max_abs.max(max_abs);
+        float_centred(&xs, &ys, sum_r, sum_s, req, plan, acc, pivot);
+    }
+    Ok(())
+}
+
+/// Σ(x − y)² (compensated) and max |value| of a run of pixels.
+fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
+    let mut tot = Neumaier::default();
+    let mut max_abs = [0.0f64; LANES];
+    for (cr, cs) in rr.chunks(SUB).zip(sb.chunks(SUB)) {
+        let mut l = [0.0f64; LANES];
+        let (ir, is) = (cr.chunks_exact(LANES), cs.chunks_exact(LANES));
+        let (rem_r, rem_s) = (ir.remainder(), is.remainder());
+        for (xr, xs) in ir.zip(is) {
+            for k in 0..LANES {
+                let (x, y) = (xr[k].to_f64(), xs[k].to_f64());
+                let d = x - y;
+                l[k] += d * d;
+                max_abs[k] = max_abs[k].max(x.abs()).max(y.abs());
+            }
+        }
+        for (&x, &y) in rem_r.iter().zip(rem_s) {
+            let (x, y) = (x.to_f64(), y.to_f64());
+            l[0] += (x - y) * (x - y);
+            max_abs[0] = max_abs[0].max(x.abs()).max(y.abs());
+        }
+        tot.add(l.iter().sum());
+    }
+    (tot, max_abs.iter().fold(0.0f64, |m, &v| m.max(v)))
+}
+
+/// Σ(x − pivot_r), Σ(y − pivot_s) and max |value| of a run of pixels.
+fn float_sums<T: Sample>(rr: &[T], sb: &[T], (pr, ps): (f64, f64)) -> (f64, f64, f64) {
+    let (mut tr, mut ts) = (Neumaier::default(), Neumaier::default());
+    let mut max_abs = [0.0f64; LANES];
+    for (cr, cs) in rr.chunks(SUB).zip(sb.chunks(SUB)) {
+        let (mut lr, mut ls) = ([0.0f64; LANES], [0.0f64; LANES]);
+        let (ir, is) = (cr.chunks_exact(LANES), cs.chunks_exact(LANES));
+        let (rem_r, rem_s) = (ir.remainder(), is.remainder());
+        for (xr, xs) in ir.zip(is) {
+            for k in 0..LANES {
+                let (x, y) = (xr[k].to_f64(), xs[k].to_f64());
+                lr[k] += x - pr;
+                ls[k] += y - ps;
+                max_abs[k] = max_abs[k].max(x.abs()).max(y.abs());
+            }
+        }
+        for (&x, &y) in rem_r.iter().zip(rem_s) {
+            let (x, y) = (x.to_f64(), y.to_f64());
+            lr[0] += x - pr;
+            ls[0] += y - ps;
+            max_abs[0] = max_abs[0].max(x.abs()).max(y.abs());
+        }
+        tr.add(lr.iter().sum());
+        ts.add(ls.iter().sum());
+    }
+    (tr.value(), ts.value(), max_abs.iter().fold(0.0f64, |m, &v| m.max(v)))
+}
+
+/// Centred sums around the run's own mean (corrected two-pass), SSE and the histogram,
+/// merged into `acc` (sums relative to the pivot).
+#[allow(clippy::too_many_arguments)]
+fn float_centred<T: Sample>(
+    rr: &[T],
+    sb: &[T],
+    sum_r: f64,
+    sum_s: f64,
+    req: &Request,
+    plan: Option<&HistPlan>,
+    acc: &mut Acc,
+    (pr, ps): (f64, f64),
+) {
+    let n = rr.len() as u64;
     if n == 0 {
-        return Ok(());
+        return;
     }
     let nf = n as f64;
-    let (mr, ms) = (sum_r / nf, sum_s / nf);
-    let (mut dr_sum, mut ds_sum, mut m2r, mut m2s, mut crs) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    let (mut sse, mut sse_c) = (0.0f64, 0.0f64);
-    let dense_bins = plan.and_then(|p| p.dense_bins).unwrap_or(0);
-    let binner = plan.and_then(|p| p.binner.as_ref());
-    for i in a..b {
-        if !keep(i) {
-            continue;
-        }
-        let (x, y) = (r[i].to_f64(), s[i].to_f64());
-        if !(x.is_finite() && y.is_finite()) {
-            continue;
-        }
-        if req.moments {
-            let (dr, ds) = (x - mr, y - ms);
-            dr_sum += dr;
-            ds_sum += ds;
-            m2r += dr * dr;
-            m2s += ds * ds;
-            crs += dr * ds;
-        }
-        if req.sse {
-            let d = x - y;
-            let (t, e) = two_sum(sse, d * d);
-            sse = t;
-            sse_c += e;
-        }
-        if let Some(bn) = binner {
-            acc.count(dense_bins, bn.float_bin(x), bn.float_bin(y));
+    let (mr, ms) = (sum_r / nf, sum_s / nf); // relative to the pivot
+    // six compensated totals: Σdr, Σds, Σdr², Σds², Σdr·ds, Σ(x−y)²
+    let mut tot = [Neumaier::default(); 6];
+    if req.moments || req.sse {
+        for (cr, cs) in rr.chunks(SUB).zip(sb.chunks(SUB)) {
+            let mut l = [[0.0f64; LANES_C]; 6];
+            let (ir, is) = (cr.chunks_exact(LANES_C), cs.chunks_exact(LANES_C));
+            let (rem_r, rem_s) = (ir.remainder(), is.remainder());
+            macro_rules! body {
+                ($k:expr, $x:expr, $y:expr) => {{
+                    let (x, y): (f64, f64) = ($x, $y);
+                    let (dr, ds) = (x - pr - mr, y - ps - ms);
+                    let d = x - y;
+                    l[0][$k] += dr;
+                    l[1][$k] += ds;
+                    l[2][$k] += dr * dr;
+                    l[3][$k] += ds * ds;
+                    l[4][$k] += dr * ds;
+                    l[5][$k] += d * d;
+                }};
+            }
+            for (xr, xs) in ir.zip(is) {
+                for k in 0..LANES_C {
+                    body!(k, xr[k].to_f64(), xs[k].to_f64());
+                }
+            }
+            for (&x, &y) in rem_r.iter().zip(rem_s) {
+                body!(0, x.to_f64(), y.to_f64());
+            }
+            for (t, lane) in tot.iter_mut().zip(&l) {
+                t.add(lane.iter().sum());
+            }
         }
     }
+    if let Some(p) = plan {
+        if let Some(bn) = p.binner.as_ref() {
+            let dense_bins = p.dense_bins.unwrap_or(0);
+            for (&x, &y) in rr.iter().zip(sb) {
+                acc.count(dense_bins, bn.float_bin(x.to_f64()), bn.float_bin(y.to_f64()));
+            }
+        }
+    }
+    let [dr, ds, m2r, m2s, crs, _] = tot.map(|t| t.value());
     // corrected two-pass: remove the residual of the approximate mean
     let part = FloatSums {
-        mr: mr + dr_sum / nf,
-        ms: ms + ds_sum / nf,
-        m2r: m2r - dr_sum * dr_sum / nf,
-        m2s: m2s - ds_sum * ds_sum / nf,
-        crs: crs - dr_sum * ds_sum / nf,
-        sse,
-        sse_c,
+        mr: mr + dr / nf,
+        ms: ms + ds / nf,
+        m2r: m2r - dr * dr / nf,
+        m2s: m2s - ds * ds / nf,
+        crs: crs - dr * ds / nf,
+        sse: if req.sse { tot[5].sum } else { 0.0 },
+        sse_c: if req.sse { tot[5].comp } else { 0.0 },
     };
     acc.float = merge_float(&acc.float, acc.n, &part, n);
     acc.n += n;
-    Ok(())
 }
 
 fn run_chunk<T: Sample>(
@@ -553,9 +688,10 @@ fn run_chunk<T: Sample>(
     plan: Option<&HistPlan>,
     acc: &mut Acc,
     nonfinite: &mut u64,
+    pivot: (f64, f64),
 ) -> std::result::Result<(), Bad> {
     if !T::IS_INT {
-        return float_chunk(r, s, range, req, plan, acc, nonfinite);
+        return float_chunk(r, s, range, req, plan, acc, nonfinite, pivot);
     }
     // Monomorphise the hot loop for each combination of requested outputs.
     match (req.sse, req.moments, plan.is_some()) {
@@ -595,13 +731,16 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
         None => None,
     };
     let plan_ref = plan.as_ref();
+    // float frames: sums are taken relative to one value of each frame (see float_chunk)
+    let pick = |v: Option<&T>| v.map(|x| x.to_f64()).filter(|x| x.is_finite()).unwrap_or(0.0);
+    let pivot = if T::IS_INT { (0.0, 0.0) } else { (pick(r.first()), pick(s.first())) };
     let chunks = chunk_ranges(r.len());
     let result = chunks
         .into_par_iter()
         .try_fold(
             || (Acc::new(plan_ref), 0u64),
             |(mut acc, mut nf), range| {
-                run_chunk(r, s, range, req, plan_ref, &mut acc, &mut nf)?;
+                run_chunk(r, s, range, req, plan_ref, &mut acc, &mut nf, pivot)?;
                 if acc.keys.len() >= 1 << 20 {
                     acc.flush_keys();
                 }
@@ -622,6 +761,18 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
     out.n = acc.n;
     out.masked = masked;
     out.nonfinite = nonfinite;
+    if !T::IS_INT {
+        acc.float.mr += pivot.0;
+        acc.float.ms += pivot.1;
+        // below 2^-500 every square underflows: MSE 0 and equal-looking frames would be silent lies
+        if acc.max_abs > 0.0 && acc.max_abs < 2f64.powi(-500) {
+            return Err(Error::Range(format!(
+                "float frames with magnitudes at most {:e} cannot be summed in float64 without underflow \
+                 (squares below 1e-300); rescale them, e.g. multiply both by 2**600",
+                acc.max_abs
+            )));
+        }
+    }
     out.sums = if T::IS_INT { Sums::Int(acc.int) } else { Sums::Float(acc.float) };
     if let Sums::Float(f) = &out.sums {
         if ![f.mr, f.ms, f.m2r, f.m2s, f.crs, f.sse].iter().all(|v| v.is_finite()) {

@@ -381,20 +381,24 @@ def test_float16_against_exact():
     check_against_exact(r, s, peak=65504.0, tol=1e-14)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="core bug (reported to lead): float64 subnormal frames — centred sums and the histogram bin "
-    "width underflow to 0, so different frames get MSE 0 / PSNR inf / s = +1 / H = 0",
-)
-def test_float64_subnormals():
+def test_float64_subnormals_are_a_clear_error():
+    # Every square of a subnormal underflows in float64, so MSE would read 0 and different
+    # frames would look identical: documented outcome is a RangeError asking to rescale.
     tiny = 5e-324
     r = np.array([[tiny, 2 * tiny]])
     s = np.array([[2 * tiny, tiny]])
-    st = irf.pair_stats(r, s, peak=1e-300)
+    with pytest.raises(irf.RangeError, match="rescale"):
+        irf.pair_stats(r, s, peak=1e-300)
+    # rescaled by an exact power of two, the same frames are fine and exact
+    st = irf.pair_stats(np.ldexp(r, 1100), np.ldexp(s, 1100), peak=1.0)
     m = st.metrics()
-    assert m["psnr_db"] != math.inf  # the frames differ
+    assert m["psnr_db"] != math.inf
     assert m["ssim_structure"] == -1.0
     assert m["h_real"] == 1.0
+    # float32 subnormals are fine: their squares are normal float64 numbers
+    r32 = np.array([[1e-45, 3e-45]], np.float32)
+    st32 = irf.pair_stats(r32, r32[:, ::-1].copy(), peak=1e-38)
+    assert st32.mse() > 0 and st32.ssim().structure == -1.0
 
 
 # --------------------------------------------------------------------------- NaN / Inf
