@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from irfidelity.evaluate import evaluate
+from irfidelity.evaluation import evaluate
 from irfidelity.stats import pair_stats
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from irfidelity.cli import main
-from irfidelity.evaluate import evaluate
+from irfidelity.evaluation import evaluate
 
 DATA = pathlib.Path(__file__).parent / "data"
 REAL = str(DATA / "thermal" / "ptw_bb150C_frame000.png")

@@ -14,7 +14,7 @@ import irfidelity._core as core
 import irfidelity.stats as stats_mod
 from irfidelity.curves import Curve, EdgeWarning, mtf_from_edge, mtf_similarity
 from irfidelity.errors import FidelityError, ShapeError
-from irfidelity.evaluate import FidelityReport, evaluate, image_components, plan_components
+from irfidelity.evaluation import FidelityReport, evaluate, image_components, plan_components
 from irfidelity.frames import load_frame
 from irfidelity.fuzzy import COMPONENTS, Weights, fidelity_sum
 from irfidelity.metrics import SSIM, nmi_from_entropies
@@ -197,7 +197,7 @@ def test_no_image_pass_without_image_weight(monkeypatch, sitf_curves):
 
 
 def test_no_curve_work_without_curve_weight(frames, monkeypatch):
-    import irfidelity.evaluate as ev
+    import irfidelity.evaluation as ev
 
     def boom(*a, **kw):
         raise AssertionError("no curve work expected")

@@ -27,7 +27,7 @@ import pytest
 import irfidelity as irf
 from irfidelity import _core
 from irfidelity.errors import FidelityError
-from irfidelity.evaluate import evaluate
+from irfidelity.evaluation import evaluate
 from irfidelity.metrics import psnr_from_mse
 from irfidelity.sequence import SequenceReport, score_sequence
 

@@ -18,11 +18,12 @@ from .curves import (
 )
 from .edge import EdgeWarning, mtf_from_edge
 from .errors import FidelityError, FrameError, RangeError, ShapeError
-from .evaluate import FidelityReport, evaluate, image_components, plan_components
+from .evaluation import FidelityReport, evaluate, image_components, plan_components
 from .frames import FrameSequence, list_channels, load_frame, page_count
 from .fuzzy import AHPConsistencyWarning, Comparison, GradeScale, Weights, ahp, compare
 from .metrics import NMI, SSIM
 from .normalize import normalize_psnr
+from .sequence import SequenceReport, score_sequence
 from .sitf import SiTFFit, netd, sitf_fit, sitf_similarity
 from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
 
@@ -71,4 +72,6 @@ __all__ = [
     "load_frame",
     "list_channels",
     "page_count",
+    "score_sequence",
+    "SequenceReport",
 ]

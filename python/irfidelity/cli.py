@@ -145,7 +145,7 @@ def _warn_lines(caught: list) -> None:
 
 
 def _score(a: argparse.Namespace) -> int:
-    from .evaluate import evaluate, plan_components
+    from .evaluation import evaluate, plan_components
     from .fuzzy import Weights
 
     try:

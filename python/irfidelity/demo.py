@@ -25,7 +25,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from .curves import Curve
-from .evaluate import FidelityReport, evaluate
+from .evaluation import FidelityReport, evaluate
 from .fuzzy import Weights
 
 __all__ = ["gaussian_blur", "simulate_camera", "model_sitf", "load_demo_data", "run_demo", "DEMO_MODEL"]

@@ -9,8 +9,8 @@ by frame, and pooled:
   GIL released and a few frames in flight per worker whatever the sequence length.
   Finished pairs stream back to Python, which turns each into metrics, components and a
   fidelity with the same functions :func:`irfidelity.evaluate` uses
-  (:func:`~irfidelity.evaluate.plan_components`,
-  :func:`~irfidelity.evaluate.image_components`), writes its CSV row and folds its
+  (:func:`~irfidelity.evaluation.plan_components`,
+  :func:`~irfidelity.evaluation.image_components`), writes its CSV row and folds its
   statistics into the pooled ones.
 * **Arrays** (3-D arrays, lists of 2-D arrays, ``.npy`` files): a Python loop over
   :func:`irfidelity.pair_stats` (each call is itself parallel in Rust).
@@ -57,7 +57,7 @@ import numpy as np
 
 from . import _core
 from .errors import FidelityError, FrameError
-from .evaluate import _dec, _enc, image_components, plan_components
+from .evaluation import _dec, _enc, image_components, plan_components
 from .frames import FrameSequence, load_frame
 from .fuzzy import COMPONENTS, Weights, fidelity_sum
 from .normalize import DEFAULT_PSNR_ANCHORS
