@@ -1,5 +1,7 @@
 """Type stub of the Rust extension `irfidelity._core` (hand-written; keep in sync with rust/binding/)."""
 
+import os
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -50,8 +52,7 @@ def pair_stats(
     fortran: bool = False,
 ) -> PairStats: ...
 
-# ---- frame I/O (issue 3: rust/binding/io.rs) -------------------------------------------
-import os
+# ---- frame I/O (rust/binding/io.rs) ---------------------------------------------------------
 
 def load_frame(
     path: str | os.PathLike[str],
@@ -62,4 +63,26 @@ def load_frame(
 def page_count(path: str | os.PathLike[str]) -> int: ...
 def list_channels(path: str | os.PathLike[str]) -> list[str]: ...
 def default_max_pixels() -> int: ...
-# ---- end frame I/O ------------------------------------------------------------------------
+
+# ---- sequences (rust/binding/sequence.rs) ---------------------------------------------------
+
+def score_pairs(
+    real_paths: list[str | os.PathLike[str]],
+    sim_paths: list[str | os.PathLike[str]],
+    real_pages: list[int] | None = None,
+    sim_pages: list[int] | None = None,
+    *,
+    channel: str | None = None,
+    sse: bool = True,
+    moments: bool = True,
+    bins: int | None = None,
+    levels: bool = False,
+    hist_range: tuple[float, float] | None = None,
+    valid: tuple[int, int] | None = None,
+    mask_nonfinite: bool = False,
+    max_pixels: int | None = None,
+    workers: int = 0,
+    progress: Callable[[int], Any] | None = None,
+    on_result: Callable[[list[Any]], Any] | None = None,
+) -> list[tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None]] | None: ...
+def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats | None, bool]: ...
