@@ -61,7 +61,7 @@ from .evaluation import _dec, _enc, image_components, plan_components
 from .frames import FrameSequence, load_frame
 from .fuzzy import COMPONENTS, Weights, fidelity_sum
 from .normalize import DEFAULT_PSNR_ANCHORS
-from .stats import PairStats, _peak_and_valid, pair_stats, plan_need
+from .stats import PairStats, hist_params, pair_stats, peak_and_valid, plan_need
 
 __all__ = ["score_sequence", "SequenceReport"]
 
@@ -555,39 +555,6 @@ def _dask_score_chunk(real_paths, sim_paths, real_pages, sim_pages, kwargs):
 
 
 # --------------------------------------------------------------------------- entry point
-def _hist_params(bins, hist_range, dtype: np.dtype, bits, peak, pk):
-    """(nbins, levels, range) for the kernel — the same rules as :func:`irfidelity.pair_stats`."""
-    is_int = dtype.kind in "ui"
-    levels = isinstance(bins, str) and bins == "levels"
-    nbins = None
-    if levels:
-        if not is_int:
-            raise FidelityError("bins='levels' needs integer frames; give an integer bin count for float frames")
-    elif isinstance(bins, (int, np.integer)) and not isinstance(bins, bool) and 1 <= bins <= (1 << 20):
-        nbins = int(bins)
-    else:
-        raise FidelityError(f"bins must be an integer in 1..1048576 or 'levels', got {bins!r}")
-    rng = None
-    if isinstance(hist_range, str) and hist_range == "full":
-        if pk is None:
-            raise FidelityError("hist_range='full' on float frames needs `peak`")
-        if dtype.kind == "i" and bits is None and peak is None:
-            info = np.iinfo(dtype)
-            rng = (float(info.min), float(info.max))
-        else:
-            rng = (0.0, float(pk))
-    elif isinstance(hist_range, str):
-        if hist_range != "data":
-            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}")
-    else:
-        try:
-            lo, hi = (float(v) for v in hist_range)
-        except (TypeError, ValueError) as exc:
-            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}") from exc
-        rng = (lo, hi)
-    return nbins, levels, rng
-
-
 def _peek_dtype(seq: FrameSequence, files: list[tuple[str, int]] | None, limit: int = 8) -> np.dtype:
     first_err = None
     for i in range(min(len(seq), limit)):
@@ -700,12 +667,12 @@ def score_sequence(
         raise FidelityError("client= needs file sources (EXR/PNG/TIFF paths) for both sequences; "
                             "arrays and .npy files are scored locally")
     ref_dtype = _peek_dtype(rseq, rfiles if engine else None)
-    pk, valid = _peak_and_valid(ref_dtype, bits, peak)
+    pk, valid = peak_and_valid(ref_dtype, bits, peak)
     if "sse" in wanted and pk is None:
         raise FidelityError("PSNR of float frames needs an explicit `peak` (the maximum possible value)")
     nbins, levels, rng = None, False, None
     if "hist" in wanted:
-        nbins, levels, rng = _hist_params(bins, hist_range, ref_dtype, bits, peak, pk)
+        nbins, levels, rng = hist_params(bins, hist_range, ref_dtype, bits, peak, pk)
     bin_label = ("levels" if levels else nbins) if "hist" in wanted else None
     keep_hist = "hist" in wanted and (levels or rng is not None)
 

@@ -17,7 +17,7 @@ from . import _core
 from .errors import FidelityError, ShapeError
 from .metrics import NMI, SSIM, nmi_from_entropies, psnr_from_mse, ssim_from_moments
 
-__all__ = ["PairStats", "pair_stats", "mse", "psnr", "ssim", "nmi", "plan_need"]
+__all__ = ["PairStats", "pair_stats", "mse", "psnr", "ssim", "nmi", "plan_need", "peak_and_valid", "hist_params"]
 
 _SUPPORTED = ("uint8", "uint16", "int16", "uint32", "float16", "float32", "float64")
 
@@ -214,7 +214,7 @@ def _as_frame(x, name: str) -> np.ndarray:
     return arr
 
 
-def _peak_and_valid(dtype: np.dtype, bits, peak):
+def peak_and_valid(dtype: np.dtype, bits, peak):
     """The PSNR peak and (for integer frames) the allowed value range."""
     if bits is not None and peak is not None:
         raise FidelityError("give either `bits` or `peak`, not both")
@@ -237,6 +237,44 @@ def _peak_and_valid(dtype: np.dtype, bits, peak):
         # unsigned: the dtype's maximum; signed: its full range (as scikit-image does)
         return float(info.max - min(info.min, 0)), None
     return None, None
+
+
+def hist_params(bins, hist_range, dtype: np.dtype, bits, peak, pk):
+    """``(nbins, levels, range)`` for the kernel from ``bins``/``hist_range`` (see :func:`pair_stats`).
+
+    ``pk`` is the resolved peak (:func:`peak_and_valid`); shared with the sequence engine so both
+    bin frames by the same rules.
+    """
+    is_int = dtype.kind in "ui"
+    levels = isinstance(bins, str) and bins == "levels"
+    nbins = None
+    if levels:
+        if not is_int:
+            raise FidelityError("bins='levels' needs integer frames; give an integer bin count for float frames")
+    elif isinstance(bins, (int, np.integer)) and not isinstance(bins, bool) and 1 <= bins <= (1 << 20):
+        nbins = int(bins)
+    else:
+        raise FidelityError(f"bins must be an integer in 1..1048576 or 'levels', got {bins!r}")
+    rng = None
+    if isinstance(hist_range, str) and hist_range == "full":
+        if pk is None:
+            raise FidelityError("hist_range='full' on float frames needs `peak`")
+        if dtype.kind == "i" and bits is None and peak is None:
+            info = np.iinfo(dtype)
+            rng = (float(info.min), float(info.max))
+        else:
+            rng = (0.0, float(pk))
+    elif isinstance(hist_range, str):
+        if hist_range != "data":
+            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}")
+    else:
+        try:
+            lo, hi = (float(v) for v in hist_range)
+        except (TypeError, ValueError) as exc:
+            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}") from exc
+        rng = (lo, hi)
+    return nbins, levels, rng
+
 
 
 def pair_stats(
@@ -294,37 +332,12 @@ def pair_stats(
     if nonfinite not in ("raise", "mask"):
         raise FidelityError(f"nonfinite must be 'raise' or 'mask', got {nonfinite!r}")
     wanted = plan_need(need)
-    pk, valid = _peak_and_valid(r.dtype, bits, peak)
+    pk, valid = peak_and_valid(r.dtype, bits, peak)
     is_int = r.dtype.kind in "ui"
 
-    levels = bins == "levels"
-    nbins = None
-    rng = None
+    nbins, levels, rng = None, False, None
     if "hist" in wanted:
-        if levels:
-            if not is_int:
-                raise FidelityError("bins='levels' needs integer frames; give an integer bin count for float frames")
-        elif isinstance(bins, (int, np.integer)) and not isinstance(bins, bool) and 1 <= bins <= (1 << 20):
-            nbins = int(bins)
-        else:
-            raise FidelityError(f"bins must be an integer in 1..1048576 or 'levels', got {bins!r}")
-        if hist_range == "full":
-            if pk is None:
-                raise FidelityError("hist_range='full' on float frames needs `peak`")
-            if r.dtype.kind == "i" and bits is None and peak is None:
-                info = np.iinfo(r.dtype)  # signed frames without bits: the dtype's range
-                rng = (float(info.min), float(info.max))
-            else:
-                rng = (0.0, float(pk))
-        elif isinstance(hist_range, str):
-            if hist_range != "data":
-                raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}")
-        else:
-            try:
-                lo, hi = (float(v) for v in hist_range)
-            except (TypeError, ValueError) as exc:
-                raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}") from exc
-            rng = (lo, hi)
+        nbins, levels, rng = hist_params(bins, hist_range, r.dtype, bits, peak, pk)
 
     # Layout: the kernel reads both frames as one flat run in the same pixel order.
     fortran = False
