@@ -224,23 +224,30 @@ fn chunk_ranges(n: usize) -> Vec<(usize, usize)> {
     (0..n.div_ceil(CHUNK)).map(|c| (c * CHUNK, ((c + 1) * CHUNK).min(n))).collect()
 }
 
+/// Min and max of two runs of integer samples, in the native width (vectorises to
+/// pminuw & co. instead of i64 compares). `None` for empty runs.
+fn min_max<T: Sample>(r: &[T], s: &[T]) -> Option<(T, T)> {
+    let first = *r.first()?;
+    let (mut lo, mut hi) = (first, first);
+    for part in [r, s] {
+        for &v in part {
+            lo = if v < lo { v } else { lo };
+            hi = if v > hi { v } else { hi };
+        }
+    }
+    Some((lo, hi))
+}
+
 /// Min and max over the counted pixels of both frames (f64 for floats, exact for ints).
 fn data_range<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<(f64, f64)> {
     let chunks = chunk_ranges(r.len());
     let fold = |(a, b): (usize, usize)| -> (f64, f64) {
         if T::IS_INT && req.mask.is_none() {
             // integers: no finiteness test, a branch-free loop the compiler vectorises
-            if a == b {
-                return (f64::INFINITY, f64::NEG_INFINITY);
-            }
-            let (mut lo, mut hi) = (r[a], r[a]);
-            for part in [&r[a..b], &s[a..b]] {
-                for &v in part {
-                    lo = if v < lo { v } else { lo };
-                    hi = if v > hi { v } else { hi };
-                }
-            }
-            return (lo.to_f64(), hi.to_f64());
+            return match min_max(&r[a..b], &s[a..b]) {
+                Some((lo, hi)) => (lo.to_f64(), hi.to_f64()),
+                None => (f64::INFINITY, f64::NEG_INFINITY),
+            };
         }
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for i in a..b {
@@ -432,15 +439,7 @@ fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST: bool>(
         }
         if let Some((vlo, vhi)) = req.valid {
             // a vectorised min/max first; the scan for the message only on failure
-            let (mut lo, mut hi) = (rr[0], rr[0]);
-            for part in [rr, sb] {
-                for &v in part {
-                    // native-width compares (vpminuw & co.), not i64
-                    lo = if v < lo { v } else { lo };
-                    hi = if v > hi { v } else { hi };
-                }
-            }
-            let outside = lo.to_i64() < vlo || hi.to_i64() > vhi;
+            let outside = min_max(rr, sb).is_some_and(|(lo, hi)| lo.to_i64() < vlo || hi.to_i64() > vhi);
             for i in (start..end).filter(|_| outside) {
                 if req.mask.is_some_and(|m| !m[i]) {
                     continue;
