@@ -329,8 +329,20 @@ fn plan_hist<T: Sample>(r: &[T], s: &[T], req: &Request, hreq: &HistRequest) -> 
 }
 
 fn make_int_binner<T: Sample>(bins: usize, lo: i64, width: i64) -> Binner {
-    let bin_of = |v: i64| -> u16 { ((v - lo).max(0) / width).min(bins as i64 - 1) as u16 };
-    let lut = (0..T::LUT).map(|k| bin_of(k as i64 + T::MIN)).collect();
+    // value − MIN → bin, filled run by run (bins are `width` consecutive levels): no division
+    // per entry. Levels below `lo` land in bin 0, above the last edge in the last bin.
+    let mut lut = vec![0u16; T::LUT];
+    let mut k = (lo - T::MIN).clamp(0, T::LUT as i64) as usize; // first level at or above lo
+    while k < T::LUT {
+        let b = ((k as i64 + T::MIN - lo) / width).min(bins as i64 - 1);
+        let end = if b == bins as i64 - 1 {
+            T::LUT
+        } else {
+            ((lo + (b + 1) * width - T::MIN) as usize).min(T::LUT)
+        };
+        lut[k..end].fill(b as u16);
+        k = end;
+    }
     Binner { bins, lo: lo as f64, width: width as f64, inv_width: 1.0 / width as f64, lut }
 }
 
@@ -360,7 +372,8 @@ fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST: bool>(
                 let (x, y): (i64, i64) = ($x, $y);
                 n += 1;
                 if SSE {
-                    let d = x.abs_diff(y);
+                    // |x − y| < 2^32 for every integer dtype: a u32 squared fits u64
+                    let d = x.abs_diff(y) as u32 as u64;
                     sse += d * d;
                 }
                 if MOM {
@@ -373,11 +386,13 @@ fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST: bool>(
                         t.sss += (y as u128) * (y as u128);
                         t.srs += (x as i128) * (y as i128);
                     } else {
+                        // |values| < 2^16: squares are u32 × u32 → u64 (pmuludq), products fit i64
+                        let (ux, uy) = (x.unsigned_abs() as u32 as u64, y.unsigned_abs() as u32 as u64);
                         sr += x;
                         ss += y;
-                        srr += x.unsigned_abs() * x.unsigned_abs();
-                        sss += y.unsigned_abs() * y.unsigned_abs();
-                        srs += x * y;
+                        srr += ux * ux;
+                        sss += uy * uy;
+                        srs += (x as i32 as i64) * (y as i32 as i64);
                     }
                 }
             }};
@@ -882,6 +897,19 @@ mod tests {
         assert_eq!(PairStats::from_bytes(&bytes).unwrap(), st);
         assert!(PairStats::from_bytes(&bytes[..bytes.len() - 3]).is_err());
         assert!(PairStats::from_bytes(b"nope").is_err());
+    }
+
+    #[test]
+    fn lut_matches_the_binning_rule() {
+        for (bins, lo, width) in [(256usize, 2000i64, 47i64), (10, -100, 7), (3, 65000, 200), (512, 0, 1)] {
+            let bn = make_int_binner::<u16>(bins, lo, width);
+            for v in [0i64, 1, 1999, 2000, 2046, 2047, 14000, 65000, 65535] {
+                let want = ((v - lo).max(0) / width).min(bins as i64 - 1) as usize;
+                assert_eq!(bn.int_bin(v, 0), want, "bins {bins} lo {lo} width {width} v {v}");
+            }
+        }
+        let bn = make_int_binner::<i16>(4, -10, 5);
+        assert_eq!((bn.int_bin(-32768, i16::MIN as i64), bn.int_bin(-6, i16::MIN as i64), bn.int_bin(9, i16::MIN as i64)), (0, 0, 3));
     }
 
     #[test]
