@@ -160,6 +160,10 @@ struct Acc {
     keys: Vec<u64>,
     runs: Vec<(u64, u64)>,
     max_abs: f64, // float frames: largest magnitude seen (underflow check)
+    // float frames: compensated Σ(x − pivot) of each frame; the means come from these, not
+    // from Chan's merges (whose δ between chunk means costs digits when data spread ≫ mean)
+    sum_r: Neumaier,
+    sum_s: Neumaier,
 }
 
 impl Acc {
@@ -168,7 +172,7 @@ impl Acc {
             Some(b) => vec![0; b * b],
             None => Vec::new(),
         };
-        Acc { n: 0, int: IntSums::default(), float: FloatSums::default(), dense, keys: Vec::new(), runs: Vec::new(), max_abs: 0.0 }
+        Acc { n: 0, int: IntSums::default(), float: FloatSums::default(), dense, keys: Vec::new(), runs: Vec::new(), max_abs: 0.0, sum_r: Neumaier::default(), sum_s: Neumaier::default() }
     }
 
     #[inline(always)]
@@ -190,6 +194,10 @@ impl Acc {
 
     fn merge(mut self, mut other: Acc, is_int: bool) -> Acc {
         self.max_abs = self.max_abs.max(other.max_abs);
+        for (a, b) in [(&mut self.sum_r, &other.sum_r), (&mut self.sum_s, &other.sum_s)] {
+            a.add(b.sum);
+            a.add(b.comp);
+        }
         if is_int {
             let (a, b) = (&mut self.int, &other.int);
             a.sr += b.sr;
@@ -503,11 +511,11 @@ impl Neumaier {
 const LANES: usize = 8;
 /// The centred pass keeps six sums: four lanes each fit the SSE2 register file unspilled.
 const LANES_C: usize = 4;
-const SUB: usize = 512;
+const SUB: usize = 64;
 
 /// The float pass over `[a, b)`: mean first, then centred sums, on cache-resident data.
-/// Values are shifted by a per-call `pivot` (one value of each frame) so chunk means are
-/// small and Chan's merge does not lose digits to a large common offset.
+/// Values are shifted by a per-call `pivot` (≈ each frame's mean, see `float_pivot`) so
+/// chunk means are small and Chan's merge does not lose digits to a large common offset.
 #[allow(clippy::too_many_arguments)]
 fn float_chunk<T: Sample>(
     r: &[T],
@@ -536,6 +544,8 @@ fn float_chunk<T: Sample>(
         // a NaN/Inf anywhere makes the sums non-finite: only then look pixel by pixel
         if sum_r.is_finite() && sum_s.is_finite() {
             acc.max_abs = acc.max_abs.max(max_abs);
+            acc.sum_r.add(sum_r);
+            acc.sum_s.add(sum_s);
             float_centred(rr, sb, sum_r, sum_s, req, plan, acc, pivot);
             return Ok(());
         }
@@ -560,6 +570,8 @@ fn float_chunk<T: Sample>(
     if !xs.is_empty() {
         let (sum_r, sum_s, max_abs) = float_sums(&xs, &ys, pivot);
         acc.max_abs = acc.max_abs.max(max_abs);
+        acc.sum_r.add(sum_r);
+        acc.sum_s.add(sum_s);
         float_centred(&xs, &ys, sum_r, sum_s, req, plan, acc, pivot);
     }
     Ok(())
@@ -591,30 +603,41 @@ fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
     (tot, max_abs.iter().fold(0.0f64, |m, &v| m.max(v)))
 }
 
-/// Σ(x − pivot_r), Σ(y − pivot_s) and max |value| of a run of pixels.
+/// Σ(x − pivot_r), Σ(y − pivot_s) and max |value| of a run of pixels. Each lane is a
+/// compensated (two-sum) accumulator: the mean of wide-spread data (±3e38 around 1e35)
+/// is the sum of large terms that cancel, so every addition's error is kept.
 fn float_sums<T: Sample>(rr: &[T], sb: &[T], (pr, ps): (f64, f64)) -> (f64, f64, f64) {
-    let (mut tr, mut ts) = (Neumaier::default(), Neumaier::default());
+    let (mut lr, mut cr_) = ([0.0f64; LANES], [0.0f64; LANES]);
+    let (mut ls, mut cs_) = ([0.0f64; LANES], [0.0f64; LANES]);
     let mut max_abs = [0.0f64; LANES];
-    for (cr, cs) in rr.chunks(SUB).zip(sb.chunks(SUB)) {
-        let (mut lr, mut ls) = ([0.0f64; LANES], [0.0f64; LANES]);
-        let (ir, is) = (cr.chunks_exact(LANES), cs.chunks_exact(LANES));
-        let (rem_r, rem_s) = (ir.remainder(), is.remainder());
-        for (xr, xs) in ir.zip(is) {
-            for k in 0..LANES {
-                let (x, y) = (xr[k].to_f64(), xs[k].to_f64());
-                lr[k] += x - pr;
-                ls[k] += y - ps;
-                max_abs[k] = max_abs[k].max(x.abs()).max(y.abs());
-            }
+    #[inline(always)]
+    fn add(sum: &mut f64, comp: &mut f64, x: f64) {
+        let (t, e) = two_sum(*sum, x);
+        *sum = t;
+        *comp += e;
+    }
+    let (ir, is) = (rr.chunks_exact(LANES), sb.chunks_exact(LANES));
+    let (rem_r, rem_s) = (ir.remainder(), is.remainder());
+    for (xr, xs) in ir.zip(is) {
+        for k in 0..LANES {
+            let (x, y) = (xr[k].to_f64(), xs[k].to_f64());
+            add(&mut lr[k], &mut cr_[k], x - pr);
+            add(&mut ls[k], &mut cs_[k], y - ps);
+            max_abs[k] = max_abs[k].max(x.abs()).max(y.abs());
         }
-        for (&x, &y) in rem_r.iter().zip(rem_s) {
-            let (x, y) = (x.to_f64(), y.to_f64());
-            lr[0] += x - pr;
-            ls[0] += y - ps;
-            max_abs[0] = max_abs[0].max(x.abs()).max(y.abs());
-        }
-        tr.add(lr.iter().sum());
-        ts.add(ls.iter().sum());
+    }
+    for (&x, &y) in rem_r.iter().zip(rem_s) {
+        let (x, y) = (x.to_f64(), y.to_f64());
+        add(&mut lr[0], &mut cr_[0], x - pr);
+        add(&mut ls[0], &mut cs_[0], y - ps);
+        max_abs[0] = max_abs[0].max(x.abs()).max(y.abs());
+    }
+    let (mut tr, mut ts) = (Neumaier::default(), Neumaier::default());
+    for k in 0..LANES {
+        tr.add(lr[k]);
+        tr.add(cr_[k]);
+        ts.add(ls[k]);
+        ts.add(cs_[k]);
     }
     (tr.value(), ts.value(), max_abs.iter().fold(0.0f64, |m, &v| m.max(v)))
 }
@@ -720,6 +743,30 @@ fn run_chunk<T: Sample>(
     }
 }
 
+/// The pivot of the float pass: the mean of each frame from a parallel compensated prepass,
+/// or (with a mask or non-finite values) the first finite value.
+fn float_pivot<T: Sample>(r: &[T], s: &[T], req: &Request) -> (f64, f64) {
+    if req.mask.is_none() && !r.is_empty() {
+        let (sr, ss) = chunk_ranges(r.len())
+            .into_par_iter()
+            .map(|(a, b)| {
+                let (x, y, _) = float_sums(&r[a..b], &s[a..b], (0.0, 0.0));
+                (x, y)
+            })
+            .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        let n = r.len() as f64;
+        // Keep 24 significant bits: x − pivot is then exact for every float32 value (and for
+        // float64 values within 2^29 of the pivot's magnitude) — a 53-bit pivot would round
+        // each difference, and identical values (e.g. clipped at ±3.4e38) round coherently.
+        let short = |p: f64| f64::from_bits(p.to_bits() & !((1u64 << 29) - 1));
+        if (sr / n).is_finite() && (ss / n).is_finite() {
+            return (short(sr / n), short(ss / n));
+        }
+    }
+    let pick = |v: &[T]| v.iter().map(|x| x.to_f64()).find(|x| x.is_finite()).unwrap_or(0.0);
+    (pick(r), pick(s))
+}
+
 /// Statistics of the frame pair `(r, s)` (same length, same pixel order).
 ///
 /// Runs on the current rayon pool; call it inside `ThreadPool::install` to bound the
@@ -745,9 +792,10 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
         None => None,
     };
     let plan_ref = plan.as_ref();
-    // float frames: sums are taken relative to one value of each frame (see float_chunk)
-    let pick = |v: Option<&T>| v.map(|x| x.to_f64()).filter(|x| x.is_finite()).unwrap_or(0.0);
-    let pivot = if T::IS_INT { (0.0, 0.0) } else { (pick(r.first()), pick(s.first())) };
+    // Float frames: all sums are taken relative to a pivot near each frame's mean, so the
+    // final mean is the pivot plus a small, accurate correction and chunk merges see small
+    // offsets (a pivot far from the mean would cancel digits: ±3e38 data, mean 1e35).
+    let pivot = if T::IS_INT || !req.moments { (0.0, 0.0) } else { float_pivot(r, s, req) };
     let chunks = chunk_ranges(r.len());
     let result = chunks
         .into_par_iter()
@@ -776,8 +824,10 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
     out.masked = masked;
     out.nonfinite = nonfinite;
     if !T::IS_INT {
-        acc.float.mr += pivot.0;
-        acc.float.ms += pivot.1;
+        if acc.n > 0 && req.moments {
+            acc.float.mr = pivot.0 + acc.sum_r.value() / acc.n as f64;
+            acc.float.ms = pivot.1 + acc.sum_s.value() / acc.n as f64;
+        }
         // below 2^-500 every square underflows: MSE 0 and equal-looking frames would be silent lies
         if acc.max_abs > 0.0 && acc.max_abs < 2f64.powi(-500) {
             return Err(Error::Range(format!(
