@@ -517,6 +517,7 @@ const SUB: usize = 64;
 /// Values are shifted by a per-call `pivot` (≈ each frame's mean, see `float_pivot`) so
 /// chunk means are small and Chan's merge does not lose digits to a large common offset.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn float_chunk<T: Sample>(
     r: &[T],
     s: &[T],
@@ -578,6 +579,7 @@ fn float_chunk<T: Sample>(
 }
 
 /// Σ(x − y)² (compensated) and max |value| of a run of pixels.
+#[inline(always)]
 fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
     let mut tot = Neumaier::default();
     let mut max_abs = [0.0f64; LANES];
@@ -606,6 +608,7 @@ fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
 /// Σ(x − pivot_r), Σ(y − pivot_s) and max |value| of a run of pixels. Each lane is a
 /// compensated (two-sum) accumulator: the mean of wide-spread data (±3e38 around 1e35)
 /// is the sum of large terms that cancel, so every addition's error is kept.
+#[inline(always)]
 fn float_sums<T: Sample>(rr: &[T], sb: &[T], (pr, ps): (f64, f64)) -> (f64, f64, f64) {
     let (mut lr, mut cr_) = ([0.0f64; LANES], [0.0f64; LANES]);
     let (mut ls, mut cs_) = ([0.0f64; LANES], [0.0f64; LANES]);
@@ -645,6 +648,7 @@ fn float_sums<T: Sample>(rr: &[T], sb: &[T], (pr, ps): (f64, f64)) -> (f64, f64,
 /// Centred sums around the run's own mean (corrected two-pass), SSE and the histogram,
 /// merged into `acc` (sums relative to the pivot).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn float_centred<T: Sample>(
     rr: &[T],
     sb: &[T],
@@ -717,7 +721,46 @@ fn float_centred<T: Sample>(
     acc.n += n;
 }
 
+/// One chunk, dispatched once per call to a copy of the loops compiled for AVX2 when the
+/// CPU has it (the baseline x86-64 build only assumes SSE2). Same code, same results.
+#[allow(clippy::too_many_arguments)]
 fn run_chunk<T: Sample>(
+    r: &[T],
+    s: &[T],
+    range: (usize, usize),
+    req: &Request,
+    plan: Option<&HistPlan>,
+    acc: &mut Acc,
+    nonfinite: &mut u64,
+    pivot: (f64, f64),
+) -> std::result::Result<(), Bad> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above; the check is cached by std).
+        return unsafe { run_chunk_avx2(r, s, range, req, plan, acc, nonfinite, pivot) };
+    }
+    run_chunk_impl(r, s, range, req, plan, acc, nonfinite, pivot)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+fn run_chunk_avx2<T: Sample>(
+    r: &[T],
+    s: &[T],
+    range: (usize, usize),
+    req: &Request,
+    plan: Option<&HistPlan>,
+    acc: &mut Acc,
+    nonfinite: &mut u64,
+    pivot: (f64, f64),
+) -> std::result::Result<(), Bad> {
+    run_chunk_impl(r, s, range, req, plan, acc, nonfinite, pivot)
+}
+
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn run_chunk_impl<T: Sample>(
     r: &[T],
     s: &[T],
     range: (usize, usize),

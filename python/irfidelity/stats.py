@@ -20,6 +20,8 @@ from .metrics import NMI, SSIM, nmi_from_entropies, psnr_from_mse, ssim_from_mom
 __all__ = ["PairStats", "pair_stats", "mse", "psnr", "ssim", "nmi", "plan_need", "peak_and_valid", "hist_params"]
 
 _SUPPORTED = ("uint8", "uint16", "int16", "uint32", "float16", "float32", "float64")
+# dtype.name is slow (it formats a string); compare the type objects instead
+_SUPPORTED_TYPES = frozenset(np.dtype(n).type for n in _SUPPORTED)
 
 # What each metric needs from the pass (DESIGN §2, "plan only what is needed").
 _NEEDS = {
@@ -207,7 +209,7 @@ def _as_frame(x, name: str) -> np.ndarray:
     arr = np.asarray(x)
     if arr.ndim != 2:
         raise ShapeError(f"{name}: expected a 2-D frame, got shape {arr.shape}")
-    if arr.dtype.name not in _SUPPORTED:
+    if arr.dtype.type not in _SUPPORTED_TYPES:
         raise ShapeError(f"{name}: unsupported dtype {arr.dtype}; expected one of {', '.join(_SUPPORTED)}")
     if not arr.dtype.isnative:
         arr = arr.astype(arr.dtype.newbyteorder("="))
