@@ -60,8 +60,8 @@ class NMI:
 def psnr_from_mse(mse: float, peak: float) -> float:
     """PSNR in dB, eq. 5: ``10·log10(peak² / MSE)``; ``+inf`` when MSE == 0.
 
-    Formed as ``20·log10(peak) − 10·log10(MSE)`` so that neither ``peak²`` nor a tiny MSE
-    overflows or underflows.
+    One logarithm of the ratio when it is representable; ``20·log10(peak) − 10·log10(MSE)``
+    when ``peak²`` or the ratio would overflow or underflow (float frames near 3e38).
     """
     if not (peak > 0 and math.isfinite(peak)):
         raise FidelityError(f"peak must be a positive finite number, got {peak!r}")
@@ -69,7 +69,10 @@ def psnr_from_mse(mse: float, peak: float) -> float:
         raise FidelityError(f"MSE must be >= 0, got {mse!r}")
     if mse == 0:
         return math.inf
-    return 20.0 * math.log10(peak) - 10.0 * math.log10(mse)
+    ratio = peak * peak / mse
+    if math.isfinite(ratio) and ratio > 0:
+        return 10.0 * math.log10(ratio)  # one log: error ~ ulp(PSNR)
+    return 20.0 * math.log10(peak) - 10.0 * math.log10(mse)  # peak² or the ratio over/underflows
 
 
 def signed_power(x: float, p: float) -> float:
