@@ -26,6 +26,10 @@ pub trait Sample: Copy + PartialOrd + Send + Sync + 'static {
     const BLOCK: usize;
     fn to_i64(self) -> i64;
     fn to_f64(self) -> f64;
+    /// The slice as float16, for the one type that is (widened once, see `pair_stats`).
+    fn as_f16(_: &[Self]) -> Option<&[half::f16]> {
+        None
+    }
 }
 
 macro_rules! int_sample {
@@ -47,7 +51,7 @@ macro_rules! int_sample {
 int_sample!(u8 => 1 << 8, 1 << 15; u16 => 1 << 16, 1 << 15; i16 => 1 << 16, 1 << 15; u32 => 0, 1);
 
 macro_rules! float_sample {
-    ($($t:ty => $conv:expr);* $(;)?) => {$(
+    ($($t:ty => $conv:expr $(, $f16:expr)?);* $(;)?) => {$(
         impl Sample for $t {
             const IS_INT: bool = false;
             const MIN: i64 = 0;
@@ -57,10 +61,15 @@ macro_rules! float_sample {
             fn to_i64(self) -> i64 { 0 }
             #[inline(always)]
             fn to_f64(self) -> f64 { $conv(self) }
+            $(fn as_f16(s: &[Self]) -> Option<&[half::f16]> { $f16(s) })?
         }
     )*};
 }
-float_sample!(f32 => |v: f32| v as f64; f64 => |v: f64| v; half::f16 => |v: half::f16| v.to_f64());
+float_sample!(
+    f32 => |v: f32| v as f64;
+    f64 => |v: f64| v;
+    half::f16 => |v: half::f16| v.to_f64(), Some;
+);
 
 /// Which histogram to build.
 #[derive(Clone, Debug, PartialEq)]
@@ -829,6 +838,17 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
         if m.len() != r.len() {
             return Err(Error::Shape(format!("mask has {} elements, frames have {}", m.len(), r.len())));
         }
+    }
+    if let (Some(r16), Some(s16)) = (T::as_f16(r), T::as_f16(s)) {
+        // float16 → f32 is exact: widen each frame once (F16C when the CPU has it) instead of
+        // converting in software on every access of every pass. Costs 4 bytes per pixel.
+        let widen = |x: &[half::f16]| {
+            use half::slice::HalfFloatSliceExt;
+            let mut out = vec![0f32; x.len()];
+            out.par_chunks_mut(CHUNK).zip(x.par_chunks(CHUNK)).for_each(|(o, i)| i.convert_to_f32_slice(o));
+            out
+        };
+        return pair_stats(&widen(r16), &widen(s16), req);
     }
     let plan = match &req.hist {
         Some(h) => Some(plan_hist(r, s, req, h)?),
