@@ -5,7 +5,7 @@
 //! default), so a legitimate 16k x 16k 16-bit frame decodes and a lying header does not
 //! allocate.
 
-use std::io::{BufRead, Read, Seek};
+use std::io::{BufRead, Seek};
 
 use image::codecs::png::PngDecoder;
 use image::{ColorType as PngColor, ImageDecoder};
