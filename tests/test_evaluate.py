@@ -12,7 +12,9 @@ import pytest
 
 import irfidelity._core as core
 import irfidelity.stats as stats_mod
-from irfidelity.curves import Curve, EdgeWarning, mtf_from_edge, mtf_similarity
+from irfidelity.curves import Curve
+from irfidelity.edge import EdgeWarning, mtf_from_edge
+from irfidelity.mtf import mtf_similarity
 from irfidelity.errors import FidelityError, ShapeError
 from irfidelity.evaluation import FidelityReport, evaluate, image_components, plan_components
 from irfidelity.frames import load_frame

@@ -131,7 +131,7 @@ def run_demo(*, weights: Weights | None = None, out: Callable[[str], None] | Non
         out(f"          simulated = round({fm['gain']}·blur_sigma={fm['sigma']}px(real) + {fm['offset']} "
             f"+ N(0, {fm['noise']}²)), seed {fm['seed']}, clipped to {fm['bits']} bits")
         out(f"  MTF   : real slanted-edge crop vs the same crop blurred (sigma={em['sigma']} px) + N(0, {em['noise']}²)")
-        out(f"  SiTF  : measured Jade LWIR calibration vs in-band (8-12 um) Planck model, two-point calibrated")
+        out("  SiTF  : measured Jade LWIR calibration vs in-band (8-12 um) Planck model, two-point calibrated")
         out("")
         out(rep.summary_text())
     return rep

@@ -25,7 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from .curves import CY_PX, Curve, _diff_correction, _window
+from .curves import CY_PX, Curve
+from .mtf import _diff_correction, _window
 from .errors import FidelityError
 
 __all__ = ["EdgeWarning", "mtf_from_edge"]

@@ -21,7 +21,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import stats as _stats
-from .curves import Curve, mtf_similarity
+from .curves import Curve
+from .mtf import mtf_similarity
 from .errors import FidelityError
 from .fuzzy import COMPONENTS, GradeScale, Weights, fidelity_sum
 from .normalize import DEFAULT_PSNR_ANCHORS, normalize_psnr

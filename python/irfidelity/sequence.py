@@ -44,10 +44,8 @@ import csv as _csv
 import hashlib
 import io
 import json
-import math
 import os
 import struct
-import sys
 import zlib
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -57,7 +55,7 @@ import numpy as np
 
 from . import _core
 from .errors import FidelityError, FrameError
-from .evaluation import _dec, _enc, image_components, plan_components
+from .evaluation import _enc, image_components, plan_components
 from .frames import FrameSequence, load_frame
 from .fuzzy import COMPONENTS, Weights, fidelity_sum
 from .normalize import DEFAULT_PSNR_ANCHORS
@@ -346,14 +344,14 @@ class _Store:
                     f"{self.path}: cannot resume: it was written by a run with different settings or frames "
                     f"(see {self.side}); remove both files or use resume=False"
                 )
-            pos = good_len = len(header)
+            pos = len(header)
             while pos + _REC.size <= len(data):
                 idx, ln = _REC.unpack_from(data, pos)
                 end = pos + _REC.size + ln
                 if end > len(data):
                     break
                 stats[idx] = data[pos + _REC.size : end]
-                pos = good_len = end
+                pos = end
         # --- the CSV: same columns; drop a partly written last line, error rows, rows without stats
         with open(self.path, encoding="utf-8", newline="") as f:
             text = f.read()
