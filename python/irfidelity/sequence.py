@@ -332,7 +332,6 @@ class _Store:
     def _load_existing(self, header: bytes) -> None:
         # --- the sidecar: settings must match; keep complete records only
         stats: dict[int, bytes] = {}
-        good_len = 0
         try:
             with open(self.side, "rb") as f:
                 data = f.read()
