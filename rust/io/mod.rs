@@ -199,6 +199,13 @@ fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>) -> std::result::Result<
     }
 }
 
+/// Whether the file starts with a TIFF signature (errors are left to the full decode path).
+fn is_tiff(path: &Path) -> bool {
+    let mut head = [0u8; 8];
+    let n = File::open(path).and_then(|mut f| std::io::Read::read(&mut f, &mut head)).unwrap_or(0);
+    sniff(&head[..n]) == Some(Format::Tiff)
+}
+
 fn run_on_path(path: &Path, op: Op<'_>) -> Result<OpOut> {
     let name = path.display().to_string();
     let file = File::open(path).map_err(|e| frame_err(&name, format!("cannot open: {e}")))?;
@@ -215,6 +222,11 @@ fn run_on_path(path: &Path, op: Op<'_>) -> Result<OpOut> {
 ///
 /// Errors are `Error::Frame("{path}: {reason}")`.
 pub fn decode_frame(path: &Path, opts: &DecodeOptions) -> Result<Frame> {
+    if opts.page > 0 && is_tiff(path) {
+        // later pages of a multi-page TIFF: this thread's open decoder knows the IFD offsets
+        let name = path.display().to_string();
+        return guarded(&name, || raster::decode_tiff_page_cached(path, opts));
+    }
     match run_on_path(path, Op::Decode(opts))? {
         OpOut::Frame(f) => Ok(f),
         _ => unreachable!("decode returns a frame"),

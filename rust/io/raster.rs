@@ -5,7 +5,11 @@
 //! default), so a legitimate 16k x 16k 16-bit frame decodes and a lying header does not
 //! allocate.
 
-use std::io::{BufRead, Seek};
+use std::cell::RefCell;
+use std::fs::File;
+use std::io::{BufRead, BufReader, Seek};
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
 
 use image::codecs::png::PngDecoder;
 use image::{ColorType as PngColor, ImageDecoder};
@@ -198,6 +202,11 @@ pub(super) fn tiff_channels<R: BufRead + Seek>(reader: R) -> Result<Vec<String>,
 
 pub(super) fn decode_tiff<R: BufRead + Seek>(reader: R, o: &DecodeOptions) -> Result<Frame, Reason> {
     let mut dec = tiff_open(reader, o.max_pixels)?;
+    decode_tiff_page(&mut dec, o)
+}
+
+/// Decode page `o.page` with an open decoder (which remembers the IFD offsets it has seen).
+fn decode_tiff_page<R: BufRead + Seek>(dec: &mut TiffDecoder<R>, o: &DecodeOptions) -> Result<Frame, Reason> {
     if o.page > 0 {
         dec.seek_to_image(o.page).map_err(|e| match e {
             tiff::TiffError::FormatError(tiff::TiffFormatError::ImageFileDirectoryNotFound) => {
@@ -250,4 +259,57 @@ pub(super) fn decode_tiff<R: BufRead + Seek>(reader: R, o: &DecodeOptions) -> Re
         DecodingResult::I64(_) => return Err("unsupported TIFF sample type int64".to_string()),
     };
     Ok(Frame { rows, cols, data })
+}
+
+// ----------------------------------------------------------------------------- TIFF pages in order
+
+/// An open decoder of a multi-page TIFF, kept per thread between calls. Reading page k
+/// from a fresh decoder walks the k earlier IFDs; a sequence read page by page would
+/// cost O(n²) header reads. The decoder remembers every IFD offset it has walked.
+struct PageCursor {
+    key: (PathBuf, u64, Option<SystemTime>, u64), // path, length, mtime, max_pixels
+    dec: TiffDecoder<BufReader<File>>,
+    /// Highest page decoded so far: every IFD up to it is known to the decoder.
+    max_page: usize,
+}
+
+/// Cursors per thread: a real and a simulated sequence (and a spare) stay open together.
+const CURSORS_PER_THREAD: usize = 4;
+
+thread_local! {
+    static CURSORS: RefCell<Vec<PageCursor>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Decode page `o.page` (> 0) of the TIFF at `path`, reusing this thread's open decoder of
+/// that file when it has one. A file changed on disk (length or mtime) gets a new decoder.
+pub(super) fn decode_tiff_page_cached(path: &Path, o: &DecodeOptions) -> Result<Frame, Reason> {
+    let meta = std::fs::metadata(path).map_err(|e| format!("cannot stat: {e}"))?;
+    let key = (path.to_path_buf(), meta.len(), meta.modified().ok(), o.max_pixels);
+    // Take the cursor out while decoding: a decoder error or a panic (caught further up)
+    // then simply drops it instead of leaving a half-moved decoder behind.
+    let cached = CURSORS.with(|c| {
+        let mut v = c.borrow_mut();
+        v.iter().position(|cur| cur.key == key).map(|i| v.remove(i))
+    });
+    let mut cur = match cached {
+        Some(cur) => cur,
+        None => {
+            let file = File::open(path).map_err(|e| format!("cannot open: {e}"))?;
+            let dec = tiff_open(BufReader::with_capacity(1 << 16, file), o.max_pixels)?;
+            PageCursor { key, dec, max_page: 0 }
+        }
+    };
+    if o.page > cur.max_page {
+        // The decoder extends its IFD list only when walking on from the last known IFD:
+        // stand on it first (an O(1) seek), then walk forward.
+        cur.dec.seek_to_image(cur.max_page).map_err(|e| format!("page {}: {}", cur.max_page, tiff_err(e)))?;
+    }
+    let frame = decode_tiff_page(&mut cur.dec, o)?;
+    cur.max_page = cur.max_page.max(o.page);
+    CURSORS.with(|c| {
+        let mut v = c.borrow_mut();
+        v.insert(0, cur);
+        v.truncate(CURSORS_PER_THREAD);
+    });
+    Ok(frame)
 }

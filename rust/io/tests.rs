@@ -215,3 +215,29 @@ fn truncations_and_bit_flips_never_panic() {
         }
     }
 }
+
+#[test]
+fn tiff_pages_through_the_thread_cursor_equal_fresh_decodes() {
+    let path = data("thermal/cptv_v2_all100frames_uint16.tif");
+    let bytes = std::fs::read(&path).unwrap();
+    let page = |k: usize| DecodeOptions { page: k, ..Default::default() };
+    // fresh decoder per page (in memory, never cached) as the reference
+    let fresh = |k: usize| decode_bytes(&bytes, "ref", &page(k)).unwrap();
+    // in order, then out of order (back, forward past the known IFDs, first, last)
+    let order: Vec<usize> = (0..100).chain([50, 10, 99, 0, 3, 77, 98]).collect();
+    for k in order {
+        assert_eq!(decode_frame(&path, &page(k)).unwrap(), fresh(k), "page {k}");
+    }
+    assert!(frame_msg(decode_frame(&path, &page(100))).contains("page 100 out of range"));
+    // a rewritten file is not read through a stale decoder
+    let dir = std::env::temp_dir().join(format!("irf-cursor-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let copy = dir.join("seq.tif");
+    std::fs::write(&copy, &bytes).unwrap();
+    assert_eq!(decode_frame(&copy, &page(5)).unwrap(), fresh(5));
+    let other = std::fs::read(data("thermal/ptw_lwir_all100frames_uint16.tif")).unwrap();
+    std::fs::write(&copy, &other).unwrap();
+    let want = decode_bytes(&other, "ref", &page(5)).unwrap();
+    assert_eq!(decode_frame(&copy, &page(5)).unwrap(), want);
+    std::fs::remove_dir_all(&dir).ok();
+}
