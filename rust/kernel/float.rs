@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use super::{chunk_ranges, Acc, Bad, HistPlan, Request, Sample};
+use super::{chunk_ranges, Acc, Bad, HistPlan, Pass, Request, Sample};
 use crate::stats::{merge_float, two_sum, FloatSums};
 
 /// Neumaier-compensated running sum: totals of per-block lane sums.
@@ -41,18 +41,14 @@ const SUB: usize = 64;
 /// The float pass over `[a, b)`: mean first, then centred sums, on cache-resident data.
 /// Values are shifted by a per-call `pivot` (≈ each frame's mean, see `float_pivot`) so
 /// chunk means are small and Chan's merge does not lose digits to a large common offset.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) fn float_chunk<T: Sample>(
-    r: &[T],
-    s: &[T],
+    pass: &Pass<'_, T>,
     (a, b): (usize, usize),
-    req: &Request,
-    plan: Option<&HistPlan>,
     acc: &mut Acc,
     nonfinite: &mut u64,
-    pivot: (f64, f64),
 ) -> std::result::Result<(), Bad> {
+    let Pass { r, s, req, plan, pivot } = *pass;
     let (rr, sb) = (&r[a..b], &s[a..b]);
     if req.mask.is_none() && !req.moments && req.hist.is_none() {
         // PSNR-only plan: one pass, no means needed

@@ -1,18 +1,16 @@
 //! The exact integer pass: u64/i64 sums per block, i128/u128 totals, the joint histogram
 //! through a value → bin lookup table. Monomorphised per requested output.
 
-use super::{min_max, Acc, Bad, HistPlan, Request, Sample};
+use super::{min_max, Acc, Bad, Pass, Sample};
 
 /// The exact integer pass over `[a, b)`.
 #[inline(always)]
 pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST: bool>(
-    r: &[T],
-    s: &[T],
+    pass: &Pass<'_, T>,
     (a, b): (usize, usize),
-    req: &Request,
-    plan: Option<&HistPlan>,
     acc: &mut Acc,
 ) -> std::result::Result<(), Bad> {
+    let Pass { r, s, req, plan, .. } = *pass;
     let dense_bins = plan.and_then(|p| p.dense_bins).unwrap_or(0);
     let binner = plan.and_then(|p| p.binner.as_ref());
     let mut start = a;

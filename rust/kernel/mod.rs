@@ -367,68 +367,49 @@ fn make_int_binner<T: Sample>(bins: usize, lo: i64, width: i64) -> Binner {
     Binner { bins, lo: lo as f64, width: width as f64, inv_width: 1.0 / width as f64, lut }
 }
 
+/// What every chunk of one call shares, read-only.
+#[derive(Clone, Copy)]
+pub(crate) struct Pass<'a, T> {
+    pub(crate) r: &'a [T],
+    pub(crate) s: &'a [T],
+    pub(crate) req: &'a Request<'a>,
+    pub(crate) plan: Option<&'a HistPlan>,
+    /// float frames: the values the sums are taken relative to (see `float::float_pivot`)
+    pub(crate) pivot: (f64, f64),
+}
+
 /// One chunk, dispatched once per call to a copy of the loops compiled for AVX2 when the
 /// CPU has it (the baseline x86-64 build only assumes SSE2). Same code, same results.
-#[allow(clippy::too_many_arguments)]
-fn run_chunk<T: Sample>(
-    r: &[T],
-    s: &[T],
-    range: (usize, usize),
-    req: &Request,
-    plan: Option<&HistPlan>,
-    acc: &mut Acc,
-    nonfinite: &mut u64,
-    pivot: (f64, f64),
-) -> std::result::Result<(), Bad> {
+fn run_chunk<T: Sample>(pass: &Pass<'_, T>, range: (usize, usize), acc: &mut Acc, nf: &mut u64) -> std::result::Result<(), Bad> {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above; the check is cached by std).
-        return unsafe { run_chunk_avx2(r, s, range, req, plan, acc, nonfinite, pivot) };
+        return unsafe { run_chunk_avx2(pass, range, acc, nf) };
     }
-    run_chunk_impl(r, s, range, req, plan, acc, nonfinite, pivot)
+    run_chunk_impl(pass, range, acc, nf)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
-fn run_chunk_avx2<T: Sample>(
-    r: &[T],
-    s: &[T],
-    range: (usize, usize),
-    req: &Request,
-    plan: Option<&HistPlan>,
-    acc: &mut Acc,
-    nonfinite: &mut u64,
-    pivot: (f64, f64),
-) -> std::result::Result<(), Bad> {
-    run_chunk_impl(r, s, range, req, plan, acc, nonfinite, pivot)
+fn run_chunk_avx2<T: Sample>(pass: &Pass<'_, T>, range: (usize, usize), acc: &mut Acc, nf: &mut u64) -> std::result::Result<(), Bad> {
+    run_chunk_impl(pass, range, acc, nf)
 }
 
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn run_chunk_impl<T: Sample>(
-    r: &[T],
-    s: &[T],
-    range: (usize, usize),
-    req: &Request,
-    plan: Option<&HistPlan>,
-    acc: &mut Acc,
-    nonfinite: &mut u64,
-    pivot: (f64, f64),
-) -> std::result::Result<(), Bad> {
+fn run_chunk_impl<T: Sample>(pass: &Pass<'_, T>, range: (usize, usize), acc: &mut Acc, nf: &mut u64) -> std::result::Result<(), Bad> {
     if !T::IS_INT {
-        return float_chunk(r, s, range, req, plan, acc, nonfinite, pivot);
+        return float_chunk(pass, range, acc, nf);
     }
     // Monomorphise the hot loop for each combination of requested outputs.
-    match (req.sse, req.moments, plan.is_some()) {
-        (true, true, true) => int_chunk::<T, true, true, true>(r, s, range, req, plan, acc),
-        (true, true, false) => int_chunk::<T, true, true, false>(r, s, range, req, plan, acc),
-        (true, false, true) => int_chunk::<T, true, false, true>(r, s, range, req, plan, acc),
-        (true, false, false) => int_chunk::<T, true, false, false>(r, s, range, req, plan, acc),
-        (false, true, true) => int_chunk::<T, false, true, true>(r, s, range, req, plan, acc),
-        (false, true, false) => int_chunk::<T, false, true, false>(r, s, range, req, plan, acc),
-        (false, false, true) => int_chunk::<T, false, false, true>(r, s, range, req, plan, acc),
-        (false, false, false) => int_chunk::<T, false, false, false>(r, s, range, req, plan, acc),
+    match (pass.req.sse, pass.req.moments, pass.plan.is_some()) {
+        (true, true, true) => int_chunk::<T, true, true, true>(pass, range, acc),
+        (true, true, false) => int_chunk::<T, true, true, false>(pass, range, acc),
+        (true, false, true) => int_chunk::<T, true, false, true>(pass, range, acc),
+        (true, false, false) => int_chunk::<T, true, false, false>(pass, range, acc),
+        (false, true, true) => int_chunk::<T, false, true, true>(pass, range, acc),
+        (false, true, false) => int_chunk::<T, false, true, false>(pass, range, acc),
+        (false, false, true) => int_chunk::<T, false, false, true>(pass, range, acc),
+        (false, false, false) => int_chunk::<T, false, false, false>(pass, range, acc),
     }
 }
 
@@ -472,13 +453,14 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
     // final mean is the pivot plus a small, accurate correction and chunk merges see small
     // offsets (a pivot far from the mean would cancel digits: ±3e38 data, mean 1e35).
     let pivot = if T::IS_INT || !req.moments { (0.0, 0.0) } else { float_pivot(r, s, req) };
+    let pass = Pass { r, s, req, plan: plan_ref, pivot };
     let chunks = chunk_ranges(r.len());
     let result = chunks
         .into_par_iter()
         .try_fold(
             || (Acc::new(plan_ref), 0u64),
             |(mut acc, mut nf), range| {
-                run_chunk(r, s, range, req, plan_ref, &mut acc, &mut nf, pivot)?;
+                run_chunk(&pass, range, &mut acc, &mut nf)?;
                 if acc.keys.len() >= 1 << 20 {
                     acc.flush_keys();
                 }
