@@ -27,9 +27,15 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
                 let (x, y): (i64, i64) = ($x, $y);
                 n += 1;
                 if SSE {
-                    // |x − y| < 2^32 for every integer dtype: a u32 squared fits u64
-                    let d = x.abs_diff(y) as u32 as u64;
-                    sse += d * d;
+                    if T::BLOCK == 1 {
+                        // 32-bit values: |x − y| < 2^32, a u32 squared fits u64
+                        let d = x.abs_diff(y) as u32 as u64;
+                        sse += d * d;
+                    } else {
+                        // ≤ 16-bit values: x − y fits i32, its square fits u64 (vpmuldq)
+                        let d = (x - y) as i32 as i64;
+                        sse += (d * d) as u64;
+                    }
                 }
                 if MOM {
                     if T::BLOCK == 1 {
