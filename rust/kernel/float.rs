@@ -2,9 +2,7 @@
 //! mean, in independent lanes folded into Neumaier-compensated totals (two passes per
 //! cache-sized chunk: mean, then centred sums), chunks merged with Chan's update.
 
-use rayon::prelude::*;
-
-use super::{chunk_ranges, Acc, Bad, HistPlan, Pass, Request, Sample};
+use super::{fold_chunks, Acc, Bad, HistPlan, Pass, Request, Sample};
 use crate::stats::{merge_float, two_sum, FloatSums};
 
 /// Neumaier-compensated running sum: totals of per-block lane sums.
@@ -99,6 +97,23 @@ pub(super) fn float_chunk<T: Sample>(
     Ok(())
 }
 
+/// Running max of |x| and |y| for the underflow check. Plain compares (one `maxpd`), not
+/// `f64::max`, whose NaN rules cost a blend per value: NaN is caught by the sums anyway.
+/// Only float64 frames can be small enough to underflow, so other types skip it.
+#[inline(always)]
+fn bigger<T: Sample>(m: f64, x: f64, y: f64) -> f64 {
+    if !T::MAY_UNDERFLOW {
+        return m;
+    }
+    let (ax, ay) = (x.abs(), y.abs());
+    let m = if ax > m { ax } else { m };
+    if ay > m {
+        ay
+    } else {
+        m
+    }
+}
+
 /// Σ(x − y)² (compensated) and max |value| of a run of pixels.
 #[inline(always)]
 fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
@@ -113,13 +128,13 @@ fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
                 let (x, y) = (xr[k].to_f64(), xs[k].to_f64());
                 let d = x - y;
                 l[k] += d * d;
-                max_abs[k] = max_abs[k].max(x.abs()).max(y.abs());
+                max_abs[k] = bigger::<T>(max_abs[k], x, y);
             }
         }
         for (&x, &y) in rem_r.iter().zip(rem_s) {
             let (x, y) = (x.to_f64(), y.to_f64());
             l[0] += (x - y) * (x - y);
-            max_abs[0] = max_abs[0].max(x.abs()).max(y.abs());
+            max_abs[0] = bigger::<T>(max_abs[0], x, y);
         }
         tot.add(l.iter().sum());
     }
@@ -147,14 +162,14 @@ fn float_sums<T: Sample>(rr: &[T], sb: &[T], (pr, ps): (f64, f64)) -> (f64, f64,
             let (x, y) = (xr[k].to_f64(), xs[k].to_f64());
             add(&mut lr[k], &mut cr_[k], x - pr);
             add(&mut ls[k], &mut cs_[k], y - ps);
-            max_abs[k] = max_abs[k].max(x.abs()).max(y.abs());
+            max_abs[k] = bigger::<T>(max_abs[k], x, y);
         }
     }
     for (&x, &y) in rem_r.iter().zip(rem_s) {
         let (x, y) = (x.to_f64(), y.to_f64());
         add(&mut lr[0], &mut cr_[0], x - pr);
         add(&mut ls[0], &mut cs_[0], y - ps);
-        max_abs[0] = max_abs[0].max(x.abs()).max(y.abs());
+        max_abs[0] = bigger::<T>(max_abs[0], x, y);
     }
     let (mut tr, mut ts) = (Neumaier::default(), Neumaier::default());
     for k in 0..LANES {
@@ -246,13 +261,16 @@ fn float_centred<T: Sample>(
 /// or (with a mask or non-finite values) the first finite value.
 pub(super) fn float_pivot<T: Sample>(r: &[T], s: &[T], req: &Request) -> (f64, f64) {
     if req.mask.is_none() && !r.is_empty() {
-        let (sr, ss) = chunk_ranges(r.len())
-            .into_par_iter()
-            .map(|(a, b)| {
+        let add = |a: (f64, f64), b: (f64, f64)| (a.0 + b.0, a.1 + b.1);
+        let Ok((sr, ss)) = fold_chunks::<T, _, std::convert::Infallible>(
+            r.len(),
+            || (0.0, 0.0),
+            |acc, (a, b)| {
                 let (x, y, _) = float_sums(&r[a..b], &s[a..b], (0.0, 0.0));
-                (x, y)
-            })
-            .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+                Ok(add(acc, (x, y)))
+            },
+            add,
+        );
         let n = r.len() as f64;
         // Keep 24 significant bits: x − pivot is then exact for every float32 value (and for
         // float64 values within 2^29 of the pivot's magnitude) — a 53-bit pivot would round

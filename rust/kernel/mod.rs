@@ -30,6 +30,8 @@ pub trait Sample: Copy + PartialOrd + Send + Sync + 'static {
     const LUT: usize;
     /// Pixels per exact block: squares of this many values fit in u64.
     const BLOCK: usize;
+    /// Float types whose squares can underflow float64 (checked via the largest |value|).
+    const MAY_UNDERFLOW: bool = false;
     fn to_i64(self) -> i64;
     fn to_f64(self) -> f64;
     /// The slice as float16, for the one type that is (widened once, see `pair_stats`).
@@ -67,6 +69,7 @@ macro_rules! float_sample {
             fn to_i64(self) -> i64 { 0 }
             #[inline(always)]
             fn to_f64(self) -> f64 { $conv(self) }
+            const MAY_UNDERFLOW: bool = std::mem::size_of::<$t>() == 8;
             $(fn as_f16(s: &[Self]) -> Option<&[half::f16]> { $f16(s) })?
         }
     )*};
@@ -241,7 +244,30 @@ pub(crate) enum Bad {
     NonFinite { index: usize },
 }
 
-pub(crate) fn chunk_ranges(n: usize) -> Vec<(usize, usize)> {
+/// Frame pairs of at most this many bytes run on the calling thread: waking pool threads
+/// costs more than the work (a 512 × 512 uint16 PSNR pass takes ~30 µs).
+const SEQUENTIAL_BYTES: usize = 1 << 20;
+
+/// Fold `step` over the chunks of a pair of `n`-pixel frames of `T` and combine the partial results with
+/// `merge`: on the calling thread for small frames, on the rayon pool otherwise.
+pub(crate) fn fold_chunks<T, A, E>(
+    n: usize,
+    init: impl Fn() -> A + Sync + Send,
+    step: impl Fn(A, (usize, usize)) -> std::result::Result<A, E> + Sync + Send,
+    merge: impl Fn(A, A) -> A + Sync + Send,
+) -> std::result::Result<A, E>
+where
+    A: Send,
+    E: Send,
+{
+    let chunks = chunk_ranges(n);
+    if 2 * n * std::mem::size_of::<T>() <= SEQUENTIAL_BYTES {
+        return chunks.into_iter().try_fold(init(), step);
+    }
+    chunks.into_par_iter().try_fold(&init, &step).try_reduce(&init, |a, b| Ok(merge(a, b)))
+}
+
+fn chunk_ranges(n: usize) -> Vec<(usize, usize)> {
     (0..n.div_ceil(CHUNK)).map(|c| (c * CHUNK, ((c + 1) * CHUNK).min(n))).collect()
 }
 
@@ -261,7 +287,6 @@ pub(crate) fn min_max<T: Sample>(r: &[T], s: &[T]) -> Option<(T, T)> {
 
 /// Min and max over the counted pixels of both frames (f64 for floats, exact for ints).
 fn data_range<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<(f64, f64)> {
-    let chunks = chunk_ranges(r.len());
     let fold = |(a, b): (usize, usize)| -> (f64, f64) {
         if T::IS_INT && req.mask.is_none() {
             // integers: no finiteness test, a branch-free loop the compiler vectorises
@@ -284,10 +309,13 @@ fn data_range<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<(f64, f64)> 
         }
         (lo, hi)
     };
-    let (lo, hi) = chunks
-        .into_par_iter()
-        .map(fold)
-        .reduce(|| (f64::INFINITY, f64::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    let both = |a: (f64, f64), b: (f64, f64)| (a.0.min(b.0), a.1.max(b.1));
+    let Ok((lo, hi)) = fold_chunks::<T, _, std::convert::Infallible>(
+        r.len(),
+        || (f64::INFINITY, f64::NEG_INFINITY),
+        |acc, range| Ok(both(acc, fold(range))),
+        both,
+    );
     (lo <= hi).then_some((lo, hi))
 }
 
@@ -454,23 +482,18 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
     // offsets (a pivot far from the mean would cancel digits: ±3e38 data, mean 1e35).
     let pivot = if T::IS_INT || !req.moments { (0.0, 0.0) } else { float_pivot(r, s, req) };
     let pass = Pass { r, s, req, plan: plan_ref, pivot };
-    let chunks = chunk_ranges(r.len());
-    let result = chunks
-        .into_par_iter()
-        .try_fold(
-            || (Acc::new(plan_ref), 0u64),
-            |(mut acc, mut nf), range| {
-                run_chunk(&pass, range, &mut acc, &mut nf)?;
-                if acc.keys.len() >= 1 << 20 {
-                    acc.flush_keys();
-                }
-                Ok((acc, nf))
-            },
-        )
-        .try_reduce(
-            || (Acc::new(plan_ref), 0u64),
-            |(a, na), (b, nb)| Ok((a.merge(b, T::IS_INT), na + nb)),
-        );
+    let result = fold_chunks::<T, _, _>(
+        r.len(),
+        || (Acc::new(plan_ref), 0u64),
+        |(mut acc, mut nf), range| {
+            run_chunk(&pass, range, &mut acc, &mut nf)?;
+            if acc.keys.len() >= 1 << 20 {
+                acc.flush_keys();
+            }
+            Ok((acc, nf))
+        },
+        |(a, na), (b, nb)| (a.merge(b, T::IS_INT), na + nb),
+    );
     let (mut acc, nonfinite) = match result {
         Ok(v) => v,
         Err(bad) => return Err(describe(bad, r, s, req)),
