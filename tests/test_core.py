@@ -446,3 +446,35 @@ def test_real_thermal_frames():
     st = irf.pair_stats(big, noisy, bits=16)
     assert st.mse() == float(exact_ref(big, noisy)["mse"])
     assert 0.99 < st.ssim().value <= 1.0
+
+
+def test_simd_and_baseline_loops_give_identical_statistics():
+    # The AVX2 copy of the loops and the baseline (SSE2) copy do the same operations in the
+    # same order: their PairStats must be byte-identical. IRFIDELITY_NO_SIMD forces baseline.
+    import os
+    import subprocess
+    import sys
+
+    script = r"""
+import sys, numpy as np, irfidelity as irf
+rng = np.random.default_rng(21)
+out = []
+for dt in (np.uint8, np.uint16, np.int16, np.uint32, np.float16, np.float32, np.float64):
+    if np.dtype(dt).kind == "f":
+        r = rng.normal(1e3, 40, (300, 333)).astype(dt)
+        s = (r.astype(np.float64) + rng.normal(0, 3, r.shape)).astype(dt)
+        st = irf.pair_stats(r, s, peak=2e3)
+    else:
+        info = np.iinfo(dt)
+        r = rng.integers(max(info.min, -30000), min(info.max, 60000), (300, 333)).astype(dt)
+        s = np.clip(r.astype(np.int64) + rng.integers(-9, 10, r.shape), info.min, info.max).astype(dt)
+        st = irf.pair_stats(r, s, bins="levels" if dt == np.uint16 else 256)
+    out.append(st._raw.to_bytes().hex())
+sys.stdout.write("\n".join(out))
+"""
+    env = dict(os.environ)
+    simd = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+    env["IRFIDELITY_NO_SIMD"] = "1"
+    base = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+    assert simd.stdout.splitlines() == base.stdout.splitlines()
+    assert len(simd.stdout.splitlines()) == 7

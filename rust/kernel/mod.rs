@@ -410,11 +410,18 @@ pub(crate) struct Pass<'a, T> {
 /// CPU has it (the baseline x86-64 build only assumes SSE2). Same code, same results.
 fn run_chunk<T: Sample>(pass: &Pass<'_, T>, range: (usize, usize), acc: &mut Acc, nf: &mut u64) -> std::result::Result<(), Bad> {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2 (checked just above; the check is cached by std).
+    if use_avx2() {
+        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
         return unsafe { run_chunk_avx2(pass, range, acc, nf) };
     }
     run_chunk_impl(pass, range, acc, nf)
+}
+
+/// AVX2 when the CPU has it, unless `IRFIDELITY_NO_SIMD` is set (to compare both copies).
+#[cfg(target_arch = "x86_64")]
+fn use_avx2() -> bool {
+    static USE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *USE.get_or_init(|| std::arch::is_x86_feature_detected!("avx2") && std::env::var_os("IRFIDELITY_NO_SIMD").is_none())
 }
 
 #[cfg(target_arch = "x86_64")]
