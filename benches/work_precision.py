@@ -275,19 +275,24 @@ def _np_ssim(dt, two_pass):
     return f
 
 
+def _edges(r, s, bins):
+    """The library's documented bin edges (integer frames: whole grey levels, width
+    ceil(span/bins), starting at the data min), as float edges for numpy/scikit-image."""
+    if r.dtype.kind in "ui":
+        lo = int(min(r.min(), s.min()))
+        hi = int(max(r.max(), s.max()))
+        width = -(-(hi - lo + 1) // bins)
+        nb = -(-(hi - lo + 1) // width)
+        return lo - 0.5 + width * np.arange(nb + 1, dtype=np.float64)
+    lo = float(min(r.min(), s.min()))
+    hi = float(max(r.max(), s.max()))
+    return np.linspace(lo, hi, bins + 1) if hi > lo else np.array([lo - 0.5, lo + 0.5])
+
+
 def _np_hist2d_nmi(bins):
     def f(c):
         r, s = c["r"], c["s"]
-        if r.dtype.kind in "ui":
-            lo = int(min(r.min(), s.min()))
-            hi = int(max(r.max(), s.max()))
-            width = -(-(hi - lo + 1) // bins)
-            nb = -(-(hi - lo + 1) // width)
-            edges = lo - 0.5 + width * np.arange(nb + 1, dtype=np.float64)
-        else:
-            lo = float(min(r.min(), s.min()))
-            hi = float(max(r.max(), s.max()))
-            edges = np.linspace(lo, hi, bins + 1) if hi > lo else np.array([lo - 0.5, lo + 0.5])
+        edges = _edges(r, s, bins)
         h, _, _ = np.histogram2d(r.ravel().astype(np.float64), s.ravel().astype(np.float64), bins=[edges, edges])
         hr, hs, hj = _ent64(h.sum(1)), _ent64(h.sum(0)), _ent64(h.ravel())
         return {"h_real": hr, "h_sim": hs, "h_joint": hj, "nmi": _nmi_from_h(hr, hs, hj)}
@@ -300,16 +305,7 @@ def _sk_nmi(bins):
 
     def f(c):
         r, s = c["r"], c["s"]
-        if r.dtype.kind in "ui":
-            lo = int(min(r.min(), s.min()))
-            hi = int(max(r.max(), s.max()))
-            width = -(-(hi - lo + 1) // bins)
-            nb = -(-(hi - lo + 1) // width)
-            edges = lo - 0.5 + width * np.arange(nb + 1, dtype=np.float64)
-        else:
-            lo = float(min(r.min(), s.min()))
-            hi = float(max(r.max(), s.max()))
-            edges = np.linspace(lo, hi, bins + 1)
+        edges = _edges(r, s, bins)
         y = normalized_mutual_information(r, s, bins=[edges, edges])  # (H(A)+H(B))/H(A,B)
         # paper (eq. 10): NMI = 2·MI/(H(A)+H(B)) = 2·(1 − H(A,B)/(H(A)+H(B))) = 2 − 2/Y
         return {"nmi": 2.0 - 2.0 / y}
