@@ -271,8 +271,8 @@ fn chunk_ranges(n: usize) -> Vec<(usize, usize)> {
     (0..n.div_ceil(CHUNK)).map(|c| (c * CHUNK, ((c + 1) * CHUNK).min(n))).collect()
 }
 
-/// Min and max of two runs of integer samples, in the native width (vectorises to
-/// pminuw & co. instead of i64 compares). `None` for empty runs.
+/// Min and max of two runs of samples by plain compares, in the native width (vectorises to
+/// pminuw/minps & co.). `None` for empty runs. NaN is not ordered: callers check finiteness.
 pub(crate) fn min_max<T: Sample>(r: &[T], s: &[T]) -> Option<(T, T)> {
     let first = *r.first()?;
     let (mut lo, mut hi) = (first, first);
@@ -288,12 +288,16 @@ pub(crate) fn min_max<T: Sample>(r: &[T], s: &[T]) -> Option<(T, T)> {
 /// Min and max over the counted pixels of both frames (f64 for floats, exact for ints).
 fn data_range<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<(f64, f64)> {
     let fold = |(a, b): (usize, usize)| -> (f64, f64) {
-        if T::IS_INT && req.mask.is_none() {
-            // integers: no finiteness test, a branch-free loop the compiler vectorises
-            return match min_max(&r[a..b], &s[a..b]) {
-                Some((lo, hi)) => (lo.to_f64(), hi.to_f64()),
-                None => (f64::INFINITY, f64::NEG_INFINITY),
-            };
+        if req.mask.is_none() {
+            // a branch-free loop the compiler vectorises; for floats it is kept only when both
+            // ends are finite (a NaN or ±Inf anywhere falls through to the careful loop)
+            match min_max(&r[a..b], &s[a..b]) {
+                None => return (f64::INFINITY, f64::NEG_INFINITY),
+                Some((lo, hi)) if T::IS_INT || (lo.to_f64().is_finite() && hi.to_f64().is_finite()) => {
+                    return (lo.to_f64(), hi.to_f64())
+                }
+                Some(_) => {}
+            }
         }
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for i in a..b {
