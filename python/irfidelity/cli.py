@@ -31,26 +31,23 @@ class _UsageError(Exception):
     pass
 
 
-def _bins(text: str) -> int | str:
-    if text == "levels":
-        return text
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer or 'levels', got {text!r}") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer or 'levels', got {text!r}")
-    return n
-
-
 def _positive_int(text: str) -> int:
     try:
         n = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+        n = 0
     if n < 1:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
     return n
+
+
+def _bins(text: str) -> int | str:
+    if text == "levels":
+        return text
+    try:
+        return _positive_int(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer or 'levels', got {text!r}") from None
 
 
 def _build_parser() -> argparse.ArgumentParser:
