@@ -8,15 +8,18 @@
 use std::collections::HashSet;
 use std::io::{BufRead, Seek, SeekFrom};
 
-use ::exr::block::chunk::Chunk;
+use ::exr::block::chunk::{Chunk, CompressedBlock};
 use ::exr::block::reader::ChunksReader;
 use ::exr::block::UncompressedBlock;
+use ::exr::compression::Compression;
 use ::exr::math::Vec2;
 use ::exr::meta::attribute::SampleType;
 use ::exr::meta::header::Header;
+use ::exr::meta::MetaData;
 use half::f16;
 use rayon::prelude::*;
 
+use super::piz::{self, FromWords};
 use super::{check_size, DecodeOptions, Frame, FrameData, Reason};
 
 /// Map an `exr` crate error to a reason.
@@ -120,7 +123,7 @@ pub(super) fn channels<R: BufRead + Seek>(reader: R) -> Result<Vec<String>, Reas
 }
 
 /// A sample type as stored in an uncompressed (native-endian) block.
-trait Sample: Copy + Send + Sync + 'static {
+trait Sample: FromWords + Copy + Send + Sync + 'static {
     const ZERO: Self;
     const SIZE: usize;
     fn from_ne(b: &[u8]) -> Self;
@@ -154,11 +157,13 @@ impl Sample for u32 {
 }
 
 /// Byte layout of one pixel row of a block: bytes per pixel over all channels, and the
-/// offset (per pixel) of the selected channel's run within a row.
-#[derive(Clone, Copy)]
+/// offset (per pixel) of the selected channel's run within a row; for PIZ blocks, the
+/// 16-bit words per sample of every channel and the selected channel's index.
 struct Layout {
     bytes_per_pixel: usize,
     channel_offset_per_pixel: usize,
+    piz_words: Option<Vec<usize>>,
+    channel: usize,
 }
 
 /// Samples of the selected channel from one decompressed block, with its placement.
@@ -170,7 +175,7 @@ struct Piece<T> {
     samples: Vec<T>,
 }
 
-fn extract<T: Sample>(block: &UncompressedBlock, layout: Layout) -> Result<Piece<T>, Reason> {
+fn extract<T: Sample>(block: &UncompressedBlock, layout: &Layout) -> Result<Piece<T>, Reason> {
     let Vec2(w, h) = block.index.pixel_size;
     let Vec2(x, y) = block.index.pixel_position;
     let row_bytes = w
@@ -195,9 +200,37 @@ fn extract<T: Sample>(block: &UncompressedBlock, layout: Layout) -> Result<Piece
     Ok(Piece { x, y, w, h, samples })
 }
 
+/// The selected channel of one chunk: PIZ blocks through our single-channel decoder
+/// (unless stored raw because compression did not pay), everything else through the
+/// `exr` crate.
+fn decompress<T: Sample>(c: Chunk, meta: &MetaData, layout: &Layout) -> Result<Piece<T>, Reason> {
+    if let Some(words) = &layout.piz_words {
+        let header = meta
+            .headers
+            .get(c.layer_index)
+            .ok_or_else(|| "corrupt OpenEXR file: chunk names a missing part".to_string())?;
+        let tile = header.get_block_data_indices(&c.compressed_block).map_err(exr_err)?;
+        let bounds = header.get_absolute_block_pixel_coordinates(tile).map_err(exr_err)?;
+        bounds.validate(Some(header.layer_size)).map_err(exr_err)?;
+        let Vec2(x, y) = bounds.position.to_usize("block position").map_err(exr_err)?;
+        let Vec2(w, h) = bounds.size;
+        let bytes = match &c.compressed_block {
+            CompressedBlock::ScanLine(b) => &b.compressed_pixels_le,
+            CompressedBlock::Tile(b) => &b.compressed_pixels_le,
+            _ => return Err("unsupported: deep data (only flat OpenEXR images can be decoded)".to_string()),
+        };
+        if Some(bytes.len()) != w.checked_mul(h).and_then(|n| n.checked_mul(layout.bytes_per_pixel)) {
+            let samples = piz::decode_channel::<T>(bytes, words, layout.channel, w, h)?;
+            return Ok(Piece { x, y, w, h, samples });
+        }
+    }
+    let block = UncompressedBlock::decompress_chunk(c, meta, false).map_err(exr_err)?;
+    extract::<T>(&block, layout)
+}
+
 fn assemble<T: Sample, C: ChunksReader>(
     mut chunks: C,
-    layout: Layout,
+    layout: &Layout,
     rows: usize,
     cols: usize,
 ) -> Result<Vec<T>, Reason> {
@@ -219,10 +252,7 @@ fn assemble<T: Sample, C: ChunksReader>(
         }
         let pieces: Vec<Result<Piece<T>, Reason>> = compressed
             .into_par_iter()
-            .map(|c| {
-                let block = UncompressedBlock::decompress_chunk(c, &meta, false).map_err(exr_err)?;
-                extract::<T>(&block, layout)
-            })
+            .map(|c| decompress::<T>(c, &meta, layout))
             .collect();
         for piece in pieces {
             let p = piece?;
@@ -301,15 +331,17 @@ pub(super) fn decode<R: BufRead + Seek>(mut reader: R, o: &DecodeOptions) -> Res
     let layout = Layout {
         bytes_per_pixel: bytes.iter().sum(),
         channel_offset_per_pixel: bytes[..ch].iter().sum(),
+        piz_words: (h.compression == Compression::PIZ).then(|| bytes.iter().map(|b| b / 2).collect()),
+        channel: ch,
     };
 
     let chunks = r
         .filter_chunks(false, |_, tile, block| block.layer == part && tile.level_index == Vec2(0, 0))
         .map_err(exr_err)?;
     let data = match sample_type {
-        SampleType::F16 => FrameData::F16(assemble::<f16, _>(chunks, layout, rows, cols)?),
-        SampleType::F32 => FrameData::F32(assemble::<f32, _>(chunks, layout, rows, cols)?),
-        SampleType::U32 => FrameData::U32(assemble::<u32, _>(chunks, layout, rows, cols)?),
+        SampleType::F16 => FrameData::F16(assemble::<f16, _>(chunks, &layout, rows, cols)?),
+        SampleType::F32 => FrameData::F32(assemble::<f32, _>(chunks, &layout, rows, cols)?),
+        SampleType::U32 => FrameData::U32(assemble::<u32, _>(chunks, &layout, rows, cols)?),
     };
     Ok(Frame { rows, cols, data })
 }

@@ -22,6 +22,7 @@ use std::path::Path;
 use crate::{Error, Result};
 
 mod exr;
+mod piz;
 mod raster;
 
 /// Decoded samples of one frame, row-major, in the file's own sample type.
