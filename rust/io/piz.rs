@@ -1,10 +1,13 @@
 //! PIZ block decoding for one channel (OpenEXR's `ImfPizCompressor` + `ImfHuf` + `ImfWav`).
 //!
 //! Why our own: the `exr` crate decodes PIZ at about half OpenEXR's speed (a byte-at-a-time
-//! Huffman reader over a 400 KB table of enums, rebuilt per block) and wavelet-decodes and
-//! converts every channel. Here the Huffman stream is read through a 64-bit window with a
-//! compact `u32` table, scratch tables are reused per thread, and only the selected
-//! channel is wavelet-decoded and mapped back through the value table.
+//! Huffman reader over a 400 KB table of enums, rebuilt per block, and a list search per
+//! long code) and wavelet-decodes and converts every channel. Here the Huffman stream is
+//! read through a 64-bit window, up to four codes per window, with a 16 KB first-level
+//! table that stays in L1 cache; longer codes are found from the canonical code bases by
+//! length (as OpenEXR's `FastHufDecoder` does); tables are per thread and reused between
+//! blocks; only the selected channel is wavelet-decoded and mapped back through the
+//! value table.
 //!
 //! Every step follows OpenEXR's reference decoder, including its checks (a short code
 //! that overlaps another in the table, run-lengths past the end, a wrong symbol count
@@ -329,19 +332,19 @@ fn code_bits(e: u64) -> u64 {
     e >> 6
 }
 
-/// `hufBuildDecTable`: short codes (≤ 14 bits) fill all table slots they prefix, as
-/// (symbol << 6) | length; a long code's 14-bit prefix is marked `LONG`, and its symbol
-/// goes to `long_syms`, grouped by length in symbol order.
+/// `hufBuildDecTable`: short codes (≤ 12 bits here, 14 in OpenEXR) fill all table slots
+/// they prefix, as (symbol << 6) | length; a long code's 12-bit prefix is marked `LONG`
+/// with the shortest length under it, and its symbol goes to `long_syms`, grouped by
+/// length in symbol order.
 fn build_decoding_table(t: &mut Tables) -> Result<(), Reason> {
     t.dec.fill(0);
-    let mut next = [0usize; 59];
     let mut total = 0usize;
     for l in (TABLE_BITS as usize + 1)..=58 {
         t.first[l] = total;
-        next[l] = total;
         total += t.count[l] as usize;
         t.search_base[l] = if t.count[l] > 0 { t.base[l] } else { u64::MAX };
     }
+    let mut next = t.first;
     t.long_syms.clear();
     t.long_syms.resize(total, 0);
     for &sym in &t.used {
@@ -359,11 +362,11 @@ fn build_decoding_table(t: &mut Tables) -> Result<(), Reason> {
             if *slot == 0 || (*slot >> 6) & 63 > l {
                 *slot = LONG | l << 6;
             }
-            t.long_syms[next[l as usize]] = sym as u32;
+            t.long_syms[next[l as usize]] = sym;
             next[l as usize] += 1;
         } else if l != 0 {
             let first = (c << (TABLE_BITS - l)) as usize;
-            let entry = ((sym as u32) << 6) | l;
+            let entry = (sym << 6) | l;
             for slot in &mut t.dec[first..first + (1 << (TABLE_BITS - l))] {
                 if *slot != 0 {
                     return Err(corrupt("invalid code table entry"));
