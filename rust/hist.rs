@@ -137,10 +137,9 @@ impl Joint {
     /// goes through the sparse domain.
     pub fn merge(&self, other: &Joint) -> Joint {
         match (self, other) {
-            (
-                Joint::Dense { bins: b1, offset: o1, counts: c1 },
-                Joint::Dense { bins: b2, offset: o2, counts: c2 },
-            ) if b1 == b2 && o1 == o2 => {
+            (Joint::Dense { bins: b1, offset: o1, counts: c1 }, Joint::Dense { bins: b2, offset: o2, counts: c2 })
+                if b1 == b2 && o1 == o2 =>
+            {
                 let counts = c1.iter().zip(c2).map(|(a, b)| a + b).collect();
                 Joint::Dense { bins: *b1, offset: *o1, counts }
             }

@@ -4,8 +4,8 @@
 
 pub mod error;
 pub mod hist;
-pub mod kernel;
 pub mod io;
+pub mod kernel;
 pub mod sequence;
 pub mod stats;
 

@@ -161,11 +161,7 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
                 .map(|s| s.to_string())
                 .or_else(|| payload.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "panic".into());
-            Err(Error::Value(format!(
-                "{} vs {}: internal error: {msg}",
-                real.label(),
-                sim.label()
-            )))
+            Err(Error::Value(format!("{} vs {}: internal error: {msg}", real.label(), sim.label())))
         }
     };
     out

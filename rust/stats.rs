@@ -159,13 +159,9 @@ impl PairStats {
                     cov: det_f64(ni, s.srs, s.sr, s.ss) / nn,
                 }
             }
-            Sums::Float(s) => Moments {
-                mean_real: s.mr,
-                mean_sim: s.ms,
-                var_real: s.m2r / n,
-                var_sim: s.m2s / n,
-                cov: s.crs / n,
-            },
+            Sums::Float(s) => {
+                Moments { mean_real: s.mr, mean_sim: s.ms, var_real: s.m2r / n, var_sim: s.m2s / n, cov: s.crs / n }
+            }
         })
     }
 
@@ -206,9 +202,7 @@ impl PairStats {
             }),
             (Sums::Float(a), Sums::Float(b)) => Sums::Float(merge_float(a, self.n, b, other.n)),
             _ => {
-                return Err(Error::Value(
-                    "cannot merge statistics of integer frames with those of float frames".into(),
-                ))
+                return Err(Error::Value("cannot merge statistics of integer frames with those of float frames".into()))
             }
         };
         let hist = match (&self.hist, &other.hist) {
@@ -329,7 +323,8 @@ impl PairStats {
                 let joint = match rd.u8()? {
                     0 => {
                         let (bins, offset) = (rd.u64()? as usize, rd.u64()?);
-                        let len = bins.checked_mul(bins).filter(|&l| l <= rd.remaining() / 8).ok_or_else(Reader::bad)?;
+                        let len =
+                            bins.checked_mul(bins).filter(|&l| l <= rd.remaining() / 8).ok_or_else(Reader::bad)?;
                         let counts = (0..len).map(|_| rd.u64()).collect::<Result<_>>()?;
                         Joint::Dense { bins, offset, counts }
                     }
@@ -416,4 +411,3 @@ pub(crate) fn merge_float(a: &FloatSums, na: u64, b: &FloatSums, nb: u64) -> Flo
         sse_c: a.sse_c + b.sse_c + e,
     }
 }
-

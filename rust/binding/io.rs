@@ -44,11 +44,7 @@ fn load_frame<'py>(
     page: usize,
     max_pixels: Option<u64>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let opts = DecodeOptions {
-        channel,
-        page,
-        max_pixels: max_pixels.unwrap_or(io::DEFAULT_MAX_PIXELS),
-    };
+    let opts = DecodeOptions { channel, page, max_pixels: max_pixels.unwrap_or(io::DEFAULT_MAX_PIXELS) };
     let frame = py.detach(|| io::decode_frame(&path, &opts)).py_err()?;
     to_array(py, frame, &path.display().to_string())
 }

@@ -16,14 +16,12 @@ pub(crate) fn to_pyerr(err: crate::Error) -> PyErr {
         crate::Error::Frame(m) => ("FrameError", m),
         crate::Error::Value(m) => ("FidelityError", m),
     };
-    Python::attach(|py| {
-        match py.import("irfidelity.errors").and_then(|m| m.getattr(class)) {
-            Ok(cls) => match cls.call1((msg.clone(),)) {
-                Ok(inst) => PyErr::from_value(inst),
-                Err(e) => e,
-            },
-            Err(_) => pyo3::exceptions::PyValueError::new_err(msg),
-        }
+    Python::attach(|py| match py.import("irfidelity.errors").and_then(|m| m.getattr(class)) {
+        Ok(cls) => match cls.call1((msg.clone(),)) {
+            Ok(inst) => PyErr::from_value(inst),
+            Err(e) => e,
+        },
+        Err(_) => pyo3::exceptions::PyValueError::new_err(msg),
     })
 }
 

@@ -25,11 +25,7 @@ const POLL: Duration = Duration::from_millis(100);
 fn sources(paths: Vec<PathBuf>, pages: Option<Vec<usize>>, which: &str) -> PyResult<Vec<Source>> {
     let pages = pages.unwrap_or_else(|| vec![0; paths.len()]);
     if pages.len() != paths.len() {
-        return Err(PyValueError::new_err(format!(
-            "{which}: {} paths but {} pages",
-            paths.len(),
-            pages.len()
-        )));
+        return Err(PyValueError::new_err(format!("{which}: {} paths but {} pages", paths.len(), pages.len())));
     }
     Ok(paths.into_iter().zip(pages).map(|(p, g)| Source::new(p, g)).collect())
 }
@@ -112,11 +108,8 @@ fn score_pairs<'py>(
             sim.len()
         ))));
     }
-    let hist = if levels {
-        Some(HistRequest::Levels)
-    } else {
-        bins.map(|b| HistRequest::Bins { bins: b, range: hist_range })
-    };
+    let hist =
+        if levels { Some(HistRequest::Levels) } else { bins.map(|b| HistRequest::Bins { bins: b, range: hist_range }) };
     let req = SeqRequest {
         sse,
         moments,
@@ -244,7 +237,11 @@ fn score_pairs<'py>(
 /// edges, otherwise dropped (`hist_merged` is then False). `None` for an empty list.
 #[pyfunction]
 #[pyo3(signature = (stats, keep_hist=true))]
-fn merge_all(py: Python<'_>, stats: Vec<PyRef<'_, PyPairStats>>, keep_hist: bool) -> PyResult<(Option<PyPairStats>, bool)> {
+fn merge_all(
+    py: Python<'_>,
+    stats: Vec<PyRef<'_, PyPairStats>>,
+    keep_hist: bool,
+) -> PyResult<(Option<PyPairStats>, bool)> {
     let inner: Vec<&crate::stats::PairStats> = stats.iter().map(|p| &p.inner).collect();
     let merged = py
         .detach(|| {

@@ -77,7 +77,9 @@ impl PyPairStats {
     }
     /// Exact integer sums as Python ints (integer frames), for exact references.
     fn int_sums<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let Sums::Int(s) = &self.inner.sums else { return Ok(None) };
+        let Sums::Int(s) = &self.inner.sums else {
+            return Ok(None);
+        };
         let d = PyDict::new(py);
         d.set_item("sum_real", s.sr)?;
         d.set_item("sum_sim", s.ss)?;
@@ -139,11 +141,8 @@ fn pair_stats(
     shape: (usize, usize),
     fortran: bool,
 ) -> PyResult<PyPairStats> {
-    let hist = if levels {
-        Some(HistRequest::Levels)
-    } else {
-        bins.map(|b| HistRequest::Bins { bins: b, range: hist_range })
-    };
+    let hist =
+        if levels { Some(HistRequest::Levels) } else { bins.map(|b| HistRequest::Bins { bins: b, range: hist_range }) };
     let mask_slice = match &mask {
         Some(m) => Some(slice(m)?),
         None => None,

@@ -201,7 +201,7 @@ fn float_centred<T: Sample>(
     }
     let nf = n as f64;
     let (mr, ms) = (sum_r / nf, sum_s / nf); // relative to the pivot
-    // six compensated totals: Σdr, Σds, Σdr², Σds², Σdr·ds, Σ(x−y)²
+                                             // six compensated totals: Σdr, Σds, Σdr², Σds², Σdr·ds, Σ(x−y)²
     let mut tot = [Neumaier::default(); 6];
     if req.moments || req.sse {
         for (cr, cs) in rr.chunks(SUB).zip(sb.chunks(SUB)) {
@@ -283,4 +283,3 @@ pub(super) fn float_pivot<T: Sample>(r: &[T], s: &[T], req: &Request) -> (f64, f
     let pick = |v: &[T]| v.iter().map(|x| x.to_f64()).find(|x| x.is_finite()).unwrap_or(0.0);
     (pick(r), pick(s))
 }
-

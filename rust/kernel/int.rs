@@ -89,7 +89,8 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
                                 // above) and `make_int_binner` clamps every entry below bn.bins ==
                                 // dense_bins, so both indices are in range.
                                 unsafe {
-                                    let k = *lut.get_unchecked(i) as usize * dense_bins + *lut.get_unchecked(j) as usize;
+                                    let k =
+                                        *lut.get_unchecked(i) as usize * dense_bins + *lut.get_unchecked(j) as usize;
                                     *dense.get_unchecked_mut(k) += 1;
                                 }
                             }
@@ -139,4 +140,3 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
     }
     Ok(())
 }
-

@@ -190,7 +190,17 @@ impl Acc {
             Some(b) => vec![0; b * b],
             None => Vec::new(),
         };
-        Acc { n: 0, int: IntSums::default(), float: FloatSums::default(), dense, keys: Vec::new(), runs: Vec::new(), max_abs: 0.0, sum_r: Neumaier::default(), sum_s: Neumaier::default() }
+        Acc {
+            n: 0,
+            int: IntSums::default(),
+            float: FloatSums::default(),
+            dense,
+            keys: Vec::new(),
+            runs: Vec::new(),
+            max_abs: 0.0,
+            sum_r: Neumaier::default(),
+            sum_s: Neumaier::default(),
+        }
     }
 
     #[inline(always)]
@@ -327,7 +337,9 @@ fn plan_hist<T: Sample>(r: &[T], s: &[T], req: &Request, hreq: &HistRequest) -> 
     match hreq {
         HistRequest::Levels => {
             if !T::IS_INT {
-                return Err(Error::Value("bins='levels' needs integer frames; use an integer bin count for float frames".into()));
+                return Err(Error::Value(
+                    "bins='levels' needs integer frames; use an integer bin count for float frames".into(),
+                ));
             }
             // A small data span is stored densely (same counts, faster than sorting keys).
             let (lo, hi) = data_range(r, s, req).unwrap_or((0.0, 0.0));
@@ -367,13 +379,7 @@ fn plan_hist<T: Sample>(r: &[T], s: &[T], req: &Request, hreq: &HistRequest) -> 
                 make_int_binner::<T>(bins, lo as i64, width as i64)
             } else {
                 let width = (hi - lo) / bins as f64;
-                Binner {
-                    bins,
-                    lo,
-                    width,
-                    inv_width: if width > 0.0 { 1.0 / width } else { 0.0 },
-                    lut: Vec::new(),
-                }
+                Binner { bins, lo, width, inv_width: if width > 0.0 { 1.0 / width } else { 0.0 }, lut: Vec::new() }
             };
             let spec = HistSpec::Binned { bins, lo, width: binner.width };
             Ok(HistPlan { spec, binner: Some(binner), dense_bins: (bins <= DENSE_MAX_BINS).then_some(bins), offset: 0 })
@@ -388,11 +394,7 @@ fn make_int_binner<T: Sample>(bins: usize, lo: i64, width: i64) -> Binner {
     let mut k = (lo - T::MIN).clamp(0, T::LUT as i64) as usize; // first level at or above lo
     while k < T::LUT {
         let b = ((k as i64 + T::MIN - lo) / width).min(bins as i64 - 1);
-        let end = if b == bins as i64 - 1 {
-            T::LUT
-        } else {
-            ((lo + (b + 1) * width - T::MIN) as usize).min(T::LUT)
-        };
+        let end = if b == bins as i64 - 1 { T::LUT } else { ((lo + (b + 1) * width - T::MIN) as usize).min(T::LUT) };
         lut[k..end].fill(b as u16);
         k = end;
     }
@@ -412,7 +414,12 @@ pub(crate) struct Pass<'a, T> {
 
 /// One chunk, dispatched once per call to a copy of the loops compiled for AVX2 when the
 /// CPU has it (the baseline x86-64 build only assumes SSE2). Same code, same results.
-fn run_chunk<T: Sample>(pass: &Pass<'_, T>, range: (usize, usize), acc: &mut Acc, nf: &mut u64) -> std::result::Result<(), Bad> {
+fn run_chunk<T: Sample>(
+    pass: &Pass<'_, T>,
+    range: (usize, usize),
+    acc: &mut Acc,
+    nf: &mut u64,
+) -> std::result::Result<(), Bad> {
     #[cfg(target_arch = "x86_64")]
     if use_avx2() {
         // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
@@ -430,12 +437,22 @@ fn use_avx2() -> bool {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn run_chunk_avx2<T: Sample>(pass: &Pass<'_, T>, range: (usize, usize), acc: &mut Acc, nf: &mut u64) -> std::result::Result<(), Bad> {
+fn run_chunk_avx2<T: Sample>(
+    pass: &Pass<'_, T>,
+    range: (usize, usize),
+    acc: &mut Acc,
+    nf: &mut u64,
+) -> std::result::Result<(), Bad> {
     run_chunk_impl(pass, range, acc, nf)
 }
 
 #[inline(always)]
-fn run_chunk_impl<T: Sample>(pass: &Pass<'_, T>, range: (usize, usize), acc: &mut Acc, nf: &mut u64) -> std::result::Result<(), Bad> {
+fn run_chunk_impl<T: Sample>(
+    pass: &Pass<'_, T>,
+    range: (usize, usize),
+    acc: &mut Acc,
+    nf: &mut u64,
+) -> std::result::Result<(), Bad> {
     if !T::IS_INT {
         return float_chunk(pass, range, acc, nf);
     }
@@ -539,7 +556,9 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
     }
     if let Some(p) = plan {
         let joint = match p.dense_bins {
-            Some(b) => Joint::Dense { bins: b, offset: p.offset, counts: acc.dense.iter().map(|&c| c as u64).collect() },
+            Some(b) => {
+                Joint::Dense { bins: b, offset: p.offset, counts: acc.dense.iter().map(|&c| c as u64).collect() }
+            }
             None => Joint::Sparse(acc.runs),
         };
         out.hist = Some((p.spec, joint));
@@ -651,7 +670,10 @@ mod tests {
             }
         }
         let bn = make_int_binner::<i16>(4, -10, 5);
-        assert_eq!((bn.int_bin(-32768, i16::MIN as i64), bn.int_bin(-6, i16::MIN as i64), bn.int_bin(9, i16::MIN as i64)), (0, 0, 3));
+        assert_eq!(
+            (bn.int_bin(-32768, i16::MIN as i64), bn.int_bin(-6, i16::MIN as i64), bn.int_bin(9, i16::MIN as i64)),
+            (0, 0, 3)
+        );
     }
 
     #[test]
