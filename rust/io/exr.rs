@@ -20,6 +20,7 @@ use half::f16;
 use rayon::prelude::*;
 
 use super::piz::{self, FromWords};
+use super::zip;
 use super::{check_size, DecodeOptions, Frame, FrameData, Reason};
 
 /// Map an `exr` crate error to a reason.
@@ -156,14 +157,23 @@ impl Sample for u32 {
     }
 }
 
+/// Which decoder reads a part's blocks: our single-channel PIZ decoder (with the 16-bit
+/// words per sample of every channel), our single-channel ZIP/ZIPS decoder, or the `exr`
+/// crate for every other compression.
+enum Codec {
+    Piz(Vec<usize>),
+    Zip,
+    Crate,
+}
+
 /// Byte layout of one pixel row of a block: bytes per pixel over all channels, and the
-/// offset (per pixel) of the selected channel's run within a row; for PIZ blocks, the
-/// 16-bit words per sample of every channel and the selected channel's index.
+/// offset (per pixel) of the selected channel's run within a row; the selected channel's
+/// index, and the codec.
 struct Layout {
     bytes_per_pixel: usize,
     channel_offset_per_pixel: usize,
-    piz_words: Option<Vec<usize>>,
     channel: usize,
+    codec: Codec,
 }
 
 /// Samples of the selected channel from one decompressed block, with its placement.
@@ -178,12 +188,8 @@ struct Piece<T> {
 fn extract<T: Sample>(block: &UncompressedBlock, layout: &Layout) -> Result<Piece<T>, Reason> {
     let Vec2(w, h) = block.index.pixel_size;
     let Vec2(x, y) = block.index.pixel_position;
-    let row_bytes = w
-        .checked_mul(layout.bytes_per_pixel)
-        .ok_or_else(|| "corrupt OpenEXR block size".to_string())?;
-    let expected = row_bytes
-        .checked_mul(h)
-        .ok_or_else(|| "corrupt OpenEXR block size".to_string())?;
+    let row_bytes = w.checked_mul(layout.bytes_per_pixel).ok_or_else(|| "corrupt OpenEXR block size".to_string())?;
+    let expected = row_bytes.checked_mul(h).ok_or_else(|| "corrupt OpenEXR block size".to_string())?;
     if block.data.len() != expected {
         return Err(format!(
             "corrupt OpenEXR block at ({x}, {y}): {} bytes decompressed, {expected} expected",
@@ -200,11 +206,11 @@ fn extract<T: Sample>(block: &UncompressedBlock, layout: &Layout) -> Result<Piec
     Ok(Piece { x, y, w, h, samples })
 }
 
-/// The selected channel of one chunk: PIZ blocks through our single-channel decoder
-/// (unless stored raw because compression did not pay), everything else through the
-/// `exr` crate.
+/// The selected channel of one chunk: PIZ and ZIP blocks through our single-channel
+/// decoders (unless stored raw because compression did not pay), everything else through
+/// the `exr` crate.
 fn decompress<T: Sample>(c: Chunk, meta: &MetaData, layout: &Layout) -> Result<Piece<T>, Reason> {
-    if let Some(words) = &layout.piz_words {
+    if !matches!(layout.codec, Codec::Crate) {
         let header = meta
             .headers
             .get(c.layer_index)
@@ -220,7 +226,10 @@ fn decompress<T: Sample>(c: Chunk, meta: &MetaData, layout: &Layout) -> Result<P
             _ => return Err("unsupported: deep data (only flat OpenEXR images can be decoded)".to_string()),
         };
         if Some(bytes.len()) != w.checked_mul(h).and_then(|n| n.checked_mul(layout.bytes_per_pixel)) {
-            let samples = piz::decode_channel::<T>(bytes, words, layout.channel, w, h)?;
+            let samples = match &layout.codec {
+                Codec::Piz(words) => piz::decode_channel::<T>(bytes, words, layout.channel, w, h)?,
+                _ => zip::decode_channel::<T>(bytes, layout.bytes_per_pixel, layout.channel_offset_per_pixel, w, h)?,
+            };
             return Ok(Piece { x, y, w, h, samples });
         }
     }
@@ -250,10 +259,8 @@ fn assemble<T: Sample, C: ChunksReader>(
         if compressed.is_empty() {
             break;
         }
-        let pieces: Vec<Result<Piece<T>, Reason>> = compressed
-            .into_par_iter()
-            .map(|c| decompress::<T>(c, &meta, layout))
-            .collect();
+        let pieces: Vec<Result<Piece<T>, Reason>> =
+            compressed.into_par_iter().map(|c| decompress::<T>(c, &meta, layout)).collect();
         for piece in pieces {
             let p = piece?;
             if p.x.checked_add(p.w).is_none_or(|e| e > cols) || p.y.checked_add(p.h).is_none_or(|e| e > rows) {
@@ -263,10 +270,7 @@ fn assemble<T: Sample, C: ChunksReader>(
                 ));
             }
             if !seen.insert((p.x, p.y)) {
-                return Err(format!(
-                    "corrupt OpenEXR file: block at ({}, {}) appears twice",
-                    p.x, p.y
-                ));
+                return Err(format!("corrupt OpenEXR file: block at ({}, {}) appears twice", p.x, p.y));
             }
             for r in 0..p.h {
                 let dst = (p.y + r) * cols + p.x;
@@ -276,18 +280,13 @@ fn assemble<T: Sample, C: ChunksReader>(
         }
     }
     if covered != rows * cols {
-        return Err(format!(
-            "truncated or corrupt OpenEXR file: its blocks cover {covered} of {} pixels",
-            rows * cols
-        ));
+        return Err(format!("truncated or corrupt OpenEXR file: its blocks cover {covered} of {} pixels", rows * cols));
     }
     Ok(out)
 }
 
 pub(super) fn decode<R: BufRead + Seek>(mut reader: R, o: &DecodeOptions) -> Result<Frame, Reason> {
-    let file_len = reader
-        .seek(SeekFrom::End(0))
-        .map_err(|e| format!("read error: {e}"))?;
+    let file_len = reader.seek(SeekFrom::End(0)).map_err(|e| format!("read error: {e}"))?;
     reader.rewind().map_err(|e| format!("read error: {e}"))?;
 
     let r = ::exr::block::read(reader, false).map_err(exr_err)?;
@@ -331,8 +330,12 @@ pub(super) fn decode<R: BufRead + Seek>(mut reader: R, o: &DecodeOptions) -> Res
     let layout = Layout {
         bytes_per_pixel: bytes.iter().sum(),
         channel_offset_per_pixel: bytes[..ch].iter().sum(),
-        piz_words: (h.compression == Compression::PIZ).then(|| bytes.iter().map(|b| b / 2).collect()),
         channel: ch,
+        codec: match h.compression {
+            Compression::PIZ => Codec::Piz(bytes.iter().map(|b| b / 2).collect()),
+            Compression::ZIP1 | Compression::ZIP16 => Codec::Zip,
+            _ => Codec::Crate,
+        },
     };
 
     let chunks = r

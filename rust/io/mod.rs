@@ -24,6 +24,7 @@ use crate::{Error, Result};
 mod exr;
 mod piz;
 mod raster;
+mod zip;
 
 /// Decoded samples of one frame, row-major, in the file's own sample type.
 #[derive(Debug, Clone, PartialEq)]
@@ -267,9 +268,7 @@ pub(crate) fn check_size(cols: u64, rows: u64, max_pixels: u64) -> std::result::
     }
     match cols.checked_mul(rows) {
         Some(n) if n <= max_pixels => Ok(()),
-        _ => Err(format!(
-            "image of {cols} x {rows} pixels exceeds the limit of {max_pixels} pixels (max_pixels)"
-        )),
+        _ => Err(format!("image of {cols} x {rows} pixels exceeds the limit of {max_pixels} pixels (max_pixels)")),
     }
 }
 
@@ -295,10 +294,7 @@ pub(crate) fn select_channel(names: &[String], channel: Option<&str>) -> std::re
             } else if let Some(i) = names.iter().position(|n| n == "Y") {
                 Ok(i)
             } else {
-                Err(format!(
-                    "several channels ({}); choose one with channel=...",
-                    listing()
-                ))
+                Err(format!("several channels ({}); choose one with channel=...", listing()))
             }
         }
     }

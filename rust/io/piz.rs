@@ -501,7 +501,15 @@ fn decode_symbols(t: &Tables, input: &[u8], n_bits: usize, rlc: u32, out: &mut [
 
 /// `getCode` for a run-length symbol or a full output: returns the new output count.
 #[inline(never)]
-fn emit_slow(sym: u32, rlc: u32, input: &[u8], pos: &mut usize, end: usize, out: &mut [u16], n: usize) -> Result<usize, Reason> {
+fn emit_slow(
+    sym: u32,
+    rlc: u32,
+    input: &[u8],
+    pos: &mut usize,
+    end: usize,
+    out: &mut [u16],
+    n: usize,
+) -> Result<usize, Reason> {
     if sym != rlc {
         return if n < out.len() {
             out[n] = sym as u16;

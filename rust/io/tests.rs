@@ -242,11 +242,11 @@ fn tiff_pages_through_the_thread_cursor_equal_fresh_decodes() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// Our PIZ decoder against the `exr` crate's on images the crate writes: half, float and
-/// uint channels side by side, scan lines and tiles, sizes from 1x1 to several blocks,
-/// and value mixes that exercise both wavelet widths, long codes, runs and raw blocks.
+/// Our PIZ and ZIP decoders on images the `exr` crate writes: half, float and uint
+/// channels side by side, scan lines and tiles, sizes from 1x1 to several blocks, and
+/// value mixes that exercise both wavelet widths, long codes, runs and raw blocks.
 #[test]
-fn piz_decoder_equals_the_exr_crate() {
+fn piz_and_zip_decoders_return_what_the_exr_crate_wrote() {
     use ::exr::prelude::*;
     use std::io::Cursor;
 
@@ -264,41 +264,50 @@ fn piz_decoder_equals_the_exr_crate() {
         match kind {
             0 => (r % 40) as u32,
             1 => r as u32,
-            2 => if r % 97 == 0 { (r >> 8) as u32 } else { 7 },
+            2 => {
+                if r % 97 == 0 {
+                    (r >> 8) as u32
+                } else {
+                    7
+                }
+            }
             _ => (i as u32 * 13 + (r % 5) as u32) % (n as u32 + 1),
         }
     };
     let mut cases = 0;
-    for &(w, h) in &[(1usize, 1usize), (3, 5), (17, 33), (64, 40), (150, 70)] {
-        for kind in 0..4 {
-            for tiled in [false, true] {
-                let n = w * h;
-                let y: Vec<f16> = (0..n).map(|i| f16::from_bits(words(kind, n, i) as u16)).collect();
-                let z: Vec<f32> = (0..n).map(|i| f32::from_bits(words(kind, n, i) & 0xbfff_ffff)).collect();
-                let id: Vec<u32> = (0..n).map(|i| words(kind, n, i)).collect();
-                let channels: Vec<AnyChannel<FlatSamples>> = vec![
-                    AnyChannel::new("A", FlatSamples::F32(z.clone())),
-                    AnyChannel::new("B", FlatSamples::U32(id.clone())),
-                    AnyChannel::new("Y", FlatSamples::F16(y.clone())),
-                ];
-                let blocks = if tiled { Blocks::Tiles(Vec2(16, 16)) } else { Blocks::ScanLines };
-                let encoding = Encoding { compression: Compression::PIZ, blocks, line_order: LineOrder::Increasing };
-                let layer = Layer::new((w, h), LayerAttributes::named(""), encoding, AnyChannels::sort(channels.into()));
-                let mut bytes = Vec::new();
-                Image::from_layer(layer).write().to_buffered(Cursor::new(&mut bytes)).unwrap();
-                let what = format!("{w}x{h} kind {kind} tiled {tiled}");
-                let opts = |c: &str| DecodeOptions { channel: Some(c.to_string()), ..Default::default() };
-                let f = decode_bytes(&bytes, "piz.exr", &opts("Y")).unwrap();
-                let FrameData::F16(got) = f.data else { panic!("{what}: Y not f16") };
-                assert!(got.iter().zip(&y).all(|(a, b)| a.to_bits() == b.to_bits()), "{what}: Y");
-                let f = decode_bytes(&bytes, "piz.exr", &opts("A")).unwrap();
-                let FrameData::F32(got) = f.data else { panic!("{what}: A not f32") };
-                assert!(got.iter().zip(&z).all(|(a, b)| a.to_bits() == b.to_bits()), "{what}: A");
-                let f = decode_bytes(&bytes, "piz.exr", &opts("B")).unwrap();
-                assert_eq!(f.data, FrameData::U32(id), "{what}: B");
-                cases += 1;
+    for compression in [Compression::PIZ, Compression::ZIP16, Compression::ZIP1] {
+        for &(w, h) in &[(1usize, 1usize), (3, 5), (17, 33), (64, 40), (150, 70)] {
+            for kind in 0..4 {
+                for tiled in [false, true] {
+                    let n = w * h;
+                    let y: Vec<f16> = (0..n).map(|i| f16::from_bits(words(kind, n, i) as u16)).collect();
+                    let z: Vec<f32> = (0..n).map(|i| f32::from_bits(words(kind, n, i) & 0xbfff_ffff)).collect();
+                    let id: Vec<u32> = (0..n).map(|i| words(kind, n, i)).collect();
+                    let channels: Vec<AnyChannel<FlatSamples>> = vec![
+                        AnyChannel::new("A", FlatSamples::F32(z.clone())),
+                        AnyChannel::new("B", FlatSamples::U32(id.clone())),
+                        AnyChannel::new("Y", FlatSamples::F16(y.clone())),
+                    ];
+                    let blocks = if tiled { Blocks::Tiles(Vec2(16, 16)) } else { Blocks::ScanLines };
+                    let encoding = Encoding { compression, blocks, line_order: LineOrder::Increasing };
+                    let layer =
+                        Layer::new((w, h), LayerAttributes::named(""), encoding, AnyChannels::sort(channels.into()));
+                    let mut bytes = Vec::new();
+                    Image::from_layer(layer).write().to_buffered(Cursor::new(&mut bytes)).unwrap();
+                    let what = format!("{compression:?} {w}x{h} kind {kind} tiled {tiled}");
+                    let opts = |c: &str| DecodeOptions { channel: Some(c.to_string()), ..Default::default() };
+                    let f = decode_bytes(&bytes, "piz.exr", &opts("Y")).unwrap();
+                    let FrameData::F16(got) = f.data else { panic!("{what}: Y not f16") };
+                    assert!(got.iter().zip(&y).all(|(a, b)| a.to_bits() == b.to_bits()), "{what}: Y");
+                    let f = decode_bytes(&bytes, "piz.exr", &opts("A")).unwrap();
+                    let FrameData::F32(got) = f.data else { panic!("{what}: A not f32") };
+                    assert!(got.iter().zip(&z).all(|(a, b)| a.to_bits() == b.to_bits()), "{what}: A");
+                    let f = decode_bytes(&bytes, "piz.exr", &opts("B")).unwrap();
+                    assert_eq!(f.data, FrameData::U32(id), "{what}: B");
+                    cases += 1;
+                }
             }
         }
     }
-    assert_eq!(cases, 40);
+    assert_eq!(cases, 120);
 }
