@@ -46,7 +46,7 @@ pub(super) fn float_chunk<T: Sample>(
     acc: &mut Acc,
     nonfinite: &mut u64,
 ) -> std::result::Result<(), Bad> {
-    let Pass { r, s, req, plan, pivot } = *pass;
+    let Pass { r, s, req, plan, pivot, centre } = *pass;
     let (rr, sb) = (&r[a..b], &s[a..b]);
     if req.mask.is_none() && !req.moments && req.hist.is_none() {
         // PSNR-only plan: one pass, no means needed
@@ -59,14 +59,20 @@ pub(super) fn float_chunk<T: Sample>(
             return Ok(());
         }
     }
+    if let Some(c) = centre {
+        // the scan found every value finite and gave each frame's mean: centre on it
+        float_centred(rr, sb, c, req, plan, acc, pivot);
+        return Ok(());
+    }
     if req.mask.is_none() {
-        let (sum_r, sum_s, max_abs) = float_sums(rr, sb, pivot);
+        let sums = float_sums(rr, sb, pivot);
         // a NaN/Inf anywhere makes the sums non-finite: only then look pixel by pixel
-        if sum_r.is_finite() && sum_s.is_finite() {
-            acc.max_abs = acc.max_abs.max(max_abs);
-            acc.sum_r.add(sum_r);
-            acc.sum_s.add(sum_s);
-            float_centred(rr, sb, sum_r, sum_s, req, plan, acc, pivot);
+        if sums.finite() {
+            acc.max_abs = acc.max_abs.max(sums.max_abs);
+            acc.sum_r.add(sums.r);
+            acc.sum_s.add(sums.s);
+            let nf = rr.len() as f64;
+            float_centred(rr, sb, (sums.r / nf, sums.s / nf), req, plan, acc, pivot);
             return Ok(());
         }
     }
@@ -88,11 +94,12 @@ pub(super) fn float_chunk<T: Sample>(
         ys.push(y);
     }
     if !xs.is_empty() {
-        let (sum_r, sum_s, max_abs) = float_sums(&xs, &ys, pivot);
-        acc.max_abs = acc.max_abs.max(max_abs);
-        acc.sum_r.add(sum_r);
-        acc.sum_s.add(sum_s);
-        float_centred(&xs, &ys, sum_r, sum_s, req, plan, acc, pivot);
+        let sums = float_sums(&xs, &ys, pivot);
+        acc.max_abs = acc.max_abs.max(sums.max_abs);
+        acc.sum_r.add(sums.r);
+        acc.sum_s.add(sums.s);
+        let nf = xs.len() as f64;
+        float_centred(&xs, &ys, (sums.r / nf, sums.s / nf), req, plan, acc, pivot);
     }
     Ok(())
 }
@@ -141,19 +148,56 @@ fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
     (tot, max_abs.iter().fold(0.0f64, |m, &v| m.max(v)))
 }
 
-/// Σ(x − pivot_r), Σ(y − pivot_s) and max |value| of a run of pixels. Each lane is a
+/// Σ(x − pivot_r), Σ(y − pivot_s), the range of both runs and max |value|.
+pub(super) struct RunSums {
+    pub(super) r: f64,
+    pub(super) s: f64,
+    pub(super) lo: f64,
+    pub(super) hi: f64,
+    pub(super) max_abs: f64,
+}
+
+impl RunSums {
+    fn empty() -> Self {
+        RunSums { r: 0.0, s: 0.0, lo: f64::INFINITY, hi: f64::NEG_INFINITY, max_abs: 0.0 }
+    }
+    fn merge(self, o: RunSums) -> RunSums {
+        RunSums {
+            r: self.r + o.r,
+            s: self.s + o.s,
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+            max_abs: self.max_abs.max(o.max_abs),
+        }
+    }
+    /// No NaN or ±Inf in the run: the sums stay finite (NaN and Inf propagate into them;
+    /// values summing past f64's range are treated like non-finite ones, carefully).
+    pub(super) fn finite(&self) -> bool {
+        self.r.is_finite() && self.s.is_finite()
+    }
+}
+
+/// Σ(x − pivot_r), Σ(y − pivot_s), range and max |value| of a run of pixels. Each lane is a
 /// compensated (two-sum) accumulator: the mean of wide-spread data (±3e38 around 1e35)
 /// is the sum of large terms that cancel, so every addition's error is kept.
 #[inline(always)]
-fn float_sums<T: Sample>(rr: &[T], sb: &[T], (pr, ps): (f64, f64)) -> (f64, f64, f64) {
+fn float_sums<T: Sample>(rr: &[T], sb: &[T], (pr, ps): (f64, f64)) -> RunSums {
     let (mut lr, mut cr_) = ([0.0f64; LANES], [0.0f64; LANES]);
     let (mut ls, mut cs_) = ([0.0f64; LANES], [0.0f64; LANES]);
     let mut max_abs = [0.0f64; LANES];
+    let (mut lo, mut hi) = ([f64::INFINITY; LANES], [f64::NEG_INFINITY; LANES]);
     #[inline(always)]
     fn add(sum: &mut f64, comp: &mut f64, x: f64) {
         let (t, e) = two_sum(*sum, x);
         *sum = t;
         *comp += e;
+    }
+    // plain compares (minpd/maxpd): a NaN is caught by the sums, not the range
+    #[inline(always)]
+    fn range(lo: &mut f64, hi: &mut f64, x: f64, y: f64) {
+        let (a, b) = if x < y { (x, y) } else { (y, x) };
+        *lo = if a < *lo { a } else { *lo };
+        *hi = if b > *hi { b } else { *hi };
     }
     let (ir, is) = (rr.chunks_exact(LANES), sb.chunks_exact(LANES));
     let (rem_r, rem_s) = (ir.remainder(), is.remainder());
@@ -162,6 +206,7 @@ fn float_sums<T: Sample>(rr: &[T], sb: &[T], (pr, ps): (f64, f64)) -> (f64, f64,
             let (x, y) = (xr[k].to_f64(), xs[k].to_f64());
             add(&mut lr[k], &mut cr_[k], x - pr);
             add(&mut ls[k], &mut cs_[k], y - ps);
+            range(&mut lo[k], &mut hi[k], x, y);
             max_abs[k] = bigger::<T>(max_abs[k], x, y);
         }
     }
@@ -169,6 +214,7 @@ fn float_sums<T: Sample>(rr: &[T], sb: &[T], (pr, ps): (f64, f64)) -> (f64, f64,
         let (x, y) = (x.to_f64(), y.to_f64());
         add(&mut lr[0], &mut cr_[0], x - pr);
         add(&mut ls[0], &mut cs_[0], y - ps);
+        range(&mut lo[0], &mut hi[0], x, y);
         max_abs[0] = bigger::<T>(max_abs[0], x, y);
     }
     let (mut tr, mut ts) = (Neumaier::default(), Neumaier::default());
@@ -178,18 +224,23 @@ fn float_sums<T: Sample>(rr: &[T], sb: &[T], (pr, ps): (f64, f64)) -> (f64, f64,
         ts.add(ls[k]);
         ts.add(cs_[k]);
     }
-    (tr.value(), ts.value(), max_abs.iter().fold(0.0f64, |m, &v| m.max(v)))
+    RunSums {
+        r: tr.value(),
+        s: ts.value(),
+        lo: lo.iter().fold(f64::INFINITY, |m, &v| m.min(v)),
+        hi: hi.iter().fold(f64::NEG_INFINITY, |m, &v| m.max(v)),
+        max_abs: max_abs.iter().fold(0.0f64, |m, &v| m.max(v)),
+    }
 }
 
-/// Centred sums around the run's own mean (corrected two-pass), SSE and the histogram,
-/// merged into `acc` (sums relative to the pivot).
-#[allow(clippy::too_many_arguments)]
+/// Centred sums around `(mr, ms)` (relative to the pivot: the run's own mean, or the
+/// frames' means; corrected two-pass, so an approximate centre costs no accuracy), SSE
+/// and the histogram, merged into `acc` (sums relative to the pivot).
 #[inline(always)]
 fn float_centred<T: Sample>(
     rr: &[T],
     sb: &[T],
-    sum_r: f64,
-    sum_s: f64,
+    (mr, ms): (f64, f64),
     req: &Request,
     plan: Option<&HistPlan>,
     acc: &mut Acc,
@@ -200,8 +251,7 @@ fn float_centred<T: Sample>(
         return;
     }
     let nf = n as f64;
-    let (mr, ms) = (sum_r / nf, sum_s / nf); // relative to the pivot
-                                             // six compensated totals: Σdr, Σds, Σdr², Σds², Σdr·ds, Σ(x−y)²
+    // six compensated totals: Σdr, Σds, Σdr², Σds², Σdr·ds, Σ(x−y)²
     let mut tot = [Neumaier::default(); 6];
     if req.moments || req.sse {
         for (cr, cs) in rr.chunks(SUB).zip(sb.chunks(SUB)) {
@@ -257,29 +307,33 @@ fn float_centred<T: Sample>(
     acc.n += n;
 }
 
-/// The pivot of the float pass: the mean of each frame from a parallel compensated prepass,
-/// or (with a mask or non-finite values) the first finite value.
-pub(super) fn float_pivot<T: Sample>(r: &[T], s: &[T], req: &Request) -> (f64, f64) {
-    if req.mask.is_none() && !r.is_empty() {
-        let add = |a: (f64, f64), b: (f64, f64)| (a.0 + b.0, a.1 + b.1);
-        let Ok((sr, ss)) = fold_chunks::<T, _, std::convert::Infallible>(
-            r.len(),
-            || (0.0, 0.0),
-            |acc, (a, b)| {
-                let (x, y, _) = float_sums(&r[a..b], &s[a..b], (0.0, 0.0));
-                Ok(add(acc, (x, y)))
-            },
-            add,
-        );
+/// One compensated pass over both whole frames (no mask): each frame's sum, the range of
+/// both and the largest magnitude. Gives the histogram range, the pivot and the centre
+/// of the float pass at once, and certifies that no value is NaN or ±Inf.
+pub(super) fn float_scan<T: Sample>(r: &[T], s: &[T]) -> RunSums {
+    let Ok(sums) = fold_chunks::<T, _, std::convert::Infallible>(
+        r.len(),
+        RunSums::empty,
+        |acc, (a, b)| Ok(acc.merge(float_sums(&r[a..b], &s[a..b], (0.0, 0.0)))),
+        RunSums::merge,
+    );
+    sums
+}
+
+/// The pivot of the float pass and, when the scan certified every value finite, the
+/// centre (each frame's mean relative to the pivot). The pivot is each frame's mean cut
+/// to 24 significant bits, or (with a mask or non-finite values) the first finite value.
+pub(super) fn float_pivot<T: Sample>(r: &[T], s: &[T], scan: Option<&RunSums>) -> ((f64, f64), Option<(f64, f64)>) {
+    if let Some(sc) = scan.filter(|sc| sc.finite()) {
         let n = r.len() as f64;
+        let (mr, ms) = (sc.r / n, sc.s / n);
         // Keep 24 significant bits: x − pivot is then exact for every float32 value (and for
         // float64 values within 2^29 of the pivot's magnitude) — a 53-bit pivot would round
         // each difference, and identical values (e.g. clipped at ±3.4e38) round coherently.
         let short = |p: f64| f64::from_bits(p.to_bits() & !((1u64 << 29) - 1));
-        if (sr / n).is_finite() && (ss / n).is_finite() {
-            return (short(sr / n), short(ss / n));
-        }
+        let pivot = (short(mr), short(ms));
+        return (pivot, Some((mr - pivot.0, ms - pivot.1)));
     }
     let pick = |v: &[T]| v.iter().map(|x| x.to_f64()).find(|x| x.is_finite()).unwrap_or(0.0);
-    (pick(r), pick(s))
+    ((pick(r), pick(s)), None)
 }

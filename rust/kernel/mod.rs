@@ -14,7 +14,7 @@ use crate::stats::{merge_float, FloatSums, IntSums, PairStats, Sums};
 mod float;
 mod int;
 
-use float::{float_chunk, float_pivot, Neumaier};
+use float::{float_chunk, float_pivot, float_scan, Neumaier};
 use int::int_chunk;
 
 /// Pixels per work unit: two chunks of u16/f32 fit in L2 with the histogram.
@@ -333,7 +333,14 @@ fn data_range<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<(f64, f64)> 
     (lo <= hi).then_some((lo, hi))
 }
 
-fn plan_hist<T: Sample>(r: &[T], s: &[T], req: &Request, hreq: &HistRequest) -> Result<HistPlan> {
+/// The histogram plan; `known` is the data range when a scan has already found it.
+fn plan_hist<T: Sample>(
+    r: &[T],
+    s: &[T],
+    req: &Request,
+    hreq: &HistRequest,
+    known: Option<(f64, f64)>,
+) -> Result<HistPlan> {
     match hreq {
         HistRequest::Levels => {
             if !T::IS_INT {
@@ -370,7 +377,7 @@ fn plan_hist<T: Sample>(r: &[T], s: &[T], req: &Request, hreq: &HistRequest) -> 
                     }
                     (*lo, *hi)
                 }
-                None => data_range(r, s, req).unwrap_or((0.0, 0.0)),
+                None => known.or_else(|| data_range(r, s, req)).unwrap_or((0.0, 0.0)),
             };
             let binner = if T::IS_INT {
                 // a bin is a whole number of grey levels: width = ceil(span / bins)
@@ -410,6 +417,9 @@ pub(crate) struct Pass<'a, T> {
     pub(crate) plan: Option<&'a HistPlan>,
     /// float frames: the values the sums are taken relative to (see `float::float_pivot`)
     pub(crate) pivot: (f64, f64),
+    /// float frames, all values finite, no mask: each frame's mean relative to the pivot,
+    /// the centre of every chunk's sums
+    pub(crate) centre: Option<(f64, f64)>,
 }
 
 /// One chunk, dispatched once per call to a copy of the loops compiled for AVX2 when the
@@ -500,16 +510,20 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
         };
         return pair_stats(&widen(r16), &widen(s16), req);
     }
+    // Float frames with moments and no mask: one compensated scan of both frames gives the
+    // histogram range, each frame's mean and certifies all values finite.
+    let scan = (!T::IS_INT && req.moments && req.mask.is_none() && !r.is_empty()).then(|| float_scan(r, s));
+    let finite_scan = scan.as_ref().filter(|sc| sc.finite());
     let plan = match &req.hist {
-        Some(h) => Some(plan_hist(r, s, req, h)?),
+        Some(h) => Some(plan_hist(r, s, req, h, finite_scan.map(|sc| (sc.lo, sc.hi)))?),
         None => None,
     };
     let plan_ref = plan.as_ref();
     // Float frames: all sums are taken relative to a pivot near each frame's mean, so the
     // final mean is the pivot plus a small, accurate correction and chunk merges see small
     // offsets (a pivot far from the mean would cancel digits: ±3e38 data, mean 1e35).
-    let pivot = if T::IS_INT || !req.moments { (0.0, 0.0) } else { float_pivot(r, s, req) };
-    let pass = Pass { r, s, req, plan: plan_ref, pivot };
+    let (pivot, centre) = if T::IS_INT || !req.moments { ((0.0, 0.0), None) } else { float_pivot(r, s, scan.as_ref()) };
+    let pass = Pass { r, s, req, plan: plan_ref, pivot, centre };
     let result = fold_chunks::<T, _, _>(
         r.len(),
         || (Acc::new(plan_ref), 0u64),
@@ -533,7 +547,13 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
     out.masked = masked;
     out.nonfinite = nonfinite;
     if !T::IS_INT {
-        if acc.n > 0 && req.moments {
+        if let (Some(sc), Some(_)) = (finite_scan, centre) {
+            // every chunk was centred on the scan's means: they are the means
+            let n = r.len() as f64;
+            acc.float.mr = sc.r / n;
+            acc.float.ms = sc.s / n;
+            acc.max_abs = acc.max_abs.max(sc.max_abs);
+        } else if acc.n > 0 && req.moments {
             acc.float.mr = pivot.0 + acc.sum_r.value() / acc.n as f64;
             acc.float.ms = pivot.1 + acc.sum_s.value() / acc.n as f64;
         }
