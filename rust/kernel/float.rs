@@ -2,7 +2,7 @@
 //! mean, in independent lanes folded into Neumaier-compensated totals (two passes per
 //! cache-sized chunk: mean, then centred sums), chunks merged with Chan's update.
 
-use super::{fold_chunks, Acc, Bad, HistPlan, Pass, Request, Sample};
+use super::{cost, fold_chunks, Acc, Bad, HistPlan, Pass, Request, Sample};
 use crate::stats::{merge_float, two_sum, FloatSums};
 
 /// Neumaier-compensated running sum: totals of per-block lane sums.
@@ -311,8 +311,9 @@ fn float_centred<T: Sample>(
 /// both and the largest magnitude. Gives the histogram range, the pivot and the centre
 /// of the float pass at once, and certifies that no value is NaN or ±Inf.
 pub(super) fn float_scan<T: Sample>(r: &[T], s: &[T]) -> RunSums {
-    let Ok(sums) = fold_chunks::<T, _, std::convert::Infallible>(
+    let Ok(sums) = fold_chunks::<_, std::convert::Infallible>(
         r.len(),
+        cost::SCAN,
         RunSums::empty,
         |acc, (a, b)| Ok(acc.merge(float_sums(&r[a..b], &s[a..b], (0.0, 0.0)))),
         RunSums::merge,

@@ -254,14 +254,37 @@ pub(crate) enum Bad {
     NonFinite { index: usize },
 }
 
-/// Frame pairs of at most this many bytes run on the calling thread: waking pool threads
-/// costs more than the work (a 512 × 512 uint16 PSNR pass takes ~30 µs).
-const SEQUENTIAL_BYTES: usize = 1 << 20;
+/// Rough single-core cost of one pass, in nanoseconds per pixel pair (measured on a 2-core
+/// x86-64 VM with AVX2): only the order of magnitude matters, it decides threading.
+pub(crate) mod cost {
+    /// min/max of both frames
+    pub const RANGE: f64 = 0.15;
+    /// compensated sums and range of both float frames
+    pub const SCAN: f64 = 1.5;
+    /// squared error only (PSNR/MSE plan)
+    pub const SSE: f64 = 0.2;
+    /// moments and/or histogram, integer frames
+    pub const FULL_INT: f64 = 3.0;
+    /// moments and/or histogram, float frames
+    pub const FULL_FLOAT: f64 = 6.0;
+}
 
-/// Fold `step` over the chunks of a pair of `n`-pixel frames of `T` and combine the partial results with
-/// `merge`: on the calling thread for small frames, on the rayon pool otherwise.
-pub(crate) fn fold_chunks<T, A, E>(
+/// Passes estimated below this many nanoseconds run on the calling thread: waking pool
+/// threads and waiting for them costs 20–150 µs (most in VMs), which cheap passes do not
+/// earn back (a 512 × 512 float32 MSE pass takes ~50 µs on one core).
+const PARALLEL_MIN_NS: f64 = 250_000.0;
+
+/// Whether a pass over `n` pixel pairs at `ns_per_px` is worth the thread pool.
+pub(crate) fn worth_parallel(n: usize, ns_per_px: f64) -> bool {
+    n as f64 * ns_per_px >= PARALLEL_MIN_NS && rayon::current_num_threads() > 1
+}
+
+/// Fold `step` over the chunks of a pair of `n`-pixel frames and combine the partial
+/// results with `merge`: on the calling thread for cheap passes (see `worth_parallel`),
+/// on the rayon pool otherwise.
+pub(crate) fn fold_chunks<A, E>(
     n: usize,
+    ns_per_px: f64,
     init: impl Fn() -> A + Sync + Send,
     step: impl Fn(A, (usize, usize)) -> std::result::Result<A, E> + Sync + Send,
     merge: impl Fn(A, A) -> A + Sync + Send,
@@ -271,7 +294,7 @@ where
     E: Send,
 {
     let chunks = chunk_ranges(n);
-    if 2 * n * std::mem::size_of::<T>() <= SEQUENTIAL_BYTES {
+    if !worth_parallel(n, ns_per_px) {
         return chunks.into_iter().try_fold(init(), step);
     }
     chunks.into_par_iter().try_fold(&init, &step).try_reduce(&init, |a, b| Ok(merge(a, b)))
@@ -324,8 +347,9 @@ fn data_range<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<(f64, f64)> 
         (lo, hi)
     };
     let both = |a: (f64, f64), b: (f64, f64)| (a.0.min(b.0), a.1.max(b.1));
-    let Ok((lo, hi)) = fold_chunks::<T, _, std::convert::Infallible>(
+    let Ok((lo, hi)) = fold_chunks::<_, std::convert::Infallible>(
         r.len(),
+        cost::RANGE,
         || (f64::INFINITY, f64::NEG_INFINITY),
         |acc, range| Ok(both(acc, fold(range))),
         both,
@@ -505,7 +529,11 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
         let widen = |x: &[half::f16]| {
             use half::slice::HalfFloatSliceExt;
             let mut out = vec![0f32; x.len()];
-            out.par_chunks_mut(CHUNK).zip(x.par_chunks(CHUNK)).for_each(|(o, i)| i.convert_to_f32_slice(o));
+            if worth_parallel(x.len(), cost::RANGE) {
+                out.par_chunks_mut(CHUNK).zip(x.par_chunks(CHUNK)).for_each(|(o, i)| i.convert_to_f32_slice(o));
+            } else {
+                x.convert_to_f32_slice(&mut out);
+            }
             out
         };
         return pair_stats(&widen(r16), &widen(s16), req);
@@ -524,8 +552,14 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
     // offsets (a pivot far from the mean would cancel digits: ±3e38 data, mean 1e35).
     let (pivot, centre) = if T::IS_INT || !req.moments { ((0.0, 0.0), None) } else { float_pivot(r, s, scan.as_ref()) };
     let pass = Pass { r, s, req, plan: plan_ref, pivot, centre };
-    let result = fold_chunks::<T, _, _>(
+    let ns_per_px = match (req.moments || req.hist.is_some() || req.mask.is_some(), T::IS_INT) {
+        (false, _) => cost::SSE,
+        (true, true) => cost::FULL_INT,
+        (true, false) => cost::FULL_FLOAT,
+    };
+    let result = fold_chunks(
         r.len(),
+        ns_per_px,
         || (Acc::new(plan_ref), 0u64),
         |(mut acc, mut nf), range| {
             run_chunk(&pass, range, &mut acc, &mut nf)?;
