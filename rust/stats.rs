@@ -382,6 +382,7 @@ fn ratio_u128(a: u128, b: u128) -> f64 {
     q as f64 + r as f64 / b as f64
 }
 
+#[inline(always)]
 pub(crate) fn two_sum(a: f64, b: f64) -> (f64, f64) {
     let s = a + b;
     let bb = s - a;

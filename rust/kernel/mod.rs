@@ -38,6 +38,13 @@ pub trait Sample: Copy + PartialOrd + Send + Sync + 'static {
     fn as_f16(_: &[Self]) -> Option<&[half::f16]> {
         None
     }
+    /// The slice as float32 / float64, for the explicit AVX2 loops (`float::avx2`).
+    fn as_f32(_: &[Self]) -> Option<&[f32]> {
+        None
+    }
+    fn as_f64(_: &[Self]) -> Option<&[f64]> {
+        None
+    }
 }
 
 macro_rules! int_sample {
@@ -59,7 +66,7 @@ macro_rules! int_sample {
 int_sample!(u8 => 1 << 8, 1 << 15; u16 => 1 << 16, 1 << 15; i16 => 1 << 16, 1 << 15; u32 => 0, 1);
 
 macro_rules! float_sample {
-    ($($t:ty => $conv:expr $(, $f16:expr)?);* $(;)?) => {$(
+    ($($t:ty => $conv:expr, $as:ident);* $(;)?) => {$(
         impl Sample for $t {
             const IS_INT: bool = false;
             const MIN: i64 = 0;
@@ -70,14 +77,14 @@ macro_rules! float_sample {
             #[inline(always)]
             fn to_f64(self) -> f64 { $conv(self) }
             const MAY_UNDERFLOW: bool = std::mem::size_of::<$t>() == 8;
-            $(fn as_f16(s: &[Self]) -> Option<&[half::f16]> { $f16(s) })?
+            fn $as(s: &[Self]) -> Option<&[Self]> { Some(s) }
         }
     )*};
 }
 float_sample!(
-    f32 => |v: f32| v as f64;
-    f64 => |v: f64| v;
-    half::f16 => |v: half::f16| v.to_f64(), Some;
+    f32 => |v: f32| v as f64, as_f32;
+    f64 => |v: f64| v, as_f64;
+    half::f16 => |v: half::f16| v.to_f64(), as_f16;
 );
 
 /// Which histogram to build.
@@ -464,7 +471,7 @@ fn run_chunk<T: Sample>(
 
 /// AVX2 when the CPU has it, unless `IRFIDELITY_NO_SIMD` is set (to compare both copies).
 #[cfg(target_arch = "x86_64")]
-fn use_avx2() -> bool {
+pub(crate) fn use_avx2() -> bool {
     static USE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *USE.get_or_init(|| std::arch::is_x86_feature_detected!("avx2") && std::env::var_os("IRFIDELITY_NO_SIMD").is_none())
 }
