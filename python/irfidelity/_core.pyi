@@ -36,6 +36,9 @@ class PairStats:
     @staticmethod
     def from_bytes(data: bytes) -> PairStats: ...
 
+def plain_mse(real: object, sim: object, /) -> float | None:
+    """MSE of two non-empty 2-D C-contiguous arrays of one supported dtype and shape; None otherwise."""
+
 def pair_stats(
     real: npt.NDArray[Any],
     sim: npt.NDArray[Any],

@@ -375,32 +375,17 @@ def pair_stats(
     return PairStats(raw, peak=pk, bins=("levels" if levels else nbins) if "hist" in wanted else None)
 
 
-def _plain_pair(real, sim) -> bool:
-    """Two non-empty 2-D C-contiguous native arrays of one supported dtype and shape: the
-    kernel takes them as they are, so single metrics skip :func:`pair_stats`' checks and
-    copies (most of the call's overhead on small frames)."""
-    return (
-        type(real) is np.ndarray
-        and type(sim) is np.ndarray
-        and real.ndim == 2
-        and real.shape == sim.shape
-        and real.dtype == sim.dtype
-        and real.dtype.type in _SUPPORTED_TYPES
-        and real.dtype.isnative
-        and real.size > 0
-        and real.flags.c_contiguous
-        and sim.flags.c_contiguous
-    )
-
-
-def _sse_only(real: np.ndarray, sim: np.ndarray) -> float:
-    return _core.pair_stats(real, sim, moments=False, shape=real.shape).mse()
+# Default PSNR peak per integer dtype (see peak_and_valid), for the single-metric fast path.
+_DEFAULT_PEAK = {np.dtype(t): peak_and_valid(np.dtype(t), None, None)[0] for t in (np.uint8, np.uint16, np.int16, np.uint32)}
 
 
 def mse(real, sim, *, mask=None) -> float:
     """Mean squared error of two frames, exact for integer frames."""
-    if mask is None and _plain_pair(real, sim):
-        return _sse_only(real, sim)
+    if mask is None:
+        # plain 2-D C-contiguous arrays of one dtype: straight to the kernel (None otherwise)
+        value = _core.plain_mse(real, sim)
+        if value is not None:
+            return value
     return pair_stats(real, sim, need=("mse",), mask=mask).mse()
 
 
@@ -409,10 +394,12 @@ def psnr(real, sim, *, bits: int | None = None, peak: float | None = None, mask=
 
     ``peak = 2**bits − 1`` when ``bits`` is given; float frames need ``peak``.
     """
-    if mask is None and bits is None and _plain_pair(real, sim):
-        pk, _ = peak_and_valid(real.dtype, None, peak)
+    if mask is None and bits is None:
+        pk = _DEFAULT_PEAK.get(getattr(real, "dtype", None)) if peak is None else peak
         if pk is not None:
-            return psnr_from_mse(_sse_only(real, sim), pk)
+            value = _core.plain_mse(real, sim)
+            if value is not None:
+                return psnr_from_mse(value, float(pk))
     return pair_stats(real, sim, bits=bits, peak=peak, need=("psnr",), mask=mask).psnr()
 
 

@@ -2,7 +2,7 @@
 //! Arrays arrive contiguous (the Python layer decides the layout); the pass runs with
 //! the GIL released.
 
-use numpy::{PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
+use numpy::{PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
@@ -104,13 +104,18 @@ impl PyPairStats {
 }
 
 /// Run the kernel on arrays of one element type.
+/// (The dtype is compared first: a failed `extract` builds a Python exception, and trying
+/// every type in turn cost microseconds per call on small frames.)
 macro_rules! dispatch {
     ($py:expr, $real:expr, $sim:expr, $req:expr, $($t:ty),*) => {{
+        let dt = $real.dtype();
         $(
-            if let (Ok(r), Ok(s)) = ($real.extract::<PyReadonlyArrayDyn<$t>>(), $sim.extract::<PyReadonlyArrayDyn<$t>>()) {
-                let (rs, ss) = (slice(&r)?, slice(&s)?);
-                let req = $req;
-                return $py.detach(|| stats::pair_stats(rs, ss, &req)).py_err().map(|inner| PyPairStats { inner });
+            if dt.is_equiv_to(&numpy::dtype::<$t>($py)) {
+                if let (Ok(r), Ok(s)) = ($real.extract::<PyReadonlyArrayDyn<$t>>(), $sim.extract::<PyReadonlyArrayDyn<$t>>()) {
+                    let (rs, ss) = (slice(&r)?, slice(&s)?);
+                    let req = $req;
+                    return $py.detach(|| stats::pair_stats(rs, ss, &req)).py_err().map(|inner| PyPairStats { inner });
+                }
             }
         )*
     }};
@@ -157,7 +162,32 @@ fn pair_stats(
     )))
 }
 
+/// `plain_mse(real, sim)`: the mean squared error when both are non-empty 2-D C-contiguous
+/// arrays of one supported dtype and shape, else `None` (the caller takes the general
+/// path, which also explains what is wrong). The single-metric fast path: no keyword
+/// parsing, no `PairStats` object, no Python-side checks.
+#[pyfunction]
+fn plain_mse(py: Python<'_>, real: &Bound<'_, PyAny>, sim: &Bound<'_, PyAny>) -> PyResult<Option<f64>> {
+    let (Ok(r), Ok(s)) = (real.cast::<PyUntypedArray>(), sim.cast::<PyUntypedArray>()) else { return Ok(None) };
+    let plain = |a: &Bound<'_, PyUntypedArray>| a.ndim() == 2 && a.is_c_contiguous();
+    if !(plain(r) && plain(s)) || r.shape() != s.shape() || r.len() == 0 || !r.dtype().is_equiv_to(&s.dtype()) {
+        return Ok(None);
+    }
+    let shape = (r.shape()[0], r.shape()[1]);
+    let req = Request { sse: true, moments: false, hist: None, shape, ..Request::default() };
+    let stats = (|| -> PyResult<PyPairStats> {
+        dispatch!(py, r, s, req.clone(), u8, u16, i16, u32, half::f16, f32, f64);
+        Err(PyTypeError::new_err("unsupported dtype"))
+    })();
+    match stats {
+        Ok(st) => Ok(st.inner.mse()),
+        Err(e) if e.is_instance_of::<PyTypeError>(py) => Ok(None),
+        Err(e) => Err(e),
+    }
+}
+
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(plain_mse, m)?)?;
     m.add_class::<PyPairStats>()?;
     m.add_function(wrap_pyfunction!(pair_stats, m)?)?;
     Ok(())
