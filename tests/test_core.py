@@ -470,6 +470,7 @@ for dt in (np.uint8, np.uint16, np.int16, np.uint32, np.float16, np.float32, np.
         s = np.clip(r.astype(np.int64) + rng.integers(-9, 10, r.shape), info.min, info.max).astype(dt)
         st = irf.pair_stats(r, s, bins="levels" if dt == np.uint16 else 256)
     out.append(st._raw.to_bytes().hex())
+    out.append(float(irf.mse(r, s)).hex())  # the SSE-only pass (explicit AVX2 for floats)
 sys.stdout.write("\n".join(out))
 """
     env = dict(os.environ)
@@ -477,4 +478,52 @@ sys.stdout.write("\n".join(out))
     env["IRFIDELITY_NO_SIMD"] = "1"
     base = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
     assert simd.stdout.splitlines() == base.stdout.splitlines()
-    assert len(simd.stdout.splitlines()) == 7
+    assert len(simd.stdout.splitlines()) == 14
+
+
+@pytest.mark.parametrize("dtype", INT_DTYPES + FLOAT_DTYPES)
+def test_single_metric_fast_path_equals_the_general_path(dtype):
+    # irf.mse / irf.psnr take plain arrays straight to the kernel; every other input goes
+    # through pair_stats. Both must give the same numbers and the same errors.
+    rng = np.random.default_rng(5)
+    if np.dtype(dtype).kind == "f":
+        r = rng.normal(100, 10, (37, 53)).astype(dtype)
+        s = (r + rng.normal(0, 1, r.shape)).astype(dtype)
+        peak = 200.0
+    else:
+        hi = min(np.iinfo(dtype).max, 60000)
+        r = rng.integers(0, hi, (37, 53)).astype(dtype)
+        s = rng.integers(0, hi, (37, 53)).astype(dtype)
+        peak = None
+    general = irf.pair_stats(r, s, need=("mse",))
+    assert _core.plain_mse(r, s) == general.mse()
+    assert irf.mse(r, s) == general.mse()
+    assert irf.psnr(r, s, peak=peak) == irf.pair_stats(r, s, peak=peak, need=("psnr",)).psnr()
+    # not plain: Fortran order, strided views, big-endian, lists -> general path, same value
+    assert _core.plain_mse(np.asfortranarray(r), np.asfortranarray(s)) is None
+    assert irf.mse(np.asfortranarray(r), np.asfortranarray(s)) == general.mse()
+    assert irf.mse(r[::2], s[::2]) == irf.pair_stats(r[::2].copy(), s[::2].copy(), need=("mse",)).mse()
+    big = r.astype(r.dtype.newbyteorder(">")), s.astype(s.dtype.newbyteorder(">"))
+    if r.dtype.itemsize > 1:  # one byte has no byte order
+        assert _core.plain_mse(*big) is None
+    assert irf.mse(*big) == general.mse()
+    assert _core.plain_mse(r.tolist(), s.tolist()) is None
+
+
+def test_single_metric_fast_path_errors():
+    r = np.zeros((4, 5), np.uint16)
+    with pytest.raises(irf.ShapeError, match="differ in shape"):
+        irf.mse(r, np.zeros((5, 4), np.uint16))
+    with pytest.raises(irf.ShapeError, match="differ in dtype"):
+        irf.mse(r, np.zeros((4, 5), np.uint8))
+    with pytest.raises(irf.ShapeError, match="2-D"):
+        irf.mse(np.zeros(5, np.uint16), np.zeros(5, np.uint16))
+    f = np.ones((4, 5), np.float32)
+    g = f.copy()
+    g[2, 3] = np.nan
+    with pytest.raises(irf.RangeError):
+        irf.mse(f, g)
+    with pytest.raises(irf.FidelityError, match="peak"):
+        irf.psnr(f, f)
+    with pytest.raises(irf.FidelityError, match="peak"):
+        irf.psnr(f, f + 1, peak=-1.0)
