@@ -421,10 +421,24 @@ pub(super) fn float_scan<T: Sample>(r: &[T], s: &[T]) -> RunSums {
         r.len(),
         cost::SCAN,
         RunSums::empty,
-        |acc, (a, b)| Ok(acc.merge(float_sums(&r[a..b], &s[a..b], (0.0, 0.0)))),
+        |acc, (a, b)| Ok(acc.merge(float_sums_dispatch(&r[a..b], &s[a..b]))),
         RunSums::merge,
     );
     sums
+}
+
+/// `float_sums` from zero, in the AVX2 copy when the CPU has it (as `run_chunk` does).
+fn float_sums_dispatch<T: Sample>(r: &[T], s: &[T]) -> RunSums {
+    #[cfg(target_arch = "x86_64")]
+    if super::use_avx2() {
+        #[target_feature(enable = "avx2")]
+        fn sums_avx2<T: Sample>(r: &[T], s: &[T]) -> RunSums {
+            float_sums(r, s, (0.0, 0.0))
+        }
+        // SAFETY: the CPU has AVX2 (`use_avx2`).
+        return unsafe { sums_avx2(r, s) };
+    }
+    float_sums(r, s, (0.0, 0.0))
 }
 
 /// The pivot of the float pass and, when the scan certified every value finite, the
