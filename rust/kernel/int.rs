@@ -3,6 +3,8 @@
 
 use super::{min_max, Acc, Bad, Pass, Sample};
 
+const LO32: u64 = 0xffff_ffff;
+
 /// The exact integer pass over `[a, b)`.
 #[inline(always)]
 pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST: bool>(
@@ -18,6 +20,9 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
         let end = (start + T::BLOCK).min(b);
         let (mut sr, mut ss, mut srs) = (0i64, 0i64, 0i64);
         let (mut srr, mut sss, mut sse) = (0u64, 0u64, 0u64);
+        // 32-bit frames: sums of x, y and the high halves of x², y², x·y, (x − y)²
+        let (mut wr, mut ws, mut wrs) = (0u64, 0u64, 0u64);
+        let (mut hrr, mut hss, mut hrs, mut hse) = (0u64, 0u64, 0u64, 0u64);
         let mut n = 0u64;
         // Moments and SSE first (a branch-free loop the compiler vectorises), then the
         // histogram scatter over the same block while it is still in cache. The bodies
@@ -27,10 +32,12 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
                 let (x, y): (i64, i64) = ($x, $y);
                 n += 1;
                 if SSE {
-                    if T::BLOCK == 1 {
-                        // 32-bit values: |x − y| < 2^32, a u32 squared fits u64
-                        let d = x.abs_diff(y) as u32 as u64;
-                        sse += d * d;
+                    if T::WIDE {
+                        // 32-bit values: |x − y| < 2^32, its square fits u64; halves summed apart
+                        let d = x.abs_diff(y);
+                        let d2 = d * d;
+                        sse += d2 & LO32;
+                        hse += d2 >> 32;
                     } else {
                         // ≤ 16-bit values: x − y fits i32, its square fits u64 (vpmuldq)
                         let d = (x - y) as i32 as i64;
@@ -38,14 +45,18 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
                     }
                 }
                 if MOM {
-                    if T::BLOCK == 1 {
-                        // 32-bit values: products need 128 bits from the start
-                        let t = &mut acc.int;
-                        t.sr += x as i128;
-                        t.ss += y as i128;
-                        t.srr += (x as u128) * (x as u128);
-                        t.sss += (y as u128) * (y as u128);
-                        t.srs += (x as i128) * (y as i128);
+                    if T::WIDE {
+                        // 32-bit values (unsigned): squares and products fit u64, halves apart
+                        let (ux, uy) = (x as u64, y as u64);
+                        let (xx, yy, xy) = (ux * ux, uy * uy, ux * uy);
+                        wr += ux;
+                        ws += uy;
+                        srr += xx & LO32;
+                        hrr += xx >> 32;
+                        sss += yy & LO32;
+                        hss += yy >> 32;
+                        wrs += xy & LO32;
+                        hrs += xy >> 32;
                     } else {
                         // |values| < 2^16: squares are u32 × u32 → u64 (pmuludq), products fit i64
                         let (ux, uy) = (x.unsigned_abs() as u32 as u64, y.unsigned_abs() as u32 as u64);
@@ -129,13 +140,14 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
             }
         }
         acc.n += n;
+        let join = |lo: u64, hi: u64| lo as u128 + ((hi as u128) << 32);
         let t = &mut acc.int;
-        t.sse += sse as u128;
-        t.sr += sr as i128;
-        t.ss += ss as i128;
-        t.srr += srr as u128;
-        t.sss += sss as u128;
-        t.srs += srs as i128;
+        t.sse += join(sse, hse);
+        t.sr += sr as i128 + wr as i128;
+        t.ss += ss as i128 + ws as i128;
+        t.srr += join(srr, hrr);
+        t.sss += join(sss, hss);
+        t.srs += srs as i128 + join(wrs, hrs) as i128;
         start = end;
     }
     Ok(())

@@ -30,6 +30,9 @@ pub trait Sample: Copy + PartialOrd + Send + Sync + 'static {
     const LUT: usize;
     /// Pixels per exact block: squares of this many values fit in u64.
     const BLOCK: usize;
+    /// 32-bit integers: squares and products are summed as separate low and high 32-bit
+    /// halves (each half of a block fits u64), joined in u128 per block.
+    const WIDE: bool = false;
     /// Float types whose squares can underflow float64 (checked via the largest |value|).
     const MAY_UNDERFLOW: bool = false;
     fn to_i64(self) -> i64;
@@ -48,12 +51,13 @@ pub trait Sample: Copy + PartialOrd + Send + Sync + 'static {
 }
 
 macro_rules! int_sample {
-    ($($t:ty => $lut:expr, $block:expr);* $(;)?) => {$(
+    ($($t:ty => $lut:expr, $block:expr, $wide:expr);* $(;)?) => {$(
         impl Sample for $t {
             const IS_INT: bool = true;
             const MIN: i64 = <$t>::MIN as i64;
             const LUT: usize = $lut;
             const BLOCK: usize = $block;
+            const WIDE: bool = $wide;
             #[inline(always)]
             fn to_i64(self) -> i64 { self as i64 }
             #[inline(always)]
@@ -61,9 +65,14 @@ macro_rules! int_sample {
         }
     )*};
 }
-// |v| < 2^16: v² < 2^32, so 2^15 of them sum below 2^47 in u64. u32 squares fill a
-// u64 on their own, so u32 blocks are one pixel long (rare dtype; exactness first).
-int_sample!(u8 => 1 << 8, 1 << 15; u16 => 1 << 16, 1 << 15; i16 => 1 << 16, 1 << 15; u32 => 0, 1);
+// |v| < 2^16: v² < 2^32, so 2^15 of them sum below 2^47 in u64. u32 squares fill a u64
+// on their own: their low and high halves are summed apart (2^15 halves < 2^47 each).
+int_sample!(
+    u8 => 1 << 8, 1 << 15, false;
+    u16 => 1 << 16, 1 << 15, false;
+    i16 => 1 << 16, 1 << 15, false;
+    u32 => 0, 1 << 15, true;
+);
 
 macro_rules! float_sample {
     ($($t:ty => $conv:expr, $as:ident);* $(;)?) => {$(
