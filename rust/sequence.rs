@@ -216,7 +216,10 @@ pub fn score_pairs_with(
         if i >= n {
             break;
         }
-        let outcome = score_pair(i, &real[i], &sim[i], req);
+        // While every worker has pairs left, each pair runs on its own thread; the last
+        // pairs may split their passes over threads that ran out of work.
+        let busy = workers > 1 && i + workers < n;
+        let outcome = crate::kernel::with_pool_busy(busy, || score_pair(i, &real[i], &sim[i], req));
         progress.done.fetch_add(1, Ordering::AcqRel);
         sink(outcome);
     };

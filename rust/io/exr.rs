@@ -259,8 +259,12 @@ fn assemble<T: Sample, C: ChunksReader>(
         if compressed.is_empty() {
             break;
         }
-        let pieces: Vec<Result<Piece<T>, Reason>> =
-            compressed.into_par_iter().map(|c| decompress::<T>(c, &meta, layout)).collect();
+        // blocks in parallel, unless the pool is already busy with other frames
+        let pieces: Vec<Result<Piece<T>, Reason>> = if crate::kernel::pool_busy() {
+            compressed.into_iter().map(|c| decompress::<T>(c, &meta, layout)).collect()
+        } else {
+            compressed.into_par_iter().map(|c| decompress::<T>(c, &meta, layout)).collect()
+        };
         for piece in pieces {
             let p = piece?;
             if p.x.checked_add(p.w).is_none_or(|e| e > cols) || p.y.checked_add(p.h).is_none_or(|e| e > rows) {

@@ -312,9 +312,28 @@ pub(crate) mod cost {
 /// earn back (a 512 × 512 float32 MSE pass takes ~50 µs on one core).
 const PARALLEL_MIN_NS: f64 = 250_000.0;
 
+thread_local! {
+    /// Set on a thread whose pool is already busy with independent work (the sequence
+    /// engine's pair loops): splitting a pass there only adds stealing and wake-ups.
+    static POOL_BUSY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Run `f` with nested parallel passes turned off on this thread (see `POOL_BUSY`).
+pub fn with_pool_busy<R>(busy: bool, f: impl FnOnce() -> R) -> R {
+    let before = POOL_BUSY.with(|b| b.replace(busy));
+    let out = f();
+    POOL_BUSY.with(|b| b.set(before));
+    out
+}
+
+/// Whether this thread's pool is busy with independent work (see `with_pool_busy`).
+pub fn pool_busy() -> bool {
+    POOL_BUSY.with(|b| b.get())
+}
+
 /// Whether a pass over `n` pixel pairs at `ns_per_px` is worth the thread pool.
 pub(crate) fn worth_parallel(n: usize, ns_per_px: f64) -> bool {
-    n as f64 * ns_per_px >= PARALLEL_MIN_NS && rayon::current_num_threads() > 1
+    n as f64 * ns_per_px >= PARALLEL_MIN_NS && rayon::current_num_threads() > 1 && !pool_busy()
 }
 
 /// Fold `step` over the chunks of a pair of `n`-pixel frames and combine the partial
