@@ -147,8 +147,20 @@ pub(super) fn decode_channel<T: FromWords>(
     h: usize,
 ) -> Result<Vec<T>, Reason> {
     debug_assert_eq!(words[selected], T::WORDS);
-    SCRATCH.with(|s| decode_with(&mut s.borrow_mut(), data, words, selected, w, h))
+    SCRATCH.with(|s| {
+        let s = &mut *s.borrow_mut();
+        let out = decode_with(s, data, words, selected, w, h);
+        // keep scratch between blocks, but not a huge one after a file with huge tiles
+        if s.tmp.capacity() > KEEP_WORDS {
+            s.tmp = Vec::new();
+            s.input = Vec::new();
+        }
+        out
+    })
 }
+
+/// Scratch sizes kept per thread between blocks (a 2048 x 2048 RGBA float tile and less).
+const KEEP_WORDS: usize = 1 << 25;
 
 fn decode_with<T: FromWords>(
     s: &mut Scratch,

@@ -50,9 +50,17 @@ pub(super) fn decode_channel<T: FromWords>(
             Err(e) => return Err(corrupt(&format!("zlib: {e}"))),
         }
         undo_deltas(&mut s.bytes);
-        Ok(gather::<T>(&s.bytes, bytes_per_pixel, offset_per_pixel, w, h))
+        let out = gather::<T>(&s.bytes, bytes_per_pixel, offset_per_pixel, w, h);
+        // keep the buffer between blocks, but not a huge one after a file with huge tiles
+        if s.bytes.capacity() > KEEP_BYTES {
+            s.bytes = Vec::new();
+        }
+        Ok(out)
     })
 }
+
+/// Buffer size kept per thread between blocks (a 2048 x 2048 RGBA float tile and less).
+const KEEP_BYTES: usize = 1 << 26;
 
 /// t[i] = t[i-1] + t[i] - 128 (mod 256), eight bytes at a time: a byte-wise prefix sum
 /// inside a u64 (three shifted byte-wise adds) plus the carried-in previous byte.
