@@ -129,13 +129,12 @@ fn bigger<T: Sample>(m: f64, x: f64, y: f64) -> f64 {
 fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
     #[cfg(target_arch = "x86_64")]
     if super::use_avx2() {
+        // SAFETY (both): the CPU has AVX2 (`use_avx2`).
         if let (Some(r), Some(s)) = (T::as_f32(rr), T::as_f32(sb)) {
-            // SAFETY: the CPU has AVX2 (`use_avx2`).
-            return (unsafe { avx2::sse_f32(r, s) }, 0.0);
+            return unsafe { avx2::sse(r, s) };
         }
         if let (Some(r), Some(s)) = (T::as_f64(rr), T::as_f64(sb)) {
-            // SAFETY: as above.
-            return unsafe { avx2::sse_f64(r, s) };
+            return unsafe { avx2::sse(r, s) };
         }
     }
     let mut tot = Neumaier::default();
@@ -187,38 +186,32 @@ mod avx2 {
         _mm_cvtsd_f64(_mm_add_sd(t, _mm_unpackhi_pd(t, t)))
     }
 
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn sse_f32(r: &[f32], s: &[f32]) -> Neumaier {
-        let n = r.len().min(s.len());
-        let full = n / BLOCK * BLOCK;
-        let (pr, ps) = (r.as_ptr(), s.as_ptr());
-        let mut tot = Neumaier::default();
-        let mut i = 0;
-        while i < full {
-            let mut acc = [_mm256_setzero_pd(); 4];
-            for j in (i..i + BLOCK).step_by(16) {
-                for (k, a) in acc.iter_mut().enumerate() {
-                    // SAFETY: j + 4k + 4 <= full <= len of both slices
-                    let x = _mm256_cvtps_pd(_mm_loadu_ps(pr.add(j + 4 * k)));
-                    let y = _mm256_cvtps_pd(_mm_loadu_ps(ps.add(j + 4 * k)));
-                    let d = _mm256_sub_pd(x, y);
-                    *a = _mm256_add_pd(*a, _mm256_mul_pd(d, d));
-                }
-            }
-            tot.add(fold(acc));
-            i += BLOCK;
-        }
-        let mut rest = 0.0f64;
-        for (&x, &y) in r[full..n].iter().zip(&s[full..n]) {
-            rest += (x as f64 - y as f64) * (x as f64 - y as f64);
-        }
-        tot.add(rest);
-        tot
+    /// Four values widened to float64 lanes.
+    pub(super) trait Lanes: Copy + Into<f64> {
+        /// float64 squares can underflow: track the largest |value| (see `bigger`)
+        const TRACK_MAX: bool;
+        unsafe fn load4(p: *const Self) -> __m256d;
     }
 
-    /// Also the largest |value| (float64 squares can underflow, see `bigger`).
+    impl Lanes for f32 {
+        const TRACK_MAX: bool = false;
+        #[inline(always)]
+        unsafe fn load4(p: *const f32) -> __m256d {
+            _mm256_cvtps_pd(_mm_loadu_ps(p))
+        }
+    }
+
+    impl Lanes for f64 {
+        const TRACK_MAX: bool = true;
+        #[inline(always)]
+        unsafe fn load4(p: *const f64) -> __m256d {
+            _mm256_loadu_pd(p)
+        }
+    }
+
+    /// Σ(x − y)² (and the largest |value| for float64, else 0).
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn sse_f64(r: &[f64], s: &[f64]) -> (Neumaier, f64) {
+    pub(super) unsafe fn sse<T: Lanes>(r: &[T], s: &[T]) -> (Neumaier, f64) {
         let n = r.len().min(s.len());
         let full = n / BLOCK * BLOCK;
         let (pr, ps) = (r.as_ptr(), s.as_ptr());
@@ -231,11 +224,13 @@ mod avx2 {
             for j in (i..i + BLOCK).step_by(16) {
                 for (k, a) in acc.iter_mut().enumerate() {
                     // SAFETY: j + 4k + 4 <= full <= len of both slices
-                    let x = _mm256_loadu_pd(pr.add(j + 4 * k));
-                    let y = _mm256_loadu_pd(ps.add(j + 4 * k));
+                    let x = T::load4(pr.add(j + 4 * k));
+                    let y = T::load4(ps.add(j + 4 * k));
                     let d = _mm256_sub_pd(x, y);
                     *a = _mm256_add_pd(*a, _mm256_mul_pd(d, d));
-                    big = _mm256_max_pd(big, _mm256_max_pd(_mm256_andnot_pd(sign, x), _mm256_andnot_pd(sign, y)));
+                    if T::TRACK_MAX {
+                        big = _mm256_max_pd(big, _mm256_max_pd(_mm256_andnot_pd(sign, x), _mm256_andnot_pd(sign, y)));
+                    }
                 }
             }
             tot.add(fold(acc));
@@ -246,8 +241,11 @@ mod avx2 {
         let mut max_abs = lanes.iter().fold(0.0f64, |m, &v| m.max(v));
         let mut rest = 0.0f64;
         for (&x, &y) in r[full..n].iter().zip(&s[full..n]) {
+            let (x, y): (f64, f64) = (x.into(), y.into());
             rest += (x - y) * (x - y);
-            max_abs = max_abs.max(x.abs()).max(y.abs());
+            if T::TRACK_MAX {
+                max_abs = max_abs.max(x.abs()).max(y.abs());
+            }
         }
         tot.add(rest);
         (tot, max_abs)

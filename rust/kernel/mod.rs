@@ -54,32 +54,15 @@ pub trait Sample: Copy + PartialOrd + Send + Sync + 'static {
     }
 }
 
-impl Sample for u16 {
-    const IS_INT: bool = true;
-    const MIN: i64 = 0;
-    const LUT: usize = 1 << 16;
-    const BLOCK: usize = 1 << 15;
-    #[inline(always)]
-    fn to_i64(self) -> i64 {
-        self as i64
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-    fn as_u16(s: &[Self]) -> Option<&[u16]> {
-        Some(s)
-    }
-}
-
 macro_rules! int_sample {
-    ($($t:ty => $lut:expr, $block:expr, $wide:expr);* $(;)?) => {$(
+    ($($t:ty => $lut:expr, $block:expr, $wide:expr $(, $as:ident)?);* $(;)?) => {$(
         impl Sample for $t {
             const IS_INT: bool = true;
             const MIN: i64 = <$t>::MIN as i64;
             const LUT: usize = $lut;
             const BLOCK: usize = $block;
             const WIDE: bool = $wide;
+            $(fn $as(s: &[Self]) -> Option<&[Self]> { Some(s) })?
             #[inline(always)]
             fn to_i64(self) -> i64 { self as i64 }
             #[inline(always)]
@@ -87,11 +70,11 @@ macro_rules! int_sample {
         }
     )*};
 }
-// |v| < 2^16: v² < 2^32, so 2^15 of them sum below 2^47 in u64 (u16 is written out above,
-// with its AVX2 accessor). u32 squares fill a u64 on their own: their low and high halves
-// are summed apart (2^15 halves < 2^47 each).
+// |v| < 2^16: v² < 2^32, so 2^15 of them sum below 2^47 in u64. u32 squares fill a u64
+// on their own: their low and high halves are summed apart (2^15 halves < 2^47 each).
 int_sample!(
     u8 => 1 << 8, 1 << 15, false;
+    u16 => 1 << 16, 1 << 15, false, as_u16;
     i16 => 1 << 16, 1 << 15, false;
     u32 => 0, 1 << 15, true;
 );
