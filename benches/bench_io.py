@@ -1,13 +1,15 @@
 """Decode throughput of irfidelity vs OpenEXR (C++), tifffile and OpenCV, in one run.
 
-    python benches/bench_io.py [--repeat N] [--size WxH]
+    python benches/bench_io.py [--repeat N] [--size WxH] [--one-core]
 
 Prints MB/s of decoded pixels and frames/s for each decoder on the same files, and the
 ratio irfidelity / other (> 1: irfidelity is faster). Test files are built in a temporary
 directory from the real thermal frames in tests/data (tiled up to --size with a little
 noise so the codecs have realistic work): a 16-bit PNG, float16 and float32 single-channel
-EXRs in ZIP and PIZ, plus the real 100-page deflate TIFF. A benchmark, not a test: numbers
-depend on the machine (cores, CPU).
+EXRs in ZIP and PIZ, plus the real 100-page deflate TIFF. By default irfidelity decodes an EXR
+frame's blocks on every core (the OpenEXR Python binding uses one); ``--one-core`` pins the
+whole process to one CPU with one decoding thread, for a core-for-core comparison. A benchmark,
+not a test: numbers depend on the machine (cores, CPU).
 """
 
 from __future__ import annotations
@@ -116,7 +118,14 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--size", default="1920x1080", help="WxH of the generated PNG/EXR frames")
+    ap.add_argument("--one-core", action="store_true", help="one CPU, one decoding thread for everyone")
     args = ap.parse_args(argv)
+    if args.one_core:
+        # before the first decode builds irfidelity's (rayon) thread pool
+        os.environ["RAYON_NUM_THREADS"] = "1"
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+        if cv2 is not None:
+            cv2.setNumThreads(1)
     width, height = (int(v) for v in args.size.lower().split("x"))
     print(f"# {os.cpu_count()} CPUs, python {sys.version.split()[0]}, numpy {np.__version__}")
     print(f"# OpenEXR {getattr(OpenEXR, '__version__', '-')}, tifffile {getattr(tifffile, '__version__', '-')}, "
