@@ -482,6 +482,7 @@ def verdict(rows):
     lines = []
     acc_ok = acc_all = speed_ok = speed_all = 0
     losses = []
+    slower = []
     ratios = defaultdict(list)
     for (case, metric), rs in by.items():
         mine = [r for r in rs if r["default"]]
@@ -506,6 +507,8 @@ def verdict(rows):
                 ratios[p["impl"]].append(m["time"] / p["time"])
                 if m["time"] <= p["time"]:
                     speed_ok += 1
+                else:
+                    slower.append(f"{case}/{metric}: {p['impl']} {p['time'] * 1e3:.3f} ms vs irfidelity {m['time'] * 1e3:.3f} ms")
     lines.append(f"- accuracy: irfidelity default at or beyond the peer in **{acc_ok}/{acc_all}** (case, metric, peer) comparisons")
     lines.append(f"- speed: irfidelity default faster in **{speed_ok}/{speed_all}** comparisons")
     lines.append("- time of irfidelity's default / time of the peer (median over cases; < 1 = irfidelity faster):")
@@ -514,6 +517,9 @@ def verdict(rows):
     if losses:
         lines.append("- accuracy losses:")
         lines += [f"  - {x}" for x in losses]
+    if slower:
+        lines.append("- where a peer was faster:")
+        lines += [f"  - {x}" for x in slower]
     return lines
 
 

@@ -580,7 +580,8 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
     }
     // Float frames with moments and no mask: one compensated scan of both frames gives the
     // histogram range, each frame's mean and certifies all values finite.
-    let scan = (!T::IS_INT && req.moments && req.mask.is_none() && !r.is_empty()).then(|| float_scan(r, s));
+    let scan = (!T::IS_INT && req.moments && req.mask.is_none() && !r.is_empty())
+        .then(|| float_scan(r, s, req.hist.is_some()));
     let finite_scan = scan.as_ref().filter(|sc| sc.finite());
     let plan = match &req.hist {
         Some(h) => Some(plan_hist(r, s, req, h, finite_scan.map(|sc| (sc.lo, sc.hi)))?),
