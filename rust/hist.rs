@@ -51,19 +51,33 @@ pub fn entropy<I: IntoIterator<Item = u64>>(counts: I, n: u64) -> f64 {
         return 0.0;
     }
     let nf = n as f64;
+    let term = |c: u64| (c as f64 / nf) * (((n - c) as f64) / c as f64).ln_1p() / std::f64::consts::LN_2;
+    // A joint histogram holds thousands of bins with the same small count: each count's
+    // term (a log) is computed once per call. Same values, same order of additions.
+    let mut memo = [f64::NAN; MEMO];
     let mut h = 0.0f64;
     let mut comp = 0.0f64; // Neumaier compensation: many small terms
     for c in counts {
         if c == 0 {
             continue;
         }
-        let t = (c as f64 / nf) * (((n - c) as f64) / c as f64).ln_1p() / std::f64::consts::LN_2;
+        let t = match memo.get_mut(c as usize) {
+            Some(m) if !m.is_nan() => *m,
+            Some(m) => {
+                *m = term(c);
+                *m
+            }
+            None => term(c),
+        };
         let s = h + t;
         comp += if h.abs() >= t.abs() { (h - s) + t } else { (t - s) + h };
         h = s;
     }
     h + comp
 }
+
+/// Counts below this have their entropy term memoised (`entropy`).
+const MEMO: usize = 512;
 
 /// Sort `keys`, and append their run-length counts to a new sorted run list.
 pub fn runs_from_keys(keys: &mut [u64]) -> Vec<(u64, u64)> {

@@ -23,6 +23,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::OnceLock;
 
+use crate::hist::Entropies;
 use crate::io::{self, DecodeOptions, Frame, FrameData};
 use crate::stats::{self, HistRequest, PairStats, Request};
 use crate::{Error, Result};
@@ -86,6 +87,9 @@ pub struct PairOutcome {
     pub shape: Option<(usize, usize)>,
     /// Sample type of the real frame ("uint16", "float32", ...), when it was decoded.
     pub dtype: Option<&'static str>,
+    /// The histogram's entropies, computed on the worker (not on the thread that hands
+    /// outcomes to Python, which all workers share).
+    pub entropies: Option<Entropies>,
 }
 
 fn run_kernel(r: FrameData, s: FrameData, req: &Request) -> Result<PairStats> {
@@ -123,7 +127,8 @@ fn decode(src: &Source, req: &SeqRequest) -> Result<Frame> {
 
 /// Decode and score one pair on the current thread (and the current rayon pool).
 pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -> PairOutcome {
-    let mut out = PairOutcome { index, stats: Err(Error::Value(String::new())), shape: None, dtype: None };
+    let mut out =
+        PairOutcome { index, stats: Err(Error::Value(String::new())), shape: None, dtype: None, entropies: None };
     let body = || -> Result<PairStats> {
         let r = decode(real, req)?;
         out.shape = Some((r.rows, r.cols));
@@ -150,7 +155,9 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
             shape: (r.rows, r.cols),
             fortran: false,
         };
-        run_kernel(r.data, s.data, &kreq).map_err(|e| prefix(e, &what()))
+        let st = run_kernel(r.data, s.data, &kreq).map_err(|e| prefix(e, &what()))?;
+        out.entropies = st.entropies();
+        Ok(st)
     };
     let res = catch_unwind(AssertUnwindSafe(body));
     out.stats = match res {

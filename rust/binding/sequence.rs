@@ -50,7 +50,7 @@ fn lock(m: &Mutex<Queue>) -> MutexGuard<'_, Queue> {
 
 fn outcome_tuple<'py>(py: Python<'py>, o: PairOutcome) -> PyResult<Bound<'py, PyTuple>> {
     let (stats, err) = match o.stats {
-        Ok(s) => (Some(Py::new(py, PyPairStats { inner: s })?), None),
+        Ok(s) => (Some(Py::new(py, PyPairStats::with_entropies(s, o.entropies))?), None),
         Err(e) => (None, Some(e.to_string())),
     };
     (o.index, stats, err, o.shape, o.dtype).into_pyobject(py)
@@ -266,7 +266,7 @@ fn merge_all(
         .py_err()?;
     Ok(match merged {
         None => (None, false),
-        Some((p, keep)) => (Some(PyPairStats { inner: p }), keep),
+        Some((p, keep)) => (Some(PyPairStats::new(p)), keep),
     })
 }
 

@@ -8,13 +8,28 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
 use super::IntoPy;
-use crate::hist::HistSpec;
+use std::sync::OnceLock;
+
+use crate::hist::{Entropies, HistSpec};
 use crate::stats::{self, HistRequest, Request, Sums};
 
 /// Sufficient statistics of a frame pair (see `irfidelity.PairStats` for the public face).
 #[pyclass(module = "irfidelity._core", name = "PairStats", frozen)]
 pub struct PyPairStats {
     pub(crate) inner: stats::PairStats,
+    /// `inner.entropies()`, computed once (the sequence engine fills it on its worker threads).
+    entropies: OnceLock<Option<Entropies>>,
+}
+
+impl PyPairStats {
+    pub(crate) fn new(inner: stats::PairStats) -> Self {
+        PyPairStats { inner, entropies: OnceLock::new() }
+    }
+
+    /// With the entropies already known (they must be `inner.entropies()`).
+    pub(crate) fn with_entropies(inner: stats::PairStats, entropies: Option<Entropies>) -> Self {
+        PyPairStats { inner, entropies: OnceLock::from(entropies) }
+    }
 }
 
 #[pymethods]
@@ -62,8 +77,9 @@ impl PyPairStats {
         self.inner.centred()
     }
     /// `(h_real, h_sim, h_joint)` in bits, or None without a histogram.
-    fn entropies(&self) -> Option<(f64, f64, f64)> {
-        self.inner.entropies().map(|e| (e.h_real, e.h_sim, e.h_joint))
+    fn entropies(&self, py: Python<'_>) -> Option<(f64, f64, f64)> {
+        let e = self.entropies.get_or_init(|| py.detach(|| self.inner.entropies()));
+        e.map(|e| (e.h_real, e.h_sim, e.h_joint))
     }
     /// `("levels",)` or `("bins", bins, lo, width)`, or None.
     fn hist_spec<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
@@ -92,14 +108,14 @@ impl PyPairStats {
     fn merge(&self, py: Python<'_>, other: &PyPairStats) -> PyResult<PyPairStats> {
         let (a, b) = (&self.inner, &other.inner);
         let merged = py.detach(|| a.merge(b)).py_err()?;
-        Ok(PyPairStats { inner: merged })
+        Ok(PyPairStats::new(merged))
     }
     fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
         PyBytes::new(py, &self.inner.to_bytes())
     }
     #[staticmethod]
     fn from_bytes(data: &[u8]) -> PyResult<PyPairStats> {
-        Ok(PyPairStats { inner: stats::PairStats::from_bytes(data).py_err()? })
+        Ok(PyPairStats::new(stats::PairStats::from_bytes(data).py_err()?))
     }
 }
 
@@ -114,7 +130,7 @@ macro_rules! dispatch {
                 if let (Ok(r), Ok(s)) = ($real.extract::<PyReadonlyArrayDyn<$t>>(), $sim.extract::<PyReadonlyArrayDyn<$t>>()) {
                     let (rs, ss) = (slice(&r)?, slice(&s)?);
                     let req = $req;
-                    return $py.detach(|| stats::pair_stats(rs, ss, &req)).py_err().map(|inner| PyPairStats { inner });
+                    return $py.detach(|| stats::pair_stats(rs, ss, &req)).py_err().map(PyPairStats::new);
                 }
             }
         )*
