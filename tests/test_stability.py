@@ -389,6 +389,14 @@ def test_float64_subnormals_are_a_clear_error():
     s = np.array([[2 * tiny, tiny]])
     with pytest.raises(irf.RangeError, match="rescale"):
         irf.pair_stats(r, s, peak=1e-300)
+    # the PSNR-only pass checks too (it looks for the largest value only when the squares
+    # sum to almost nothing), also on frames long enough for the vector loop
+    big_r, big_s = np.tile(r, (40, 50)), np.tile(s, (40, 50))
+    for a, b in ((r, s), (big_r, big_s)):
+        with pytest.raises(irf.RangeError, match="rescale"):
+            irf.mse(a, b)
+    # identical normal frames: squares sum to 0, no error
+    assert irf.mse(np.ldexp(big_r, 1100), np.ldexp(big_r, 1100)) == 0.0
     # rescaled by an exact power of two, the same frames are fine and exact
     st = irf.pair_stats(np.ldexp(r, 1100), np.ldexp(s, 1100), peak=1.0)
     m = st.metrics()

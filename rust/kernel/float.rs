@@ -50,9 +50,9 @@ pub(super) fn float_chunk<T: Sample>(
     let (rr, sb) = (&r[a..b], &s[a..b]);
     if req.mask.is_none() && !req.moments && req.hist.is_none() {
         // PSNR-only plan: one pass, no means needed
-        let (sse, max_abs) = float_sse(rr, sb);
+        let sse = float_sse(rr, sb);
         if sse.value().is_finite() {
-            acc.max_abs = acc.max_abs.max(max_abs);
+            acc.max_abs = acc.max_abs.max(sse_max_abs(rr, sb, sse.value()));
             let part = FloatSums { sse: sse.sum, sse_c: sse.comp, ..FloatSums::default() };
             acc.float = merge_float(&acc.float, acc.n, &part, rr.len() as u64);
             acc.n += rr.len() as u64;
@@ -121,12 +121,26 @@ fn bigger<T: Sample>(m: f64, x: f64, y: f64) -> f64 {
     }
 }
 
-/// Σ(x − y)² (compensated) and max |value| of a run of pixels: sixteen lanes, eight
+/// For the underflow check of float64 frames (`pair_stats`), after the SSE-only pass:
+/// the largest |value| of the run, or a lower bound of it that already passes the check.
+/// Σ(x − y)² ≤ n·(2·max|v|)², so a sum of at least 2^-900 over n ≤ 2^32 values proves
+/// max|v| ≥ 2^-467: only runs of (nearly) equal or tiny values need the extra look.
+fn sse_max_abs<T: Sample>(rr: &[T], sb: &[T], sse: f64) -> f64 {
+    if !T::MAY_UNDERFLOW || rr.is_empty() {
+        return 0.0;
+    }
+    if sse >= 2f64.powi(-900) {
+        return (sse / rr.len() as f64).sqrt() / 2.0;
+    }
+    rr.iter().zip(sb).fold(0.0, |m, (&x, &y)| bigger::<T>(m, x.to_f64(), y.to_f64()))
+}
+
+/// Σ(x − y)² (compensated) of a run of pixels: sixteen lanes, eight
 /// values per lane per block of 128, lanes folded pairwise into a compensated total per
 /// block; the rest of the run summed on its own. The explicit AVX2 loops (`avx2`) do the
 /// same additions in the same order for float32/float64, so results are bit-identical.
 #[inline(always)]
-fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
+fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> Neumaier {
     #[cfg(target_arch = "x86_64")]
     if super::use_avx2() {
         // SAFETY (both): the CPU has AVX2 (`use_avx2`).
@@ -138,7 +152,6 @@ fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
         }
     }
     let mut tot = Neumaier::default();
-    let mut max_abs = 0.0f64;
     let full = rr.len() / SSE_BLOCK * SSE_BLOCK;
     for (cr, cs) in rr[..full].chunks_exact(SSE_BLOCK).zip(sb[..full].chunks_exact(SSE_BLOCK)) {
         let mut acc = [[0.0f64; 4]; 4]; // element 4k + m of each group of 16 -> acc[k][m]
@@ -148,7 +161,6 @@ fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
                     let (x, y) = (xr[4 * k + m].to_f64(), xs[4 * k + m].to_f64());
                     let d = x - y;
                     acc[k][m] += d * d;
-                    max_abs = bigger::<T>(max_abs, x, y);
                 }
             }
         }
@@ -159,10 +171,9 @@ fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> (Neumaier, f64) {
     for (&x, &y) in rr[full..].iter().zip(&sb[full..]) {
         let (x, y) = (x.to_f64(), y.to_f64());
         rest += (x - y) * (x - y);
-        max_abs = bigger::<T>(max_abs, x, y);
     }
     tot.add(rest);
-    (tot, max_abs)
+    tot
 }
 
 /// Values per block of the SSE-only pass (sixteen lanes of eight).
@@ -211,14 +222,12 @@ mod avx2 {
         }
     }
 
-    /// Σ(x − y)² (and the largest |value| for float64, else 0).
+    /// Σ(x − y)².
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn sse<T: Lanes>(r: &[T], s: &[T]) -> (Neumaier, f64) {
+    pub(super) unsafe fn sse<T: Lanes>(r: &[T], s: &[T]) -> Neumaier {
         let n = r.len().min(s.len());
         let full = n / BLOCK * BLOCK;
         let (pr, ps) = (r.as_ptr(), s.as_ptr());
-        let sign = _mm256_set1_pd(-0.0);
-        let mut big = _mm256_setzero_pd();
         let mut tot = Neumaier::default();
         let mut i = 0;
         while i < full {
@@ -230,27 +239,18 @@ mod avx2 {
                     let y = T::load4(ps.add(j + 4 * k));
                     let d = _mm256_sub_pd(x, y);
                     *a = _mm256_add_pd(*a, _mm256_mul_pd(d, d));
-                    if T::TRACK_MAX {
-                        big = _mm256_max_pd(big, _mm256_max_pd(_mm256_andnot_pd(sign, x), _mm256_andnot_pd(sign, y)));
-                    }
                 }
             }
             tot.add(fold(acc));
             i += BLOCK;
         }
-        let mut lanes = [0.0f64; 4];
-        _mm256_storeu_pd(lanes.as_mut_ptr(), big);
-        let mut max_abs = lanes.iter().fold(0.0f64, |m, &v| m.max(v));
         let mut rest = 0.0f64;
         for (&x, &y) in r[full..n].iter().zip(&s[full..n]) {
             let (x, y): (f64, f64) = (x.into(), y.into());
             rest += (x - y) * (x - y);
-            if T::TRACK_MAX {
-                max_abs = max_abs.max(x.abs()).max(y.abs());
-            }
         }
         tot.add(rest);
-        (tot, max_abs)
+        tot
     }
 
     /// `float_sums` with explicit AVX2: lanes 0-3 and 4-7 in two vectors per sum.
