@@ -2,8 +2,8 @@
 //! `merge_all`.
 //!
 //! `score_pairs` runs the engine on a background thread with the GIL released; the
-//! calling thread waits for outcomes (at most 100 ms at a time) and takes the GIL only to
-//! hand them to Python, report progress and check for signals (Ctrl-C cancels the pairs
+//! calling thread waits for outcomes (a few at a time, at most 100 ms) and takes the GIL
+//! only to hand them to Python, report progress and check for signals (Ctrl-C cancels the pairs
 //! not yet started, waits for those in flight, then raises `KeyboardInterrupt`).
 
 use std::path::PathBuf;
@@ -120,7 +120,11 @@ fn score_pairs<'py>(
         max_pixels: max_pixels.unwrap_or(crate::io::DEFAULT_MAX_PIXELS),
     };
     let n = real.len();
-    let cap = 4 * sequence::effective_workers(workers).max(1);
+    let workers_n = sequence::effective_workers(workers).max(1);
+    let cap = 4 * workers_n;
+    // Wake the caller about once per round of the workers, not per outcome: each wake takes
+    // the GIL and runs Python on a core the workers need (below `cap`: never a stall).
+    let wake_at = workers_n;
     let state = Progress::default();
     let shared = Shared {
         queue: Mutex::new(Queue { items: Vec::new(), finished: false }),
@@ -147,7 +151,9 @@ fn score_pairs<'py>(
             let sink = |o: PairOutcome| {
                 let mut q = lock(&shared.queue);
                 q.items.push(o);
-                shared.ready.notify_all();
+                if q.items.len() >= wake_at {
+                    shared.ready.notify_all();
+                }
                 // back-pressure: wait while the caller is behind (unless cancelled)
                 while q.items.len() >= cap && !state.cancel.load(Ordering::Relaxed) {
                     q = shared.space.wait_timeout(q, POLL).unwrap_or_else(|p| p.into_inner()).0;
