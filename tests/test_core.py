@@ -499,6 +499,13 @@ def test_single_metric_fast_path_equals_the_general_path(dtype):
     assert _core.plain_mse(r, s) == general.mse()
     assert irf.mse(r, s) == general.mse()
     assert irf.psnr(r, s, peak=peak) == irf.pair_stats(r, s, peak=peak, need=("psnr",)).psnr()
+    # irf.ssim likewise (moments only), also with exponents
+    assert _core.plain_moments(r, s).moments() == irf.pair_stats(r, s, need=("ssim",))._raw.moments()
+    for abg in ((1.0, 1.0, 1.0), (0.5, 2.0, 1.5)):
+        assert irf.ssim(r, s, alpha=abg[0], beta=abg[1], gamma=abg[2]) == irf.pair_stats(r, s, need=("ssim",)).ssim(*abg)
+    assert _core.plain_moments(np.asfortranarray(r), np.asfortranarray(s)) is None
+    fr, fs = np.asfortranarray(r), np.asfortranarray(s)  # float sums follow the memory order
+    assert irf.ssim(fr, fs) == irf.pair_stats(fr, fs, need=("ssim",)).ssim()
     # not plain: Fortran order, strided views, big-endian, lists -> general path, same value
     assert _core.plain_mse(np.asfortranarray(r), np.asfortranarray(s)) is None
     assert irf.mse(np.asfortranarray(r), np.asfortranarray(s)) == general.mse()
@@ -523,6 +530,11 @@ def test_single_metric_fast_path_errors():
     g[2, 3] = np.nan
     with pytest.raises(irf.RangeError):
         irf.mse(f, g)
+    with pytest.raises(irf.RangeError, match="NaN"):
+        irf.ssim(f, g)
+    assert irf.ssim(f, g, nonfinite="mask").value == 1.0  # the NaN pair masked: identical frames
+    with pytest.raises(irf.ShapeError, match="differ in shape"):
+        irf.ssim(r, np.zeros((5, 4), np.uint16))
     with pytest.raises(irf.FidelityError, match="peak"):
         irf.psnr(f, f)
     with pytest.raises(irf.FidelityError, match="peak"):

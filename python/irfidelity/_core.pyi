@@ -39,6 +39,10 @@ class PairStats:
 def plain_mse(real: object, sim: object, /) -> float | None:
     """MSE of two non-empty 2-D C-contiguous arrays of one supported dtype and shape; None otherwise."""
 
+def plain_moments(real: object, sim: object, /) -> PairStats | None:
+    """PairStats with the moments only (SSIM) of two non-empty 2-D C-contiguous arrays of one
+    supported dtype and shape; None otherwise."""
+
 def pair_stats(
     real: npt.NDArray[Any],
     sim: npt.NDArray[Any],

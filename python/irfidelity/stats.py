@@ -408,6 +408,11 @@ def ssim(real, sim, *, alpha: float = 1.0, beta: float = 1.0, gamma: float = 1.0
 
     Returns an :class:`SSIM` with ``.value .luminance .contrast .structure``.
     """
+    if mask is None and nonfinite == "raise":
+        # plain 2-D C-contiguous arrays of one dtype: straight to the kernel (None otherwise)
+        raw = _core.plain_moments(real, sim)
+        if raw is not None:
+            return PairStats(raw).ssim(alpha, beta, gamma)
     st = pair_stats(real, sim, need=("ssim",), mask=mask, nonfinite=nonfinite)
     return st.ssim(alpha, beta, gamma)
 

@@ -178,32 +178,51 @@ fn pair_stats(
     )))
 }
 
-/// `plain_mse(real, sim)`: the mean squared error when both are non-empty 2-D C-contiguous
-/// arrays of one supported dtype and shape, else `None` (the caller takes the general
-/// path, which also explains what is wrong). The single-metric fast path: no keyword
-/// parsing, no `PairStats` object, no Python-side checks.
-#[pyfunction]
-fn plain_mse(py: Python<'_>, real: &Bound<'_, PyAny>, sim: &Bound<'_, PyAny>) -> PyResult<Option<f64>> {
+/// The kernel on two non-empty 2-D C-contiguous arrays of one supported dtype and shape,
+/// else `None` (the caller takes the general path, which also explains what is wrong).
+/// The single-metric fast path: no keyword parsing, no Python-side checks.
+fn plain_stats(
+    py: Python<'_>,
+    real: &Bound<'_, PyAny>,
+    sim: &Bound<'_, PyAny>,
+    sse: bool,
+    moments: bool,
+) -> PyResult<Option<PyPairStats>> {
     let (Ok(r), Ok(s)) = (real.cast::<PyUntypedArray>(), sim.cast::<PyUntypedArray>()) else { return Ok(None) };
     let plain = |a: &Bound<'_, PyUntypedArray>| a.ndim() == 2 && a.is_c_contiguous();
     if !(plain(r) && plain(s)) || r.shape() != s.shape() || r.len() == 0 || !r.dtype().is_equiv_to(&s.dtype()) {
         return Ok(None);
     }
     let shape = (r.shape()[0], r.shape()[1]);
-    let req = Request { sse: true, moments: false, hist: None, shape, ..Request::default() };
+    let req = Request { sse, moments, hist: None, shape, ..Request::default() };
     let stats = (|| -> PyResult<PyPairStats> {
         dispatch!(py, r, s, req.clone(), u8, u16, i16, u32, half::f16, f32, f64);
         Err(PyTypeError::new_err("unsupported dtype"))
     })();
     match stats {
-        Ok(st) => Ok(st.inner.mse()),
+        Ok(st) => Ok(Some(st)),
         Err(e) if e.is_instance_of::<PyTypeError>(py) => Ok(None),
         Err(e) => Err(e),
     }
 }
 
+/// `plain_mse(real, sim)`: the mean squared error of plain arrays (see `plain_stats`), or
+/// `None`.
+#[pyfunction]
+fn plain_mse(py: Python<'_>, real: &Bound<'_, PyAny>, sim: &Bound<'_, PyAny>) -> PyResult<Option<f64>> {
+    Ok(plain_stats(py, real, sim, true, false)?.and_then(|st| st.inner.mse()))
+}
+
+/// `plain_moments(real, sim)`: `PairStats` with the moments only (SSIM) of plain arrays
+/// (see `plain_stats`), or `None`.
+#[pyfunction]
+fn plain_moments(py: Python<'_>, real: &Bound<'_, PyAny>, sim: &Bound<'_, PyAny>) -> PyResult<Option<PyPairStats>> {
+    plain_stats(py, real, sim, false, true)
+}
+
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(plain_mse, m)?)?;
+    m.add_function(wrap_pyfunction!(plain_moments, m)?)?;
     m.add_class::<PyPairStats>()?;
     m.add_function(wrap_pyfunction!(pair_stats, m)?)?;
     Ok(())
