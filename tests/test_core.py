@@ -539,3 +539,30 @@ def test_single_metric_fast_path_errors():
         irf.psnr(f, f)
     with pytest.raises(irf.FidelityError, match="peak"):
         irf.psnr(f, f + 1, peak=-1.0)
+
+
+def test_entropies_from_many_threads_at_once():
+    # PairStats caches its entropies, computed with the GIL released: threads asking at the
+    # same time must all get the value (a cache that blocks while holding the GIL would hang
+    # here, so the check runs in a subprocess with a timeout).
+    import subprocess
+    import sys
+
+    script = r"""
+import threading, numpy as np
+from irfidelity import _core
+rng = np.random.default_rng(1)
+r = rng.integers(0, 16384, (256, 320)).astype(np.uint16)
+s = (r // 2 + rng.integers(0, 3, r.shape)).astype(np.uint16)
+want = _core.pair_stats(r, s, sse=False, moments=False, bins=256).entropies()
+for _ in range(40):
+    st = _core.pair_stats(r, s, sse=False, moments=False, bins=256)
+    out = []
+    ts = [threading.Thread(target=lambda: out.append(st.entropies())) for _ in range(4)]
+    [t.start() for t in ts]
+    [t.join() for t in ts]
+    assert out == [want] * 4, out
+print("ok")
+"""
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0 and res.stdout.strip() == "ok", res.stderr

@@ -78,7 +78,16 @@ impl PyPairStats {
     }
     /// `(h_real, h_sim, h_joint)` in bits, or None without a histogram.
     fn entropies(&self, py: Python<'_>) -> Option<(f64, f64, f64)> {
-        let e = self.entropies.get_or_init(|| py.detach(|| self.inner.entropies()));
+        // Not `get_or_init`: a second thread would wait on it holding the GIL, which the
+        // first needs back after computing without it. Two threads may both compute (same
+        // value); the first to finish keeps it.
+        let e = match self.entropies.get() {
+            Some(e) => *e,
+            None => {
+                let e = py.detach(|| self.inner.entropies());
+                *self.entropies.get_or_init(|| e)
+            }
+        };
         e.map(|e| (e.h_real, e.h_sim, e.h_joint))
     }
     /// `("levels",)` or `("bins", bins, lo, width)`, or None.
