@@ -471,6 +471,13 @@ for dt in (np.uint8, np.uint16, np.int16, np.uint32, np.float16, np.float32, np.
         st = irf.pair_stats(r, s, bins="levels" if dt == np.uint16 else 256)
     out.append(st._raw.to_bytes().hex())
     out.append(float(irf.mse(r, s)).hex())  # the SSE-only pass (explicit AVX2 for floats)
+# float binning at the clamps: a narrow explicit range, values far outside it (beyond any
+# int32 bin number), a run length that leaves a remainder
+for dt in (np.float32, np.float64):
+    r = rng.normal(0, 1, (123, 77)).astype(dt)
+    r[0, :5] = [1e30, -1e30, 3e38, -3e38, 0.5]
+    s = (r.astype(np.float64) * 0.5 + rng.normal(0, 0.2, r.shape)).astype(dt)
+    out.append(irf.pair_stats(r, s, peak=4.0, hist_range=(-0.25, 0.25), bins=64)._raw.to_bytes().hex())
 sys.stdout.write("\n".join(out))
 """
     env = dict(os.environ)
@@ -478,7 +485,7 @@ sys.stdout.write("\n".join(out))
     env["IRFIDELITY_NO_SIMD"] = "1"
     base = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
     assert simd.stdout.splitlines() == base.stdout.splitlines()
-    assert len(simd.stdout.splitlines()) == 14
+    assert len(simd.stdout.splitlines()) == 16
 
 
 @pytest.mark.parametrize("dtype", INT_DTYPES + FLOAT_DTYPES)

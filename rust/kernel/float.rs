@@ -2,7 +2,7 @@
 //! mean, in independent lanes folded into Neumaier-compensated totals (two passes per
 //! cache-sized chunk: mean, then centred sums), chunks merged with Chan's update.
 
-use super::{cost, fold_chunks, Acc, Bad, HistPlan, Pass, Request, Sample};
+use super::{cost, fold_chunks, Acc, Bad, Binner, HistPlan, Pass, Request, Sample};
 use crate::stats::{merge_float, two_sum, FloatSums};
 
 /// Neumaier-compensated running sum: totals of per-block lane sums.
@@ -185,7 +185,7 @@ const SSE_BLOCK: usize = 128;
 /// values per lane per block of 128, lanes folded pairwise into a compensated total.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::{Neumaier, RunSums, Sample, SumLanes, LANES, LANES_C, SUB};
+    use super::{Binner, Neumaier, RunSums, Sample, SumLanes, LANES, LANES_C, SUB};
     // one __m256d holds the four lanes of a centred sum, two the eight lanes of `sums`
     const _: () = assert!(LANES_C == 4 && LANES == 8);
     use std::arch::x86_64::*;
@@ -305,6 +305,40 @@ mod avx2 {
         store(&mut st.lo, lo);
         store(&mut st.hi, hi);
         st.finish::<T, RANGE>(&r[full..n], &s[full..n], (pr, ps))
+    }
+
+    /// `float_hist` on a dense `bins × bins` table: bins of four pairs at a time, computed as
+    /// `Binner::float_bin` does (`(v − lo)·(1/width)`, truncated, clamped to the edge bins; the
+    /// clamp comes first here, in float64, so the truncation cannot overflow — same bins).
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn hist_dense<T: Lanes + Sample>(r: &[T], s: &[T], bn: &Binner, dense: &mut [u32]) {
+        let bins = bn.bins;
+        assert!(dense.len() == bins * bins && bins <= crate::hist::DENSE_MAX_BINS);
+        let n = r.len().min(s.len());
+        let full = n / 4 * 4;
+        let (lo, inv) = (_mm256_set1_pd(bn.lo), _mm256_set1_pd(bn.inv_width));
+        let (zero, top) = (_mm256_setzero_pd(), _mm256_set1_pd((bins - 1) as f64));
+        let stride = _mm_set1_epi32(bins as i32);
+        // maxpd returns its second operand for NaN, as `NaN as i64` gives 0: same bin 0
+        let bin = |v: __m256d| {
+            _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(_mm256_sub_pd(v, lo), inv), zero), top))
+        };
+        let mut idx = [0u32; 4];
+        let mut j = 0;
+        while j < full {
+            // SAFETY: j + 4 <= full <= len of both runs
+            let (x, y) = (T::load4(r.as_ptr().add(j)), T::load4(s.as_ptr().add(j)));
+            let cell = _mm_add_epi32(_mm_mullo_epi32(bin(x), stride), bin(y));
+            _mm_storeu_si128(idx.as_mut_ptr().cast(), cell);
+            for &c in &idx {
+                // SAFETY: both bins are clamped to [0, bins − 1], so c < bins² = dense.len()
+                *dense.get_unchecked_mut(c as usize) += 1;
+            }
+            j += 4;
+        }
+        for (&x, &y) in r[full..n].iter().zip(&s[full..n]) {
+            dense[bn.float_bin(x.to_f64()) * bins + bn.float_bin(y.to_f64())] += 1;
+        }
     }
 
     /// `centred_totals` with explicit AVX2: one vector of four lanes per sum.
@@ -521,6 +555,26 @@ fn centred_add(l: &mut [[f64; LANES_C]; 6], k: usize, x: f64, y: f64, (pr, ps): 
     l[5][k] += d * d;
 }
 
+/// Count the run's pairs into the joint histogram. On a dense table with AVX2 (float32 and
+/// float64), four pairs are binned at a time (`avx2::hist_dense`): the same arithmetic as
+/// `Binner::float_bin`, so the same bins; the scalar loop spent most of its time there.
+#[inline(always)]
+fn float_hist<T: Sample>(rr: &[T], sb: &[T], bn: &Binner, dense_bins: usize, acc: &mut Acc) {
+    #[cfg(target_arch = "x86_64")]
+    if dense_bins > 0 && super::use_avx2() {
+        // SAFETY (both): the CPU has AVX2, and the table has dense_bins² counts (`Acc::new`).
+        if let (Some(r), Some(s)) = (T::as_f32(rr), T::as_f32(sb)) {
+            return unsafe { avx2::hist_dense(r, s, bn, &mut acc.dense) };
+        }
+        if let (Some(r), Some(s)) = (T::as_f64(rr), T::as_f64(sb)) {
+            return unsafe { avx2::hist_dense(r, s, bn, &mut acc.dense) };
+        }
+    }
+    for (&x, &y) in rr.iter().zip(sb) {
+        acc.count(dense_bins, bn.float_bin(x.to_f64()), bn.float_bin(y.to_f64()));
+    }
+}
+
 /// Centred sums around `(mr, ms)` (relative to the pivot: the run's own mean, or the
 /// frames' means; corrected two-pass, so an approximate centre costs no accuracy), SSE
 /// and the histogram, merged into `acc` (sums relative to the pivot).
@@ -542,10 +596,7 @@ fn float_centred<T: Sample>(
     let tot = if req.moments || req.sse { centred_totals(rr, sb, (pr, ps), (mr, ms)) } else { Default::default() };
     if let Some(p) = plan {
         if let Some(bn) = p.binner.as_ref() {
-            let dense_bins = p.dense_bins.unwrap_or(0);
-            for (&x, &y) in rr.iter().zip(sb) {
-                acc.count(dense_bins, bn.float_bin(x.to_f64()), bn.float_bin(y.to_f64()));
-            }
+            float_hist(rr, sb, bn, p.dense_bins.unwrap_or(0), acc);
         }
     }
     let [dr, ds, m2r, m2s, crs, _] = tot.map(|t| t.value());
