@@ -29,6 +29,24 @@ impl Neumaier {
     }
 }
 
+/// On AVX2 CPUs, return `$call` with `$r`, `$s` bound to the runs as float32 or float64
+/// slices (the explicit loops in `avx2`); other types and CPUs fall through to the portable
+/// loop that follows.
+macro_rules! avx2_floats {
+    ($rr:expr, $sb:expr, |$r:ident, $s:ident| $call:expr) => {
+        #[cfg(target_arch = "x86_64")]
+        if super::use_avx2() {
+            // SAFETY (both): the CPU has AVX2 (`use_avx2`); callers state any other condition.
+            if let (Some($r), Some($s)) = (T::as_f32($rr), T::as_f32($sb)) {
+                return unsafe { $call };
+            }
+            if let (Some($r), Some($s)) = (T::as_f64($rr), T::as_f64($sb)) {
+                return unsafe { $call };
+            }
+        }
+    };
+}
+
 /// Lanes of independent partial sums (vectorised; also a first level of pairwise summation)
 /// and values per block before the lanes are folded into a compensated total.
 const LANES: usize = 8;
@@ -141,16 +159,7 @@ fn sse_max_abs<T: Sample>(rr: &[T], sb: &[T], sse: f64) -> f64 {
 /// same additions in the same order for float32/float64, so results are bit-identical.
 #[inline(always)]
 fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> Neumaier {
-    #[cfg(target_arch = "x86_64")]
-    if super::use_avx2() {
-        // SAFETY (both): the CPU has AVX2 (`use_avx2`).
-        if let (Some(r), Some(s)) = (T::as_f32(rr), T::as_f32(sb)) {
-            return unsafe { avx2::sse(r, s) };
-        }
-        if let (Some(r), Some(s)) = (T::as_f64(rr), T::as_f64(sb)) {
-            return unsafe { avx2::sse(r, s) };
-        }
-    }
+    avx2_floats!(rr, sb, |r, s| avx2::sse(r, s));
     let mut tot = Neumaier::default();
     let full = rr.len() / SSE_BLOCK * SSE_BLOCK;
     for (cr, cs) in rr[..full].chunks_exact(SSE_BLOCK).zip(sb[..full].chunks_exact(SSE_BLOCK)) {
@@ -179,10 +188,10 @@ fn float_sse<T: Sample>(rr: &[T], sb: &[T]) -> Neumaier {
 /// Values per block of the SSE-only pass (sixteen lanes of eight).
 const SSE_BLOCK: usize = 128;
 
-/// Σ(x − y)² for float32/float64 runs with explicit AVX2: the PSNR/MSE plan is one sum,
-/// and LLVM's vectorisation of the generic loop is fragile (a change in the block fold
-/// turned it into gathers, 2-3x slower). Sixteen lanes (four vectors in flight), eight
-/// values per lane per block of 128, lanes folded pairwise into a compensated total.
+/// Explicit AVX2 copies of the float loops (float32/float64): the squared error, the scan,
+/// the centred sums and the dense histogram. LLVM's vectorisation of the generic loops is
+/// fragile (half-width vectors with spills, or gathers after a small change); each copy does
+/// the same operations in the same order as its portable loop, so results are bit-identical.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::{Binner, Neumaier, RunSums, Sample, SumLanes, LANES, LANES_C, SUB};
@@ -200,14 +209,11 @@ mod avx2 {
     }
 
     /// Four values widened to float64 lanes.
-    pub(super) trait Lanes: Copy + Into<f64> {
-        /// float64 squares can underflow: track the largest |value| (see `bigger`)
-        const TRACK_MAX: bool;
+    pub(super) trait Lanes: Sample + Into<f64> {
         unsafe fn load4(p: *const Self) -> __m256d;
     }
 
     impl Lanes for f32 {
-        const TRACK_MAX: bool = false;
         #[inline(always)]
         unsafe fn load4(p: *const f32) -> __m256d {
             _mm256_cvtps_pd(_mm_loadu_ps(p))
@@ -215,7 +221,6 @@ mod avx2 {
     }
 
     impl Lanes for f64 {
-        const TRACK_MAX: bool = true;
         #[inline(always)]
         unsafe fn load4(p: *const f64) -> __m256d {
             _mm256_loadu_pd(p)
@@ -255,7 +260,7 @@ mod avx2 {
 
     /// `float_sums` with explicit AVX2: lanes 0-3 and 4-7 in two vectors per sum.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn sums<T: Lanes + Sample, const RANGE: bool>(r: &[T], s: &[T], (pr, ps): (f64, f64)) -> RunSums {
+    pub(super) unsafe fn sums<T: Lanes, const RANGE: bool>(r: &[T], s: &[T], (pr, ps): (f64, f64)) -> RunSums {
         let n = r.len().min(s.len());
         let full = n / LANES * LANES;
         let (p_r, p_s) = (r.as_ptr(), s.as_ptr());
@@ -286,7 +291,7 @@ mod avx2 {
                     lo[h] = _mm256_min_pd(_mm256_min_pd(x, y), lo[h]);
                     hi[h] = _mm256_max_pd(_mm256_max_pd(x, y), hi[h]);
                 }
-                if T::TRACK_MAX {
+                if T::MAY_UNDERFLOW {
                     big[h] = _mm256_max_pd(_mm256_andnot_pd(sign, y), _mm256_max_pd(_mm256_andnot_pd(sign, x), big[h]));
                 }
             }
@@ -311,7 +316,7 @@ mod avx2 {
     /// `Binner::float_bin` does (`(v − lo)·(1/width)`, truncated, clamped to the edge bins; the
     /// clamp comes first here, in float64, so the truncation cannot overflow — same bins).
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn hist_dense<T: Lanes + Sample>(r: &[T], s: &[T], bn: &Binner, dense: &mut [u32]) {
+    pub(super) unsafe fn hist_dense<T: Lanes>(r: &[T], s: &[T], bn: &Binner, dense: &mut [u32]) {
         let bins = bn.bins;
         assert!(dense.len() == bins * bins && bins <= crate::hist::DENSE_MAX_BINS);
         let n = r.len().min(s.len());
@@ -421,16 +426,7 @@ impl RunSums {
 /// kept. The AVX2 copy (`avx2::sums`, float32/float64) does the same operations per lane.
 #[inline(always)]
 fn float_sums<T: Sample, const RANGE: bool>(rr: &[T], sb: &[T], pivot: (f64, f64)) -> RunSums {
-    #[cfg(target_arch = "x86_64")]
-    if super::use_avx2() {
-        // SAFETY (both): the CPU has AVX2 (`use_avx2`).
-        if let (Some(r), Some(s)) = (T::as_f32(rr), T::as_f32(sb)) {
-            return unsafe { avx2::sums::<f32, RANGE>(r, s, pivot) };
-        }
-        if let (Some(r), Some(s)) = (T::as_f64(rr), T::as_f64(sb)) {
-            return unsafe { avx2::sums::<f64, RANGE>(r, s, pivot) };
-        }
-    }
+    avx2_floats!(rr, sb, |r, s| avx2::sums::<_, RANGE>(r, s, pivot));
     let mut st = SumLanes::new();
     let (ir, is) = (rr.chunks_exact(LANES), sb.chunks_exact(LANES));
     let (rem_r, rem_s) = (ir.remainder(), is.remainder());
@@ -509,19 +505,10 @@ impl SumLanes {
 /// Six compensated totals of a run, centred on `(pr + mr, ps + ms)`: Σdr, Σds, Σdr², Σds²,
 /// Σdr·ds and Σ(x − y)². Four lanes per sum, folded into the totals every `SUB` values. The
 /// AVX2 copy (`avx2::centred`, float32/float64) does the same additions in the same order:
-/// LLVM vectorised this loop into half-width vectors with spills (3.6 ns/px).
+/// LLVM vectorised this loop into half-width vectors with spills.
 #[inline(always)]
 fn centred_totals<T: Sample>(rr: &[T], sb: &[T], (pr, ps): (f64, f64), (mr, ms): (f64, f64)) -> [Neumaier; 6] {
-    #[cfg(target_arch = "x86_64")]
-    if super::use_avx2() {
-        // SAFETY (both): the CPU has AVX2 (`use_avx2`).
-        if let (Some(r), Some(s)) = (T::as_f32(rr), T::as_f32(sb)) {
-            return unsafe { avx2::centred(r, s, (pr, ps), (mr, ms)) };
-        }
-        if let (Some(r), Some(s)) = (T::as_f64(rr), T::as_f64(sb)) {
-            return unsafe { avx2::centred(r, s, (pr, ps), (mr, ms)) };
-        }
-    }
+    avx2_floats!(rr, sb, |r, s| avx2::centred(r, s, (pr, ps), (mr, ms)));
     let mut tot = [Neumaier::default(); 6];
     for (cr, cs) in rr.chunks(SUB).zip(sb.chunks(SUB)) {
         let mut l = [[0.0f64; LANES_C]; 6];
@@ -560,15 +547,9 @@ fn centred_add(l: &mut [[f64; LANES_C]; 6], k: usize, x: f64, y: f64, (pr, ps): 
 /// `Binner::float_bin`, so the same bins; the scalar loop spent most of its time there.
 #[inline(always)]
 fn float_hist<T: Sample>(rr: &[T], sb: &[T], bn: &Binner, dense_bins: usize, acc: &mut Acc) {
-    #[cfg(target_arch = "x86_64")]
-    if dense_bins > 0 && super::use_avx2() {
-        // SAFETY (both): the CPU has AVX2, and the table has dense_bins² counts (`Acc::new`).
-        if let (Some(r), Some(s)) = (T::as_f32(rr), T::as_f32(sb)) {
-            return unsafe { avx2::hist_dense(r, s, bn, &mut acc.dense) };
-        }
-        if let (Some(r), Some(s)) = (T::as_f64(rr), T::as_f64(sb)) {
-            return unsafe { avx2::hist_dense(r, s, bn, &mut acc.dense) };
-        }
+    if dense_bins > 0 {
+        // the dense table holds dense_bins² counts (`Acc::new`); hist_dense asserts it
+        avx2_floats!(rr, sb, |r, s| avx2::hist_dense(r, s, bn, &mut acc.dense));
     }
     for (&x, &y) in rr.iter().zip(sb) {
         acc.count(dense_bins, bn.float_bin(x.to_f64()), bn.float_bin(y.to_f64()));
