@@ -13,9 +13,12 @@ use crate::stats::{merge_float, FloatSums, IntSums, PairStats, Sums};
 
 mod float;
 mod int;
+mod parallel;
 
 use float::{float_chunk, float_pivot, float_scan, Neumaier};
 use int::int_chunk;
+pub(crate) use parallel::{cost, fold_chunks, worth_parallel};
+pub use parallel::{pool_busy, with_pool_busy};
 
 /// Pixels per work unit: two chunks of u16/f32 fit in L2 with the histogram.
 pub(crate) const CHUNK: usize = 1 << 16;
@@ -273,75 +276,6 @@ impl Acc {
 pub(crate) enum Bad {
     Range { frame: &'static str, value: i64, index: usize },
     NonFinite { index: usize },
-}
-
-/// Rough single-core cost of one pass, in nanoseconds per pixel pair (measured on a 2-core
-/// x86-64 VM with AVX2): only the order of magnitude matters, it decides threading.
-pub(crate) mod cost {
-    /// min/max of both frames
-    pub const RANGE: f64 = 0.15;
-    /// compensated sums and range of both float frames
-    pub const SCAN: f64 = 1.5;
-    /// squared error only (PSNR/MSE plan)
-    pub const SSE: f64 = 0.2;
-    /// moments and/or histogram, integer frames
-    pub const FULL_INT: f64 = 3.0;
-    /// moments and/or histogram, float frames
-    pub const FULL_FLOAT: f64 = 6.0;
-}
-
-/// Passes estimated below this many nanoseconds run on the calling thread: waking pool
-/// threads and waiting for them costs 20–150 µs (most in VMs), which cheap passes do not
-/// earn back (a 512 × 512 float32 MSE pass takes ~50 µs on one core).
-const PARALLEL_MIN_NS: f64 = 250_000.0;
-
-thread_local! {
-    /// Set on a thread whose pool is already busy with independent work (the sequence
-    /// engine's pair loops): splitting a pass there only adds stealing and wake-ups.
-    static POOL_BUSY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
-}
-
-/// Run `f` with nested parallel passes turned off on this thread (see `POOL_BUSY`).
-pub fn with_pool_busy<R>(busy: bool, f: impl FnOnce() -> R) -> R {
-    let before = POOL_BUSY.with(|b| b.replace(busy));
-    let out = f();
-    POOL_BUSY.with(|b| b.set(before));
-    out
-}
-
-/// Whether this thread's pool is busy with independent work (see `with_pool_busy`).
-pub fn pool_busy() -> bool {
-    POOL_BUSY.with(|b| b.get())
-}
-
-/// Whether a pass over `n` pixel pairs at `ns_per_px` is worth the thread pool.
-pub(crate) fn worth_parallel(n: usize, ns_per_px: f64) -> bool {
-    n as f64 * ns_per_px >= PARALLEL_MIN_NS && rayon::current_num_threads() > 1 && !pool_busy()
-}
-
-/// Fold `step` over the chunks of a pair of `n`-pixel frames and combine the partial
-/// results with `merge`: on the calling thread for cheap passes (see `worth_parallel`),
-/// on the rayon pool otherwise.
-pub(crate) fn fold_chunks<A, E>(
-    n: usize,
-    ns_per_px: f64,
-    init: impl Fn() -> A + Sync + Send,
-    step: impl Fn(A, (usize, usize)) -> std::result::Result<A, E> + Sync + Send,
-    merge: impl Fn(A, A) -> A + Sync + Send,
-) -> std::result::Result<A, E>
-where
-    A: Send,
-    E: Send,
-{
-    let chunks = chunk_ranges(n);
-    if !worth_parallel(n, ns_per_px) {
-        return chunks.into_iter().try_fold(init(), step);
-    }
-    chunks.into_par_iter().try_fold(&init, &step).try_reduce(&init, |a, b| Ok(merge(a, b)))
-}
-
-fn chunk_ranges(n: usize) -> Vec<(usize, usize)> {
-    (0..n.div_ceil(CHUNK)).map(|c| (c * CHUNK, ((c + 1) * CHUNK).min(n))).collect()
 }
 
 /// Min and max of two runs of samples by plain compares, in the native width (vectorises to

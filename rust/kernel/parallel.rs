@@ -1,0 +1,361 @@
+//! Splitting one pass over the calling thread and idle pool threads.
+//!
+//! [`fold_chunks`] has the calling thread work through the chunks itself, one at a time from
+//! a shared counter, while helpers queued on the rayon pool take chunks from the same counter
+//! when, and if, they start. A helper that has not started by the time the chunks run out is
+//! cancelled, never waited for. A busy machine (the other cores running something else) then
+//! costs a pass the queuing of a job, and the pass runs at single-thread speed. rayon's own
+//! splitting hands part of the work to a pool thread and waits for it to finish, however
+//! late the scheduler runs it: 512 × 512 float SSIM took 2.5× its single-thread time that way
+//! while another process spun on the second core.
+//!
+//! The helpers borrow the caller's frames and closures through a type-erased pointer (rayon's
+//! `spawn` needs `'static` jobs). The protocol that makes this sound: a helper may touch the
+//! job only after moving its slot from `Pending` to `Running`, and the caller returns (or
+//! unwinds) only after moving every slot from `Pending` to `Closed` or seeing it `Done`.
+
+use std::any::Any;
+use std::panic::{self, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+
+use super::CHUNK;
+
+/// Rough single-core cost of one pass, in nanoseconds per pixel pair (measured on 2-core
+/// x86-64 VMs with AVX2): only the order of magnitude matters, it decides threading.
+pub(crate) mod cost {
+    /// min/max of both frames
+    pub const RANGE: f64 = 0.15;
+    /// compensated sums and range of both float frames
+    pub const SCAN: f64 = 1.5;
+    /// squared error only (PSNR/MSE plan)
+    pub const SSE: f64 = 0.2;
+    /// moments and/or histogram, integer frames
+    pub const FULL_INT: f64 = 3.0;
+    /// moments and/or histogram, float frames
+    pub const FULL_FLOAT: f64 = 6.0;
+}
+
+/// Passes estimated below this many nanoseconds run on the calling thread alone: queuing a
+/// helper costs the caller a few microseconds, and a helper needs 5–50 µs to wake (more in
+/// VMs), so shorter passes would end before it helps.
+const PARALLEL_MIN_NS: f64 = 30_000.0;
+
+thread_local! {
+    /// Set on a thread whose pool is already busy with independent work (the sequence
+    /// engine's pair loops): splitting a pass there only adds stealing and wake-ups.
+    static POOL_BUSY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Run `f` with nested parallel passes turned off on this thread (see `POOL_BUSY`).
+pub fn with_pool_busy<R>(busy: bool, f: impl FnOnce() -> R) -> R {
+    let before = POOL_BUSY.with(|b| b.replace(busy));
+    let out = f();
+    POOL_BUSY.with(|b| b.set(before));
+    out
+}
+
+/// Whether this thread's pool is busy with independent work (see `with_pool_busy`).
+pub fn pool_busy() -> bool {
+    POOL_BUSY.with(|b| b.get())
+}
+
+/// Whether a pass over `n` pixel pairs at `ns_per_px` is worth the thread pool.
+pub(crate) fn worth_parallel(n: usize, ns_per_px: f64) -> bool {
+    n as f64 * ns_per_px >= PARALLEL_MIN_NS && rayon::current_num_threads() > 1 && !pool_busy()
+}
+
+fn chunk_ranges(n: usize) -> Vec<(usize, usize)> {
+    (0..n.div_ceil(CHUNK)).map(|c| (c * CHUNK, ((c + 1) * CHUNK).min(n))).collect()
+}
+
+/// Fold `step` over the chunks of a pair of `n`-pixel frames, starting each partial result
+/// from `init`, and combine the partial results with `merge`: on the calling thread for cheap
+/// passes (see `worth_parallel`), shared with idle pool threads otherwise.
+///
+/// Chunks are taken in order; a failing chunk stops the others from starting new ones, and
+/// the error of the lowest failing chunk is returned, so errors do not depend on timing.
+pub(crate) fn fold_chunks<A, E>(
+    n: usize,
+    ns_per_px: f64,
+    init: impl Fn() -> A + Sync,
+    step: impl Fn(A, (usize, usize)) -> Result<A, E> + Sync,
+    merge: impl Fn(A, A) -> A,
+) -> Result<A, E>
+where
+    A: Send,
+    E: Send,
+{
+    let chunks = chunk_ranges(n);
+    let helpers = if worth_parallel(n, ns_per_px) {
+        (rayon::current_num_threads() - 1).min(chunks.len().saturating_sub(1))
+    } else {
+        0
+    };
+    if helpers == 0 {
+        return chunks.into_iter().try_fold(init(), step);
+    }
+    let job = Job {
+        chunks: &chunks,
+        next: AtomicUsize::new(0),
+        stop: AtomicBool::new(false),
+        init: &init,
+        step: &step,
+        parts: Mutex::new(Vec::with_capacity(helpers)),
+    };
+    let mut parts = {
+        let _helpers = Helpers::start(&job, helpers);
+        let mine = job.run();
+        drop(_helpers); // every helper has finished or will never touch `job`
+        let mut parts = std::mem::take(&mut *lock(&job.parts));
+        parts.push(Ok(mine));
+        parts
+    };
+    // A helper's panic resumes here, on the caller (where the binding catches it).
+    if let Some(pos) = parts.iter().position(|p| p.is_err()) {
+        if let Err(payload) = parts.swap_remove(pos) {
+            panic::resume_unwind(payload);
+        }
+    }
+    let parts = parts.into_iter().filter_map(Result::ok);
+    let mut first_err: Option<(usize, E)> = None;
+    let mut total: Option<A> = None;
+    for part in parts {
+        match part {
+            Part::Done(Some(a)) => {
+                total = Some(match total.take() {
+                    Some(t) => merge(t, a),
+                    None => a,
+                })
+            }
+            Part::Done(None) => {}
+            Part::Failed(i, e) => {
+                if first_err.as_ref().is_none_or(|(j, _)| i < *j) {
+                    first_err = Some((i, e));
+                }
+            }
+        }
+    }
+    match first_err {
+        Some((_, e)) => Err(e),
+        None => Ok(total.unwrap_or_else(init)),
+    }
+}
+
+/// What one thread folded: its partial result (`None`: it took no chunk), or the first
+/// chunk that failed and why.
+enum Part<A, E> {
+    Done(Option<A>),
+    Failed(usize, E),
+}
+
+type Panic = Box<dyn Any + Send + 'static>;
+
+/// The shared state of one pass; lives on the caller's stack.
+struct Job<'a, A, E, I, S> {
+    chunks: &'a [(usize, usize)],
+    /// Index of the next chunk to take.
+    next: AtomicUsize,
+    /// Set when a chunk failed: no new chunk is started.
+    stop: AtomicBool,
+    init: &'a I,
+    step: &'a S,
+    /// The helpers' parts (or panics).
+    parts: Mutex<Vec<Result<Part<A, E>, Panic>>>,
+}
+
+impl<A, E, I, S> Job<'_, A, E, I, S>
+where
+    I: Fn() -> A,
+    S: Fn(A, (usize, usize)) -> Result<A, E>,
+{
+    fn run(&self) -> Part<A, E> {
+        let mut acc: Option<A> = None;
+        while !self.stop.load(Ordering::Relaxed) {
+            let i = self.next.fetch_add(1, Ordering::Relaxed);
+            let Some(&range) = self.chunks.get(i) else { break };
+            match (self.step)(acc.take().unwrap_or_else(self.init), range) {
+                Ok(a) => acc = Some(a),
+                Err(e) => {
+                    self.stop.store(true, Ordering::Relaxed);
+                    return Part::Failed(i, e);
+                }
+            }
+        }
+        Part::Done(acc)
+    }
+}
+
+/// The helper's entry point: run the job behind `p` and keep its part (or panic) in the job.
+///
+/// # Safety
+/// `p` points to a live `Job<A, E, I, S>` (the `Helpers` protocol guarantees it while the
+/// helper's slot is `Running`).
+unsafe fn help<A, E, I, S>(p: *const ())
+where
+    I: Fn() -> A,
+    S: Fn(A, (usize, usize)) -> Result<A, E>,
+{
+    // SAFETY: the caller's guarantee
+    let job = unsafe { &*p.cast::<Job<'_, A, E, I, S>>() };
+    let part = panic::catch_unwind(AssertUnwindSafe(|| job.run()));
+    lock(&job.parts).push(part);
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum State {
+    Pending,
+    Running,
+    Closed,
+    Done,
+}
+
+struct Slot {
+    state: Mutex<State>,
+    done: Condvar,
+}
+
+/// A raw pointer sent to a helper; only dereferenced under the `Helpers` protocol.
+struct JobPtr(*const ());
+// SAFETY: the pointee (`Job`) is `Sync` for the types `fold_chunks` accepts (atomics, a
+// mutex of `Send` parts, `Sync` closures); the pointer itself is only an address.
+unsafe impl Send for JobPtr {}
+
+/// Helpers queued on the rayon pool for one job. Dropping it (also when unwinding) cancels
+/// the helpers that have not started and waits for the ones running.
+struct Helpers(Vec<Arc<Slot>>);
+
+impl Helpers {
+    fn start<A, E, I, S>(job: &Job<'_, A, E, I, S>, count: usize) -> Helpers
+    where
+        A: Send,
+        E: Send,
+        I: Fn() -> A + Sync,
+        S: Fn(A, (usize, usize)) -> Result<A, E> + Sync,
+    {
+        let entry: unsafe fn(*const ()) = help::<A, E, I, S>;
+        let slots = (0..count)
+            .map(|_| {
+                let slot = Arc::new(Slot { state: Mutex::new(State::Pending), done: Condvar::new() });
+                let (mine, ptr) = (Arc::clone(&slot), JobPtr((job as *const Job<'_, A, E, I, S>).cast()));
+                rayon::spawn(move || {
+                    let ptr = ptr; // the whole wrapper moves into the closure, not its field
+                    {
+                        let mut st = lock(&mine.state);
+                        if *st != State::Pending {
+                            return;
+                        }
+                        *st = State::Running;
+                    }
+                    // SAFETY: the slot is Running, so the caller waits (in `Helpers::drop`)
+                    // until it is Done before `job` goes out of scope.
+                    unsafe { entry(ptr.0) };
+                    *lock(&mine.state) = State::Done;
+                    mine.done.notify_all();
+                });
+                slot
+            })
+            .collect();
+        Helpers(slots)
+    }
+}
+
+impl Drop for Helpers {
+    fn drop(&mut self) {
+        for slot in &self.0 {
+            let mut st = lock(&slot.state);
+            if *st == State::Pending {
+                *st = State::Closed;
+                continue;
+            }
+            while *st != State::Done {
+                st = slot.done.wait(st).unwrap_or_else(|p| p.into_inner());
+            }
+        }
+    }
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sum_of(n: usize) -> Result<u64, usize> {
+        fold_chunks(n, 1e6, || 0u64, |acc, (a, b)| Ok(acc + (a..b).map(|i| i as u64).sum::<u64>()), |a, b| a + b)
+    }
+
+    #[test]
+    fn every_chunk_is_counted_once() {
+        for n in [0, 1, CHUNK - 1, CHUNK, CHUNK + 1, 5 * CHUNK + 7, 40 * CHUNK] {
+            let n64 = n as u64;
+            assert_eq!(sum_of(n), Ok(n64 * n64.saturating_sub(1) / 2), "n = {n}");
+        }
+    }
+
+    #[test]
+    fn the_lowest_failing_chunk_is_reported() {
+        for _ in 0..50 {
+            let got: Result<u64, usize> = fold_chunks(
+                40 * CHUNK,
+                1e6,
+                || 0,
+                |acc, (a, _)| if a / CHUNK >= 7 && (a / CHUNK) % 3 == 1 { Err(a / CHUNK) } else { Ok(acc + 1) },
+                |a, b| a + b,
+            );
+            assert_eq!(got, Err(7));
+        }
+    }
+
+    #[test]
+    fn a_panicking_chunk_panics_on_the_caller() {
+        for bad in [0, 3, 39] {
+            let got = panic::catch_unwind(|| {
+                fold_chunks::<u64, ()>(
+                    40 * CHUNK,
+                    1e6,
+                    || 0,
+                    |acc, (a, _)| {
+                        std::thread::sleep(std::time::Duration::from_micros(50));
+                        assert!(a / CHUNK != bad, "chunk {bad}");
+                        Ok(acc + 1)
+                    },
+                    |a, b| a + b,
+                )
+            });
+            assert!(got.is_err(), "chunk {bad}");
+        }
+    }
+
+    #[test]
+    fn a_busy_pool_does_not_hold_the_caller() {
+        // The caller runs on one thread of a 3-thread pool whose two others are blocked: its
+        // helpers never start, it finishes alone and cancels them (a wait would hang).
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+        let gate = Arc::new((Mutex::new(false), Condvar::new()));
+        let blocked = Arc::new(AtomicUsize::new(0));
+        for _ in 0..2 {
+            let (g, b) = (Arc::clone(&gate), Arc::clone(&blocked));
+            pool.spawn(move || {
+                b.fetch_add(1, Ordering::SeqCst);
+                let mut open = g.0.lock().unwrap();
+                while !*open {
+                    open = g.1.wait(open).unwrap();
+                }
+            });
+        }
+        while blocked.load(Ordering::SeqCst) < 2 {
+            std::thread::yield_now();
+        }
+        let got = pool.install(|| {
+            assert_eq!(rayon::current_num_threads(), 3);
+            sum_of(8 * CHUNK)
+        });
+        let n = 8 * CHUNK as u64;
+        assert_eq!(got, Ok(n * (n - 1) / 2));
+        *gate.0.lock().unwrap() = true;
+        gate.1.notify_all();
+    }
+}
