@@ -2,7 +2,7 @@
 """Work-precision benchmark (issue 7): error against an exact reference, and run time,
 for every metric of the framework on a suite of stiff and extreme frame pairs.
 
-    python benches/work_precision.py [--out DIR] [--quick]
+    python benches/work_precision.py [--out DIR] [--quick] [--threads N]
 
 Implementations
 ---------------
@@ -25,6 +25,9 @@ on the same question: how well it computes its own definition.
 
 Output: ``DIR/work_precision.md`` (table) and ``DIR/work_precision.png`` (error vs time,
 log-log, one panel per metric). ``--quick`` uses 128×128 frames and fewer repeats.
+``--threads 1`` limits irfidelity's Rust pool (and OpenCV) to one thread: core for core, since
+the peers compute on one core while irfidelity shares a pass between the calling thread and
+idle pool threads.
 """
 
 from __future__ import annotations
@@ -539,7 +542,8 @@ def write_md(rows, out: Path, quick: bool, cases_note: list[str]):
         f"`python benches/work_precision.py{' --quick' if quick else ''}` — frames {'128×128' if quick else '512×512'}"
         f" (thermal14: 120×160); time = best of ≥ {3 if quick else 7} calls (fast calls: until"
         f" {TIME_BUDGET * 1e3:.0f} ms spent, ≤ {MAX_REPEATS}), one call computing one metric.",
-        f"Machine: {os.cpu_count()} CPUs; numpy {np.__version__}; irfidelity {irf.__version__}.",
+        f"Machine: {os.cpu_count()} CPUs; numpy {np.__version__}; irfidelity {irf.__version__}; "
+        f"irfidelity threads: {os.environ.get('RAYON_NUM_THREADS', 'all cores')}.",
         "",
         "Reference: exact (Python integers for every sum, mpmath 60 digits for √ and log). NMI and entropies are",
         "compared with the exact value *for the binning each implementation uses* (256 bins = the library's",
@@ -621,7 +625,14 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default="bench-out", help="output directory (default: bench-out/)")
     ap.add_argument("--quick", action="store_true", help="128×128 frames, fewer repeats (< 2 min on 2 cores)")
+    ap.add_argument("--threads", type=int, default=None, help="Rust threads (default: all cores; 1 = core for core)")
     args = ap.parse_args(argv)
+    if args.threads:
+        os.environ["RAYON_NUM_THREADS"] = str(args.threads)  # read when the pool is first used
+        if args.threads == 1:
+            import cv2
+
+            cv2.setNumThreads(1)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()

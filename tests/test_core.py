@@ -488,6 +488,40 @@ sys.stdout.write("\n".join(out))
     assert len(simd.stdout.splitlines()) == 16
 
 
+def test_float_statistics_do_not_depend_on_the_thread_count():
+    # Chunk results are combined in chunk order, however the chunks were shared between the
+    # calling thread and pool helpers: one thread and all threads give byte-identical
+    # PairStats (moments plan, SSE-only plan, mask and nonfinite="mask" paths).
+    import os
+    import subprocess
+    import sys
+
+    script = r"""
+import sys, numpy as np, irfidelity as irf
+rng = np.random.default_rng(8)
+out = []
+for dt in (np.float16, np.float32, np.float64):
+    r = rng.normal(1e4, 3e3, (700, 650)).astype(dt)
+    s = (r.astype(np.float64) * 0.97 + rng.normal(0, 40, r.shape)).astype(dt)
+    for _ in range(3):  # repeated: the sharing of chunks differs from call to call
+        out.append(irf.pair_stats(r, s, peak=2e4)._raw.to_bytes().hex())
+        out.append(float(irf.mse(r, s)).hex())
+    mask = rng.random(r.shape) < 0.9
+    out.append(irf.pair_stats(r, s, peak=2e4, mask=mask)._raw.to_bytes().hex())
+    t = r.copy()
+    t[::97, ::89] = np.nan
+    out.append(irf.pair_stats(t, s, peak=2e4, nonfinite="mask")._raw.to_bytes().hex())
+sys.stdout.write("\n".join(out))
+"""
+    runs = []
+    for threads in ("1", str(max(2, os.cpu_count() or 2))):
+        env = dict(os.environ, RAYON_NUM_THREADS=threads)
+        runs.append(subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True))
+    one, many = (r.stdout.splitlines() for r in runs)
+    assert len(one) == 24
+    assert one == many
+
+
 @pytest.mark.parametrize("dtype", INT_DTYPES + FLOAT_DTYPES)
 def test_single_metric_fast_path_equals_the_general_path(dtype):
     # irf.mse / irf.psnr take plain arrays straight to the kernel; every other input goes

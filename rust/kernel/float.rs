@@ -1,8 +1,11 @@
 //! The float pass: values promoted to f64, summed relative to a pivot near each frame's
-//! mean, in independent lanes folded into Neumaier-compensated totals (two passes per
-//! cache-sized chunk: mean, then centred sums), chunks merged with Chan's update.
+//! mean, in independent lanes folded into Neumaier-compensated totals. With the scan's means
+//! as the common centre, every chunk's centred totals are added into compensated totals, in
+//! chunk order; otherwise (mask, NaN/Inf) each chunk is centred on its own mean and the chunks
+//! are merged with Chan's update, in chunk order. Either way the result does not depend on
+//! how the chunks were shared out between threads.
 
-use super::{cost, fold_chunks, Acc, Bad, Binner, HistPlan, Pass, Request, Sample};
+use super::{cost, map_chunks, Acc, Bad, Binner, HistPlan, Pass, Request, Sample};
 use crate::stats::{merge_float, two_sum, FloatSums};
 
 /// Neumaier-compensated running sum: totals of per-block lane sums.
@@ -54,6 +57,64 @@ const LANES: usize = 8;
 const LANES_C: usize = 4;
 const SUB: usize = 256;
 
+/// What one chunk of the float pass contributes; combined in chunk order by [`float_total`].
+pub(super) enum ChunkFloat {
+    /// Σdr, Σds, Σdr², Σds², Σdr·ds, Σ(x − y)² about the common centre (the scan's means).
+    Centred([Neumaier; 6]),
+    /// The chunk's own centred sums (`mr`, `ms` relative to the pivot), count and
+    /// Σ(x − pivot), Σ(y − pivot) (mask, NaN/Inf, or the SSE-only plan).
+    Own { n: u64, sums: FloatSums, sum_r: f64, sum_s: f64 },
+}
+
+/// The pass's float sums over `n` counted pairs from its chunks' parts (`(first pixel,
+/// part)`, in any order): parts are combined in chunk order, so the result does not depend on
+/// the threads. `means` are the scan's means when every chunk was centred on them.
+pub(super) fn float_total(
+    mut parts: Vec<(usize, ChunkFloat)>,
+    n: u64,
+    pivot: (f64, f64),
+    means: Option<(f64, f64)>,
+) -> FloatSums {
+    parts.sort_unstable_by_key(|p| p.0);
+    if let Some((mr, ms)) = means {
+        let mut t = [Neumaier::default(); 6];
+        for (_, part) in &parts {
+            if let ChunkFloat::Centred(c) = part {
+                t.iter_mut().zip(c).for_each(|(t, c)| t.merge(c));
+            }
+        }
+        let nf = n.max(1) as f64;
+        let [dr, ds, m2r, m2s, crs, _] = t.map(|t| t.value());
+        // corrected two-pass, once for the whole pass: remove the residual of the centre
+        return FloatSums {
+            mr,
+            ms,
+            m2r: m2r - dr * dr / nf,
+            m2s: m2s - ds * ds / nf,
+            crs: crs - dr * ds / nf,
+            sse: t[5].sum,
+            sse_c: t[5].comp,
+        };
+    }
+    let (mut total, mut count) = (FloatSums::default(), 0u64);
+    let (mut sum_r, mut sum_s) = (Neumaier::default(), Neumaier::default());
+    for (_, part) in parts {
+        if let ChunkFloat::Own { n: k, sums, sum_r: r, sum_s: s } = part {
+            total = merge_float(&total, count, &sums, k);
+            count += k;
+            sum_r.add(r);
+            sum_s.add(s);
+        }
+    }
+    if count > 0 {
+        // the means from the compensated sums, not from Chan's merges (whose δ between chunk
+        // means costs digits when the data spread is much larger than the mean)
+        total.mr = pivot.0 + sum_r.value() / count as f64;
+        total.ms = pivot.1 + sum_s.value() / count as f64;
+    }
+    total
+}
+
 /// The float pass over `[a, b)`: mean first, then centred sums, on cache-resident data.
 /// Values are shifted by a per-call `pivot` (≈ each frame's mean, see `float_pivot`) so
 /// chunk means are small and Chan's merge does not lose digits to a large common offset.
@@ -71,15 +132,18 @@ pub(super) fn float_chunk<T: Sample>(
         let sse = float_sse(rr, sb);
         if sse.value().is_finite() {
             acc.max_abs = acc.max_abs.max(sse_max_abs(rr, sb, sse.value()));
-            let part = FloatSums { sse: sse.sum, sse_c: sse.comp, ..FloatSums::default() };
-            acc.float = merge_float(&acc.float, acc.n, &part, rr.len() as u64);
-            acc.n += rr.len() as u64;
+            let sums = FloatSums { sse: sse.sum, sse_c: sse.comp, ..FloatSums::default() };
+            let n = rr.len() as u64;
+            acc.floats.push((a, ChunkFloat::Own { n, sums, sum_r: 0.0, sum_s: 0.0 }));
+            acc.n += n;
             return Ok(());
         }
     }
     if let Some(c) = centre {
         // the scan found every value finite and gave each frame's mean: centre on it
-        float_centred(rr, sb, c, req, plan, acc, pivot);
+        let tot = float_centred(rr, sb, c, req, plan, acc, pivot);
+        acc.floats.push((a, ChunkFloat::Centred(tot)));
+        acc.n += rr.len() as u64;
         return Ok(());
     }
     if req.mask.is_none() {
@@ -87,10 +151,7 @@ pub(super) fn float_chunk<T: Sample>(
         // a NaN/Inf anywhere makes the sums non-finite: only then look pixel by pixel
         if sums.finite() {
             acc.max_abs = acc.max_abs.max(sums.max_abs);
-            acc.sum_r.add(sums.r);
-            acc.sum_s.add(sums.s);
-            let nf = rr.len() as f64;
-            float_centred(rr, sb, (sums.r / nf, sums.s / nf), req, plan, acc, pivot);
+            own_part(rr, sb, a, sums, req, plan, acc, pivot);
             return Ok(());
         }
     }
@@ -114,12 +175,41 @@ pub(super) fn float_chunk<T: Sample>(
     if !xs.is_empty() {
         let sums = float_sums::<f64, false>(&xs, &ys, pivot);
         acc.max_abs = acc.max_abs.max(sums.max_abs);
-        acc.sum_r.add(sums.r);
-        acc.sum_s.add(sums.s);
-        let nf = xs.len() as f64;
-        float_centred(&xs, &ys, (sums.r / nf, sums.s / nf), req, plan, acc, pivot);
+        own_part(&xs, &ys, a, sums, req, plan, acc, pivot);
     }
     Ok(())
+}
+
+/// A chunk (starting at pixel `a`) centred on its own mean (`sums` from `float_sums`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn own_part<T: Sample>(
+    rr: &[T],
+    sb: &[T],
+    a: usize,
+    sums: RunSums,
+    req: &Request,
+    plan: Option<&HistPlan>,
+    acc: &mut Acc,
+    pivot: (f64, f64),
+) {
+    let n = rr.len() as u64;
+    let nf = n as f64;
+    let (mr, ms) = (sums.r / nf, sums.s / nf);
+    let tot = float_centred(rr, sb, (mr, ms), req, plan, acc, pivot);
+    let [dr, ds, m2r, m2s, crs, _] = tot.map(|t| t.value());
+    // corrected two-pass: remove the residual of the approximate mean
+    let part = FloatSums {
+        mr: mr + dr / nf,
+        ms: ms + ds / nf,
+        m2r: m2r - dr * dr / nf,
+        m2s: m2s - ds * ds / nf,
+        crs: crs - dr * ds / nf,
+        sse: if req.sse { tot[5].sum } else { 0.0 },
+        sse_c: if req.sse { tot[5].comp } else { 0.0 },
+    };
+    acc.floats.push((a, ChunkFloat::Own { n, sums: part, sum_r: sums.r, sum_s: sums.s }));
+    acc.n += n;
 }
 
 /// Running max of |x| and |y| for the underflow check. Plain compares (one `maxpd`), not
@@ -556,9 +646,8 @@ fn float_hist<T: Sample>(rr: &[T], sb: &[T], bn: &Binner, dense_bins: usize, acc
     }
 }
 
-/// Centred sums around `(mr, ms)` (relative to the pivot: the run's own mean, or the
-/// frames' means; corrected two-pass, so an approximate centre costs no accuracy), SSE
-/// and the histogram, merged into `acc` (sums relative to the pivot).
+/// Centred totals of a run about `(mr, ms)` (relative to the pivot: the run's own mean, or
+/// the frames' means) and its histogram counts into `acc`.
 #[inline(always)]
 fn float_centred<T: Sample>(
     rr: &[T],
@@ -567,50 +656,45 @@ fn float_centred<T: Sample>(
     req: &Request,
     plan: Option<&HistPlan>,
     acc: &mut Acc,
-    (pr, ps): (f64, f64),
-) {
-    let n = rr.len() as u64;
-    if n == 0 {
-        return;
+    pivot: (f64, f64),
+) -> [Neumaier; 6] {
+    if rr.is_empty() {
+        return Default::default();
     }
-    let nf = n as f64;
-    let tot = if req.moments || req.sse { centred_totals(rr, sb, (pr, ps), (mr, ms)) } else { Default::default() };
+    let tot = if req.moments || req.sse { centred_totals(rr, sb, pivot, (mr, ms)) } else { Default::default() };
     if let Some(p) = plan {
         if let Some(bn) = p.binner.as_ref() {
             float_hist(rr, sb, bn, p.dense_bins.unwrap_or(0), acc);
         }
     }
-    let [dr, ds, m2r, m2s, crs, _] = tot.map(|t| t.value());
-    // corrected two-pass: remove the residual of the approximate mean
-    let part = FloatSums {
-        mr: mr + dr / nf,
-        ms: ms + ds / nf,
-        m2r: m2r - dr * dr / nf,
-        m2s: m2s - ds * ds / nf,
-        crs: crs - dr * ds / nf,
-        sse: if req.sse { tot[5].sum } else { 0.0 },
-        sse_c: if req.sse { tot[5].comp } else { 0.0 },
-    };
-    acc.float = merge_float(&acc.float, acc.n, &part, n);
-    acc.n += n;
+    if !req.sse {
+        let mut tot = tot;
+        tot[5] = Neumaier::default();
+        return tot;
+    }
+    tot
 }
 
 /// One compensated pass over both whole frames (no mask): each frame's sum, the largest
 /// magnitude and (`with_range`: for the histogram) the range of both. Gives the pivot and
 /// the centre of the float pass, and certifies that no value is NaN or ±Inf.
 pub(super) fn float_scan<T: Sample>(r: &[T], s: &[T], with_range: bool) -> RunSums {
-    let sums = |a: usize, b: usize| match with_range {
-        true => float_sums::<T, true>(&r[a..b], &s[a..b], (0.0, 0.0)),
-        false => float_sums::<T, false>(&r[a..b], &s[a..b], (0.0, 0.0)),
+    let sums = |(a, b): (usize, usize)| -> Result<RunSums, std::convert::Infallible> {
+        Ok(match with_range {
+            true => float_sums::<T, true>(&r[a..b], &s[a..b], (0.0, 0.0)),
+            false => float_sums::<T, false>(&r[a..b], &s[a..b], (0.0, 0.0)),
+        })
     };
-    let Ok(sums) = fold_chunks::<_, std::convert::Infallible>(
-        r.len(),
-        cost::SCAN,
-        RunSums::empty,
-        |acc, (a, b)| Ok(acc.merge(sums(a, b))),
-        RunSums::merge,
-    );
-    sums
+    let Ok(parts) = map_chunks(r.len(), cost::SCAN, sums);
+    // compensated, in chunk order: the means do not depend on the thread count
+    let (mut tr, mut ts) = (Neumaier::default(), Neumaier::default());
+    let mut out = RunSums::empty();
+    for p in parts {
+        tr.add(p.r);
+        ts.add(p.s);
+        out = out.merge(p);
+    }
+    RunSums { r: tr.value(), s: ts.value(), ..out }
 }
 
 /// The pivot of the float pass and, when the scan certified every value finite, the

@@ -9,15 +9,15 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::hist::{self, HistSpec, Joint, DENSE_MAX_BINS};
-use crate::stats::{merge_float, FloatSums, IntSums, PairStats, Sums};
+use crate::stats::{FloatSums, IntSums, PairStats, Sums};
 
 mod float;
 mod int;
 mod parallel;
 
-use float::{float_chunk, float_pivot, float_scan, Neumaier};
+use float::{float_chunk, float_pivot, float_scan, float_total, ChunkFloat};
 use int::int_chunk;
-pub(crate) use parallel::{cost, fold_chunks, worth_parallel};
+pub(crate) use parallel::{cost, fold_chunks, map_chunks, worth_parallel};
 pub use parallel::{pool_busy, with_pool_busy};
 
 /// Pixels per work unit: two chunks of u16/f32 fit in L2 with the histogram.
@@ -197,15 +197,12 @@ pub(crate) struct HistPlan {
 pub(crate) struct Acc {
     n: u64,
     int: IntSums,
-    float: FloatSums,
     dense: Vec<u32>, // per-worker counts; frames are < 2^32 pixels (checked)
     keys: Vec<u64>,
     runs: Vec<(u64, u64)>,
     max_abs: f64, // float frames: largest magnitude seen (underflow check)
-    // float frames: compensated Σ(x − pivot) of each frame; the means come from these, not
-    // from Chan's merges (whose δ between chunk means costs digits when data spread ≫ mean)
-    sum_r: Neumaier,
-    sum_s: Neumaier,
+    /// float frames: each chunk's sums, keyed by its first pixel (combined in chunk order)
+    floats: Vec<(usize, ChunkFloat)>,
 }
 
 impl Acc {
@@ -217,13 +214,11 @@ impl Acc {
         Acc {
             n: 0,
             int: IntSums::default(),
-            float: FloatSums::default(),
             dense,
             keys: Vec::new(),
             runs: Vec::new(),
             max_abs: 0.0,
-            sum_r: Neumaier::default(),
-            sum_s: Neumaier::default(),
+            floats: Vec::new(),
         }
     }
 
@@ -246,8 +241,6 @@ impl Acc {
 
     fn merge(mut self, mut other: Acc, is_int: bool) -> Acc {
         self.max_abs = self.max_abs.max(other.max_abs);
-        self.sum_r.merge(&other.sum_r);
-        self.sum_s.merge(&other.sum_s);
         if is_int {
             let (a, b) = (&mut self.int, &other.int);
             a.sr += b.sr;
@@ -257,7 +250,7 @@ impl Acc {
             a.srs += b.srs;
             a.sse += b.sse;
         } else {
-            self.float = merge_float(&self.float, self.n, &other.float, other.n);
+            self.floats.append(&mut other.floats);
         }
         self.n += other.n;
         for (a, b) in self.dense.iter_mut().zip(&other.dense) {
@@ -555,17 +548,17 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
     out.n = acc.n;
     out.masked = masked;
     out.nonfinite = nonfinite;
+    let mut float = FloatSums::default();
     if !T::IS_INT {
-        if let (Some(sc), Some(_)) = (finite_scan, centre) {
-            // every chunk was centred on the scan's means: they are the means
-            let n = r.len() as f64;
-            acc.float.mr = sc.r / n;
-            acc.float.ms = sc.s / n;
-            acc.max_abs = acc.max_abs.max(sc.max_abs);
-        } else if acc.n > 0 && req.moments {
-            acc.float.mr = pivot.0 + acc.sum_r.value() / acc.n as f64;
-            acc.float.ms = pivot.1 + acc.sum_s.value() / acc.n as f64;
-        }
+        // every chunk was centred on the scan's means: they are the means
+        let means = match (finite_scan, centre) {
+            (Some(sc), Some(_)) => {
+                acc.max_abs = acc.max_abs.max(sc.max_abs);
+                Some((sc.r / r.len() as f64, sc.s / r.len() as f64))
+            }
+            _ => None,
+        };
+        float = float_total(std::mem::take(&mut acc.floats), acc.n, pivot, means);
         // below 2^-500 every square underflows: MSE 0 and equal-looking frames would be silent lies
         if acc.max_abs > 0.0 && acc.max_abs < 2f64.powi(-500) {
             return Err(Error::Range(format!(
@@ -575,7 +568,7 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
             )));
         }
     }
-    out.sums = if T::IS_INT { Sums::Int(acc.int) } else { Sums::Float(acc.float) };
+    out.sums = if T::IS_INT { Sums::Int(acc.int) } else { Sums::Float(float) };
     if let Sums::Float(f) = &out.sums {
         if ![f.mr, f.ms, f.m2r, f.m2s, f.crs, f.sse].iter().all(|v| v.is_finite()) {
             return Err(Error::Range(

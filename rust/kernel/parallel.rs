@@ -142,6 +142,35 @@ where
     }
 }
 
+/// `f` of every chunk of a pair of `n`-pixel frames, in chunk order, computed like
+/// [`fold_chunks`] (shared with idle pool threads when worth it). For float partial sums:
+/// combined in chunk order afterwards, they do not depend on how the chunks were shared out.
+pub(crate) fn map_chunks<R, E>(
+    n: usize,
+    ns_per_px: f64,
+    f: impl Fn((usize, usize)) -> Result<R, E> + Sync,
+) -> Result<Vec<R>, E>
+where
+    R: Send,
+    E: Send,
+{
+    let mut parts = fold_chunks(
+        n,
+        ns_per_px,
+        Vec::new,
+        |mut acc: Vec<(usize, R)>, range| {
+            acc.push((range.0, f(range)?));
+            Ok(acc)
+        },
+        |mut a, mut b| {
+            a.append(&mut b);
+            a
+        },
+    )?;
+    parts.sort_unstable_by_key(|p| p.0);
+    Ok(parts.into_iter().map(|p| p.1).collect())
+}
+
 /// What one thread folded: its partial result (`None`: it took no chunk), or the first
 /// chunk that failed and why.
 enum Part<A, E> {
