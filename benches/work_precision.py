@@ -535,6 +535,42 @@ def verdict(rows):
     return lines
 
 
+#: Metric groups of the summary table.
+GROUPS = (
+    ("MSE", ("mse",)),
+    ("PSNR (dB)", ("psnr",)),
+    ("SSIM l, c, s", ("ssim_l", "ssim_c", "ssim_s")),
+    ("entropies, NMI", ("h_real", "h_sim", "h_joint", "nmi")),
+)
+
+
+def summary_table(rows) -> list[str]:
+    """One line per metric group and peer: worst errors of the peer and of irfidelity's
+    default over the same (case, metric) pairs, the median time ratio and the wins."""
+    mine = {(r["case"], r["metric"]): r for r in rows if r["default"]}
+    out = [
+        "| metric | peer | peer worst error | irfidelity worst error | peer time / irfidelity time (median) "
+        "| irfidelity faster |",
+        "|---|---|---|---|---|---|",
+    ]
+    for label, metrics in GROUPS:
+        peers = sorted({r["impl"] for r in rows if r["metric"] in metrics and not r["impl"].startswith("irfidelity")})
+        for peer in peers:
+            pairs = [(r, mine[(r["case"], r["metric"])]) for r in rows
+                     if r["impl"] == peer and r["metric"] in metrics and (r["case"], r["metric"]) in mine]
+            if not pairs:
+                continue
+            key = "abs" if metrics == ("psnr",) else "rel"
+            worst_p = max(p[key] for p, _ in pairs)
+            worst_m = max(m[key] for _, m in pairs)
+            timed_pairs = [(p, m) for p, m in pairs if math.isfinite(p["time"])]
+            ratio = float(np.median([p["time"] / m["time"] for p, m in timed_pairs])) if timed_pairs else math.nan
+            wins = sum(m["time"] <= p["time"] for p, m in timed_pairs)
+            shown = "NaN/inf on some case" if not math.isfinite(worst_p) else _fmt(worst_p)
+            out.append(f"| {label} | {peer} | {shown} | {_fmt(worst_m)} | {ratio:.2f} | {wins}/{len(timed_pairs)} |")
+    return out
+
+
 def write_md(rows, out: Path, quick: bool, cases_note: list[str]):
     lines = [
         "# Work-precision: error against an exact reference, and run time",
@@ -556,6 +592,13 @@ def write_md(rows, out: Path, quick: bool, cases_note: list[str]):
         "20·log10(peak). Speed: wall time of one call computing that metric, best of the repeats.",
         "",
         *verdict(rows),
+        "",
+        "## By metric and peer",
+        "",
+        "Worst error over the cases (relative; PSNR absolute, in dB) and the median of peer time /",
+        "irfidelity time (> 1 = irfidelity faster).",
+        "",
+        *summary_table(rows),
         "",
         "## Cases",
         "",

@@ -271,18 +271,30 @@ pub(crate) enum Bad {
     NonFinite { index: usize },
 }
 
-/// Min and max of two runs of samples by plain compares, in the native width (vectorises to
-/// pminuw/minps & co.). `None` for empty runs. NaN is not ordered: callers check finiteness.
+/// Min and max of two runs of samples by plain compares, in the native width, in sixteen
+/// independent lanes: a single running min/max of floats stays a scalar chain (`maxss`,
+/// 2 ns per value), since LLVM may not reorder float compares; lanes vectorise to
+/// minps/pminuw & co. `None` for empty runs. NaN is not ordered: callers check finiteness.
 pub(crate) fn min_max<T: Sample>(r: &[T], s: &[T]) -> Option<(T, T)> {
+    const L: usize = 16;
     let first = *r.first()?;
-    let (mut lo, mut hi) = (first, first);
+    let (mut lo, mut hi) = ([first; L], [first; L]);
     for part in [r, s] {
-        for &v in part {
-            lo = if v < lo { v } else { lo };
-            hi = if v > hi { v } else { hi };
+        let lanes = part.chunks_exact(L);
+        let rest = lanes.remainder();
+        for c in lanes {
+            for k in 0..L {
+                lo[k] = if c[k] < lo[k] { c[k] } else { lo[k] };
+                hi[k] = if c[k] > hi[k] { c[k] } else { hi[k] };
+            }
+        }
+        for &v in rest {
+            lo[0] = if v < lo[0] { v } else { lo[0] };
+            hi[0] = if v > hi[0] { v } else { hi[0] };
         }
     }
-    Some((lo, hi))
+    let fold = |a: [T; L], pick: fn(T, T) -> bool| a.into_iter().fold(first, |m, v| if pick(v, m) { v } else { m });
+    Some((fold(lo, |v, m| v < m), fold(hi, |v, m| v > m)))
 }
 
 /// Min and max over the counted pixels of both frames (f64 for floats, exact for ints).
