@@ -271,13 +271,24 @@ pub(crate) enum Bad {
     NonFinite { index: usize },
 }
 
-/// Min and max of two runs of samples by plain compares, in the native width, in sixteen
-/// independent lanes: a single running min/max of floats stays a scalar chain (`maxss`,
-/// 2 ns per value), since LLVM may not reorder float compares; lanes vectorise to
-/// minps/pminuw & co. `None` for empty runs. NaN is not ordered: callers check finiteness.
+/// Min and max of two runs of samples by plain compares, in the native width. `None` for
+/// empty runs. NaN is not ordered: callers check finiteness. Integers: one running min/max,
+/// which LLVM vectorises itself (pminuw & co.). Floats: sixteen independent lanes, since
+/// LLVM may not reorder float compares and a single running min/max stays a scalar `maxss`
+/// chain (2 ns per value); lanes vectorise to minps/maxps.
 pub(crate) fn min_max<T: Sample>(r: &[T], s: &[T]) -> Option<(T, T)> {
     const L: usize = 16;
     let first = *r.first()?;
+    if T::IS_INT {
+        let (mut lo, mut hi) = (first, first);
+        for part in [r, s] {
+            for &v in part {
+                lo = if v < lo { v } else { lo };
+                hi = if v > hi { v } else { hi };
+            }
+        }
+        return Some((lo, hi));
+    }
     let (mut lo, mut hi) = ([first; L], [first; L]);
     for part in [r, s] {
         let lanes = part.chunks_exact(L);
