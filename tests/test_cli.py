@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import pathlib
+import shutil
 import subprocess
 import sys
 import types
@@ -193,6 +194,41 @@ def test_sequence_branch(fake_sequence, tmp_path, capsys):
 def test_sequence_usage_errors(fake_sequence, tmp_path, capsys):
     assert main(["score", str(tmp_path), SIM]) == 2
     assert "directory/glob" in capsys.readouterr().err
-    assert main(["score", str(tmp_path), str(tmp_path), "--real-sitf", "a.csv", "--sim-sitf", "b.csv"]) == 2
-    assert "single frame pair" in capsys.readouterr().err
+    assert main(["score", str(tmp_path), str(tmp_path), "--real-sitf", "a.csv"]) == 2
+    assert "--sim-sitf" in capsys.readouterr().err
     assert fake_sequence == []
+
+
+def test_sequence_takes_the_camera_curves(fake_sequence, tmp_path, capsys):
+    # curves and edges go to score_sequence (they count for every frame); the weights are
+    # not renormalised away from them
+    rc = main(["score", str(tmp_path), str(tmp_path), "--real-sitf", "a.csv", "--sim-sitf", "b.csv",
+               "--real-edge", EDGE_R, "--sim-edge", EDGE_S, "--edge-channel", "R", "--no-progress"])
+    assert rc == 3  # the fake reports a failed frame for paths without "ok"
+    _, _, kw = fake_sequence[0]
+    assert (kw["real_sitf"], kw["sim_sitf"], kw["real_mtf"], kw["sim_mtf"]) == ("a.csv", "b.csv", EDGE_R, EDGE_S)
+    assert kw["edge_channel"] == "R" and kw["weights"].mtf == pytest.approx(0.2)
+    assert "not scored" not in capsys.readouterr().err
+
+
+def test_sequence_with_curves_end_to_end(tmp_path):
+    # the real engine: 3 frame pairs, an SiTF pair and the edge crops
+    rdir, sdir = tmp_path / "r", tmp_path / "s"
+    rdir.mkdir()
+    sdir.mkdir()
+    for i in range(3):
+        shutil.copy(REAL, rdir / f"f{i}.png")
+        shutil.copy(SIM, sdir / f"f{i}.png")
+    x = np.linspace(0, 1, 20)
+    np.savetxt(tmp_path / "r.csv", np.column_stack([x, 5 * x]), delimiter=",")
+    np.savetxt(tmp_path / "s.csv", np.column_stack([x, 4.5 * x + 0.1]), delimiter=",")
+    p = run("score", str(rdir), str(sdir), "--bits", "14", "--real-edge", EDGE_R, "--sim-edge", EDGE_S,
+            "--edge-channel", "R", "--real-sitf", str(tmp_path / "r.csv"), "--sim-sitf", str(tmp_path / "s.csv"),
+            "--missing", "raise", "--no-progress", "--json", "-", check_rc=0)
+    d = json.loads(p.stdout)
+    pair = evaluate(REAL, SIM, bits=14, real_mtf=EDGE_R, sim_mtf=EDGE_S, edge_channel="R",
+                    real_sitf=str(tmp_path / "r.csv"), sim_sitf=str(tmp_path / "s.csv"))
+    assert d["curves"]["components"] == {k: pair.components[k] for k in ("mtf", "sitf")}
+    assert d["curves"]["metrics"]["sitf_slope_real"] == pytest.approx(5)
+    assert [f["fidelity"] for f in d["frames"]] == [pair.fidelity] * 3
+    assert d["pooled"]["fidelity"] == pytest.approx(pair.fidelity, rel=1e-12)

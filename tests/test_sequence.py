@@ -431,3 +431,62 @@ def test_ctrl_c_stops_the_run_and_resume_completes_it(lepton, tmp_path):
     rep = score_sequence([real_path] * 10, [sim_path] * 10, bits=14, csv=out, resume=True, progress=False)
     assert rep.failed == [] and rep.settings["resumed"] == len(rows)
     assert sorted(int(r["index"]) for r in _rows(out)) == list(range(1000))
+
+
+# --------------------------------------------------------------------------- camera curves
+def _sitf_pair():
+    t = np.linspace(-20, 60, 41)
+    return (t, np.clip(40 * t + 3000, 2400, 4800)), (t, np.clip(43 * t + 2990, 2400, 4800))
+
+
+def _mtf_pair():
+    f = np.linspace(0, 0.5, 26)
+    return (f, np.exp(-((f / 0.3) ** 2))), (f, np.exp(-((f / 0.25) ** 2)))
+
+
+def test_curve_components_enter_every_frame_and_the_pool(png_dirs, tmp_path):
+    rdir, sdir, real, sim = png_dirs
+    (rm, sm), (rs, ss) = _mtf_pair(), _sitf_pair()
+    curves = dict(real_mtf=rm, sim_mtf=sm, real_sitf=rs, sim_sitf=ss)
+    out = tmp_path / "rows.csv"
+    rep = score_sequence(rdir, sdir, bits=14, progress=False, csv=out, missing="raise", **curves)
+    assert rep.failed == [] and rep.skipped == {}
+    pair = [evaluate(real[i], sim[i], bits=14, **curves) for i in range(len(real))]
+    assert rep.curves["components"] == {"mtf": pair[0].components["mtf"], "sitf": pair[0].components["sitf"]}
+    assert rep.curves["metrics"]["sitf_slope_real"] == pytest.approx(40) and rep.curves["metrics"]["mtf50_sim"] > 0
+    for f, one in zip(rep.frames, pair):
+        assert f["components"] == one.components  # all five, the curves' the same in every frame
+        assert f["fidelity"] == one.fidelity
+    assert list(rep.pooled["components"]) == ["mtf", "sitf", "psnr", "nmi", "ssim"]
+    assert rep.pooled["fidelity"] == pytest.approx(
+        sum(rep.weights[k] * v for k, v in rep.pooled["components"].items()), rel=1e-15)
+    rows = _rows(out)
+    assert {float(r["f_mtf"]) for r in rows} == {rep.curves["components"]["mtf"]}
+    assert float(rows[0]["fidelity"]) == next(f for f in rep.frames if f["index"] == int(rows[0]["index"]))["fidelity"]
+    assert rep.to_dict()["curves"]["components"] == rep.curves["components"]
+    assert "mtf component (every frame)" in rep.summary_text()
+    # resume keeps the rows (same curves); other curves are other settings
+    again = score_sequence(rdir, sdir, bits=14, progress=False, csv=out, resume=True, missing="raise", **curves)
+    assert again.settings["resumed"] == len(real) and again.pooled["fidelity"] == rep.pooled["fidelity"]
+    with pytest.raises(FidelityError, match="different settings"):
+        score_sequence(rdir, sdir, bits=14, progress=False, csv=out, resume=True,
+                       **dict(curves, sim_sitf=rs))
+
+
+def test_curves_are_planned_and_fail_before_any_frame(png_dirs, tmp_path):
+    rdir, sdir, _, _ = png_dirs
+    (rs, ss) = _sitf_pair()
+    calls = []
+    # weight 0: the curve inputs are not even read (a missing file is no error)
+    rep = score_sequence(rdir, sdir, bits=14, progress=False, weights="psnr=0.5,ssim=0.5",
+                         real_mtf=tmp_path / "nope.csv", sim_mtf=tmp_path / "nope.csv")
+    assert rep.curves == {} and "mtf" not in rep.pooled["components"]
+    # a bad curve: FidelityError before any frame is scored
+    with pytest.raises(FidelityError, match="nope.csv"):
+        score_sequence(rdir, sdir, bits=14, progress=lambda d, n: calls.append(d), csv=tmp_path / "x.csv",
+                       real_sitf=rs, sim_sitf=tmp_path / "nope.csv")
+    assert calls == [] and not (tmp_path / "x.csv").exists()
+    with pytest.raises(FidelityError, match="real_sitf"):
+        score_sequence(rdir, sdir, bits=14, progress=False, sim_sitf=ss)
+    with pytest.raises(FidelityError, match="per-frame components"):
+        score_sequence(rdir, sdir, bits=14, progress=False, weights="sitf=1", real_sitf=rs, sim_sitf=ss)

@@ -77,7 +77,8 @@ def _build_parser() -> argparse.ArgumentParser:
     s.add_argument("--weights", default="balanced", metavar="SPEC",
                    help="balanced (default, 1/5 each) | performance | image_quality | "
                         "'mtf=..,sitf=..,psnr=..,nmi=..,ssim=..' (unnamed components 0; sum 1)")
-    s.add_argument("--real-mtf", metavar="CSV", help="real camera MTF curve (two columns: frequency, MTF)")
+    s.add_argument("--real-mtf", metavar="CSV", help="real camera MTF curve (two columns: frequency, MTF); "
+                        "with sequences, the curves count for every frame")
     s.add_argument("--sim-mtf", metavar="CSV", help="simulated camera MTF curve")
     s.add_argument("--real-edge", metavar="IMG", help="real slanted-edge image (MTF by ISO 12233 e-SFR)")
     s.add_argument("--sim-edge", metavar="IMG", help="simulated slanted-edge image")
@@ -162,14 +163,14 @@ def _score(a: argparse.Namespace) -> int:
         raise _UsageError(f"{one} is a directory/glob but {other} is a single file "
                           f"({a.real if seq_r else a.sim!r} vs {a.sim if seq_r else a.real!r})")
 
+    real_mtf = a.real_mtf if a.real_mtf is not None else a.real_edge
+    sim_mtf = a.sim_mtf if a.sim_mtf is not None else a.sim_edge
     if seq_r:
-        if any(getattr(a, k) is not None for k in ("real_mtf", "real_edge", "real_sitf")):
-            raise _UsageError("MTF/SiTF curves and edges apply to a single frame pair, not to sequences")
-        w_eff, _, skipped = plan_components(weights, have_images=True, have_mtf=False, have_sitf=False,
-                                            missing=a.missing)
+        w_eff, _, skipped = plan_components(weights, have_images=True, have_mtf=real_mtf is not None,
+                                            have_sitf=a.real_sitf is not None, missing=a.missing)
         dropped = [k for k, why in skipped.items() if why != "weight 0"]
         if dropped and a.json != "-":
-            print(f"irfidelity: note: {', '.join(dropped)} not scored for sequences (no curves); "
+            print(f"irfidelity: note: {', '.join(dropped)} not scored (no curves given); "
                   f"weights renormalised to {w_eff}", file=sys.stderr)
         try:
             from .sequence import score_sequence
@@ -179,7 +180,8 @@ def _score(a: argparse.Namespace) -> int:
             warnings.simplefilter("always")
             rep = score_sequence(a.real, a.sim, weights=w_eff, bits=a.bits, peak=a.peak, bins=a.bins,
                                  channel=a.channel, workers=a.workers, progress=not a.no_progress,
-                                 csv=a.csv, resume=a.resume)
+                                 csv=a.csv, resume=a.resume, real_mtf=real_mtf, sim_mtf=sim_mtf,
+                                 real_sitf=a.real_sitf, sim_sitf=a.sim_sitf, edge_channel=a.edge_channel)
         _warn_lines(caught)
         if a.json is not None:
             _write_json(rep.to_dict(), a.json)
@@ -194,7 +196,7 @@ def _score(a: argparse.Namespace) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            rep = _evaluate_pair(evaluate, a, weights)
+            rep = _evaluate_pair(evaluate, a, weights, real_mtf, sim_mtf)
         except (ShapeError, RangeError) as exc:  # name the files, not just "real"/"sim"
             raise _UsageError(f"REAL {a.real!r} / SIM {a.sim!r}: {' '.join(str(exc).split())}") from None
     _warn_lines(caught)
@@ -208,9 +210,8 @@ def _score(a: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _evaluate_pair(evaluate: Any, a: argparse.Namespace, weights: Any) -> Any:
-    return evaluate(a.real, a.sim, real_mtf=a.real_mtf if a.real_mtf is not None else a.real_edge,
-                    sim_mtf=a.sim_mtf if a.sim_mtf is not None else a.sim_edge, real_sitf=a.real_sitf,
+def _evaluate_pair(evaluate: Any, a: argparse.Namespace, weights: Any, real_mtf: Any, sim_mtf: Any) -> Any:
+    return evaluate(a.real, a.sim, real_mtf=real_mtf, sim_mtf=sim_mtf, real_sitf=a.real_sitf,
                     sim_sitf=a.sim_sitf, weights=weights, bits=a.bits, peak=a.peak, bins=a.bins,
                     missing=a.missing, channel=a.channel, edge_channel=a.edge_channel)
 

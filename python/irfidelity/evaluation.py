@@ -27,8 +27,8 @@ from .errors import FidelityError
 from .fuzzy import COMPONENTS, GradeScale, Weights, fidelity_sum
 from .normalize import DEFAULT_PSNR_ANCHORS, normalize_psnr
 
-__all__ = ["FidelityReport", "evaluate", "plan_components", "image_components", "IMAGE_COMPONENTS",
-           "CURVE_COMPONENTS"]
+__all__ = ["FidelityReport", "evaluate", "plan_components", "image_components", "curve_components",
+           "IMAGE_COMPONENTS", "CURVE_COMPONENTS"]
 
 IMAGE_COMPONENTS = ("psnr", "nmi", "ssim")
 CURVE_COMPONENTS = ("mtf", "sitf")
@@ -338,6 +338,53 @@ def _pair(real: Any, sim: Any, rname: str, sname: str) -> bool:
     return real is not None
 
 
+# --------------------------------------------------------------------------- curves
+def curve_components(weights: Any, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
+                     sim_sitf: Any = None, *, edge_channel: str | None = None,
+                     mtf_options: Mapping[str, Any] | None = None,
+                     sitf_options: Mapping[str, Any] | None = None) -> tuple[dict, dict, dict, list]:
+    """Components f1 (MTF, eqs. 1–4) and f2 (SiTF) of the curves whose weight is positive.
+
+    Curves with weight 0 are not read at all. Inputs as in :func:`evaluate`.
+
+    Returns
+    -------
+    (components, metrics, inputs, notes)
+        ``components``: ``{"mtf"|"sitf": f}``; ``metrics``: ``mtf50_real, mtf50_sim, mtf_mu,
+        mtf_rho, mtf_ccc, mtf_area`` and ``sitf_slope_real, ...``; ``inputs``: short
+        descriptions; ``notes``: warnings raised on the way (also re-issued).
+    """
+    w = Weights.coerce(weights)
+    components: dict[str, float] = {}
+    metrics: dict[str, Any] = {}
+    inputs: dict[str, Any] = {}
+    notes: list[str] = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        if w.mtf > 0:
+            rc = _as_curve(real_mtf, "real MTF", edge_ok=True, channel=edge_channel)
+            sc = _as_curve(sim_mtf, "simulated MTF", edge_ok=True, channel=edge_channel)
+            s = mtf_similarity(rc, sc, **dict(mtf_options or {}))
+            components["mtf"] = float(s.value)
+            metrics.update(mtf50_real=s.a, mtf50_sim=s.b, mtf_mu=s.mu, mtf_rho=s.rho, mtf_ccc=s.ccc,
+                           mtf_area=s.area)
+            inputs.update(real_mtf=_describe(real_mtf), sim_mtf=_describe(sim_mtf))
+        if w.sitf > 0:
+            from .sitf import sitf_similarity
+
+            rc = _as_curve(real_sitf, "real SiTF", edge_ok=False)
+            sc = _as_curve(sim_sitf, "simulated SiTF", edge_ok=False)
+            s = sitf_similarity(rc, sc, **dict(sitf_options or {}))
+            components["sitf"] = float(s.value)
+            metrics.update(sitf_slope_real=s.a, sitf_slope_sim=s.b, sitf_mu=s.mu, sitf_rho=s.rho,
+                           sitf_ccc=s.ccc, sitf_area=s.area)
+            inputs.update(real_sitf=_describe(real_sitf), sim_sitf=_describe(sim_sitf))
+    for wm in caught:
+        notes.append(f"{wm.category.__name__}: {wm.message}")
+        warnings.warn_explicit(wm.message, wm.category, wm.filename, wm.lineno)
+    return components, metrics, inputs, notes
+
+
 # --------------------------------------------------------------------------- evaluate
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
              real_sitf: Any = None, sim_sitf: Any = None, weights: Any = None, bits: int | None = None,
@@ -394,34 +441,9 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     requested = Weights.coerce(weights)
     w, need, skipped = plan_components(requested, have_images=have_images, have_mtf=have_mtf,
                                        have_sitf=have_sitf, missing=missing)
-    components: dict[str, float] = {}
-    metrics: dict[str, Any] = {}
-    inputs: dict[str, Any] = {}
-    notes: list[str] = []
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        if w.mtf > 0:
-            rc = _as_curve(real_mtf, "real MTF", edge_ok=True, channel=edge_channel)
-            sc = _as_curve(sim_mtf, "simulated MTF", edge_ok=True, channel=edge_channel)
-            s = mtf_similarity(rc, sc, **dict(mtf_options or {}))
-            components["mtf"] = float(s.value)
-            metrics.update(mtf50_real=s.a, mtf50_sim=s.b, mtf_mu=s.mu, mtf_rho=s.rho, mtf_ccc=s.ccc,
-                           mtf_area=s.area)
-            inputs.update(real_mtf=_describe(real_mtf), sim_mtf=_describe(sim_mtf))
-        if w.sitf > 0:
-            from .sitf import sitf_similarity
-
-            rc = _as_curve(real_sitf, "real SiTF", edge_ok=False)
-            sc = _as_curve(sim_sitf, "simulated SiTF", edge_ok=False)
-            s = sitf_similarity(rc, sc, **dict(sitf_options or {}))
-            components["sitf"] = float(s.value)
-            metrics.update(sitf_slope_real=s.a, sitf_slope_sim=s.b, sitf_mu=s.mu, sitf_rho=s.rho,
-                           sitf_ccc=s.ccc, sitf_area=s.area)
-            inputs.update(real_sitf=_describe(real_sitf), sim_sitf=_describe(sim_sitf))
-    for wm in caught:
-        notes.append(f"{wm.category.__name__}: {wm.message}")
-        warnings.warn_explicit(wm.message, wm.category, wm.filename, wm.lineno)
+    components, metrics, inputs, notes = curve_components(
+        w, real_mtf, sim_mtf, real_sitf, sim_sitf, edge_channel=edge_channel, mtf_options=mtf_options,
+        sitf_options=sitf_options)
 
     if need:
         r = _load_frame(real, "real", channel)

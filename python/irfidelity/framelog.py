@@ -37,7 +37,8 @@ def csv_columns(weights: Weights, with_nonfinite: bool) -> list[str]:
     active = [k for k in ("psnr", "ssim", "nmi") if weights[k] > 0]
     for k in active:
         cols.extend(_METRIC_COLUMNS[k])
-    cols.extend(f"f_{k}" for k in COMPONENTS if k in active)
+    # curve components (the same for every frame) too, so each row's fidelity adds up (eq. 15)
+    cols.extend(f"f_{k}" for k in COMPONENTS if weights[k] > 0)
     cols += ["fidelity", "error"]
     return cols
 

@@ -51,10 +51,10 @@ import numpy as np
 
 from . import _core
 from .errors import FidelityError, FrameError
-from .evaluation import _enc, image_components, plan_components
+from .evaluation import _enc, _pair, curve_components, image_components, plan_components
 from .framelog import FrameLog, csv_columns, csv_line, row_values
 from .frames import FrameSequence, load_frame
-from .fuzzy import Weights, fidelity_sum
+from .fuzzy import COMPONENTS, Weights, fidelity_sum
 from .normalize import DEFAULT_PSNR_ANCHORS
 from .stats import PairStats, hist_params, pair_stats, peak_and_valid, plan_need
 
@@ -92,6 +92,11 @@ class SequenceReport:
         ``{component: reason}`` for components not computed.
     settings : dict
         bits, peak, bins, hist_range, channel, ... as used.
+    curves : dict
+        The curve components (camera properties, the same for every frame) when MTF/SiTF
+        inputs were given: ``components`` (``{"mtf"|"sitf": f}``), ``metrics`` (MTF50s,
+        slopes, mu, rho, ...), ``inputs`` and ``notes``; empty otherwise. They enter every
+        frame's and the pooled fidelity.
     """
 
     frames: list[dict]
@@ -101,6 +106,7 @@ class SequenceReport:
     weights: Weights
     skipped: dict
     settings: dict = field(default_factory=dict)
+    curves: dict = field(default_factory=dict)
 
     @property
     def fidelity(self) -> float | None:
@@ -130,6 +136,7 @@ class SequenceReport:
                 "weights": self.weights.as_dict(),
                 "skipped": dict(self.skipped),
                 "settings": {k: v for k, v in self.settings.items() if k != "columns"},
+                "curves": dict(self.curves),
             }
         )
 
@@ -140,6 +147,11 @@ class SequenceReport:
         p = self.pooled
         if p.get("fidelity") is not None:
             lines.append(f"pooled fidelity: {p['fidelity']:.4f}")
+        m = self.curves.get("metrics", {})
+        for k, v in self.curves.get("components", {}).items():
+            raw = (f"MTF50 real {m['mtf50_real']:.4g}, sim {m['mtf50_sim']:.4g}" if k == "mtf"
+                   else f"slope real {m['sitf_slope_real']:.4g}, sim {m['sitf_slope_sim']:.4g}")
+            lines.append(f"{k} component (every frame): {v:.4f} ({raw}; mu {m[k + '_mu']:.4f}, rho {m[k + '_rho']:.4f})")
         for key, label in (("psnr_db", "PSNR (dB, from ΣSSE/ΣN)"), ("ssim", "SSIM"), ("nmi", "NMI")):
             if p.get(key) is not None:
                 note = " (mean of frames)" if key == "nmi" and p.get("nmi_pooling") == "frame_mean" else ""
@@ -174,6 +186,11 @@ def _percentiles(values: list[float]) -> dict:
     out.update({f"p{q}": float(v) for q, v in zip(_PERCENTILES, ps)})
     out.update(min=float(a.min()), max=float(a.max()))
     return out
+
+
+def _ordered(comps: dict) -> dict:
+    """Components in the paper's order (mtf, sitf, psnr, nmi, ssim)."""
+    return {k: comps[k] for k in COMPONENTS if k in comps}
 
 
 def _frame_stats(frames: list[dict]) -> dict:
@@ -233,8 +250,9 @@ class _Scorer:
     """Turns outcomes into frame dicts, streams them, and pools statistics in index order."""
 
     def __init__(self, *, n, real_names, sim_names, weights, pk, bin_label, ref_dtype, keep_hist, anchors,
-                 exponents, store, bar, progress_cb, columns):
+                 exponents, store, bar, progress_cb, columns, fixed):
         self.n = n
+        self.fixed = fixed  # curve components, the same for every frame
         self.keys = [c for c in columns if not c.startswith("f_")]
         self.real_names, self.sim_names = real_names, sim_names
         self.w = weights
@@ -276,7 +294,6 @@ class _Scorer:
             st = PairStats(raw, peak=self.pk, bins=self.bin_label)
             try:
                 comps, mets = image_components(st, self.w, psnr_anchors=self.anchors, ssim_exponents=self.exponents)
-                fid = fidelity_sum(self.w, comps)
             except FidelityError as e:
                 err, raw = str(e), None
             else:
@@ -284,8 +301,8 @@ class _Scorer:
                 mets.pop("masked", None)
                 mets["nonfinite"] = int(raw.nonfinite)
                 fr.update(mets)
-                fr["components"] = comps
-                fr["fidelity"] = float(fid)
+                fr["components"] = _ordered(comps | self.fixed)
+                fr["fidelity"] = float(fidelity_sum(self.w, comps | self.fixed))
         if err is not None:
             fr["error"] = " ".join(str(err).split())
             fr.setdefault("components", {})
@@ -321,7 +338,7 @@ class _Scorer:
             self.pooled = merged
             self.hist_merged = self.hist_merged and hist_ok
 
-    def report(self, settings: dict, skipped: dict) -> SequenceReport:
+    def report(self, settings: dict, skipped: dict, curves: dict) -> SequenceReport:
         frames = [self.frames[i] for i in range(self.n)]
         failed = [f["index"] for f in frames if f.get("error")]
         pooled: dict[str, Any] = {"frames": self.n - len(failed), "n": 0, "nmi_pooling": None}
@@ -347,8 +364,8 @@ class _Scorer:
                     pooled["nmi_pooling"] = "frame_mean"
                     pooled["nmi"] = float(np.mean([f["nmi"] for f in ok]))
                     comps["nmi"] = float(np.mean([f["components"]["nmi"] for f in ok]))
-            pooled["components"] = comps
-            pooled["fidelity"] = float(fidelity_sum(w, comps))
+            pooled["components"] = _ordered(comps | self.fixed)
+            pooled["fidelity"] = float(fidelity_sum(w, comps | self.fixed))
         return SequenceReport(
             frames=frames,
             pooled=pooled,
@@ -357,6 +374,7 @@ class _Scorer:
             weights=self.w,
             skipped=dict(skipped),
             settings=settings,
+            curves=curves,
         )
 
 
@@ -404,6 +422,13 @@ def score_sequence(
     psnr_anchors=DEFAULT_PSNR_ANCHORS,
     ssim_exponents=(1.0, 1.0, 1.0),
     max_pixels: int | None = None,
+    real_mtf: Any = None,
+    sim_mtf: Any = None,
+    real_sitf: Any = None,
+    sim_sitf: Any = None,
+    edge_channel: str | None = None,
+    mtf_options: Any = None,
+    sitf_options: Any = None,
 ) -> SequenceReport:
     """Score a simulated sequence against the real one, frame by frame and pooled.
 
@@ -415,10 +440,13 @@ def score_sequence(
         same number of frames (else :class:`FidelityError` naming both counts, before
         any work). Directories and globs are ordered naturally (``f2`` before ``f10``).
     weights : Weights, preset name, "name=value,…" string, mapping or None (balanced)
-        Only the image components (psnr, nmi, ssim) apply to frames; with the default
-        ``missing="renormalize"`` the curve components (mtf, sitf) are dropped and the
-        image weights rescaled (recorded in ``report.skipped``). Only what the weighted
-        components need is computed (no histogram when ``nmi`` has weight 0, ...).
+        The image components (psnr, nmi, ssim) are scored per frame; the curve components
+        (mtf, sitf) are camera properties, computed once from ``real_mtf``/``sim_mtf`` and
+        ``real_sitf``/``sim_sitf`` and added to every frame's and the pooled fidelity
+        (``report.curves``). Without curve inputs, the default ``missing="renormalize"``
+        drops those components and rescales the others (recorded in ``report.skipped``).
+        Only what the weighted components need is computed (no histogram when ``nmi`` has
+        weight 0, no curve read when ``mtf`` has weight 0, ...).
     bits, peak : PSNR peak ``2**bits − 1`` or ``peak`` (float frames need ``peak``);
         ``bits`` also bounds integer values (a frame outside fails with a RangeError row).
     bins, hist_range : NMI histogram, as for :func:`irfidelity.pair_stats`. With
@@ -442,6 +470,9 @@ def score_sequence(
     nonfinite : "raise" or "mask" (NaN/Inf in float frames).
     psnr_anchors, ssim_exponents : as in :func:`irfidelity.evaluate`.
     max_pixels : per-frame pixel limit for decoding.
+    real_mtf, sim_mtf, real_sitf, sim_sitf, edge_channel, mtf_options, sitf_options :
+        The camera curves, as in :func:`irfidelity.evaluate` (Curve, (x, y), CSV path; an
+        edge image or its path for the MTF). Read and compared once, before any frame.
 
     Returns
     -------
@@ -474,7 +505,17 @@ def score_sequence(
         raise FidelityError(f"workers must be a positive integer or None, got {workers!r}")
 
     # --- the plan (same as evaluate)
-    w, need, skipped = plan_components(weights, have_images=True, have_mtf=False, have_sitf=False, missing=missing)
+    have_mtf = _pair(real_mtf, sim_mtf, "real_mtf", "sim_mtf")
+    have_sitf = _pair(real_sitf, sim_sitf, "real_sitf", "sim_sitf")
+    w, need, skipped = plan_components(weights, have_images=True, have_mtf=have_mtf, have_sitf=have_sitf,
+                                       missing=missing)
+    if not need:
+        raise FidelityError("a sequence needs a positive weight on psnr, nmi or ssim (the per-frame components); "
+                            "for curves alone use irfidelity.evaluate")
+    # the camera curves: compared once, before any frame (a bad curve fails fast)
+    fixed, curve_metrics, curve_inputs, curve_notes = curve_components(
+        w, real_mtf, sim_mtf, real_sitf, sim_sitf, edge_channel=edge_channel, mtf_options=mtf_options,
+        sitf_options=sitf_options)
     wanted = plan_need(need)
     rfiles, sfiles = _file_sources(rseq), _file_sources(sseq)
     engine = rfiles is not None and sfiles is not None
@@ -505,6 +546,8 @@ def score_sequence(
         "psnr_anchors": [list(map(float, a)) for a in psnr_anchors],
         "ssim_exponents": [float(x) for x in ssim_exponents],
     }
+    if fixed:  # a resumed run must have compared the same curves
+        settings["curves"] = {k: float(v) for k, v in fixed.items()}
     columns = csv_columns(w, nonfinite == "mask")
 
     store = FrameLog(os.fspath(csv), columns, settings, resume) if csv is not None else None
@@ -517,7 +560,8 @@ def score_sequence(
         cb = progress if callable(progress) else None
         scorer = _Scorer(n=n, real_names=rseq.names, sim_names=sseq.names, weights=w, pk=pk, bin_label=bin_label,
                          ref_dtype=ref_dtype.name, keep_hist=keep_hist, anchors=psnr_anchors,
-                         exponents=ssim_exponents, store=store, bar=bar, progress_cb=cb, columns=columns)
+                         exponents=ssim_exponents, store=store, bar=bar, progress_cb=cb, columns=columns,
+                         fixed=fixed)
         if store is not None:
             scorer.add_resumed(store.done_rows, store.done_stats)
 
@@ -564,7 +608,9 @@ def score_sequence(
     settings = dict(settings, columns=columns, csv=None if csv is None else os.fspath(csv),
                     resumed=len(done_rows), workers=workers)
     settings.pop("names")
-    return scorer.report(settings, skipped)
+    curves = {"components": fixed, "metrics": curve_metrics, "inputs": curve_inputs, "notes": curve_notes} \
+        if fixed else {}
+    return scorer.report(settings, skipped, curves)
 
 
 def _run_dask(client, todo, rfiles, sfiles, kernel, workers, chunk_size, scorer) -> None:
