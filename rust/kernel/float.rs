@@ -63,7 +63,7 @@ pub(super) enum ChunkFloat {
     Centred([Neumaier; 6]),
     /// The chunk's own centred sums (`mr`, `ms` relative to the pivot), count and
     /// Σ(x − pivot), Σ(y − pivot) (mask, NaN/Inf, or the SSE-only plan).
-    Own { n: u64, sums: FloatSums, sum_r: f64, sum_s: f64 },
+    Own { n: u64, sums: FloatSums, sum_r: Neumaier, sum_s: Neumaier },
 }
 
 /// The pass's float sums over `n` counted pairs from its chunks' parts (`(first pixel,
@@ -102,17 +102,28 @@ pub(super) fn float_total(
         if let ChunkFloat::Own { n: k, sums, sum_r: r, sum_s: s } = part {
             total = merge_float(&total, count, &sums, k);
             count += k;
-            sum_r.add(r);
-            sum_s.add(s);
+            sum_r.merge(&r);
+            sum_s.merge(&s);
         }
     }
     if count > 0 {
         // the means from the compensated sums, not from Chan's merges (whose δ between chunk
         // means costs digits when the data spread is much larger than the mean)
-        total.mr = pivot.0 + sum_r.value() / count as f64;
-        total.ms = pivot.1 + sum_s.value() / count as f64;
+        total.mr = offset_mean(pivot.0, &sum_r, count as f64);
+        total.ms = offset_mean(pivot.1, &sum_s, count as f64);
     }
     total
+}
+
+/// `pivot + Σ/n` for a compensated sum `Σ` of values relative to `pivot`, without the
+/// cancellation of a pivot far from the mean (the first finite value, with a mask: ±3e38
+/// data whose mean is 1e35 lost ten digits of the mean). The quotient's remainder is exact
+/// (fused multiply-add, once per pass) and the pivot is added as a two-sum.
+fn offset_mean(pivot: f64, sum: &Neumaier, n: f64) -> f64 {
+    let q = sum.sum / n;
+    let rem = (-q).mul_add(n, sum.sum); // sum.sum − q·n, exactly
+    let (hi, lo) = two_sum(pivot, q);
+    hi + (lo + (rem + sum.comp) / n)
 }
 
 /// The float pass over `[a, b)`: mean first, then centred sums, on cache-resident data.
@@ -134,7 +145,8 @@ pub(super) fn float_chunk<T: Sample>(
             acc.max_abs = acc.max_abs.max(sse_max_abs(rr, sb, sse.value()));
             let sums = FloatSums { sse: sse.sum, sse_c: sse.comp, ..FloatSums::default() };
             let n = rr.len() as u64;
-            acc.floats.push((a, ChunkFloat::Own { n, sums, sum_r: 0.0, sum_s: 0.0 }));
+            let zero = Neumaier::default();
+            acc.floats.push((a, ChunkFloat::Own { n, sums, sum_r: zero, sum_s: zero }));
             acc.n += n;
             return Ok(());
         }
@@ -195,7 +207,7 @@ fn own_part<T: Sample>(
 ) {
     let n = rr.len() as u64;
     let nf = n as f64;
-    let (mr, ms) = (sums.r / nf, sums.s / nf);
+    let (mr, ms) = (sums.r.value() / nf, sums.s.value() / nf);
     let tot = float_centred(rr, sb, (mr, ms), req, plan, acc, pivot);
     let [dr, ds, m2r, m2s, crs, _] = tot.map(|t| t.value());
     // corrected two-pass: remove the residual of the approximate mean
@@ -481,10 +493,11 @@ mod avx2 {
     }
 }
 
-/// Σ(x − pivot_r), Σ(y − pivot_s), the range of both runs and max |value|.
+/// Σ(x − pivot_r), Σ(y − pivot_s) (compensated: both parts kept, so merging runs loses
+/// nothing), the range of both runs and max |value|.
 pub(super) struct RunSums {
-    pub(super) r: f64,
-    pub(super) s: f64,
+    pub(super) r: Neumaier,
+    pub(super) s: Neumaier,
     pub(super) lo: f64,
     pub(super) hi: f64,
     pub(super) max_abs: f64,
@@ -492,12 +505,20 @@ pub(super) struct RunSums {
 
 impl RunSums {
     fn empty() -> Self {
-        RunSums { r: 0.0, s: 0.0, lo: f64::INFINITY, hi: f64::NEG_INFINITY, max_abs: 0.0 }
-    }
-    fn merge(self, o: RunSums) -> RunSums {
         RunSums {
-            r: self.r + o.r,
-            s: self.s + o.s,
+            r: Neumaier::default(),
+            s: Neumaier::default(),
+            lo: f64::INFINITY,
+            hi: f64::NEG_INFINITY,
+            max_abs: 0.0,
+        }
+    }
+    fn merge(mut self, o: RunSums) -> RunSums {
+        self.r.merge(&o.r);
+        self.s.merge(&o.s);
+        RunSums {
+            r: self.r,
+            s: self.s,
             lo: self.lo.min(o.lo),
             hi: self.hi.max(o.hi),
             max_abs: self.max_abs.max(o.max_abs),
@@ -506,7 +527,7 @@ impl RunSums {
     /// No NaN or ±Inf in the run: the sums stay finite (NaN and Inf propagate into them;
     /// values summing past f64's range are treated like non-finite ones, carefully).
     pub(super) fn finite(&self) -> bool {
-        self.r.is_finite() && self.s.is_finite()
+        self.r.value().is_finite() && self.s.value().is_finite()
     }
 }
 
@@ -583,8 +604,8 @@ impl SumLanes {
             ts.add(self.cs[k]);
         }
         RunSums {
-            r: tr.value(),
-            s: ts.value(),
+            r: tr,
+            s: ts,
             lo: self.lo.iter().fold(f64::INFINITY, |m, &v| m.min(v)),
             hi: self.hi.iter().fold(f64::NEG_INFINITY, |m, &v| m.max(v)),
             max_abs: self.max_abs.iter().fold(0.0f64, |m, &v| m.max(v)),
@@ -687,14 +708,7 @@ pub(super) fn float_scan<T: Sample>(r: &[T], s: &[T], with_range: bool) -> RunSu
     };
     let Ok(parts) = map_chunks(r.len(), cost::SCAN, sums);
     // compensated, in chunk order: the means do not depend on the thread count
-    let (mut tr, mut ts) = (Neumaier::default(), Neumaier::default());
-    let mut out = RunSums::empty();
-    for p in parts {
-        tr.add(p.r);
-        ts.add(p.s);
-        out = out.merge(p);
-    }
-    RunSums { r: tr.value(), s: ts.value(), ..out }
+    parts.into_iter().fold(RunSums::empty(), RunSums::merge)
 }
 
 /// The pivot of the float pass and, when the scan certified every value finite, the
@@ -703,7 +717,7 @@ pub(super) fn float_scan<T: Sample>(r: &[T], s: &[T], with_range: bool) -> RunSu
 pub(super) fn float_pivot<T: Sample>(r: &[T], s: &[T], scan: Option<&RunSums>) -> ((f64, f64), Option<(f64, f64)>) {
     if let Some(sc) = scan.filter(|sc| sc.finite()) {
         let n = r.len() as f64;
-        let (mr, ms) = (sc.r / n, sc.s / n);
+        let (mr, ms) = (sc.r.value() / n, sc.s.value() / n);
         // Keep 24 significant bits: x − pivot is then exact for every float32 value (and for
         // float64 values within 2^29 of the pivot's magnitude) — a 53-bit pivot would round
         // each difference, and identical values (e.g. clipped at ±3.4e38) round coherently.

@@ -577,7 +577,7 @@ pub fn pair_stats<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<PairStat
         let means = match (finite_scan, centre) {
             (Some(sc), Some(_)) => {
                 acc.max_abs = acc.max_abs.max(sc.max_abs);
-                Some((sc.r / r.len() as f64, sc.s / r.len() as f64))
+                Some((sc.r.value() / r.len() as f64, sc.s.value() / r.len() as f64))
             }
             _ => None,
         };
