@@ -359,6 +359,39 @@ mod tests {
     }
 
     #[test]
+    fn many_callers_at_once_share_one_pool() {
+        // Eight threads fold at once on the same pool, with uneven chunk times: helpers start
+        // late, early or never; every result must still count each chunk once.
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+        std::thread::scope(|s| {
+            for t in 0..8u64 {
+                let pool = &pool;
+                s.spawn(move || {
+                    for round in 0..20u64 {
+                        let n = (3 + (t + round) % 9) as usize * CHUNK + (round as usize * 37);
+                        let got: Result<u64, ()> = pool.install(|| {
+                            fold_chunks(
+                                n,
+                                1e6,
+                                || 0,
+                                |acc, (a, b)| {
+                                    if (a / CHUNK + t as usize) % 4 == 0 {
+                                        std::thread::sleep(std::time::Duration::from_micros(30));
+                                    }
+                                    Ok(acc + (a..b).map(|i| i as u64).sum::<u64>())
+                                },
+                                |a, b| a + b,
+                            )
+                        });
+                        let n64 = n as u64;
+                        assert_eq!(got, Ok(n64 * (n64 - 1) / 2), "thread {t} round {round}");
+                    }
+                });
+            }
+        });
+    }
+
+    #[test]
     fn a_busy_pool_does_not_hold_the_caller() {
         // The caller runs on one thread of a 3-thread pool whose two others are blocked: its
         // helpers never start, it finishes alone and cancels them (a wait would hang).
