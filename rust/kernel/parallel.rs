@@ -61,7 +61,7 @@ pub fn pool_busy() -> bool {
 }
 
 /// Whether a pass over `n` pixel pairs at `ns_per_px` is worth the thread pool.
-pub(crate) fn worth_parallel(n: usize, ns_per_px: f64) -> bool {
+fn worth_parallel(n: usize, ns_per_px: f64) -> bool {
     n as f64 * ns_per_px >= PARALLEL_MIN_NS && rayon::current_num_threads() > 1 && !pool_busy()
 }
 
