@@ -1,7 +1,8 @@
 //! OpenEXR decoding with the `exr` crate's block-level API.
 //!
 //! Only the blocks of the selected part at the largest resolution level are read; each
-//! block is decompressed (in parallel on the rayon pool) and only the selected channel's
+//! block is decompressed (shared between the calling thread and idle pool threads, see
+//! `kernel::map_units`) and only the selected channel's
 //! samples are copied out, in the file's own sample type (f16 / f32 / u32). The output is
 //! the data window (like OpenEXR's own readers), row-major.
 
@@ -17,7 +18,6 @@ use ::exr::meta::attribute::SampleType;
 use ::exr::meta::header::Header;
 use ::exr::meta::MetaData;
 use half::f16;
-use rayon::prelude::*;
 
 use super::piz::{self, FromWords};
 use super::zip;
@@ -247,7 +247,8 @@ fn assemble<T: Sample, C: ChunksReader>(
     let mut out: Vec<T> = vec![T::ZERO; rows * cols];
     let mut seen: HashSet<(usize, usize)> = HashSet::new();
     let mut covered: usize = 0;
-    let batch = (rayon::current_num_threads().max(1) * 4).max(8);
+    // blocks per round of sharing: each round wakes a helper, and bounds the compressed bytes held
+    let batch = (rayon::current_num_threads().max(1) * 16).max(32);
     loop {
         let mut compressed: Vec<Chunk> = Vec::with_capacity(batch);
         for _ in 0..batch {
@@ -259,12 +260,17 @@ fn assemble<T: Sample, C: ChunksReader>(
         if compressed.is_empty() {
             break;
         }
-        // blocks in parallel, unless the pool is already busy with other frames
-        let pieces: Vec<Result<Piece<T>, Reason>> = if crate::kernel::pool_busy() {
-            compressed.into_iter().map(|c| decompress::<T>(c, &meta, layout)).collect()
-        } else {
-            compressed.into_par_iter().map(|c| decompress::<T>(c, &meta, layout)).collect()
-        };
+        // blocks shared with idle pool threads (unless the pool is busy with other frames)
+        let slots: Vec<std::sync::Mutex<Option<Chunk>>> =
+            compressed.into_iter().map(|c| std::sync::Mutex::new(Some(c))).collect();
+        let Ok(pieces) = crate::kernel::map_units::<_, std::convert::Infallible>(slots.len(), true, |i| {
+            // each unit is taken once (a shared counter), so its slot still holds the block
+            let block = slots[i].lock().unwrap_or_else(|p| p.into_inner()).take();
+            Ok(match block {
+                Some(c) => decompress::<T>(c, &meta, layout),
+                None => Err("internal error: an EXR block was decoded twice".to_string()),
+            })
+        });
         for piece in pieces {
             let p = piece?;
             if p.x.checked_add(p.w).is_none_or(|e| e > cols) || p.y.checked_add(p.h).is_none_or(|e| e > rows) {

@@ -17,7 +17,7 @@ mod parallel;
 use float::{float_chunk, float_pivot, float_scan, float_total, ChunkFloat};
 use int::int_chunk;
 pub(crate) use parallel::{cost, fold_chunks, map_chunks};
-pub use parallel::{pool_busy, with_pool_busy};
+pub use parallel::{map_units, pool_busy, with_pool_busy};
 
 /// Pixels per work unit: two chunks of u16/f32 fit in L2 with the histogram.
 pub(crate) const CHUNK: usize = 1 << 16;

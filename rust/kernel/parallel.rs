@@ -87,16 +87,88 @@ where
     E: Send,
 {
     let chunks = chunk_ranges(n);
-    let helpers = if worth_parallel(n, ns_per_px) {
-        (rayon::current_num_threads() - 1).min(chunks.len().saturating_sub(1))
-    } else {
-        0
-    };
+    let helpers = if worth_parallel(n, ns_per_px) { helpers_for(chunks.len()) } else { 0 };
+    share(chunks.len(), helpers, init, |acc, i| step(acc, chunks[i]), merge)
+}
+
+/// `f` of every chunk of a pair of `n`-pixel frames, in chunk order, computed like
+/// [`fold_chunks`] (shared with idle pool threads when worth it). For float partial sums:
+/// combined in chunk order afterwards, they do not depend on how the chunks were shared out.
+pub(crate) fn map_chunks<R, E>(
+    n: usize,
+    ns_per_px: f64,
+    f: impl Fn((usize, usize)) -> Result<R, E> + Sync,
+) -> Result<Vec<R>, E>
+where
+    R: Send,
+    E: Send,
+{
+    let chunks = chunk_ranges(n);
+    let helpers = if worth_parallel(n, ns_per_px) { helpers_for(chunks.len()) } else { 0 };
+    ordered(chunks.len(), helpers, |i| f(chunks[i]))
+}
+
+/// `f(0), f(1), …, f(units − 1)` in order, shared with idle pool threads when `parallel`
+/// (and this thread's pool is not busy with other frames): units of work that are each worth
+/// a wake-up, such as the compressed blocks of an EXR file.
+pub fn map_units<R, E>(units: usize, parallel: bool, f: impl Fn(usize) -> Result<R, E> + Sync) -> Result<Vec<R>, E>
+where
+    R: Send,
+    E: Send,
+{
+    let helpers = if parallel && !pool_busy() { helpers_for(units) } else { 0 };
+    ordered(units, helpers, f)
+}
+
+/// Helpers worth queuing for `units` units: one per other pool thread, at most one per unit
+/// beyond the caller's first.
+fn helpers_for(units: usize) -> usize {
+    (rayon::current_num_threads().max(1) - 1).min(units.saturating_sub(1))
+}
+
+/// `f` of every unit, in unit order (see `share`).
+fn ordered<R: Send, E: Send>(
+    units: usize,
+    helpers: usize,
+    f: impl Fn(usize) -> Result<R, E> + Sync,
+) -> Result<Vec<R>, E> {
+    let mut parts = share(
+        units,
+        helpers,
+        Vec::new,
+        |mut acc: Vec<(usize, R)>, i| {
+            acc.push((i, f(i)?));
+            Ok(acc)
+        },
+        |mut a, mut b| {
+            a.append(&mut b);
+            a
+        },
+    )?;
+    parts.sort_unstable_by_key(|p| p.0);
+    Ok(parts.into_iter().map(|p| p.1).collect())
+}
+
+/// The work sharing itself: units `0..units` taken in order from a shared counter by the
+/// calling thread and up to `helpers` pool threads; each folds its units with `step` from
+/// `init`, and the partial results are combined with `merge`. The error of the lowest
+/// failing unit wins; a helper's panic resumes on the caller.
+fn share<A, E>(
+    units: usize,
+    helpers: usize,
+    init: impl Fn() -> A + Sync,
+    step: impl Fn(A, usize) -> Result<A, E> + Sync,
+    merge: impl Fn(A, A) -> A,
+) -> Result<A, E>
+where
+    A: Send,
+    E: Send,
+{
     if helpers == 0 {
-        return chunks.into_iter().try_fold(init(), step);
+        return (0..units).try_fold(init(), step);
     }
     let job = Job {
-        chunks: &chunks,
+        units,
         next: AtomicUsize::new(0),
         stop: AtomicBool::new(false),
         init: &init,
@@ -142,35 +214,6 @@ where
     }
 }
 
-/// `f` of every chunk of a pair of `n`-pixel frames, in chunk order, computed like
-/// [`fold_chunks`] (shared with idle pool threads when worth it). For float partial sums:
-/// combined in chunk order afterwards, they do not depend on how the chunks were shared out.
-pub(crate) fn map_chunks<R, E>(
-    n: usize,
-    ns_per_px: f64,
-    f: impl Fn((usize, usize)) -> Result<R, E> + Sync,
-) -> Result<Vec<R>, E>
-where
-    R: Send,
-    E: Send,
-{
-    let mut parts = fold_chunks(
-        n,
-        ns_per_px,
-        Vec::new,
-        |mut acc: Vec<(usize, R)>, range| {
-            acc.push((range.0, f(range)?));
-            Ok(acc)
-        },
-        |mut a, mut b| {
-            a.append(&mut b);
-            a
-        },
-    )?;
-    parts.sort_unstable_by_key(|p| p.0);
-    Ok(parts.into_iter().map(|p| p.1).collect())
-}
-
 /// What one thread folded: its partial result (`None`: it took no chunk), or the first
 /// chunk that failed and why.
 enum Part<A, E> {
@@ -182,10 +225,10 @@ type Panic = Box<dyn Any + Send + 'static>;
 
 /// The shared state of one pass; lives on the caller's stack.
 struct Job<'a, A, E, I, S> {
-    chunks: &'a [(usize, usize)],
-    /// Index of the next chunk to take.
+    units: usize,
+    /// Index of the next unit to take.
     next: AtomicUsize,
-    /// Set when a chunk failed: no new chunk is started.
+    /// Set when a unit failed: no new unit is started.
     stop: AtomicBool,
     init: &'a I,
     step: &'a S,
@@ -196,14 +239,16 @@ struct Job<'a, A, E, I, S> {
 impl<A, E, I, S> Job<'_, A, E, I, S>
 where
     I: Fn() -> A,
-    S: Fn(A, (usize, usize)) -> Result<A, E>,
+    S: Fn(A, usize) -> Result<A, E>,
 {
     fn run(&self) -> Part<A, E> {
         let mut acc: Option<A> = None;
         while !self.stop.load(Ordering::Relaxed) {
             let i = self.next.fetch_add(1, Ordering::Relaxed);
-            let Some(&range) = self.chunks.get(i) else { break };
-            match (self.step)(acc.take().unwrap_or_else(self.init), range) {
+            if i >= self.units {
+                break;
+            }
+            match (self.step)(acc.take().unwrap_or_else(self.init), i) {
                 Ok(a) => acc = Some(a),
                 Err(e) => {
                     self.stop.store(true, Ordering::Relaxed);
@@ -223,7 +268,7 @@ where
 unsafe fn help<A, E, I, S>(p: *const ())
 where
     I: Fn() -> A,
-    S: Fn(A, (usize, usize)) -> Result<A, E>,
+    S: Fn(A, usize) -> Result<A, E>,
 {
     // SAFETY: the caller's guarantee
     let job = unsafe { &*p.cast::<Job<'_, A, E, I, S>>() };
@@ -260,7 +305,7 @@ impl Helpers {
         A: Send,
         E: Send,
         I: Fn() -> A + Sync,
-        S: Fn(A, (usize, usize)) -> Result<A, E> + Sync,
+        S: Fn(A, usize) -> Result<A, E> + Sync,
     {
         let entry: unsafe fn(*const ()) = help::<A, E, I, S>;
         let slots = (0..count)
