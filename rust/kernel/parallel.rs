@@ -1,18 +1,20 @@
-//! Splitting one pass over the calling thread and idle pool threads.
+//! Splitting one piece of work over the calling thread and idle pool threads.
 //!
-//! [`fold_chunks`] has the calling thread work through the chunks itself, one at a time from
-//! a shared counter, while helpers queued on the rayon pool take chunks from the same counter
-//! when, and if, they start. A helper that has not started by the time the chunks run out is
-//! cancelled, never waited for. A busy machine (the other cores running something else) then
-//! costs a pass the queuing of a job, and the pass runs at single-thread speed. rayon's own
-//! splitting hands part of the work to a pool thread and waits for it to finish, however
-//! late the scheduler runs it: 512 × 512 float SSIM took 2.5× its single-thread time that way
-//! while another process spun on the second core.
+//! The work comes in units (the chunks of a pass, the blocks of an EXR file). The calling
+//! thread works through them itself, one at a time from a shared counter, while helpers queued
+//! on the rayon pool take units from the same counter when, and if, they start. A helper that
+//! has not started by the time the units run out is cancelled, never waited for. A busy
+//! machine (the other cores running something else) then costs the work the queuing of a job,
+//! and it runs at single-thread speed. rayon's own splitting hands part of the work to a pool
+//! thread and waits for it to finish, however late the scheduler runs it: 512 × 512 float SSIM
+//! took 2.5× its single-thread time that way while another process spun on the second core.
 //!
-//! The helpers borrow the caller's frames and closures through a type-erased pointer (rayon's
-//! `spawn` needs `'static` jobs). The protocol that makes this sound: a helper may touch the
-//! job only after moving its slot from `Pending` to `Running`, and the caller returns (or
-//! unwinds) only after moving every slot from `Pending` to `Closed` or seeing it `Done`.
+//! Entry points: [`fold_chunks`] and [`map_chunks`] (the chunks of a frame pair),
+//! [`map_units`] (any indexed units). The helpers borrow the caller's data and closures
+//! through a type-erased pointer (rayon's `spawn` needs `'static` jobs). The protocol that
+//! makes this sound: a helper may touch the job only after moving its slot from `Pending` to
+//! `Running`, and the caller returns (or unwinds) only after moving every slot from `Pending`
+//! to `Closed` or seeing it `Done`.
 
 use std::any::Any;
 use std::panic::{self, AssertUnwindSafe};
@@ -291,7 +293,7 @@ struct Slot {
 
 /// A raw pointer sent to a helper; only dereferenced under the `Helpers` protocol.
 struct JobPtr(*const ());
-// SAFETY: the pointee (`Job`) is `Sync` for the types `fold_chunks` accepts (atomics, a
+// SAFETY: the pointee (`Job`) is `Sync` for the types `share` accepts (atomics, a
 // mutex of `Send` parts, `Sync` closures); the pointer itself is only an address.
 unsafe impl Send for JobPtr {}
 
