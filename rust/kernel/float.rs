@@ -217,8 +217,8 @@ fn own_part<T: Sample>(
         m2r: m2r - dr * dr / nf,
         m2s: m2s - ds * ds / nf,
         crs: crs - dr * ds / nf,
-        sse: if req.sse { tot[5].sum } else { 0.0 },
-        sse_c: if req.sse { tot[5].comp } else { 0.0 },
+        sse: tot[5].sum,
+        sse_c: tot[5].comp,
     };
     acc.floats.push((a, ChunkFloat::Own { n, sums: part, sum_r: sums.r, sum_s: sums.s }));
     acc.n += n;
@@ -516,13 +516,7 @@ impl RunSums {
     fn merge(mut self, o: RunSums) -> RunSums {
         self.r.merge(&o.r);
         self.s.merge(&o.s);
-        RunSums {
-            r: self.r,
-            s: self.s,
-            lo: self.lo.min(o.lo),
-            hi: self.hi.max(o.hi),
-            max_abs: self.max_abs.max(o.max_abs),
-        }
+        RunSums { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi), max_abs: self.max_abs.max(o.max_abs), ..self }
     }
     /// No NaN or ±Inf in the run: the sums stay finite (NaN and Inf propagate into them;
     /// values summing past f64's range are treated like non-finite ones, carefully).
@@ -682,16 +676,14 @@ fn float_centred<T: Sample>(
     if rr.is_empty() {
         return Default::default();
     }
-    let tot = if req.moments || req.sse { centred_totals(rr, sb, pivot, (mr, ms)) } else { Default::default() };
+    let mut tot = if req.moments || req.sse { centred_totals(rr, sb, pivot, (mr, ms)) } else { Default::default() };
     if let Some(p) = plan {
         if let Some(bn) = p.binner.as_ref() {
             float_hist(rr, sb, bn, p.dense_bins.unwrap_or(0), acc);
         }
     }
     if !req.sse {
-        let mut tot = tot;
-        tot[5] = Neumaier::default();
-        return tot;
+        tot[5] = Neumaier::default(); // Σ(x − y)² is not part of this plan
     }
     tot
 }
