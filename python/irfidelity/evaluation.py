@@ -24,7 +24,7 @@ from . import stats as _stats
 from .curves import Curve
 from .mtf import mtf_similarity
 from .errors import FidelityError
-from .fuzzy import COMPONENTS, GradeScale, Weights, fidelity_sum
+from .fuzzy import COMPONENTS, GradeScale, Weights, fidelity_sum, ordered_components
 from .normalize import DEFAULT_PSNR_ANCHORS, normalize_psnr
 
 __all__ = ["FidelityReport", "evaluate", "plan_components", "image_components", "curve_components",
@@ -459,7 +459,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     gs = grades if grades is not None else GradeScale()
     g = gs.evaluate(w, components)
     # components / metrics in the paper's order
-    components = {k: components[k] for k in COMPONENTS if k in components}
+    components = ordered_components(components)
     return FidelityReport(fidelity=fid, components=components, weights=w, metrics=metrics, skipped=skipped,
                           requested_weights=requested, grade=g.grade, membership=dict(g.membership),
                           grading=g.to_dict(), notes=notes, inputs=inputs)

@@ -28,6 +28,7 @@ from .errors import FidelityError
 
 __all__ = [
     "COMPONENTS",
+    "ordered_components",
     "Weights",
     "AHPResult",
     "AHPConsistencyWarning",
@@ -41,6 +42,11 @@ __all__ = [
 
 #: Component names in the paper's order f1..f5.
 COMPONENTS = ("mtf", "sitf", "psnr", "nmi", "ssim")
+
+
+def ordered_components(components: Mapping[str, float]) -> dict:
+    """The given components in the paper's order (mtf, sitf, psnr, nmi, ssim)."""
+    return {k: components[k] for k in COMPONENTS if k in components}
 
 _TOL = 1e-9
 

@@ -54,7 +54,7 @@ from .errors import FidelityError, FrameError
 from .evaluation import _enc, _pair, curve_components, image_components, plan_components
 from .framelog import FrameLog, csv_columns, csv_line, row_values
 from .frames import FrameSequence, load_frame
-from .fuzzy import COMPONENTS, Weights, fidelity_sum
+from .fuzzy import Weights, fidelity_sum, ordered_components
 from .normalize import DEFAULT_PSNR_ANCHORS
 from .stats import PairStats, hist_params, pair_stats, peak_and_valid, plan_need
 
@@ -188,11 +188,6 @@ def _percentiles(values: list[float]) -> dict:
     return out
 
 
-def _ordered(comps: dict) -> dict:
-    """Components in the paper's order (mtf, sitf, psnr, nmi, ssim)."""
-    return {k: comps[k] for k in COMPONENTS if k in comps}
-
-
 def _frame_stats(frames: list[dict]) -> dict:
     ok = [f for f in frames if not f.get("error")]
     out: dict[str, dict] = {}
@@ -294,6 +289,8 @@ class _Scorer:
             st = PairStats(raw, peak=self.pk, bins=self.bin_label)
             try:
                 comps, mets = image_components(st, self.w, psnr_anchors=self.anchors, ssim_exponents=self.exponents)
+                comps = ordered_components(comps | self.fixed)
+                fid = fidelity_sum(self.w, comps)
             except FidelityError as e:
                 err, raw = str(e), None
             else:
@@ -301,8 +298,8 @@ class _Scorer:
                 mets.pop("masked", None)
                 mets["nonfinite"] = int(raw.nonfinite)
                 fr.update(mets)
-                fr["components"] = _ordered(comps | self.fixed)
-                fr["fidelity"] = float(fidelity_sum(self.w, comps | self.fixed))
+                fr["components"] = comps
+                fr["fidelity"] = float(fid)
         if err is not None:
             fr["error"] = " ".join(str(err).split())
             fr.setdefault("components", {})
@@ -364,8 +361,8 @@ class _Scorer:
                     pooled["nmi_pooling"] = "frame_mean"
                     pooled["nmi"] = float(np.mean([f["nmi"] for f in ok]))
                     comps["nmi"] = float(np.mean([f["components"]["nmi"] for f in ok]))
-            pooled["components"] = _ordered(comps | self.fixed)
-            pooled["fidelity"] = float(fidelity_sum(w, comps | self.fixed))
+            pooled["components"] = ordered_components(comps | self.fixed)
+            pooled["fidelity"] = float(fidelity_sum(w, pooled["components"]))
         return SequenceReport(
             frames=frames,
             pooled=pooled,
