@@ -1,4 +1,4 @@
-"""Exception classes (DESIGN §5).
+"""Exception and warning classes.
 
 Every error raised by irfidelity derives from :class:`FidelityError`, itself a
 ``ValueError`` so that callers who only know the standard library still catch it.
@@ -8,7 +8,7 @@ kinds here), so there is one hierarchy whatever layer failed.
 
 from __future__ import annotations
 
-__all__ = ["FidelityError", "FrameError", "ShapeError", "RangeError"]
+__all__ = ["FidelityError", "FrameError", "ShapeError", "RangeError", "RegistrationError", "FidelityWarning"]
 
 
 class FidelityError(ValueError):
@@ -29,3 +29,14 @@ class ShapeError(FidelityError):
 
 class RangeError(FidelityError):
     """Values outside what was declared: above ``2**bits - 1``, negative, or non-finite."""
+
+
+class RegistrationError(FidelityError):
+    """A frame pair that cannot be registered: flat frames, no overlap, a transform beyond
+    the allowed search range, or an ambiguous correlation peak. The message says which."""
+
+
+class FidelityWarning(UserWarning):
+    """Base class of irfidelity's warnings: a result that is computed but may mislead
+    (a PSNR peak far above the scene's range, a low-contrast edge, a low registration
+    confidence, ...). Filter them all with ``warnings.simplefilter("error", FidelityWarning)``."""
