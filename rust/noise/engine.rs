@@ -1,0 +1,374 @@
+//! One streamed pass over a recording: frames are read (decoded from files, or sliced
+//! from an in-memory cube) and added to [`NoiseSums`] on `workers` threads.
+//!
+//! The first frame is read on the calling thread: it fixes the shape, the sample type and
+//! (float frames) the per-pixel pivot. The remaining frames are cut into chunks of a
+//! length that depends only on the frame count; each worker sums a chunk into its own
+//! [`NoiseSums`], and chunks are appended to the total strictly in chunk order. So the
+//! result does not depend on the number of workers (bit-identical for float frames too),
+//! and memory stays bounded: a worker does not start a chunk more than `2·workers` chunks
+//! ahead of the last one appended.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+
+use super::{Acc, Dtype, FrameSample, NoiseSums};
+use crate::io::{self, DecodeOptions, FrameData};
+use crate::{Error, Result};
+
+/// A rectangular region of every frame (default: the whole frame).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    pub row0: usize,
+    pub col0: usize,
+    pub rows: usize,
+    pub cols: usize,
+}
+
+/// How to run a pass.
+#[derive(Clone, Debug, Default)]
+pub struct PassOptions {
+    /// Worker threads (0: all cores).
+    pub workers: usize,
+    /// Integer frames: the valid range `(lo, hi)` (default: the sample type's range).
+    pub limits: Option<(i64, i64)>,
+    /// Region to analyse (default: whole frames).
+    pub window: Option<Window>,
+}
+
+/// Borrowed samples of one frame.
+#[derive(Clone, Copy, Debug)]
+pub enum Samples<'a> {
+    U8(&'a [u8]),
+    U16(&'a [u16]),
+    I16(&'a [i16]),
+    U32(&'a [u32]),
+    F16(&'a [half::f16]),
+    F32(&'a [f32]),
+    F64(&'a [f64]),
+}
+
+impl Samples<'_> {
+    fn dtype(&self) -> Dtype {
+        match self {
+            Samples::U8(_) => Dtype::U8,
+            Samples::U16(_) => Dtype::U16,
+            Samples::I16(_) => Dtype::I16,
+            Samples::U32(_) => Dtype::U32,
+            Samples::F16(_) => Dtype::F16,
+            Samples::F32(_) => Dtype::F32,
+            Samples::F64(_) => Dtype::F64,
+        }
+    }
+}
+
+/// One frame as read from a source.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameRef<'a> {
+    pub rows: usize,
+    pub cols: usize,
+    pub samples: Samples<'a>,
+}
+
+/// Frames a pass reads, by index.
+pub trait FrameSource: Sync {
+    fn len(&self) -> usize;
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Name of frame `i` in messages.
+    fn label(&self, i: usize) -> String;
+    /// Read frame `i` and hand it to `visit`.
+    fn with_frame(&self, i: usize, visit: &mut dyn FnMut(FrameRef<'_>) -> Result<()>) -> Result<()>;
+}
+
+/// Frames of files (a TIFF page each), decoded by [`crate::io::decode_frame`].
+pub struct PathSource {
+    pub frames: Vec<(PathBuf, usize)>,
+    pub channel: Option<String>,
+    pub max_pixels: u64,
+}
+
+impl FrameSource for PathSource {
+    fn len(&self) -> usize {
+        self.frames.len()
+    }
+    fn label(&self, i: usize) -> String {
+        let (path, page) = &self.frames[i];
+        if *page == 0 {
+            path.display().to_string()
+        } else {
+            format!("{}[{page}]", path.display())
+        }
+    }
+    fn with_frame(&self, i: usize, visit: &mut dyn FnMut(FrameRef<'_>) -> Result<()>) -> Result<()> {
+        let (path, page) = &self.frames[i];
+        let opts = DecodeOptions { channel: self.channel.clone(), max_pixels: self.max_pixels, page: *page };
+        let frame = io::decode_frame(path, &opts)?;
+        let samples = match &frame.data {
+            FrameData::U8(v) => Samples::U8(v),
+            FrameData::U16(v) => Samples::U16(v),
+            FrameData::I16(v) => Samples::I16(v),
+            FrameData::U32(v) => Samples::U32(v),
+            FrameData::F16(v) => Samples::F16(v),
+            FrameData::F32(v) => Samples::F32(v),
+            FrameData::F64(v) => Samples::F64(v),
+        };
+        visit(FrameRef { rows: frame.rows, cols: frame.cols, samples })
+    }
+}
+
+/// Frames of a C-ordered `frames × rows × cols` cube in memory.
+pub struct ArraySource<'a> {
+    pub data: Samples<'a>,
+    pub frames: usize,
+    pub rows: usize,
+    pub cols: usize,
+}
+
+impl FrameSource for ArraySource<'_> {
+    fn len(&self) -> usize {
+        self.frames
+    }
+    fn label(&self, i: usize) -> String {
+        format!("frame {i}")
+    }
+    fn with_frame(&self, i: usize, visit: &mut dyn FnMut(FrameRef<'_>) -> Result<()>) -> Result<()> {
+        let size = self.rows * self.cols;
+        let span = i * size..(i + 1) * size;
+        macro_rules! cut {
+            ($($v:ident),*) => {
+                match self.data {
+                    $(Samples::$v(d) => Samples::$v(d.get(span).ok_or_else(|| {
+                        Error::Shape(format!("frame {i}: the array holds fewer than {} frames", self.frames))
+                    })?),)*
+                }
+            };
+        }
+        let samples = cut!(U8, U16, I16, U32, F16, F32, F64);
+        visit(FrameRef { rows: self.rows, cols: self.cols, samples })
+    }
+}
+
+/// Sums of a cube in memory (`data` holds `frames·rows·cols` samples, C order).
+pub fn noise_sums_from_array(
+    data: Samples<'_>,
+    frames: usize,
+    rows: usize,
+    cols: usize,
+    opts: &PassOptions,
+) -> Result<NoiseSums> {
+    run_pass(&ArraySource { data, frames, rows, cols }, opts)
+}
+
+/// Sums of frames read from files: `(path, page)` each, decoded with `channel`.
+pub fn noise_sums_from_paths(
+    frames: Vec<(PathBuf, usize)>,
+    channel: Option<String>,
+    max_pixels: u64,
+    opts: &PassOptions,
+) -> Result<NoiseSums> {
+    run_pass(&PathSource { frames, channel, max_pixels }, opts)
+}
+
+/// What every frame must match: the first frame's shape and type, and the window.
+#[derive(Clone, Copy)]
+struct Layout {
+    full: (usize, usize),
+    dtype: Dtype,
+    window: Window,
+}
+
+fn add(sums: &mut NoiseSums, frame: FrameRef<'_>, layout: &Layout, label: &dyn Fn() -> String) -> Result<()> {
+    if (frame.rows, frame.cols) != layout.full {
+        return Err(Error::Shape(format!(
+            "{}: frame of {} x {} pixels (rows x cols), but the first frame is {} x {}; all frames must have one shape",
+            label(),
+            frame.rows,
+            frame.cols,
+            layout.full.0,
+            layout.full.1
+        )));
+    }
+    if frame.samples.dtype() != layout.dtype {
+        return Err(Error::Shape(format!(
+            "{}: sample type {}, but the first frame is {}; all frames must have one sample type",
+            label(),
+            frame.samples.dtype().name(),
+            layout.dtype.name()
+        )));
+    }
+    let origin = (layout.window.row0, layout.window.col0);
+    fn go<S: FrameSample>(
+        sums: &mut NoiseSums,
+        d: &[S],
+        cols: usize,
+        origin: (usize, usize),
+        label: &dyn Fn() -> String,
+    ) -> Result<()> {
+        sums.add_frame(d, cols, origin, label)
+    }
+    match frame.samples {
+        Samples::U8(d) => go(sums, d, frame.cols, origin, label),
+        Samples::U16(d) => go(sums, d, frame.cols, origin, label),
+        Samples::I16(d) => go(sums, d, frame.cols, origin, label),
+        Samples::U32(d) => go(sums, d, frame.cols, origin, label),
+        Samples::F16(d) => go(sums, d, frame.cols, origin, label),
+        Samples::F32(d) => go(sums, d, frame.cols, origin, label),
+        Samples::F64(d) => go(sums, d, frame.cols, origin, label),
+    }
+}
+
+/// Frames per chunk: depends on the frame count only (so float results do not depend on
+/// the number of workers).
+fn chunk_len(frames: usize) -> usize {
+    frames.div_ceil(64).clamp(8, 256)
+}
+
+fn effective_workers(workers: usize) -> usize {
+    if workers > 0 {
+        workers
+    } else {
+        std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+    }
+}
+
+/// State shared by the workers of a pass.
+struct Shared {
+    total: NoiseSums,
+    /// Finished chunks waiting for their predecessors.
+    pending: std::collections::BTreeMap<usize, NoiseSums>,
+    /// Next chunk to append.
+    next: usize,
+    /// First error, by frame index.
+    error: Option<(usize, Error)>,
+}
+
+fn lock(m: &Mutex<Shared>) -> MutexGuard<'_, Shared> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Run a pass over every frame of `source`.
+pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSums> {
+    let n = source.len();
+    if n == 0 {
+        return Err(Error::Value("no frames to analyse".into()));
+    }
+    let mut first: Option<NoiseSums> = None;
+    let mut layout: Option<Layout> = None;
+    source.with_frame(0, &mut |frame| {
+        let full = (frame.rows, frame.cols);
+        let window = opts.window.unwrap_or(Window { row0: 0, col0: 0, rows: full.0, cols: full.1 });
+        if window.rows == 0
+            || window.cols == 0
+            || window.row0 + window.rows > full.0
+            || window.col0 + window.cols > full.1
+        {
+            return Err(Error::Shape(format!(
+                "{}: region rows {}..{}, columns {}..{} is empty or outside the {} x {} frame",
+                source.label(0),
+                window.row0,
+                window.row0 + window.rows,
+                window.col0,
+                window.col0 + window.cols,
+                full.0,
+                full.1
+            )));
+        }
+        let l = Layout { full, dtype: frame.samples.dtype(), window };
+        let mut sums = NoiseSums::new(window.rows, window.cols, l.dtype, opts.limits)?;
+        add(&mut sums, frame, &l, &|| source.label(0))?;
+        layout = Some(l);
+        first = Some(sums);
+        Ok(())
+    })?;
+    let (first, layout) = (first.expect("first frame"), layout.expect("first frame"));
+    let pivot = match &first.acc {
+        Acc::Float(a) => Some(Arc::clone(&a.pivot)),
+        Acc::Int(_) => None,
+    };
+    let chunk = chunk_len(n);
+    let chunks = (n - 1).div_ceil(chunk);
+    let workers = effective_workers(opts.workers).min(chunks.max(1));
+    let ahead = 2 * workers;
+    let shared = Mutex::new(Shared { total: first, pending: Default::default(), next: 0, error: None });
+    let appended = Condvar::new();
+    let claim = AtomicUsize::new(0);
+    let cancel = AtomicBool::new(false);
+
+    let empty = || -> Result<NoiseSums> {
+        let w = layout.window;
+        match &pivot {
+            Some(p) => Ok(NoiseSums::with_pivot(w.rows, w.cols, layout.dtype, Arc::clone(p))),
+            None => NoiseSums::new(w.rows, w.cols, layout.dtype, opts.limits),
+        }
+    };
+    let sum_chunk = |c: usize| -> std::result::Result<NoiseSums, (usize, Error)> {
+        let mut sums = empty().map_err(|e| (0, e))?;
+        for i in 1 + c * chunk..(1 + (c + 1) * chunk).min(n) {
+            if cancel.load(Ordering::Relaxed) {
+                break;
+            }
+            let label = || source.label(i);
+            source.with_frame(i, &mut |frame| add(&mut sums, frame, &layout, &label)).map_err(|e| (i, e))?;
+        }
+        Ok(sums)
+    };
+    let worker = || loop {
+        let c = claim.fetch_add(1, Ordering::Relaxed);
+        if c >= chunks {
+            return;
+        }
+        {
+            let mut st = lock(&shared);
+            while c >= st.next + ahead && !cancel.load(Ordering::Relaxed) {
+                st = appended.wait(st).unwrap_or_else(|p| p.into_inner());
+            }
+        }
+        if cancel.load(Ordering::Relaxed) {
+            return;
+        }
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sum_chunk(c)))
+            .unwrap_or_else(|_| Err((1 + c * chunk, Error::Value("internal error while summing frames".into()))));
+        let mut st = lock(&shared);
+        match result {
+            Ok(sums) => {
+                st.pending.insert(c, sums);
+                loop {
+                    let key = st.next;
+                    let Some(next) = st.pending.remove(&key) else { break };
+                    if let Err(e) = st.total.append(&next) {
+                        st.error.get_or_insert((0, e));
+                        cancel.store(true, Ordering::Relaxed);
+                    }
+                    st.next += 1;
+                }
+            }
+            Err((i, e)) => {
+                if st.error.as_ref().is_none_or(|(j, _)| i < *j) {
+                    st.error = Some((i, e));
+                }
+                cancel.store(true, Ordering::Relaxed);
+            }
+        }
+        appended.notify_all();
+    };
+    if workers <= 1 {
+        worker();
+    } else {
+        std::thread::scope(|scope| {
+            for _ in 0..workers {
+                scope.spawn(worker);
+            }
+        });
+    }
+    let st = shared.into_inner().unwrap_or_else(|p| p.into_inner());
+    if let Some((_, e)) = st.error {
+        return Err(e);
+    }
+    if st.next != chunks {
+        return Err(Error::Value("internal: not every chunk of frames was summed".into()));
+    }
+    Ok(st.total)
+}

@@ -1,0 +1,319 @@
+//! Exact accumulation for integer frames and the exact ANOVA sums of squares.
+//!
+//! With `N = T·V·H`, frame totals `F_t`, row sums `R_tv`, column sums `C_th`, pixel sums
+//! `P_vh`, their totals `Rv_v = Σ_t R_tv`, `Ch_h = Σ_t C_th` and the grand total `G`,
+//! every part of the classical decomposition is an integer over `N`:
+//!
+//! ```text
+//! N·N_t   = T·F_t − G                         N·N_tv = T·V·R_tv − T·F_t − V·Rv_v + G
+//! N·N_v   = V·Rv_v − G                        N·N_th = T·H·C_th − T·F_t − H·Ch_h + G
+//! N·N_h   = H·Ch_h − G                        N·N_vh = V·H·P_vh − V·Rv_v − H·Ch_h + G
+//! ```
+//!
+//! so `N²·SS_x = w_x · Σ e_x²` with the integer residuals `e_x` above and the replication
+//! weights `w = (V·H, T·H, T·V, H, V, T)`, and `N²·SS_total = N·(N·Σx² − G²)`. The
+//! remaining part is `N²·SS_tvh = N²·SS_total − Σ others`: all exact, in 256 bits.
+
+use super::wide::U256;
+use super::{Decomposition, FrameSample, Shape};
+use crate::{Error, Result};
+
+/// Per-pixel sums of squares: u64 while a square fits 32 bits (8/16-bit samples), u128
+/// for 32-bit samples.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PixelSq {
+    Narrow(Vec<u64>),
+    Wide(Vec<u128>),
+}
+
+/// Exact sums of an integer recording.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IntAcc {
+    /// Σₜ x per pixel (V·H).
+    pub pixel_sum: Vec<i64>,
+    /// Σₜ x² per pixel (V·H).
+    pub pixel_sq: PixelSq,
+    /// Σₕ x per frame and row (T·V).
+    pub row_sums: Vec<i64>,
+    /// Σᵥ x per frame and column (T·H).
+    pub col_sums: Vec<i64>,
+    /// Valid range; samples equal to a limit are counted.
+    pub lo: i64,
+    pub hi: i64,
+    pub at_lo: u64,
+    pub at_hi: u64,
+    pub min: i64,
+    pub max: i64,
+}
+
+/// Statistics of one row gathered in the same loop as the sums.
+struct RowScan {
+    sum: i64,
+    min: i64,
+    max: i64,
+    at_lo: u64,
+    at_hi: u64,
+}
+
+impl IntAcc {
+    pub fn new(pixels: usize, wide: bool, (lo, hi): (i64, i64)) -> IntAcc {
+        IntAcc {
+            pixel_sum: vec![0; pixels],
+            pixel_sq: if wide { PixelSq::Wide(vec![0; pixels]) } else { PixelSq::Narrow(vec![0; pixels]) },
+            row_sums: Vec::new(),
+            col_sums: Vec::new(),
+            lo,
+            hi,
+            at_lo: 0,
+            at_hi: 0,
+            min: i64::MAX,
+            max: i64::MIN,
+        }
+    }
+
+    /// Add one frame given as its `cols`-long rows.
+    pub fn add_frame<'a, S: FrameSample>(
+        &mut self,
+        rows: impl Iterator<Item = &'a [S]>,
+        cols: usize,
+        label: &dyn Fn() -> String,
+    ) -> Result<()> {
+        let frame_rows = self.row_sums.len();
+        let frame_cols = self.col_sums.len();
+        self.col_sums.resize(frame_cols + cols, 0);
+        let (lo, hi) = (self.lo, self.hi);
+        let mut failed = None;
+        for (r, row) in rows.enumerate() {
+            let span = r * cols..(r + 1) * cols;
+            let col_sums = &mut self.col_sums[frame_cols..];
+            let sums = &mut self.pixel_sum[span.clone()];
+            let scan = match &mut self.pixel_sq {
+                PixelSq::Narrow(sq) => scan_narrow(row, sums, &mut sq[span], col_sums, lo, hi),
+                PixelSq::Wide(sq) => scan_wide(row, sums, &mut sq[span], col_sums, lo, hi),
+            };
+            if scan.min < lo || scan.max > hi {
+                failed = Some((r, row.iter().position(|v| v.to_i64() < lo || v.to_i64() > hi).unwrap_or(0)));
+                break;
+            }
+            self.row_sums.push(scan.sum);
+            self.min = self.min.min(scan.min);
+            self.max = self.max.max(scan.max);
+            self.at_lo += scan.at_lo;
+            self.at_hi += scan.at_hi;
+        }
+        if let Some((r, c)) = failed {
+            return Err(self.out_of_range(r, c, frame_rows, frame_cols, label));
+        }
+        Ok(())
+    }
+
+    /// The error for a sample outside `[lo, hi]`. The sums already hold part of the frame;
+    /// the caller drops them (a failed pass returns no sums).
+    fn out_of_range(&mut self, r: usize, c: usize, frame_rows: usize, frame_cols: usize, label: &dyn Fn() -> String) -> Error {
+        self.row_sums.truncate(frame_rows);
+        self.col_sums.truncate(frame_cols);
+        Error::Range(format!(
+            "{}: value at row {r}, column {c} outside the valid range {} .. {} (set bits to the camera's bit depth, or leave it unset)",
+            label(),
+            self.lo,
+            self.hi
+        ))
+    }
+
+    /// Append `other`'s frames after `self`'s.
+    pub fn append(&mut self, other: &IntAcc) -> Result<()> {
+        if (self.lo, self.hi) != (other.lo, other.hi) {
+            return Err(Error::Value(format!(
+                "cannot merge 3-D noise sums with valid ranges {} .. {} and {} .. {}",
+                self.lo, self.hi, other.lo, other.hi
+            )));
+        }
+        match (&mut self.pixel_sq, &other.pixel_sq) {
+            (PixelSq::Narrow(a), PixelSq::Narrow(b)) => a.iter_mut().zip(b).for_each(|(x, y)| *x += y),
+            (PixelSq::Wide(a), PixelSq::Wide(b)) => a.iter_mut().zip(b).for_each(|(x, y)| *x += y),
+            _ => return Err(Error::Value("internal: narrow and wide 3-D noise sums".into())),
+        }
+        self.pixel_sum.iter_mut().zip(&other.pixel_sum).for_each(|(a, b)| *a += b);
+        self.row_sums.extend_from_slice(&other.row_sums);
+        self.col_sums.extend_from_slice(&other.col_sums);
+        self.at_lo += other.at_lo;
+        self.at_hi += other.at_hi;
+        self.min = self.min.min(other.min);
+        self.max = self.max.max(other.max);
+        Ok(())
+    }
+
+    fn sum_sq_total(&self) -> u128 {
+        match &self.pixel_sq {
+            PixelSq::Narrow(q) => q.iter().map(|&v| v as u128).sum(),
+            PixelSq::Wide(q) => q.iter().sum(),
+        }
+    }
+
+    fn pixel_sq_at(&self, i: usize) -> u128 {
+        match &self.pixel_sq {
+            PixelSq::Narrow(q) => q[i] as u128,
+            PixelSq::Wide(q) => q[i],
+        }
+    }
+
+    pub fn pixel_mean(&self, frames: usize) -> Vec<f64> {
+        self.pixel_sum.iter().map(|&s| s as f64 / frames as f64).collect()
+    }
+
+    /// `(T·Σx² − (Σx)²) / T²` per pixel, the numerator exact in i128.
+    pub fn pixel_var(&self, frames: usize) -> Vec<f64> {
+        let t = frames as i128;
+        let tt = (frames as f64) * (frames as f64);
+        (0..self.pixel_sum.len())
+            .map(|i| {
+                let s = self.pixel_sum[i] as i128;
+                (t * self.pixel_sq_at(i) as i128 - s * s) as f64 / tt
+            })
+            .collect()
+    }
+
+    /// The exact decomposition (see the module documentation for the formulas).
+    pub fn finish(&self, shape: Shape) -> Result<Decomposition> {
+        let Shape { frames, rows, cols } = shape;
+        let (t, v, h) = (frames as i128, rows as i128, cols as i128);
+        let n = shape.n();
+        let frame_totals: Vec<i128> =
+            self.row_sums.chunks_exact(rows).map(|r| r.iter().map(|&x| x as i128).sum()).collect();
+        let mut row_totals = vec![0i128; rows];
+        for frame in self.row_sums.chunks_exact(rows) {
+            for (acc, &x) in row_totals.iter_mut().zip(frame) {
+                *acc += x as i128;
+            }
+        }
+        let mut col_totals = vec![0i128; cols];
+        for frame in self.col_sums.chunks_exact(cols) {
+            for (acc, &x) in col_totals.iter_mut().zip(frame) {
+                *acc += x as i128;
+            }
+        }
+        let g: i128 = frame_totals.iter().sum();
+
+        let ss_t = sum_squares(frame_totals.iter().map(|&f| t * f - g))?;
+        let ss_v = sum_squares(row_totals.iter().map(|&r| v * r - g))?;
+        let ss_h = sum_squares(col_totals.iter().map(|&c| h * c - g))?;
+        let ss_tv = sum_squares(self.row_sums.chunks_exact(rows).zip(&frame_totals).flat_map(|(frame, &f)| {
+            frame.iter().zip(&row_totals).map(move |(&r, &rv)| t * v * r as i128 - t * f - v * rv + g)
+        }))?;
+        let ss_th = sum_squares(self.col_sums.chunks_exact(cols).zip(&frame_totals).flat_map(|(frame, &f)| {
+            frame.iter().zip(&col_totals).map(move |(&c, &ch)| t * h * c as i128 - t * f - h * ch + g)
+        }))?;
+        let ss_vh = sum_squares(self.pixel_sum.chunks_exact(cols).zip(&row_totals).flat_map(|(row, &rv)| {
+            row.iter().zip(&col_totals).map(move |(&p, &ch)| v * h * p as i128 - v * rv - h * ch + g)
+        }))?;
+
+        // N²·SS_x = w_x · Σ e_x²
+        let weights = [(v * h) as u128, (t * h) as u128, (t * v) as u128, h as u128, v as u128, t as u128];
+        let raw = [ss_t, ss_v, ss_h, ss_tv, ss_th, ss_vh];
+        let mut exact = [U256::ZERO; 8];
+        for k in 0..6 {
+            exact[k] = raw[k].checked_mul(weights[k])?;
+        }
+        // N²·SS_total = N·(N·Σx² − G²)
+        let n_sum_sq = U256::from_u128(self.sum_sq_total()).checked_mul(n)?;
+        let total = n_sum_sq.checked_sub(U256::square(g))?.checked_mul(n)?;
+        let mut rest = total;
+        for part in &exact[..6] {
+            rest = rest.checked_sub(*part)?;
+        }
+        exact[6] = rest;
+        exact[7] = total;
+
+        let nf = n as f64;
+        let nn = nf * nf;
+        let mut ss = [0.0; 7];
+        for (k, s) in ss.iter_mut().enumerate() {
+            *s = exact[k].to_f64() / nn;
+        }
+        Ok(Decomposition { shape, mean: ratio_i128(g, n), ss, ss_total: total.to_f64() / nn, exact: Some(exact) })
+    }
+}
+
+/// Σ e² of exact integers, in 256 bits.
+fn sum_squares(values: impl Iterator<Item = i128>) -> Result<U256> {
+    let mut acc = U256::ZERO;
+    // squares below 2^64 are gathered in u128 first (the common case: small residuals)
+    let mut small: u128 = 0;
+    for e in values {
+        let m = e.unsigned_abs();
+        if m < (1 << 62) {
+            let sq = m * m;
+            match small.checked_add(sq) {
+                Some(s) => small = s,
+                None => {
+                    acc = acc.checked_add(U256::from_u128(small))?;
+                    small = sq;
+                }
+            }
+        } else {
+            acc = acc.checked_add(U256::square(e))?;
+        }
+    }
+    acc.checked_add(U256::from_u128(small))
+}
+
+/// `a / b` rounded to f64 with a single rounding in the common case.
+fn ratio_i128(a: i128, b: u128) -> f64 {
+    let b = b as i128;
+    let (q, r) = (a / b, a % b);
+    q as f64 + r as f64 / b as f64
+}
+
+/// Sums of one row of 8/16-bit samples: squares fit in u32 (|x| ≤ 65535).
+fn scan_narrow<S: FrameSample>(
+    row: &[S],
+    sums: &mut [i64],
+    sq: &mut [u64],
+    col_sums: &mut [i64],
+    lo: i64,
+    hi: i64,
+) -> RowScan {
+    let n = row.len();
+    let (sums, sq, col_sums) = (&mut sums[..n], &mut sq[..n], &mut col_sums[..n]);
+    let mut scan = RowScan { sum: 0, min: i64::MAX, max: i64::MIN, at_lo: 0, at_hi: 0 };
+    for i in 0..n {
+        let x = row[i].to_i64();
+        let a = x.unsigned_abs() as u32;
+        sums[i] += x;
+        sq[i] += (a.wrapping_mul(a)) as u64;
+        col_sums[i] += x;
+        scan.sum += x;
+        scan.min = scan.min.min(x);
+        scan.max = scan.max.max(x);
+        scan.at_lo += (x == lo) as u64;
+        scan.at_hi += (x == hi) as u64;
+    }
+    scan
+}
+
+/// Sums of one row of 32-bit samples: squares summed in u128.
+fn scan_wide<S: FrameSample>(
+    row: &[S],
+    sums: &mut [i64],
+    sq: &mut [u128],
+    col_sums: &mut [i64],
+    lo: i64,
+    hi: i64,
+) -> RowScan {
+    let n = row.len();
+    let (sums, sq, col_sums) = (&mut sums[..n], &mut sq[..n], &mut col_sums[..n]);
+    let mut scan = RowScan { sum: 0, min: i64::MAX, max: i64::MIN, at_lo: 0, at_hi: 0 };
+    for i in 0..n {
+        let x = row[i].to_i64();
+        let a = x.unsigned_abs() as u128;
+        sums[i] += x;
+        sq[i] += a * a;
+        col_sums[i] += x;
+        scan.sum += x;
+        scan.min = scan.min.min(x);
+        scan.max = scan.max.max(x);
+        scan.at_lo += (x == lo) as u64;
+        scan.at_hi += (x == hi) as u64;
+    }
+    scan
+}
