@@ -13,6 +13,7 @@ from .frames import FrameSequence, list_channels, load_frame, page_count
 from .fuzzy import AHPConsistencyWarning, Comparison, GradeScale, Weights, ahp, compare
 from .metrics import NMI, SSIM
 from .mtf import mtf50, mtf_from_esf, mtf_from_lsf, mtf_similarity
+from .noise import Noise3D, NoiseWarning, noise3d, noise_similarity
 from .normalize import normalize_psnr
 from .sequence import SequenceReport, score_sequence
 from .sitf import SiTFFit, netd, sitf_fit, sitf_similarity
@@ -65,4 +66,8 @@ __all__ = [
     "page_count",
     "score_sequence",
     "SequenceReport",
+    "noise3d",
+    "Noise3D",
+    "noise_similarity",
+    "NoiseWarning",
 ]

@@ -1,0 +1,106 @@
+"""What makes a 3-D noise measurement misleading, detected from the sums: a scene that is
+not uniform (a gradient, an object), and samples at the limits of the valid range.
+
+The 3-D noise model describes a camera looking at a uniform source. Whatever the scene adds
+to the temporal-mean frame lands in the fixed-pattern parts (v, h, vh). Two measures of the
+fixed pattern ``F`` (the temporal-mean frame minus its mean), each as a fraction of the
+total noise variance:
+
+* ``plane``: the variance of the least-squares plane through ``F`` (a gradient: vignetting,
+  a tilted blackbody, ambient drift across the frame);
+* ``low_frequency``: after removing that plane, the variance of ``F`` averaged over
+  ``w × w`` boxes, ``w = max(3, min(V, H) // 8)`` (an object or large-scale structure;
+  random fixed-pattern noise averages out to ``1/w²`` of its variance, random row or column
+  offsets to ``1/w``).
+
+Either at or above :data:`UNIFORMITY_LIMIT` gives a :class:`NoiseWarning`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import numpy as np
+
+from ..errors import FidelityWarning, RangeError
+
+__all__ = ["NoiseWarning", "UNIFORMITY_LIMIT", "uniformity", "plane_fit", "check_clipped"]
+
+#: Fraction of the total noise variance above which a scene is reported as not uniform.
+UNIFORMITY_LIMIT = 0.10
+
+
+class NoiseWarning(FidelityWarning):
+    """A 3-D noise result that may mislead: a scene that is not uniform (gradient or object),
+    or samples at the ends of the valid range (saturated or clipped pixels)."""
+
+
+def plane_fit(mean_map: np.ndarray) -> np.ndarray:
+    """The least-squares plane ``a + b·row + c·col`` through a 2-D map (same shape).
+
+    On a full grid the row and column slopes separate: ``b`` is the slope of the map's row
+    means against the row index, ``c`` that of its column means.
+    """
+    rows, cols = mean_map.shape
+    v = np.arange(rows) - (rows - 1) / 2
+    h = np.arange(cols) - (cols - 1) / 2
+    b = float(v @ mean_map.mean(axis=1)) / float(v @ v) if rows > 1 else 0.0
+    c = float(h @ mean_map.mean(axis=0)) / float(h @ h) if cols > 1 else 0.0
+    return float(mean_map.mean()) + b * v[:, None] + c * h[None, :]
+
+
+def _box_means(a: np.ndarray, w: int) -> np.ndarray:
+    """Means of every ``w × w`` box inside ``a`` (no padding)."""
+    c = np.pad(np.cumsum(np.cumsum(a, axis=0), axis=1), ((1, 0), (1, 0)))
+    return (c[w:, w:] - c[:-w, w:] - c[w:, :-w] + c[:-w, :-w]) / (w * w)
+
+
+def uniformity(mean_map: np.ndarray, total_variance: float) -> dict[str, float]:
+    """``{"plane", "low_frequency", "box"}``: the two measures of the module notes as
+    fractions of ``total_variance``, and the box width ``w``."""
+    fixed = mean_map - mean_map.mean()
+    plane = plane_fit(fixed)
+    rest = fixed - plane
+    w = max(3, min(fixed.shape) // 8)
+    low = _box_means(rest, w) if min(fixed.shape) >= w else np.zeros(1)
+    if total_variance <= 0:
+        return {"plane": 0.0, "low_frequency": 0.0, "box": w}
+    return {"plane": float(np.mean(plane * plane)) / total_variance,
+            "low_frequency": float(np.mean(low * low)) / total_variance, "box": w}
+
+
+def warn_if_not_uniform(share: dict[str, float], *, detrended: bool) -> None:
+    """A :class:`NoiseWarning` naming the measure and what to do."""
+    if not detrended and share["plane"] >= UNIFORMITY_LIMIT:
+        warnings.warn(
+            f"the scene is not uniform: a gradient (plane) across the frame holds {share['plane']:.0%} of the "
+            f"noise variance and is counted as row/column noise (v, h); pass detrend='plane' to remove it, "
+            f"or measure a uniform source", NoiseWarning, stacklevel=3)
+    if share["low_frequency"] >= UNIFORMITY_LIMIT:
+        warnings.warn(
+            f"the scene is not uniform: large-scale structure ({share['box']}x{share['box']}-pixel averages; an "
+            f"object or shading) holds {share['low_frequency']:.0%} of the noise variance and is counted as "
+            f"fixed-pattern noise; restrict the analysis to a uniform region with roi=(r0, r1, c0, c1)",
+            NoiseWarning, stacklevel=3)
+
+
+def check_clipped(value_range: dict[str, Any], samples: int, policy: str) -> dict[str, Any] | None:
+    """Counts of samples at the ends of the valid range; a warning or an error when any.
+
+    ``policy``: ``"warn"`` (a :class:`NoiseWarning`), ``"raise"`` (:class:`RangeError`) or
+    ``"ignore"``. Returns None for float frames (no valid range).
+    """
+    if "at_hi" not in value_range:
+        return None
+    counts = {k: int(value_range[k]) for k in ("lo", "hi", "at_lo", "at_hi")}
+    bad = counts["at_lo"] + counts["at_hi"]
+    if bad and policy != "ignore":
+        msg = (f"{counts['at_hi']} samples at the saturation level {counts['hi']} and {counts['at_lo']} at the "
+               f"floor {counts['lo']} ({bad / samples:.3%} of {samples}): clipped pixels have no noise, so "
+               f"every component is underestimated; lower the source temperature or the integration time, "
+               f"or crop them out with roi=")
+        if policy == "raise":
+            raise RangeError(msg)
+        warnings.warn(msg, NoiseWarning, stacklevel=3)
+    return counts
