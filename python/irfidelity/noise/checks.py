@@ -7,28 +7,37 @@ fixed pattern ``F`` (the temporal-mean frame minus its mean), each as a fraction
 total noise variance:
 
 * ``plane``: the variance of the least-squares plane through ``F`` (a gradient: vignetting,
-  a tilted blackbody, ambient drift across the frame);
+  a tilted blackbody, ambient drift across the frame), reported when its row or column
+  slope is significant (F test at level :data:`SIGNIFICANCE` against the scatter of the
+  row or column means, so random row offsets do not pass for a gradient);
 * ``low_frequency``: after removing that plane, the variance of ``F`` averaged over
-  ``w × w`` boxes, ``w = max(3, min(V, H) // 8)`` (an object or large-scale structure;
-  random fixed-pattern noise averages out to ``1/w²`` of its variance, random row or column
-  offsets to ``1/w``).
+  ``w × w`` boxes, ``w = max(3, min(V, H) // 8)``, beyond what random row offsets, column
+  offsets and pixel noise leave in such averages (``1/w``, ``1/w`` and ``1/w²`` of their
+  variances): an object or large-scale structure. Reported when the box averages are also
+  at least :data:`LOW_FREQUENCY_RATIO` times that expectation.
 
 Either at or above :data:`UNIFORMITY_LIMIT` gives a :class:`NoiseWarning`.
 """
 
 from __future__ import annotations
 
+import math
 import warnings
 from typing import Any
 
 import numpy as np
 
 from ..errors import FidelityWarning, RangeError
+from .quantiles import f_ppf
 
 __all__ = ["NoiseWarning", "UNIFORMITY_LIMIT", "uniformity", "plane_fit", "check_clipped"]
 
 #: Fraction of the total noise variance above which a scene is reported as not uniform.
 UNIFORMITY_LIMIT = 0.10
+#: Level of the F test that a gradient is not a chance alignment of random row/column offsets.
+SIGNIFICANCE = 0.001
+#: Box averages at least this many times what random fixed-pattern noise would leave.
+LOW_FREQUENCY_RATIO = 2.0
 
 
 class NoiseWarning(FidelityWarning):
@@ -56,28 +65,57 @@ def _box_means(a: np.ndarray, w: int) -> np.ndarray:
     return (c[w:, w:] - c[:-w, w:] - c[w:, :-w] + c[:-w, :-w]) / (w * w)
 
 
-def uniformity(mean_map: np.ndarray, total_variance: float) -> dict[str, float]:
-    """``{"plane", "low_frequency", "box"}``: the two measures of the module notes as
-    fractions of ``total_variance``, and the box width ``w``."""
+def _line_fit(profile: np.ndarray) -> tuple[float, float]:
+    """``(regression SS, F statistic)`` of a straight line through a centred profile."""
+    n = profile.size
+    x = np.arange(n) - (n - 1) / 2
+    reg = float(x @ profile) ** 2 / float(x @ x)
+    res = float(profile @ profile) - reg
+    if n < 3:
+        return reg, 0.0
+    return reg, (math.inf if res <= 0 else reg / (res / (n - 2)))
+
+
+def uniformity(mean_map: np.ndarray, total_variance: float) -> dict[str, Any]:
+    """The two measures of the module notes, as fractions of ``total_variance``.
+
+    ``plane``: the plane's variance; ``plane_significant``: whether its row or column slope
+    passes an F test at level :data:`SIGNIFICANCE` against the scatter of the row (column)
+    means about their line — random row or column offsets line up with some slope by chance.
+    ``low_frequency``: the variance of the ``box × box`` averages beyond what independent
+    row offsets, column offsets and pixels would leave (``var(rows)/w + var(cols)/w +
+    var(rest)/w²``); ``low_frequency_ratio``: observed over that expectation.
+    """
     fixed = mean_map - mean_map.mean()
-    plane = plane_fit(fixed)
-    rest = fixed - plane
-    w = max(3, min(fixed.shape) // 8)
-    low = _box_means(rest, w) if min(fixed.shape) >= w else np.zeros(1)
-    if total_variance <= 0:
-        return {"plane": 0.0, "low_frequency": 0.0, "box": w}
-    return {"plane": float(np.mean(plane * plane)) / total_variance,
-            "low_frequency": float(np.mean(low * low)) / total_variance, "box": w}
+    rows, cols = fixed.shape
+    reg_v, f_v = _line_fit(fixed.mean(axis=1))
+    reg_h, f_h = _line_fit(fixed.mean(axis=0))
+    significant = any(rows_or_cols >= 3 and f > f_ppf(1 - SIGNIFICANCE, 1, rows_or_cols - 2)
+                      for rows_or_cols, f in ((rows, f_v), (cols, f_h)))
+    rest = fixed - plane_fit(fixed)
+    w = max(3, min(rows, cols) // 8)
+    observed = expected = 0.0
+    if min(rows, cols) >= w:
+        box = _box_means(rest, w)
+        observed = float(np.mean(box * box))
+        row_means, col_means = rest.mean(axis=1), rest.mean(axis=0)
+        pixels = rest - row_means[:, None] - col_means[None, :]
+        expected = float(np.mean(row_means ** 2) + np.mean(col_means ** 2)) / w + float(np.mean(pixels ** 2)) / w**2
+    scale = 1 / total_variance if total_variance > 0 else 0.0
+    return {"plane": (reg_v / rows + reg_h / cols) * scale, "plane_significant": bool(significant),
+            "low_frequency": max(observed - expected, 0.0) * scale,
+            "low_frequency_ratio": observed / expected if expected > 0 else (math.inf if observed > 0 else 1.0),
+            "box": w}
 
 
-def warn_if_not_uniform(share: dict[str, float], *, detrended: bool) -> None:
+def warn_if_not_uniform(share: dict[str, Any], *, detrended: bool) -> None:
     """A :class:`NoiseWarning` naming the measure and what to do."""
-    if not detrended and share["plane"] >= UNIFORMITY_LIMIT:
+    if not detrended and share["plane"] >= UNIFORMITY_LIMIT and share["plane_significant"]:
         warnings.warn(
             f"the scene is not uniform: a gradient (plane) across the frame holds {share['plane']:.0%} of the "
             f"noise variance and is counted as row/column noise (v, h); pass detrend='plane' to remove it, "
             f"or measure a uniform source", NoiseWarning, stacklevel=3)
-    if share["low_frequency"] >= UNIFORMITY_LIMIT:
+    if share["low_frequency"] >= UNIFORMITY_LIMIT and share["low_frequency_ratio"] >= LOW_FREQUENCY_RATIO:
         warnings.warn(
             f"the scene is not uniform: large-scale structure ({share['box']}x{share['box']}-pixel averages; an "
             f"object or shading) holds {share['low_frequency']:.0%} of the noise variance and is counted as "
