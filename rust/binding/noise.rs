@@ -117,12 +117,12 @@ impl PyNoiseSums {
     }
 }
 
-fn pass_options(limits: Option<(i64, i64)>, window: Option<(usize, usize, usize, usize)>, workers: usize) -> PassOptions {
-    PassOptions {
-        workers,
-        limits,
-        window: window.map(|(row0, col0, rows, cols)| Window { row0, col0, rows, cols }),
-    }
+fn pass_options(
+    limits: Option<(i64, i64)>,
+    window: Option<(usize, usize, usize, usize)>,
+    workers: usize,
+) -> PassOptions {
+    PassOptions { workers, limits, window: window.map(|(row0, col0, rows, cols)| Window { row0, col0, rows, cols }) }
 }
 
 /// `noise_sums_array(cube, *, limits=None, window=None, workers=0)`: one pass over a

@@ -141,11 +141,8 @@ impl NoiseSums {
             let (lo, hi, min, max) = (rd.i64()?, rd.i64()?, rd.i64()?, rd.i64()?);
             let (at_lo, at_hi) = (rd.u64()?, rd.u64()?);
             let pixel_sum = rd.i64s(pixels)?;
-            let pixel_sq = if dtype == Dtype::U32 {
-                PixelSq::Wide(rd.u128s(pixels)?)
-            } else {
-                PixelSq::Narrow(rd.u64s(pixels)?)
-            };
+            let pixel_sq =
+                if dtype == Dtype::U32 { PixelSq::Wide(rd.u128s(pixels)?) } else { PixelSq::Narrow(rd.u64s(pixels)?) };
             let row_sums = rd.i64s(row_len)?;
             let col_sums = rd.i64s(col_len)?;
             Acc::Int(IntAcc { pixel_sum, pixel_sq, row_sums, col_sums, lo, hi, at_lo, at_hi, min, max })

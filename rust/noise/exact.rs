@@ -109,7 +109,14 @@ impl IntAcc {
 
     /// The error for a sample outside `[lo, hi]`. The sums already hold part of the frame;
     /// the caller drops them (a failed pass returns no sums).
-    fn out_of_range(&mut self, r: usize, c: usize, frame_rows: usize, frame_cols: usize, label: &dyn Fn() -> String) -> Error {
+    fn out_of_range(
+        &mut self,
+        r: usize,
+        c: usize,
+        frame_rows: usize,
+        frame_cols: usize,
+        label: &dyn Fn() -> String,
+    ) -> Error {
         self.row_sums.truncate(frame_rows);
         self.col_sums.truncate(frame_cols);
         Error::Range(format!(

@@ -165,7 +165,12 @@ impl NoiseSums {
         let (row0, col0) = origin;
         let needed = (row0 + self.rows - 1).checked_mul(stride).map(|v| v + col0 + self.cols);
         if col0 + self.cols > stride || needed.is_none_or(|n| n > data.len()) {
-            return Err(Error::Shape(format!("{}: frame too small for the {} x {} window", label(), self.rows, self.cols)));
+            return Err(Error::Shape(format!(
+                "{}: frame too small for the {} x {} window",
+                label(),
+                self.rows,
+                self.cols
+            )));
         }
         let rows = (0..self.rows).map(|r| {
             let start = (row0 + r) * stride + col0;

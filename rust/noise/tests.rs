@@ -18,10 +18,10 @@ fn cube(t: usize, v: usize, h: usize, seed: u64) -> Vec<u16> {
     let fv: Vec<i64> = (0..v).map(|_| rng(&mut s, 11) as i64).collect();
     let fh: Vec<i64> = (0..h).map(|_| rng(&mut s, 5) as i64).collect();
     let mut out = Vec::with_capacity(t * v * h);
-    for a in 0..t {
-        for b in 0..v {
-            for c in 0..h {
-                let x = 1000 + ft[a] + fv[b] + fh[c] + rng(&mut s, 13) as i64;
+    for &a in &ft {
+        for &b in &fv {
+            for &c in &fh {
+                let x = 1000 + a + b + c + rng(&mut s, 13) as i64;
                 out.push(x as u16);
             }
         }
@@ -46,12 +46,12 @@ fn brute(x: &[f64], t: usize, v: usize, h: usize) -> ([f64; 7], f64) {
     let mvh = |b: usize, c: usize| (0..t).map(|a| at(a, b, c)).sum::<f64>() / t as f64;
     let mut ss = [0.0; 7];
     let mut total = 0.0;
-    for a in 0..t {
-        for b in 0..v {
-            for c in 0..h {
-                let nt = mt[a] - m;
-                let nv = mv[b] - m;
-                let nh = mh[c] - m;
+    for (a, &mta) in mt.iter().enumerate() {
+        for (b, &mvb) in mv.iter().enumerate() {
+            for (c, &mhc) in mh.iter().enumerate() {
+                let nt = mta - m;
+                let nv = mvb - m;
+                let nh = mhc - m;
                 let ntv = mtv(a, b) - m - nt - nv;
                 let nth = mth(a, c) - m - nt - nh;
                 let nvh = mvh(b, c) - m - nv - nh;
@@ -79,8 +79,8 @@ fn integer_parts_match_the_definitions_and_add_up_exactly() {
     let d = sums.finish().unwrap();
     let xs: Vec<f64> = data.iter().map(|&x| x as f64).collect();
     let (ss, total) = brute(&xs, t, v, h);
-    for k in 0..7 {
-        assert!(close(d.ss[k], ss[k], 1e-9), "part {}: {} vs {}", PARTS[k], d.ss[k], ss[k]);
+    for (k, name) in PARTS.iter().enumerate() {
+        assert!(close(d.ss[k], ss[k], 1e-9), "part {name}: {} vs {}", d.ss[k], ss[k]);
     }
     assert!(close(d.ss_total, total, 1e-12));
     let exact = d.exact.unwrap();
@@ -125,8 +125,8 @@ fn float_frames_agree_with_integer_frames_and_merge_closely() {
     let di = pass(Samples::U16(&data), t, v, h, 1).unwrap().finish().unwrap();
     let whole = pass(Samples::F32(&floats), t, v, h, 1).unwrap();
     let df = whole.finish().unwrap();
-    for k in 0..7 {
-        assert!(close(df.ss[k], di.ss[k], 1e-11), "part {}: {} vs {}", PARTS[k], df.ss[k], di.ss[k]);
+    for (k, name) in PARTS.iter().enumerate() {
+        assert!(close(df.ss[k], di.ss[k], 1e-11), "part {name}: {} vs {}", df.ss[k], di.ss[k]);
     }
     assert!(close(df.mean, di.mean + 0.25, 1e-15));
     // a second range has another pivot: merging moves it onto the first's
@@ -134,8 +134,8 @@ fn float_frames_agree_with_integer_frames_and_merge_closely() {
     let a = pass(Samples::F32(&floats[..k]), 5, v, h, 1).unwrap();
     let b = pass(Samples::F32(&floats[k..]), t - 5, v, h, 1).unwrap();
     let dm = a.merge(&b).unwrap().finish().unwrap();
-    for k in 0..7 {
-        assert!(close(dm.ss[k], df.ss[k], 1e-11), "merged part {}", PARTS[k]);
+    for (k, name) in PARTS.iter().enumerate() {
+        assert!(close(dm.ss[k], df.ss[k], 1e-11), "merged part {name}");
     }
     let m1 = whole.row_means();
     let m2 = a.merge(&b).unwrap().row_means();
