@@ -1,5 +1,5 @@
 """Sensor noise: the 3-D noise model (D'Agostino & Webb 1991), its finite-sampling-corrected
-estimates with confidence intervals (Haefner & Burks 2015), NETD, noise power spectra, and
+estimates with confidence intervals (Haefner et al. 2015), NETD, noise power spectra, and
 the ``noise`` component comparing a simulator's noise with the real camera's.
 
 * :func:`noise3d` -> :class:`Noise3D`: the seven components of a recording of a uniform

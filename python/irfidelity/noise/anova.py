@@ -14,7 +14,7 @@ of variance with one observation per cell. With ``SS_x = Σ N_x²`` over the cub
   ``E[MS_t] = σ_tvh² + H·σ_tv² + V·σ_th² + V·H·σ_t²`` (and v, h alike),
 
   so ``σ̂_t² = (MS_t − MS_tv − MS_th + MS_tvh)/(V·H)`` etc. are unbiased: the estimators of
-  Haefner & Burks, Applied Optics 54(15):4907 (2015), written with ANOVA mean squares.
+  Haefner et al., Applied Optics 54(15):4907 (2015), written with ANOVA mean squares.
 
 Confidence intervals: ``df·MS/E[MS]`` is χ²(df) under normality, so ``σ_tvh²`` has an
 exact interval; every other component is a difference of mean squares and gets the

@@ -190,7 +190,7 @@ def noise3d(frames: Any, *, bits: int | None = None, corrected: bool = True, con
 
     and ``σ_x`` is the population standard deviation of ``N_x`` (``corrected=False``).
     These are biased for finite T, V, H; ``corrected=True`` (default) gives the unbiased
-    random-effects estimates (Haefner & Burks 2015), e.g. ``σ_tv² = (MS_tv − MS_tvh)/H``
+    random-effects estimates (Haefner et al. 2015), e.g. ``σ_tv² = (MS_tv − MS_tvh)/H``
     with ANOVA mean squares ``MS_x = Σ N_x² / df_x``, with confidence intervals. See
     ``docs/noise.md`` for every formula.
 
@@ -268,8 +268,8 @@ def noise3d(frames: Any, *, bits: int | None = None, corrected: bool = True, con
     ----------
     J. A. D'Agostino and C. M. Webb, "Three-dimensional analysis framework and measurement
     methodology for imaging system noise", Proc. SPIE 1488, 110–121 (1991).
-    D. P. Haefner and S. D. Burks, "Finite sampling corrected 3D noise with confidence
-    intervals", Applied Optics 54(15), 4907–4913 (2015).
+    D. Haefner et al., "Finite sampling corrected 3D noise with confidence
+    intervals", Applied Optics 54(15), 4907 (2015).
     T. Ting, R. K. Burdick, F. A. Graybill, S. Jeyaratnam and T.-F. C. Lu, "Confidence
     intervals on linear combinations of variance components that are unrestricted in
     sign", J. Stat. Comput. Simul. 35, 135–143 (1990).
