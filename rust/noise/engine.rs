@@ -9,11 +9,12 @@
 //! and memory stays bounded: a worker does not start a chunk more than `2·workers` chunks
 //! ahead of the last one appended.
 
+use std::ops::Range;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 
-use super::{Acc, Dtype, FrameSample, NoiseSums};
+use super::{Acc, Dtype, NoiseSums};
 use crate::io::{self, DecodeOptions, FrameData};
 use crate::{Error, Result};
 
@@ -79,8 +80,8 @@ pub trait FrameSource: Sync {
     }
     /// Name of frame `i` in messages.
     fn label(&self, i: usize) -> String;
-    /// Read frame `i` and hand it to `visit`.
-    fn with_frame(&self, i: usize, visit: &mut dyn FnMut(FrameRef<'_>) -> Result<()>) -> Result<()>;
+    /// Read frames `range` and hand them to `visit` together.
+    fn with_frames(&self, range: Range<usize>, visit: &mut dyn FnMut(&[FrameRef<'_>]) -> Result<()>) -> Result<()>;
 }
 
 /// Frames of files (a TIFF page each), decoded by [`crate::io::decode_frame`].
@@ -102,20 +103,30 @@ impl FrameSource for PathSource {
             format!("{}[{page}]", path.display())
         }
     }
-    fn with_frame(&self, i: usize, visit: &mut dyn FnMut(FrameRef<'_>) -> Result<()>) -> Result<()> {
-        let (path, page) = &self.frames[i];
-        let opts = DecodeOptions { channel: self.channel.clone(), max_pixels: self.max_pixels, page: *page };
-        let frame = io::decode_frame(path, &opts)?;
-        let samples = match &frame.data {
-            FrameData::U8(v) => Samples::U8(v),
-            FrameData::U16(v) => Samples::U16(v),
-            FrameData::I16(v) => Samples::I16(v),
-            FrameData::U32(v) => Samples::U32(v),
-            FrameData::F16(v) => Samples::F16(v),
-            FrameData::F32(v) => Samples::F32(v),
-            FrameData::F64(v) => Samples::F64(v),
-        };
-        visit(FrameRef { rows: frame.rows, cols: frame.cols, samples })
+    fn with_frames(&self, range: Range<usize>, visit: &mut dyn FnMut(&[FrameRef<'_>]) -> Result<()>) -> Result<()> {
+        let decoded: Vec<io::Frame> = range
+            .map(|i| {
+                let (path, page) = &self.frames[i];
+                let opts = DecodeOptions { channel: self.channel.clone(), max_pixels: self.max_pixels, page: *page };
+                io::decode_frame(path, &opts)
+            })
+            .collect::<Result<_>>()?;
+        let refs: Vec<FrameRef<'_>> = decoded
+            .iter()
+            .map(|frame| {
+                let samples = match &frame.data {
+                    FrameData::U8(v) => Samples::U8(v),
+                    FrameData::U16(v) => Samples::U16(v),
+                    FrameData::I16(v) => Samples::I16(v),
+                    FrameData::U32(v) => Samples::U32(v),
+                    FrameData::F16(v) => Samples::F16(v),
+                    FrameData::F32(v) => Samples::F32(v),
+                    FrameData::F64(v) => Samples::F64(v),
+                };
+                FrameRef { rows: frame.rows, cols: frame.cols, samples }
+            })
+            .collect();
+        visit(&refs)
     }
 }
 
@@ -134,20 +145,24 @@ impl FrameSource for ArraySource<'_> {
     fn label(&self, i: usize) -> String {
         format!("frame {i}")
     }
-    fn with_frame(&self, i: usize, visit: &mut dyn FnMut(FrameRef<'_>) -> Result<()>) -> Result<()> {
+    fn with_frames(&self, range: Range<usize>, visit: &mut dyn FnMut(&[FrameRef<'_>]) -> Result<()>) -> Result<()> {
         let size = self.rows * self.cols;
-        let span = i * size..(i + 1) * size;
-        macro_rules! cut {
-            ($($v:ident),*) => {
-                match self.data {
-                    $(Samples::$v(d) => Samples::$v(d.get(span).ok_or_else(|| {
-                        Error::Shape(format!("frame {i}: the array holds fewer than {} frames", self.frames))
-                    })?),)*
+        let refs = range
+            .map(|i| {
+                let span = i * size..(i + 1) * size;
+                macro_rules! cut {
+                    ($($v:ident),*) => {
+                        match self.data {
+                            $(Samples::$v(d) => Samples::$v(d.get(span).ok_or_else(|| {
+                                Error::Shape(format!("frame {i}: the array holds fewer than {} frames", self.frames))
+                            })?),)*
+                        }
+                    };
                 }
-            };
-        }
-        let samples = cut!(U8, U16, I16, U32, F16, F32, F64);
-        visit(FrameRef { rows: self.rows, cols: self.cols, samples })
+                Ok(FrameRef { rows: self.rows, cols: self.cols, samples: cut!(U8, U16, I16, U32, F16, F32, F64) })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        visit(&refs)
     }
 }
 
@@ -180,51 +195,64 @@ struct Layout {
     window: Window,
 }
 
-fn add(sums: &mut NoiseSums, frame: FrameRef<'_>, layout: &Layout, label: &dyn Fn() -> String) -> Result<()> {
-    if (frame.rows, frame.cols) != layout.full {
-        return Err(Error::Shape(format!(
-            "{}: frame of {} x {} pixels (rows x cols), but the first frame is {} x {}; all frames must have one shape",
-            label(),
-            frame.rows,
-            frame.cols,
-            layout.full.0,
-            layout.full.1
-        )));
-    }
-    if frame.samples.dtype() != layout.dtype {
-        return Err(Error::Shape(format!(
-            "{}: sample type {}, but the first frame is {}; all frames must have one sample type",
-            label(),
-            frame.samples.dtype().name(),
-            layout.dtype.name()
-        )));
+/// Add a batch of frames (checked against the layout) to `sums`; `label(k)` names frame k.
+fn add_batch(
+    sums: &mut NoiseSums,
+    frames: &[FrameRef<'_>],
+    layout: &Layout,
+    label: &dyn Fn(usize) -> String,
+) -> Result<()> {
+    for (k, frame) in frames.iter().enumerate() {
+        if (frame.rows, frame.cols) != layout.full {
+            return Err(Error::Shape(format!(
+                "{}: frame of {} x {} pixels (rows x cols), but the first frame is {} x {}; all frames must have one shape",
+                label(k),
+                frame.rows,
+                frame.cols,
+                layout.full.0,
+                layout.full.1
+            )));
+        }
+        if frame.samples.dtype() != layout.dtype {
+            return Err(Error::Shape(format!(
+                "{}: sample type {}, but the first frame is {}; all frames must have one sample type",
+                label(k),
+                frame.samples.dtype().name(),
+                layout.dtype.name()
+            )));
+        }
     }
     let origin = (layout.window.row0, layout.window.col0);
-    fn go<S: FrameSample>(
-        sums: &mut NoiseSums,
-        d: &[S],
-        cols: usize,
-        origin: (usize, usize),
-        label: &dyn Fn() -> String,
-    ) -> Result<()> {
-        sums.add_frame(d, cols, origin, label)
+    let stride = layout.full.1;
+    macro_rules! typed {
+        ($($v:ident),*) => {
+            match frames.first().map(|f| f.samples) {
+                None => Ok(()),
+                $(Some(Samples::$v(_)) => {
+                    let data: Vec<_> = frames
+                        .iter()
+                        .map(|f| match f.samples {
+                            Samples::$v(d) => d,
+                            _ => unreachable!("sample types were checked"),
+                        })
+                        .collect();
+                    sums.add_frames(&data, stride, origin, label)
+                })*
+            }
+        };
     }
-    match frame.samples {
-        Samples::U8(d) => go(sums, d, frame.cols, origin, label),
-        Samples::U16(d) => go(sums, d, frame.cols, origin, label),
-        Samples::I16(d) => go(sums, d, frame.cols, origin, label),
-        Samples::U32(d) => go(sums, d, frame.cols, origin, label),
-        Samples::F16(d) => go(sums, d, frame.cols, origin, label),
-        Samples::F32(d) => go(sums, d, frame.cols, origin, label),
-        Samples::F64(d) => go(sums, d, frame.cols, origin, label),
-    }
+    typed!(U8, U16, I16, U32, F16, F32, F64)
 }
 
 /// Frames per chunk: depends on the frame count only (so float results do not depend on
-/// the number of workers).
+/// the number of workers); a multiple of [`BATCH`], long enough that a chunk's own per-pixel
+/// sums (allocated, then appended to the total) cost little next to its frames.
 fn chunk_len(frames: usize) -> usize {
-    frames.div_ceil(64).clamp(8, 256)
+    frames.div_ceil(16).clamp(4 * BATCH, 256).next_multiple_of(BATCH)
 }
+
+/// Frames added together (sharing one pass over the per-pixel sums).
+const BATCH: usize = 8;
 
 fn effective_workers(workers: usize) -> usize {
     if workers > 0 {
@@ -257,7 +285,8 @@ pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSum
     }
     let mut first: Option<NoiseSums> = None;
     let mut layout: Option<Layout> = None;
-    source.with_frame(0, &mut |frame| {
+    source.with_frames(0..1, &mut |frames| {
+        let frame = frames[0];
         let full = (frame.rows, frame.cols);
         let window = opts.window.unwrap_or(Window { row0: 0, col0: 0, rows: full.0, cols: full.1 });
         if window.rows == 0
@@ -278,7 +307,7 @@ pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSum
         }
         let l = Layout { full, dtype: frame.samples.dtype(), window };
         let mut sums = NoiseSums::new(window.rows, window.cols, l.dtype, opts.limits)?;
-        add(&mut sums, frame, &l, &|| source.label(0))?;
+        add_batch(&mut sums, frames, &l, &|_| source.label(0))?;
         layout = Some(l);
         first = Some(sums);
         Ok(())
@@ -306,12 +335,16 @@ pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSum
     };
     let sum_chunk = |c: usize| -> std::result::Result<NoiseSums, (usize, Error)> {
         let mut sums = empty().map_err(|e| (0, e))?;
-        for i in 1 + c * chunk..(1 + (c + 1) * chunk).min(n) {
+        let (start, stop) = (1 + c * chunk, (1 + (c + 1) * chunk).min(n));
+        for i in (start..stop).step_by(BATCH) {
             if cancel.load(Ordering::Relaxed) {
                 break;
             }
-            let label = || source.label(i);
-            source.with_frame(i, &mut |frame| add(&mut sums, frame, &layout, &label)).map_err(|e| (i, e))?;
+            let batch = i..(i + BATCH).min(stop);
+            let label = |k: usize| source.label(i + k);
+            source
+                .with_frames(batch, &mut |frames| add_batch(&mut sums, frames, &layout, &label))
+                .map_err(|e| (i, e))?;
         }
         Ok(sums)
     };

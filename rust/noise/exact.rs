@@ -15,7 +15,7 @@
 //! remaining part is `N²·SS_tvh = N²·SS_total − Σ others`: all exact, in 256 bits.
 
 use super::wide::U256;
-use super::{Decomposition, FrameSample, Shape};
+use super::{Decomposition, FrameSample, Region, Shape};
 use crate::{Error, Result};
 
 /// Per-pixel sums of squares: u64 while a square fits 32 bits (8/16-bit samples), u128
@@ -46,15 +46,6 @@ pub struct IntAcc {
     pub max: i64,
 }
 
-/// Statistics of one row gathered in the same loop as the sums.
-struct RowScan {
-    sum: i64,
-    min: i64,
-    max: i64,
-    at_lo: u64,
-    at_hi: u64,
-}
-
 impl IntAcc {
     pub fn new(pixels: usize, wide: bool, (lo, hi): (i64, i64)) -> IntAcc {
         IntAcc {
@@ -71,60 +62,123 @@ impl IntAcc {
         }
     }
 
-    /// Add one frame given as its `cols`-long rows.
-    pub fn add_frame<'a, S: FrameSample>(
+    /// Add a batch of frames. Each frame's rows are scanned into its row and column sums
+    /// and into per-row scratch sums; the per-pixel sums are updated once per row of the
+    /// batch (their memory traffic is shared by the batch's frames).
+    pub(crate) fn add_frames<S: FrameSample>(
         &mut self,
-        rows: impl Iterator<Item = &'a [S]>,
-        cols: usize,
-        label: &dyn Fn() -> String,
+        frames: &[&[S]],
+        region: &Region,
+        label: &dyn Fn(usize) -> String,
     ) -> Result<()> {
-        let frame_rows = self.row_sums.len();
-        let frame_cols = self.col_sums.len();
-        self.col_sums.resize(frame_cols + cols, 0);
+        let (base_rows, base_cols) = (self.row_sums.len(), self.col_sums.len());
+        self.row_sums.resize(base_rows + frames.len() * region.rows, 0);
+        self.col_sums.resize(base_cols + frames.len() * region.cols, 0);
+        // 8/16-bit samples, at most 2^15 rows, columns and frames in the batch: every row,
+        // column and batch sum fits i32, which halves the lanes' width
+        let small = |n: usize| n <= 1 << 15;
+        let narrow = matches!(self.pixel_sq, PixelSq::Narrow(_))
+            && small(region.rows)
+            && small(region.cols)
+            && small(frames.len());
+        let result = if narrow {
+            self.add_narrow(frames, region, base_rows, base_cols, label)
+        } else {
+            self.add_general(frames, region, base_rows, base_cols, label)
+        };
+        if result.is_err() {
+            self.row_sums.truncate(base_rows);
+            self.col_sums.truncate(base_cols);
+        }
+        result
+    }
+
+    /// Range check and clipping counts of one row (counting only when a limit is reached).
+    fn check_row<S: FrameSample>(&mut self, row: &[S], r: usize, label: &dyn Fn() -> String) -> Result<()> {
         let (lo, hi) = (self.lo, self.hi);
-        let mut failed = None;
-        for (r, row) in rows.enumerate() {
-            let span = r * cols..(r + 1) * cols;
-            let col_sums = &mut self.col_sums[frame_cols..];
-            let sums = &mut self.pixel_sum[span.clone()];
-            let scan = match &mut self.pixel_sq {
-                PixelSq::Narrow(sq) => scan_narrow(row, sums, &mut sq[span], col_sums, lo, hi),
-                PixelSq::Wide(sq) => scan_wide(row, sums, &mut sq[span], col_sums, lo, hi),
-            };
-            if scan.min < lo || scan.max > hi {
-                failed = Some((r, row.iter().position(|v| v.to_i64() < lo || v.to_i64() > hi).unwrap_or(0)));
-                break;
-            }
-            self.row_sums.push(scan.sum);
-            self.min = self.min.min(scan.min);
-            self.max = self.max.max(scan.max);
-            self.at_lo += scan.at_lo;
-            self.at_hi += scan.at_hi;
+        let (min, max) = if S::NARROW {
+            let (a, b) = row.iter().fold((i32::MAX, i32::MIN), |(a, b), v| (a.min(v.to_i32()), b.max(v.to_i32())));
+            (a as i64, b as i64)
+        } else {
+            row.iter().fold((i64::MAX, i64::MIN), |(a, b), v| (a.min(v.to_i64()), b.max(v.to_i64())))
+        };
+        if min < lo || max > hi {
+            let c = row.iter().position(|v| v.to_i64() < lo || v.to_i64() > hi).unwrap_or(0);
+            return Err(Error::Range(format!(
+                "{}: value at row {r}, column {c} outside the valid range {lo} .. {hi} (set bits to the camera's \
+                 bit depth, or leave it unset)",
+                label()
+            )));
         }
-        if let Some((r, c)) = failed {
-            return Err(self.out_of_range(r, c, frame_rows, frame_cols, label));
+        if min == lo {
+            self.at_lo += row.iter().filter(|v| v.to_i64() == lo).count() as u64;
         }
+        if max == hi {
+            self.at_hi += row.iter().filter(|v| v.to_i64() == hi).count() as u64;
+        }
+        self.min = self.min.min(min);
+        self.max = self.max.max(max);
         Ok(())
     }
 
-    /// The error for a sample outside `[lo, hi]`. The sums already hold part of the frame;
-    /// the caller drops them (a failed pass returns no sums).
-    fn out_of_range(
+    fn add_narrow<S: FrameSample>(
         &mut self,
-        r: usize,
-        c: usize,
-        frame_rows: usize,
-        frame_cols: usize,
-        label: &dyn Fn() -> String,
-    ) -> Error {
-        self.row_sums.truncate(frame_rows);
-        self.col_sums.truncate(frame_cols);
-        Error::Range(format!(
-            "{}: value at row {r}, column {c} outside the valid range {} .. {} (set bits to the camera's bit depth, or leave it unset)",
-            label(),
-            self.lo,
-            self.hi
-        ))
+        frames: &[&[S]],
+        region: &Region,
+        base_rows: usize,
+        base_cols: usize,
+        label: &dyn Fn(usize) -> String,
+    ) -> Result<()> {
+        let (rows, cols) = (region.rows, region.cols);
+        let mut batch_sum = vec![0i32; cols];
+        let mut batch_sq = vec![0u64; cols];
+        let mut col_sums = vec![0i32; frames.len() * cols];
+        for r in 0..rows {
+            batch_sum.fill(0);
+            batch_sq.fill(0);
+            for (k, data) in frames.iter().enumerate() {
+                let row = region.row(data, r);
+                self.check_row(row, r, &|| label(k))?;
+                let sum = scan_narrow(row, &mut batch_sum, &mut batch_sq, &mut col_sums[k * cols..(k + 1) * cols]);
+                self.row_sums[base_rows + k * rows + r] = sum as i64;
+            }
+            let span = r * cols..(r + 1) * cols;
+            self.pixel_sum[span.clone()].iter_mut().zip(&batch_sum).for_each(|(a, &b)| *a += b as i64);
+            let PixelSq::Narrow(sq) = &mut self.pixel_sq else { unreachable!("narrow sums") };
+            sq[span].iter_mut().zip(&batch_sq).for_each(|(a, b)| *a += b);
+        }
+        self.col_sums[base_cols..].iter_mut().zip(&col_sums).for_each(|(a, &b)| *a = b as i64);
+        Ok(())
+    }
+
+    fn add_general<S: FrameSample>(
+        &mut self,
+        frames: &[&[S]],
+        region: &Region,
+        base_rows: usize,
+        base_cols: usize,
+        label: &dyn Fn(usize) -> String,
+    ) -> Result<()> {
+        let (rows, cols) = (region.rows, region.cols);
+        let mut batch_sum = vec![0i64; cols];
+        let mut batch_sq = vec![0u128; cols];
+        for r in 0..rows {
+            batch_sum.fill(0);
+            batch_sq.fill(0);
+            for (k, data) in frames.iter().enumerate() {
+                let row = region.row(data, r);
+                self.check_row(row, r, &|| label(k))?;
+                let col_sums = &mut self.col_sums[base_cols + k * cols..base_cols + (k + 1) * cols];
+                self.row_sums[base_rows + k * rows + r] = scan_general(row, &mut batch_sum, &mut batch_sq, col_sums);
+            }
+            let span = r * cols..(r + 1) * cols;
+            self.pixel_sum[span.clone()].iter_mut().zip(&batch_sum).for_each(|(a, b)| *a += b);
+            match &mut self.pixel_sq {
+                PixelSq::Narrow(sq) => sq[span].iter_mut().zip(&batch_sq).for_each(|(a, &b)| *a += b as u64),
+                PixelSq::Wide(sq) => sq[span].iter_mut().zip(&batch_sq).for_each(|(a, b)| *a += b),
+            }
+        }
+        Ok(())
     }
 
     /// Append `other`'s frames after `self`'s.
@@ -271,56 +325,36 @@ fn ratio_i128(a: i128, b: u128) -> f64 {
     q as f64 + r as f64 / b as f64
 }
 
-/// Sums of one row of 8/16-bit samples: squares fit in u32 (|x| ≤ 65535).
-fn scan_narrow<S: FrameSample>(
-    row: &[S],
-    sums: &mut [i64],
-    sq: &mut [u64],
-    col_sums: &mut [i64],
-    lo: i64,
-    hi: i64,
-) -> RowScan {
+/// One row of 8/16-bit samples into the batch's scratch sums and the frame's column sums
+/// (i32: the caller bounds the rows and columns); returns the row's sum. Squares fit u32
+/// (|x| ≤ 65535) and are summed in u64.
+fn scan_narrow<S: FrameSample>(row: &[S], sums: &mut [i32], sq: &mut [u64], col_sums: &mut [i32]) -> i32 {
     let n = row.len();
     let (sums, sq, col_sums) = (&mut sums[..n], &mut sq[..n], &mut col_sums[..n]);
-    let mut scan = RowScan { sum: 0, min: i64::MAX, max: i64::MIN, at_lo: 0, at_hi: 0 };
+    let mut total = 0i32;
     for i in 0..n {
-        let x = row[i].to_i64();
-        let a = x.unsigned_abs() as u32;
+        let x = row[i].to_i32();
+        let a = x.unsigned_abs() as u64;
         sums[i] += x;
-        sq[i] += (a.wrapping_mul(a)) as u64;
+        sq[i] += a * a;
         col_sums[i] += x;
-        scan.sum += x;
-        scan.min = scan.min.min(x);
-        scan.max = scan.max.max(x);
-        scan.at_lo += (x == lo) as u64;
-        scan.at_hi += (x == hi) as u64;
+        total += x;
     }
-    scan
+    total
 }
 
-/// Sums of one row of 32-bit samples: squares summed in u128.
-fn scan_wide<S: FrameSample>(
-    row: &[S],
-    sums: &mut [i64],
-    sq: &mut [u128],
-    col_sums: &mut [i64],
-    lo: i64,
-    hi: i64,
-) -> RowScan {
+/// One row of any integer samples (32-bit, or frames too large for i32 sums); returns its sum.
+fn scan_general<S: FrameSample>(row: &[S], sums: &mut [i64], sq: &mut [u128], col_sums: &mut [i64]) -> i64 {
     let n = row.len();
     let (sums, sq, col_sums) = (&mut sums[..n], &mut sq[..n], &mut col_sums[..n]);
-    let mut scan = RowScan { sum: 0, min: i64::MAX, max: i64::MIN, at_lo: 0, at_hi: 0 };
+    let mut total = 0i64;
     for i in 0..n {
         let x = row[i].to_i64();
         let a = x.unsigned_abs() as u128;
         sums[i] += x;
         sq[i] += a * a;
         col_sums[i] += x;
-        scan.sum += x;
-        scan.min = scan.min.min(x);
-        scan.max = scan.max.max(x);
-        scan.at_lo += (x == lo) as u64;
-        scan.at_hi += (x == hi) as u64;
+        total += x;
     }
-    scan
+    total
 }

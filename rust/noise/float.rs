@@ -1,8 +1,8 @@
 //! Compensated accumulation for float frames and the float ANOVA sums of squares.
 //!
 //! Every sample is promoted to f64 and used as `d = x − p`, with the per-pixel pivot `p`
-//! the first frame (for float32 data `d` is exact). Per pixel, Σd and Σd² are two-sum
-//! compensated; rows are summed in lanes folded every 128 values into a compensated
+//! the first frame (for float32 data `d` is exact). Per pixel, Σd and Σd² of a batch of
+//! frames (a few) are added to two-sum compensated totals; rows are summed in lanes folded every 128 values into a compensated
 //! total; columns are compensated per frame. The temporal parts (t, tv, th) do not depend
 //! on a per-pixel offset, so they come from the row and column sums of `d`; the spatial
 //! parts (v, h, vh) from the pixel-mean map `p + Σd/T`; the within-pixel sum
@@ -10,7 +10,7 @@
 
 use std::sync::Arc;
 
-use super::{Decomposition, FrameSample, Shape};
+use super::{Decomposition, FrameSample, Region, Shape};
 use crate::{Error, Result};
 
 /// Compensated sums of a float recording.
@@ -98,43 +98,50 @@ impl FloatAcc {
         }
     }
 
-    /// Add one frame given as its `cols`-long rows.
-    pub fn add_frame<'a, S: FrameSample>(
+    /// Add a batch of frames. Per row, the batch's deviations from the pivot are summed
+    /// into scratch rows (at most a few values each), which are then added to the
+    /// per-pixel sums with compensation: one pass over the per-pixel sums per batch.
+    pub(crate) fn add_frames<S: FrameSample>(
         &mut self,
-        rows: impl Iterator<Item = &'a [S]>,
-        nrows: usize,
-        cols: usize,
-        label: &dyn Fn() -> String,
+        frames: &[&[S]],
+        region: &Region,
+        label: &dyn Fn(usize) -> String,
     ) -> Result<()> {
-        let rows: Vec<&[S]> = rows.collect();
-        check_finite(&rows, label)?;
-        if self.pivot.is_empty() {
-            let pivot: Vec<f64> = rows.iter().flat_map(|r| r.iter().map(|v| v.to_f64())).collect();
-            *self = FloatAcc::with_pivot(Arc::new(pivot));
-        }
-        debug_assert_eq!(self.pivot.len(), nrows * cols);
-        let mut col = vec![Compensated::default(); cols];
-        for (r, row) in rows.iter().enumerate() {
-            let span = r * cols..(r + 1) * cols;
-            let pivot = &self.pivot[span.clone()];
-            let (lo, hi, big) = accumulate_row(
-                row,
-                pivot,
-                &mut self.sum[span.clone()],
-                &mut self.sum_c[span.clone()],
-                &mut self.sq[span.clone()],
-                &mut self.sq_c[span],
-                &mut col,
-            );
+        let (rows, cols) = (region.rows, region.cols);
+        for (k, data) in frames.iter().enumerate() {
+            let (lo, hi) = extremes(data, region, &|| label(k))?;
             self.min = self.min.min(lo);
             self.max = self.max.max(hi);
-            self.max_abs = self.max_abs.max(big);
-            self.row_sums.push(row_sum(row, pivot));
+            self.max_abs = self.max_abs.max(lo.abs()).max(hi.abs());
+        }
+        if frames.is_empty() {
+            return Ok(());
+        }
+        if self.pivot.is_empty() {
+            let pivot: Vec<f64> = (0..rows).flat_map(|r| region.row(frames[0], r).iter().map(|v| v.to_f64())).collect();
+            *self = FloatAcc::with_pivot(Arc::new(pivot));
+        }
+        let base_rows = self.row_sums.len();
+        self.row_sums.resize(base_rows + frames.len() * rows, 0.0);
+        let mut col = vec![Compensated::default(); frames.len() * cols];
+        let (mut batch_sum, mut batch_sq) = (vec![0.0; cols], vec![0.0; cols]);
+        for r in 0..rows {
+            let span = r * cols..(r + 1) * cols;
+            let pivot = &self.pivot[span.clone()];
+            batch_sum.fill(0.0);
+            batch_sq.fill(0.0);
+            for (k, data) in frames.iter().enumerate() {
+                let row = region.row(data, r);
+                scan_row(row, pivot, &mut batch_sum, &mut batch_sq, &mut col[k * cols..(k + 1) * cols]);
+                self.row_sums[base_rows + k * rows + r] = row_sum(row, pivot);
+            }
+            add_compensated(&mut self.sum[span.clone()], &mut self.sum_c[span.clone()], &batch_sum);
+            add_compensated(&mut self.sq[span.clone()], &mut self.sq_c[span], &batch_sq);
         }
         if self.max_abs > TOO_LARGE {
             return Err(Error::Range(format!(
                 "{}: values up to {:e} are too large for float64 sums of squares; rescale the frames",
-                label(),
+                label(0),
                 self.max_abs
             )));
         }
@@ -283,35 +290,34 @@ fn column_means(values: &[f64], width: usize, divisor: f64) -> Vec<f64> {
     acc.iter().map(|a| a.value() / divisor).collect()
 }
 
-/// Per-pixel compensated updates of one row; returns the row's (min, max, max |x|).
-fn accumulate_row<S: FrameSample>(
+/// One frame's row: deviations from the pivot added to the batch's scratch rows and to the
+/// frame's compensated column sums.
+fn scan_row<S: FrameSample>(
     row: &[S],
     pivot: &[f64],
-    sum: &mut [f64],
-    sum_c: &mut [f64],
-    sq: &mut [f64],
-    sq_c: &mut [f64],
+    batch_sum: &mut [f64],
+    batch_sq: &mut [f64],
     col: &mut [Compensated],
-) -> (f64, f64, f64) {
+) {
     let n = row.len();
-    let (pivot, sum, sum_c, sq, sq_c, col) =
-        (&pivot[..n], &mut sum[..n], &mut sum_c[..n], &mut sq[..n], &mut sq_c[..n], &mut col[..n]);
-    let (mut lo, mut hi, mut big) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
+    let (pivot, batch_sum, batch_sq, col) = (&pivot[..n], &mut batch_sum[..n], &mut batch_sq[..n], &mut col[..n]);
     for i in 0..n {
-        let x = row[i].to_f64();
-        let d = x - pivot[i];
-        let (s, e) = two_sum(sum[i], d);
-        sum[i] = s;
-        sum_c[i] += e;
-        let (q, e) = two_sum(sq[i], d * d);
-        sq[i] = q;
-        sq_c[i] += e;
+        let d = row[i].to_f64() - pivot[i];
+        batch_sum[i] += d;
+        batch_sq[i] += d * d;
         col[i].add(d);
-        lo = lo.min(x);
-        hi = hi.max(x);
-        big = big.max(x.abs());
     }
-    (lo, hi, big)
+}
+
+/// `sum += add` element-wise, two-sum compensated into `comp`.
+fn add_compensated(sum: &mut [f64], comp: &mut [f64], add: &[f64]) {
+    let n = add.len();
+    let (sum, comp) = (&mut sum[..n], &mut comp[..n]);
+    for i in 0..n {
+        let (s, e) = two_sum(sum[i], add[i]);
+        sum[i] = s;
+        comp[i] += e;
+    }
 }
 
 /// Σ (x − p) over a row: eight lanes, folded every 128 values into a compensated total.
@@ -334,28 +340,48 @@ fn row_sum<S: FrameSample>(row: &[S], pivot: &[f64]) -> f64 {
     total.value()
 }
 
-/// NaN or ±Inf in a frame: an error with the count and the first position.
-fn check_finite<S: FrameSample>(rows: &[&[S]], label: &dyn Fn() -> String) -> Result<()> {
-    let mut count = 0u64;
-    let mut first = None;
-    for (r, row) in rows.iter().enumerate() {
-        // a row whose sum is finite holds no NaN or Inf (overflow aside, rechecked below)
-        let s: f64 = row.iter().map(|v| v.to_f64() * 0.0).sum();
-        if s == 0.0 {
-            continue;
-        }
-        for (c, v) in row.iter().enumerate() {
-            if !v.to_f64().is_finite() {
-                count += 1;
-                first.get_or_insert((r, c));
+/// The smallest and largest value of a frame's window; NaN or ±Inf are an error with the
+/// count and the first position.
+fn extremes<S: FrameSample>(data: &[S], region: &Region, label: &dyn Fn() -> String) -> Result<(f64, f64)> {
+    let (mut lo, mut hi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+    let mut poisoned = false;
+    for r in 0..region.rows {
+        let row = region.row(data, r);
+        // x·0 is 0 for finite x and NaN otherwise: a row summing to 0 holds no NaN or Inf
+        let mut zero = [0.0f64; 4];
+        let mut quads = row.chunks_exact(4);
+        for q in &mut quads {
+            for k in 0..4 {
+                let x = q[k].to_f64();
+                zero[k] += x * 0.0;
+                lo[k] = if x < lo[k] { x } else { lo[k] };
+                hi[k] = if x > hi[k] { x } else { hi[k] };
             }
         }
+        for v in quads.remainder() {
+            let x = v.to_f64();
+            zero[0] += x * 0.0;
+            lo[0] = if x < lo[0] { x } else { lo[0] };
+            hi[0] = if x > hi[0] { x } else { hi[0] };
+        }
+        poisoned |= zero.iter().sum::<f64>() != 0.0;
     }
-    match first {
-        None => Ok(()),
-        Some((r, c)) => Err(Error::Range(format!(
+    if poisoned {
+        let mut count = 0u64;
+        let mut first = None;
+        for r in 0..region.rows {
+            for (c, v) in region.row(data, r).iter().enumerate() {
+                if !v.to_f64().is_finite() {
+                    count += 1;
+                    first.get_or_insert((r, c));
+                }
+            }
+        }
+        let (r, c) = first.unwrap_or((0, 0));
+        return Err(Error::Range(format!(
             "{}: {count} non-finite value(s) (NaN or Inf), the first at row {r}, column {c}; 3-D noise needs finite frames",
             label()
-        ))),
+        )));
     }
+    Ok((lo.iter().copied().fold(f64::INFINITY, f64::min), hi.iter().copied().fold(f64::NEG_INFINITY, f64::max)))
 }

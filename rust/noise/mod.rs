@@ -151,36 +151,47 @@ impl NoiseSums {
         origin: (usize, usize),
         label: &dyn Fn() -> String,
     ) -> Result<()> {
+        self.add_frames(&[data], stride, origin, &|_| label())
+    }
+
+    /// Add several frames (as [`NoiseSums::add_frame`]; `label(k)` names the k-th). The
+    /// per-pixel sums are updated once per batch, not once per frame. After an error the
+    /// sums are partly updated: discard them.
+    pub fn add_frames<S: FrameSample>(
+        &mut self,
+        frames: &[&[S]],
+        stride: usize,
+        origin: (usize, usize),
+        label: &dyn Fn(usize) -> String,
+    ) -> Result<()> {
         if S::DTYPE != self.dtype {
             return Err(Error::Shape(format!(
                 "{}: sample type {} differs from the recording's {}",
-                label(),
+                label(0),
                 S::DTYPE.name(),
                 self.dtype.name()
             )));
         }
-        if self.frames >= MAX_FRAMES {
-            return Err(Error::Value(format!("{}: more than {MAX_FRAMES} frames", label())));
+        if self.frames + frames.len() > MAX_FRAMES {
+            return Err(Error::Value(format!("{}: more than {MAX_FRAMES} frames", label(0))));
         }
-        let (row0, col0) = origin;
-        let needed = (row0 + self.rows - 1).checked_mul(stride).map(|v| v + col0 + self.cols);
-        if col0 + self.cols > stride || needed.is_none_or(|n| n > data.len()) {
-            return Err(Error::Shape(format!(
-                "{}: frame too small for the {} x {} window",
-                label(),
-                self.rows,
-                self.cols
-            )));
+        let region = Region { stride, row0: origin.0, col0: origin.1, rows: self.rows, cols: self.cols };
+        let needed = (region.row0 + self.rows - 1).checked_mul(stride).map(|v| v + region.col0 + self.cols);
+        for (k, data) in frames.iter().enumerate() {
+            if region.col0 + self.cols > stride || needed.is_none_or(|n| n > data.len()) {
+                return Err(Error::Shape(format!(
+                    "{}: frame too small for the {} x {} window",
+                    label(k),
+                    self.rows,
+                    self.cols
+                )));
+            }
         }
-        let rows = (0..self.rows).map(|r| {
-            let start = (row0 + r) * stride + col0;
-            &data[start..start + self.cols]
-        });
         match &mut self.acc {
-            Acc::Int(a) => a.add_frame(rows, self.cols, label)?,
-            Acc::Float(a) => a.add_frame(rows, self.rows, self.cols, label)?,
+            Acc::Int(a) => a.add_frames(frames, &region, label)?,
+            Acc::Float(a) => a.add_frames(frames, &region, label)?,
         }
-        self.frames += 1;
+        self.frames += frames.len();
         Ok(())
     }
 
@@ -278,6 +289,25 @@ impl NoiseSums {
     }
 }
 
+/// Where the analysed window lies in a frame's row-major samples.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Region {
+    pub stride: usize,
+    pub row0: usize,
+    pub col0: usize,
+    pub rows: usize,
+    pub cols: usize,
+}
+
+impl Region {
+    /// Row `r` of the window (the caller checked that the frame holds the window).
+    #[inline]
+    pub fn row<'a, S>(&self, data: &'a [S], r: usize) -> &'a [S] {
+        let start = (self.row0 + r) * self.stride + self.col0;
+        &data[start..start + self.cols]
+    }
+}
+
 /// Extent of the recording.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shape {
@@ -326,12 +356,20 @@ pub trait FrameSample: Copy + Send + Sync + 'static {
     const DTYPE: Dtype;
     fn to_i64(self) -> i64;
     fn to_f64(self) -> f64;
+    /// 8- and 16-bit integer types: values fit i32 (and their squares u32).
+    const NARROW: bool = false;
+    /// The value as i32: exact for the `NARROW` types (the only ones it is used for).
+    #[inline(always)]
+    fn to_i32(self) -> i32 {
+        self.to_i64() as i32
+    }
 }
 
 macro_rules! frame_sample {
-    ($($t:ty => $d:ident, |$v:ident| $int:expr, $flt:expr);* $(;)?) => {$(
+    ($($t:ty => $d:ident, $narrow:expr, |$v:ident| $int:expr, $flt:expr);* $(;)?) => {$(
         impl FrameSample for $t {
             const DTYPE: Dtype = Dtype::$d;
+            const NARROW: bool = $narrow;
             #[inline(always)]
             fn to_i64(self) -> i64 { let $v = self; $int }
             #[inline(always)]
@@ -341,13 +379,13 @@ macro_rules! frame_sample {
 }
 
 frame_sample!(
-    u8 => U8, |v| v as i64, v as f64;
-    u16 => U16, |v| v as i64, v as f64;
-    i16 => I16, |v| v as i64, v as f64;
-    u32 => U32, |v| v as i64, v as f64;
-    half::f16 => F16, |v| v.to_f64() as i64, v.to_f64();
-    f32 => F32, |v| v as i64, v as f64;
-    f64 => F64, |v| v as i64, v;
+    u8 => U8, true, |v| v as i64, v as f64;
+    u16 => U16, true, |v| v as i64, v as f64;
+    i16 => I16, true, |v| v as i64, v as f64;
+    u32 => U32, false, |v| v as i64, v as f64;
+    half::f16 => F16, false, |v| v.to_f64() as i64, v.to_f64();
+    f32 => F32, false, |v| v as i64, v as f64;
+    f64 => F64, false, |v| v as i64, v;
 );
 
 #[cfg(test)]

@@ -11,9 +11,9 @@ total noise variance:
   slope is significant (F test at level :data:`SIGNIFICANCE` against the scatter of the
   row or column means, so random row offsets do not pass for a gradient);
 * ``low_frequency``: after removing that plane, the variance of ``F`` averaged over
-  ``w × w`` boxes, ``w = max(3, min(V, H) // 8)``, beyond what random row offsets, column
+  ``w × w`` tiles, ``w = max(3, min(V, H) // 8)``, beyond what random row offsets, column
   offsets and pixel noise leave in such averages (``1/w``, ``1/w`` and ``1/w²`` of their
-  variances): an object or large-scale structure. Reported when the box averages are also
+  variances): an object or large-scale structure. Reported when the tile averages are also
   at least :data:`LOW_FREQUENCY_RATIO` times that expectation.
 
 Either at or above :data:`UNIFORMITY_LIMIT` gives a :class:`NoiseWarning`.
@@ -21,6 +21,7 @@ Either at or above :data:`UNIFORMITY_LIMIT` gives a :class:`NoiseWarning`.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from typing import Any
@@ -60,9 +61,15 @@ def plane_fit(mean_map: np.ndarray) -> np.ndarray:
 
 
 def _box_means(a: np.ndarray, w: int) -> np.ndarray:
-    """Means of every ``w × w`` box inside ``a`` (no padding)."""
-    c = np.pad(np.cumsum(np.cumsum(a, axis=0), axis=1), ((1, 0), (1, 0)))
-    return (c[w:, w:] - c[:-w, w:] - c[w:, :-w] + c[:-w, :-w]) / (w * w)
+    """Means of the ``w × w`` tiles of ``a`` (a partial last row or column of tiles is left out)."""
+    rows, cols = (a.shape[0] // w) * w, (a.shape[1] // w) * w
+    return a[:rows, :cols].reshape(rows // w, w, cols // w, w).mean(axis=(1, 3))
+
+
+@functools.lru_cache(maxsize=64)
+def _f_critical(points: int) -> float:
+    """Critical F of a line through ``points`` values (1 and ``points − 2`` degrees of freedom)."""
+    return f_ppf(1 - SIGNIFICANCE, 1, points - 2)
 
 
 def _line_fit(profile: np.ndarray) -> tuple[float, float]:
@@ -82,7 +89,7 @@ def uniformity(mean_map: np.ndarray, total_variance: float) -> dict[str, Any]:
     ``plane``: the plane's variance; ``plane_significant``: whether its row or column slope
     passes an F test at level :data:`SIGNIFICANCE` against the scatter of the row (column)
     means about their line — random row or column offsets line up with some slope by chance.
-    ``low_frequency``: the variance of the ``box × box`` averages beyond what independent
+    ``low_frequency``: the variance of the ``box × box`` tile averages beyond what independent
     row offsets, column offsets and pixels would leave (``var(rows)/w + var(cols)/w +
     var(rest)/w²``); ``low_frequency_ratio``: observed over that expectation.
     """
@@ -90,8 +97,7 @@ def uniformity(mean_map: np.ndarray, total_variance: float) -> dict[str, Any]:
     rows, cols = fixed.shape
     reg_v, f_v = _line_fit(fixed.mean(axis=1))
     reg_h, f_h = _line_fit(fixed.mean(axis=0))
-    significant = any(rows_or_cols >= 3 and f > f_ppf(1 - SIGNIFICANCE, 1, rows_or_cols - 2)
-                      for rows_or_cols, f in ((rows, f_v), (cols, f_h)))
+    significant = any(points >= 3 and f > _f_critical(points) for points, f in ((rows, f_v), (cols, f_h)))
     rest = fixed - plane_fit(fixed)
     w = max(3, min(rows, cols) // 8)
     observed = expected = 0.0
