@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -130,17 +131,15 @@ def _detrended_ss(sums: NoiseSums, ss: dict[str, float]) -> dict[str, float]:
     return out
 
 
-def _temporal_pairs(frames: Any, pairs: int, roi: Region | None, channel: str | None) -> list[np.ndarray]:
-    """``(x₁ − x₀)/√2`` of disjoint consecutive frame pairs from the start of the recording."""
+def _temporal_pairs(frames: Any, pairs: int, roi: Region | None, channel: str | None) -> Iterator[np.ndarray]:
+    """``(x₁ − x₀)/√2`` of disjoint consecutive frame pairs from the start of the recording,
+    one pair in memory at a time."""
     seq = frames if isinstance(frames, np.ndarray) else as_sequence(frames, channel)
-    count = min(pairs, len(seq) // 2)
     r0, r1, c0, c1 = roi if roi is not None else (0, None, 0, None)
-    out = []
-    for k in range(count):
+    for k in range(min(pairs, len(seq) // 2)):
         a = np.asarray(seq[2 * k], dtype=np.float64)[r0:r1, c0:c1]
         b = np.asarray(seq[2 * k + 1], dtype=np.float64)[r0:r1, c0:c1]
-        out.append((b - a) / math.sqrt(2))
-    return out
+        yield (b - a) / math.sqrt(2)
 
 
 def _slope(sitf: Any) -> float | None:
@@ -314,7 +313,7 @@ def noise3d(frames: Any, *, bits: int | None = None, corrected: bool = True, con
             netd_ci = (ci["tvh"][0] / abs(slope), ci["tvh"][1] / abs(slope))
     spec = None
     if spectra:
-        pairs = [] if isinstance(frames, NoiseSums) else _temporal_pairs(frames, spectra_pairs, roi, channel)
+        pairs = iter(()) if isinstance(frames, NoiseSums) else _temporal_pairs(frames, spectra_pairs, roi, channel)
         spec = pattern_spectra(_fixed_pattern(sums, detrend), pairs)
     return Noise3D(sigma=sigma, variance=variance, classical=classical, ci=ci, df=comps.df, total=total,
                    mean=float(dec["mean"]), frames=t, rows=v, cols=h, dtype=sums.dtype, corrected=corrected,

@@ -17,6 +17,7 @@ offsets (h, th).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -107,19 +108,21 @@ def _full_plane(half: np.ndarray, rows: int, cols: int) -> np.ndarray:
     return np.fft.fftshift(full)
 
 
-def pattern_spectra(fixed: np.ndarray, temporal_pairs: list[np.ndarray]) -> NoiseSpectra:
+def pattern_spectra(fixed: np.ndarray, temporal_pairs: Iterable[np.ndarray]) -> NoiseSpectra:
     """Spectra of a fixed pattern (2-D, its mean removed) and of frame-pair differences
-    (each ``(x₁ − x₀)/√2``; their means are removed here)."""
+    (each ``(x₁ − x₀)/√2``; their means are removed here; consumed one at a time)."""
     rows, cols = fixed.shape
     half = _half_plane(fixed)
     fixed_row, fixed_col = _one_sided(half, rows, cols)
     fixed_2d = _full_plane(half, rows, cols)
     t_row = t_col = t_2d = None
-    if temporal_pairs:
-        acc = np.zeros_like(half)
-        for d in temporal_pairs:
-            acc += _half_plane(d - d.mean())
-        acc /= len(temporal_pairs)
+    acc = np.zeros_like(half)
+    count = 0
+    for d in temporal_pairs:
+        acc += _half_plane(d - d.mean())
+        count += 1
+    if count:
+        acc /= count
         t_row, t_col = _one_sided(acc, rows, cols)
         t_2d = _full_plane(acc, rows, cols)
     return NoiseSpectra(
@@ -127,4 +130,4 @@ def pattern_spectra(fixed: np.ndarray, temporal_pairs: list[np.ndarray]) -> Nois
         fixed_row=fixed_row, fixed_col=fixed_col, fixed_2d=fixed_2d,
         temporal_row=t_row, temporal_col=t_col, temporal_2d=t_2d,
         freq2d_row=np.fft.fftshift(np.fft.fftfreq(rows)), freq2d_col=np.fft.fftshift(np.fft.fftfreq(cols)),
-        pairs=len(temporal_pairs))
+        pairs=count)
