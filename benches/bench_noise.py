@@ -15,7 +15,7 @@ memory of a long recording streamed from files, in one run.
    relative difference of the seven σ between irfidelity and numpy is printed too.
 2. Streamed: ``--stream-frames`` (default 1000) 16-bit PNG frames of ``W × H`` written to a
    temporary directory; a subprocess runs ``noise3d(directory)`` (spectra included) and
-   reports its peak RSS (``ru_maxrss``) and that of a subprocess that only imports
+   reports its peak RSS (``VmHWM``, Linux) and that of a subprocess that only imports
    irfidelity and numpy (the baseline). The cube as float64 would take ``8·T·H·W`` bytes.
 
 A benchmark, not a test: numbers depend on the machine (cores, memory bandwidth, load).
@@ -146,20 +146,21 @@ def in_memory(frames: int, rows: int, cols: int, repeat: int) -> None:
         print(f"\npyradi: {why}")
 
 
-STREAM_SCRIPT = """
-import resource, sys, time
+# Peak RSS of this process image: VmHWM (ru_maxrss would include the parent's memory at fork).
+PEAK = "int(next(l for l in open('/proc/self/status') if l.startswith('VmHWM')).split()[1])"
+
+STREAM_SCRIPT = f"""
+import sys, time
 import irfidelity as irf
 t0 = time.perf_counter()
 n = irf.noise3d(sys.argv[1], saturated="ignore")
 dt = time.perf_counter() - t0
-rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print(n.frames, dt, rss, n.sigma["tvh"], n.sigma["vh"])
+print(n.frames, dt, {PEAK}, n.sigma["tvh"], n.sigma["vh"])
 """
 
-BASELINE_SCRIPT = """
-import resource
+BASELINE_SCRIPT = f"""
 import numpy, irfidelity
-print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+print({PEAK})
 """
 
 
