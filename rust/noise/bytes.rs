@@ -145,6 +145,21 @@ impl NoiseSums {
                 if dtype == Dtype::U32 { PixelSq::Wide(rd.u128s(pixels)?) } else { PixelSq::Narrow(rd.u64s(pixels)?) };
             let row_sums = rd.i64s(row_len)?;
             let col_sums = rd.i64s(col_len)?;
+            // sums no pass over such frames could produce would overflow the exact arithmetic
+            let (tmin, tmax) = dtype.int_range().ok_or_else(bad)?;
+            let bound = tmin.unsigned_abs().max(tmax.unsigned_abs()) as u128;
+            let within = |v: &[i64], count: usize| v.iter().all(|x| x.unsigned_abs() as u128 <= count as u128 * bound);
+            let sq_ok = match &pixel_sq {
+                PixelSq::Narrow(q) => q.iter().all(|&x| x as u128 <= frames as u128 * bound * bound),
+                PixelSq::Wide(q) => q.iter().all(|&x| x <= frames as u128 * bound * bound),
+            };
+            if !(within(&pixel_sum, frames) && within(&row_sums, cols) && within(&col_sums, rows) && sq_ok)
+                || lo < tmin
+                || hi > tmax
+                || lo > hi
+            {
+                return Err(bad());
+            }
             Acc::Int(IntAcc { pixel_sum, pixel_sq, row_sums, col_sums, lo, hi, at_lo, at_hi, min, max })
         } else {
             let (min, max, max_abs) = (rd.f64()?, rd.f64()?, rd.f64()?);
@@ -166,6 +181,12 @@ impl NoiseSums {
             let (sum, sum_c, sq, sq_c) = (next(), next(), next(), next());
             let row_sums = rd.f64s(row_len)?;
             let col_sums = rd.f64s(col_len)?;
+            let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+            if !([&pivot[..], &sum, &sum_c, &sq, &sq_c, &row_sums, &col_sums].iter().all(|v| finite(v))
+                && max_abs.is_finite())
+            {
+                return Err(bad());
+            }
             Acc::Float(FloatAcc { pivot, sum, sum_c, sq, sq_c, row_sums, col_sums, min, max, max_abs })
         };
         if rd.pos != data.len() {

@@ -3,11 +3,12 @@
 //!
 //! The first frame is read on the calling thread: it fixes the shape, the sample type and
 //! (float frames) the per-pixel pivot. The remaining frames are cut into chunks of a
-//! length that depends only on the frame count; each worker sums a chunk into its own
-//! [`NoiseSums`], and chunks are appended to the total strictly in chunk order. So the
-//! result does not depend on the number of workers (bit-identical for float frames too),
-//! and memory stays bounded: a worker does not start a chunk more than `2·workers` chunks
-//! ahead of the last one appended.
+//! length that depends only on the frame count, and chunks are appended to the total
+//! strictly in chunk order. A float chunk is summed into its own [`NoiseSums`], so the
+//! result does not depend on the number of workers (bit-identical); an integer chunk adds
+//! its pixels into its worker's accumulator (exact sums do not depend on the order) and
+//! hands on only its per-frame sums. Memory stays bounded: a worker does not start a chunk
+//! more than `2·workers` chunks ahead of the last one appended.
 
 use std::ops::Range;
 use std::path::PathBuf;
@@ -262,11 +263,22 @@ fn effective_workers(workers: usize) -> usize {
     }
 }
 
+/// A summed chunk of frames, waiting to be appended to the total in chunk order.
+enum Piece {
+    /// Float frames: the chunk's own sums.
+    Sums(NoiseSums),
+    /// Integer frames: only the chunk's per-frame sums; its per-pixel sums stay in the
+    /// worker's accumulator (integer sums do not depend on the order they are added in).
+    Frames { rows: Vec<i64>, cols: Vec<i64>, count: usize },
+}
+
 /// State shared by the workers of a pass.
 struct Shared {
     total: NoiseSums,
     /// Finished chunks waiting for their predecessors.
-    pending: std::collections::BTreeMap<usize, NoiseSums>,
+    pending: std::collections::BTreeMap<usize, Piece>,
+    /// Integer frames: the workers' per-pixel accumulators, added to the total at the end.
+    locals: Vec<NoiseSums>,
     /// Next chunk to append.
     next: usize,
     /// First error, by frame index.
@@ -321,71 +333,93 @@ pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSum
     let chunks = (n - 1).div_ceil(chunk);
     let workers = effective_workers(opts.workers).min(chunks.max(1));
     let ahead = 2 * workers;
-    let shared = Mutex::new(Shared { total: first, pending: Default::default(), next: 0, error: None });
+    let shared =
+        Mutex::new(Shared { total: first, pending: Default::default(), locals: Vec::new(), next: 0, error: None });
     let appended = Condvar::new();
     let claim = AtomicUsize::new(0);
     let cancel = AtomicBool::new(false);
 
-    let empty = || -> Result<NoiseSums> {
-        let w = layout.window;
-        match &pivot {
-            Some(p) => Ok(NoiseSums::with_pivot(w.rows, w.cols, layout.dtype, Arc::clone(p))),
-            None => NoiseSums::new(w.rows, w.cols, layout.dtype, opts.limits),
-        }
-    };
-    let sum_chunk = |c: usize| -> std::result::Result<NoiseSums, (usize, Error)> {
-        let mut sums = empty().map_err(|e| (0, e))?;
-        let (start, stop) = (1 + c * chunk, (1 + (c + 1) * chunk).min(n));
+    // Float chunks get their own sums (so merges, and the result, do not depend on the
+    // worker count); integer chunks add into the worker's accumulator and hand on only
+    // their per-frame sums (no per-chunk per-pixel arrays to allocate and merge).
+    let add_range = |sums: &mut NoiseSums, start: usize, stop: usize| -> std::result::Result<(), (usize, Error)> {
         for i in (start..stop).step_by(BATCH) {
             if cancel.load(Ordering::Relaxed) {
                 break;
             }
             let batch = i..(i + BATCH).min(stop);
             let label = |k: usize| source.label(i + k);
-            source
-                .with_frames(batch, &mut |frames| add_batch(&mut sums, frames, &layout, &label))
-                .map_err(|e| (i, e))?;
+            source.with_frames(batch, &mut |frames| add_batch(sums, frames, &layout, &label)).map_err(|e| (i, e))?;
         }
-        Ok(sums)
+        Ok(())
     };
-    let worker = || loop {
-        let c = claim.fetch_add(1, Ordering::Relaxed);
-        if c >= chunks {
-            return;
+    let sum_chunk = |c: usize, local: &mut Option<NoiseSums>| -> std::result::Result<Piece, (usize, Error)> {
+        let (start, stop) = (1 + c * chunk, (1 + (c + 1) * chunk).min(n));
+        if let Some(p) = &pivot {
+            let w = layout.window;
+            let mut sums = NoiseSums::with_pivot(w.rows, w.cols, layout.dtype, Arc::clone(p));
+            add_range(&mut sums, start, stop)?;
+            return Ok(Piece::Sums(sums));
         }
-        {
+        let sums = match local {
+            Some(l) => l,
+            None => local.insert(
+                NoiseSums::new(layout.window.rows, layout.window.cols, layout.dtype, opts.limits)
+                    .map_err(|e| (start, e))?,
+            ),
+        };
+        let frames0 = sums.frames;
+        let Acc::Int(a) = &sums.acc else { unreachable!("integer sums") };
+        let (rows0, cols0) = (a.row_sums.len(), a.col_sums.len());
+        add_range(sums, start, stop)?;
+        let Acc::Int(a) = &mut sums.acc else { unreachable!("integer sums") };
+        let (rows, cols) = a.split_frames(rows0, cols0);
+        Ok(Piece::Frames { rows, cols, count: sums.frames - frames0 })
+    };
+    let worker = || {
+        let mut local: Option<NoiseSums> = None;
+        loop {
+            let c = claim.fetch_add(1, Ordering::Relaxed);
+            if c >= chunks {
+                break;
+            }
+            {
+                let mut st = lock(&shared);
+                while c >= st.next + ahead && !cancel.load(Ordering::Relaxed) {
+                    st = appended.wait(st).unwrap_or_else(|p| p.into_inner());
+                }
+            }
+            if cancel.load(Ordering::Relaxed) {
+                break;
+            }
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sum_chunk(c, &mut local)))
+                .unwrap_or_else(|_| Err((1 + c * chunk, Error::Value("internal error while summing frames".into()))));
             let mut st = lock(&shared);
-            while c >= st.next + ahead && !cancel.load(Ordering::Relaxed) {
-                st = appended.wait(st).unwrap_or_else(|p| p.into_inner());
-            }
-        }
-        if cancel.load(Ordering::Relaxed) {
-            return;
-        }
-        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sum_chunk(c)))
-            .unwrap_or_else(|_| Err((1 + c * chunk, Error::Value("internal error while summing frames".into()))));
-        let mut st = lock(&shared);
-        match result {
-            Ok(sums) => {
-                st.pending.insert(c, sums);
-                loop {
-                    let key = st.next;
-                    let Some(next) = st.pending.remove(&key) else { break };
-                    if let Err(e) = st.total.append(&next) {
-                        st.error.get_or_insert((0, e));
-                        cancel.store(true, Ordering::Relaxed);
+            match result {
+                Ok(piece) => {
+                    st.pending.insert(c, piece);
+                    loop {
+                        let key = st.next;
+                        let Some(next) = st.pending.remove(&key) else { break };
+                        if let Err(e) = append_piece(&mut st.total, next) {
+                            st.error.get_or_insert((0, e));
+                            cancel.store(true, Ordering::Relaxed);
+                        }
+                        st.next += 1;
                     }
-                    st.next += 1;
+                }
+                Err((i, e)) => {
+                    if st.error.as_ref().is_none_or(|(j, _)| i < *j) {
+                        st.error = Some((i, e));
+                    }
+                    cancel.store(true, Ordering::Relaxed);
                 }
             }
-            Err((i, e)) => {
-                if st.error.as_ref().is_none_or(|(j, _)| i < *j) {
-                    st.error = Some((i, e));
-                }
-                cancel.store(true, Ordering::Relaxed);
-            }
+            appended.notify_all();
         }
-        appended.notify_all();
+        if let Some(l) = local {
+            lock(&shared).locals.push(l);
+        }
     };
     if workers <= 1 {
         worker();
@@ -396,12 +430,33 @@ pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSum
             }
         });
     }
-    let st = shared.into_inner().unwrap_or_else(|p| p.into_inner());
+    let mut st = shared.into_inner().unwrap_or_else(|p| p.into_inner());
     if let Some((_, e)) = st.error {
         return Err(e);
     }
     if st.next != chunks {
         return Err(Error::Value("internal: not every chunk of frames was summed".into()));
     }
+    for local in std::mem::take(&mut st.locals) {
+        match (&mut st.total.acc, &local.acc) {
+            (Acc::Int(total), Acc::Int(l)) => total.add_pixels(l)?,
+            _ => return Err(Error::Value("internal: a float pass kept worker sums".into())),
+        }
+    }
     Ok(st.total)
+}
+
+/// Append a chunk to the total.
+fn append_piece(total: &mut NoiseSums, piece: Piece) -> Result<()> {
+    match piece {
+        Piece::Sums(sums) => total.append(&sums),
+        Piece::Frames { rows, cols, count } => match &mut total.acc {
+            Acc::Int(a) => {
+                a.push_frames(&rows, &cols);
+                total.frames += count;
+                Ok(())
+            }
+            Acc::Float(_) => Err(Error::Value("internal: integer frame sums for a float pass".into())),
+        },
+    }
 }

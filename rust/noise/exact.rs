@@ -183,6 +183,13 @@ impl IntAcc {
 
     /// Append `other`'s frames after `self`'s.
     pub fn append(&mut self, other: &IntAcc) -> Result<()> {
+        self.add_pixels(other)?;
+        self.push_frames(&other.row_sums, &other.col_sums);
+        Ok(())
+    }
+
+    /// Add `other`'s per-pixel sums and value statistics (not its per-frame sums).
+    pub(crate) fn add_pixels(&mut self, other: &IntAcc) -> Result<()> {
         if (self.lo, self.hi) != (other.lo, other.hi) {
             return Err(Error::Value(format!(
                 "cannot merge 3-D noise sums with valid ranges {} .. {} and {} .. {}",
@@ -195,13 +202,22 @@ impl IntAcc {
             _ => return Err(Error::Value("internal: narrow and wide 3-D noise sums".into())),
         }
         self.pixel_sum.iter_mut().zip(&other.pixel_sum).for_each(|(a, b)| *a += b);
-        self.row_sums.extend_from_slice(&other.row_sums);
-        self.col_sums.extend_from_slice(&other.col_sums);
         self.at_lo += other.at_lo;
         self.at_hi += other.at_hi;
         self.min = self.min.min(other.min);
         self.max = self.max.max(other.max);
         Ok(())
+    }
+
+    /// Append per-frame row and column sums (frames whose pixels were added elsewhere).
+    pub(crate) fn push_frames(&mut self, row_sums: &[i64], col_sums: &[i64]) {
+        self.row_sums.extend_from_slice(row_sums);
+        self.col_sums.extend_from_slice(col_sums);
+    }
+
+    /// Remove and return the per-frame sums from the given lengths on.
+    pub(crate) fn split_frames(&mut self, rows_from: usize, cols_from: usize) -> (Vec<i64>, Vec<i64>) {
+        (self.row_sums.split_off(rows_from), self.col_sums.split_off(cols_from))
     }
 
     fn sum_sq_total(&self) -> u128 {

@@ -173,6 +173,12 @@ fn bytes_round_trip_and_corrupt_bytes_fail() {
         let mut lying = b.clone();
         lying[4..12].copy_from_slice(&u64::MAX.to_le_bytes());
         assert!(NoiseSums::from_bytes(&lying).is_err());
+        // a sum no pass could produce (the first per-pixel sum, or a float's sign bits)
+        let mut impossible = b.clone();
+        let first = 4 + 3 * 8 + 1 + if sums.dtype.is_int() { 6 * 8 } else { 3 * 8 + 1 };
+        impossible[first..first + 8].copy_from_slice(&i64::MAX.to_le_bytes());
+        let bad = NoiseSums::from_bytes(&impossible);
+        assert!(bad.is_err(), "{:?}", sums.dtype);
     }
 }
 

@@ -178,7 +178,7 @@ def f_ppf(p: float, dfn: float, dfd: float) -> float:
     Examples
     --------
     >>> round(f_ppf(0.975, 5, 10), 6)
-    4.236109
+    4.236086
     """
     if not 0 < p < 1:
         raise ValueError(f"p must lie in (0, 1), got {p!r}")
