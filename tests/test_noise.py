@@ -22,15 +22,14 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
+import scipy.stats as scipy_stats
+import tifffile
 
 import irfidelity as irf
 from irfidelity.errors import FidelityError, FrameError, RangeError, ShapeError
 from irfidelity.noise import NoiseSums, NoiseWarning, noise_sums
 from irfidelity.noise.anova import PARTS, anova, variance_interval
 from irfidelity.noise.quantiles import chi2_ppf, f_ppf
-
-tifffile = pytest.importorskip("tifffile")
-scipy_stats = pytest.importorskip("scipy.stats")
 
 DATA = pathlib.Path(__file__).parent / "data" / "thermal"
 LWIR = DATA / "ptw_lwir_all100frames_uint16.tif"
@@ -212,6 +211,17 @@ def test_merge_over_frame_ranges_equals_one_pass_and_pickles():
         whole.merge(noise_sums(floats))
     with pytest.raises(FidelityError):
         NoiseSums.from_bytes(whole.to_bytes()[:-3])
+
+
+def test_dask_spreads_frame_ranges_over_processes(tmp_path):
+    import dask  # in the test extra; imported here, the only test that needs it
+    cube = known_cube((40, 16, 12), {k: 30 for k in PARTS}, seed=13)
+    tifffile.imwrite(tmp_path / "stack.tif", cube)
+    seq = irf.FrameSequence(tmp_path / "stack.tif")
+    parts = [dask.delayed(noise_sums)(seq[a:b]) for a, b in ((0, 15), (15, 31), (31, 40))]
+    computed = dask.compute(*parts, scheduler="processes", num_workers=2)
+    total = computed[0].merge(computed[1]).merge(computed[2])
+    assert total.to_bytes() == noise_sums(cube).to_bytes()
 
 
 @pytest.mark.filterwarnings("ignore::irfidelity.noise.NoiseWarning")
@@ -417,8 +427,9 @@ def test_noise_similarity_levels_and_shapes():
     assert same.value > 0.95 and same.mu > 0.97 and same.rho > 0.97
     assert irf.noise_similarity(real, real).value == pytest.approx(1.0)
     # every level doubled: mu = 2·2/(1 + 4) exactly, shapes unchanged
-    double = irf.noise3d(600 + 2 * (real.sums and random_effects(np.random.default_rng(10), base, shape)))
-    sim = irf.noise_similarity(irf.noise3d(300 + random_effects(np.random.default_rng(10), base, shape)), double)
+    single = irf.noise3d(300 + random_effects(np.random.default_rng(10), base, shape))
+    double = irf.noise3d(600 + 2 * random_effects(np.random.default_rng(10), base, shape))
+    sim = irf.noise_similarity(single, double)
     assert sim.mu == pytest.approx(0.8, rel=1e-9)
     assert sim.rho == pytest.approx(1.0, abs=1e-12)
     # white vs correlated temporal noise of about the same level: the shape term drops
@@ -437,6 +448,10 @@ def test_noise_similarity_levels_and_shapes():
     with pytest.raises(FidelityError, match="corrected"):
         irf.noise_similarity(real, irf.noise3d(300 + random_effects(rng, base, shape), corrected=False))
     assert json.dumps(same.to_dict())
+    metrics = same.metrics()
+    assert metrics["noise_sigma_tvh_real"] == real.sigma["tvh"] and metrics["noise_sigma_vh_sim"] == twin.sigma["vh"]
+    assert metrics["noise_mu"] == same.mu and metrics["noise_netd_real"] is None
+    assert json.dumps(metrics)
 
 
 def test_noise_similarity_of_frames_of_different_sizes():
@@ -543,7 +558,7 @@ def test_bad_options_are_errors():
 
 
 # --------------------------------------------------------------------------- real recordings
-def _parts_from_reference(path: pathlib.Path) -> dict[str, Fraction]:
+def _parts_from_reference(path: pathlib.Path) -> dict[str, float]:
     cube = tifffile.imread(path).astype(np.int64)
     parts = numpy_parts(cube)
     return {k: float((p ** 2).sum()) * (cube.size // p.size) for k, p in parts.items()}

@@ -2,11 +2,12 @@
 //!
 //! Every sample is promoted to f64 and used as `d = x − p`, with the per-pixel pivot `p`
 //! the first frame (for float32 data `d` is exact). Per pixel, Σd and Σd² of a batch of
-//! frames (a few) are added to two-sum compensated totals; rows are summed in lanes folded every 128 values into a compensated
-//! total; columns are compensated per frame. The temporal parts (t, tv, th) do not depend
-//! on a per-pixel offset, so they come from the row and column sums of `d`; the spatial
-//! parts (v, h, vh) from the pixel-mean map `p + Σd/T`; the within-pixel sum
-//! `W = Σ_vh (Σd² − (Σd)²/T)` gives `SS_tvh = W − SS_t − SS_tv − SS_th`.
+//! frames (a few) are added to two-sum compensated totals; rows are summed in lanes folded
+//! every 128 values, and columns over blocks of 64 rows, into compensated totals. The
+//! temporal parts (t, tv, th) do not depend on a per-pixel offset, so they come from the
+//! row and column sums of `d`; the spatial parts (v, h, vh) from the pixel-mean map
+//! `p + Σd/T`; the within-pixel sum `W = Σ_vh (Σd² − (Σd)²/T)` gives
+//! `SS_tvh = W − SS_t − SS_tv − SS_th`.
 
 use std::sync::Arc;
 
@@ -34,6 +35,8 @@ pub struct FloatAcc {
     pub max_abs: f64,
 }
 
+/// Rows whose column sums are added plainly before being folded into compensated totals.
+const COL_BLOCK: usize = 64;
 /// |x| beyond this: squares of differences could overflow f64.
 const TOO_LARGE: f64 = 1e150;
 /// Largest |x| below this: every square underflows f64's normal range.
@@ -123,7 +126,9 @@ impl FloatAcc {
         }
         let base_rows = self.row_sums.len();
         self.row_sums.resize(base_rows + frames.len() * rows, 0.0);
+        // column sums: plain over blocks of COL_BLOCK rows, folded into compensated totals
         let mut col = vec![Compensated::default(); frames.len() * cols];
+        let mut col_block = vec![0.0; frames.len() * cols];
         let (mut batch_sum, mut batch_sq) = (vec![0.0; cols], vec![0.0; cols]);
         for r in 0..rows {
             let span = r * cols..(r + 1) * cols;
@@ -132,11 +137,17 @@ impl FloatAcc {
             batch_sq.fill(0.0);
             for (k, data) in frames.iter().enumerate() {
                 let row = region.row(data, r);
-                scan_row(row, pivot, &mut batch_sum, &mut batch_sq, &mut col[k * cols..(k + 1) * cols]);
+                scan_row(row, pivot, &mut batch_sum, &mut batch_sq, &mut col_block[k * cols..(k + 1) * cols]);
                 self.row_sums[base_rows + k * rows + r] = row_sum(row, pivot);
             }
             add_compensated(&mut self.sum[span.clone()], &mut self.sum_c[span.clone()], &batch_sum);
             add_compensated(&mut self.sq[span.clone()], &mut self.sq_c[span], &batch_sq);
+            if (r + 1) % COL_BLOCK == 0 || r + 1 == rows {
+                col.iter_mut().zip(col_block.iter_mut()).for_each(|(c, b)| {
+                    c.add(*b);
+                    *b = 0.0;
+                });
+            }
         }
         if self.max_abs > TOO_LARGE {
             return Err(Error::Range(format!(
@@ -291,21 +302,15 @@ fn column_means(values: &[f64], width: usize, divisor: f64) -> Vec<f64> {
 }
 
 /// One frame's row: deviations from the pivot added to the batch's scratch rows and to the
-/// frame's compensated column sums.
-fn scan_row<S: FrameSample>(
-    row: &[S],
-    pivot: &[f64],
-    batch_sum: &mut [f64],
-    batch_sq: &mut [f64],
-    col: &mut [Compensated],
-) {
+/// frame's block of column sums.
+fn scan_row<S: FrameSample>(row: &[S], pivot: &[f64], batch_sum: &mut [f64], batch_sq: &mut [f64], col: &mut [f64]) {
     let n = row.len();
     let (pivot, batch_sum, batch_sq, col) = (&pivot[..n], &mut batch_sum[..n], &mut batch_sq[..n], &mut col[..n]);
     for i in 0..n {
         let d = row[i].to_f64() - pivot[i];
         batch_sum[i] += d;
         batch_sq[i] += d * d;
-        col[i].add(d);
+        col[i] += d;
     }
 }
 

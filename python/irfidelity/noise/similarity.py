@@ -21,7 +21,7 @@ form of the paper's curve similarity (eq. 3), ``value = μ^α · ρ^β``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -60,6 +60,8 @@ class NoiseSimilarity:
         The exponents used.
     total_mu : float
         Eq. 4 on the total noise σ alone (for reference: what a single-level μ would be).
+    real, sim : Noise3D
+        The compared results.
     """
 
     value: float
@@ -71,12 +73,34 @@ class NoiseSimilarity:
     overlap: dict[str, float]
     weights: dict[str, float]
     bins: int
-    alpha: float = 1.0
-    beta: float = 1.0
-    total_mu: float = 1.0
+    alpha: float
+    beta: float
+    total_mu: float
+    real: Any = field(repr=False, compare=False)
+    sim: Any = field(repr=False, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
-        return dict(self.__dict__)
+        """JSON-ready (without the two Noise3D results; see :meth:`metrics`)."""
+        return {k: v for k, v in self.__dict__.items() if k not in ("real", "sim")}
+
+    def metrics(self) -> dict[str, float | int | None]:
+        """Flat raw metrics for a fidelity report: ``noise_mu``, ``noise_rho``,
+        ``noise_total_mu``, ``noise_sigma_<part>_real`` / ``_sim`` (frame units),
+        ``noise_total_real`` / ``_sim``, ``noise_mean_real`` / ``_sim``, ``noise_frames_real``
+        / ``_sim``, ``noise_netd_real`` / ``_sim`` (None without a SiTF) and
+        ``noise_overlap_<spectrum>``."""
+        out: dict[str, float | int | None] = {"noise_mu": self.mu, "noise_rho": self.rho,
+                                              "noise_total_mu": self.total_mu}
+        for who, n in (("real", self.real), ("sim", self.sim)):
+            for part in PARTS:
+                out[f"noise_sigma_{part}_{who}"] = n.sigma[part]
+            out[f"noise_total_{who}"] = n.total
+            out[f"noise_mean_{who}"] = n.mean
+            out[f"noise_frames_{who}"] = n.frames
+            out[f"noise_netd_{who}"] = n.netd
+        for name in SPECTRA:
+            out[f"noise_overlap_{name}"] = self.overlap[name]
+        return out
 
 
 def _levels(noise: Any, who: str, units: str) -> dict[str, float]:
@@ -208,4 +232,5 @@ def noise_similarity(real_noise: Any, sim_noise: Any, *, alpha: float = 1.0, bet
     value = float(min(1.0, mu ** al * rho ** be))
     total_mu = similarity_mu(math.sqrt(float(va @ va)), math.sqrt(float(vb @ vb))) if scale else 1.0
     return NoiseSimilarity(value=value, mu=mu, rho=rho, levels_real=a, levels_sim=b, units=units,
-                           overlap=overlap, weights=weights, bins=int(bins), alpha=al, beta=be, total_mu=total_mu)
+                           overlap=overlap, weights=weights, bins=int(bins), alpha=al, beta=be, total_mu=total_mu,
+                           real=real_noise, sim=sim_noise)
