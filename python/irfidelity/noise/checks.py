@@ -72,15 +72,18 @@ def _f_critical(points: int) -> float:
     return f_ppf(1 - SIGNIFICANCE, 1, points - 2)
 
 
-def _line_fit(profile: np.ndarray) -> tuple[float, float]:
-    """``(regression SS, F statistic)`` of a straight line through a centred profile."""
+def _line_fit(profile: np.ndarray) -> tuple[np.ndarray, float, float, float]:
+    """``(centred abscissae, slope, regression SS, F statistic)`` of a line through a
+    centred profile."""
     n = profile.size
     x = np.arange(n) - (n - 1) / 2
-    reg = float(x @ profile) ** 2 / float(x @ x)
+    xx = float(x @ x)
+    slope = float(x @ profile) / xx if xx > 0 else 0.0
+    reg = slope * slope * xx
     res = float(profile @ profile) - reg
     if n < 3:
-        return reg, 0.0
-    return reg, (math.inf if res <= 0 else reg / (res / (n - 2)))
+        return x, slope, reg, 0.0
+    return x, slope, reg, (math.inf if res <= 0 else reg / (res / (n - 2)))
 
 
 def uniformity(mean_map: np.ndarray, total_variance: float) -> dict[str, Any]:
@@ -92,23 +95,33 @@ def uniformity(mean_map: np.ndarray, total_variance: float) -> dict[str, Any]:
     ``low_frequency``: the variance of the ``box × box`` tile averages beyond what independent
     row offsets, column offsets and pixels would leave (``var(rows)/w + var(cols)/w +
     var(rest)/w²``); ``low_frequency_ratio``: observed over that expectation.
+
+    A plane has no row-column interaction, so everything follows from the row and column
+    means, the sum of squares and the tile means of the fixed pattern (three passes).
     """
     fixed = mean_map - mean_map.mean()
     rows, cols = fixed.shape
-    reg_v, f_v = _line_fit(fixed.mean(axis=1))
-    reg_h, f_h = _line_fit(fixed.mean(axis=0))
+    row_means, col_means = fixed.mean(axis=1), fixed.mean(axis=0)
+    v, slope_v, reg_v, f_v = _line_fit(row_means)
+    h, slope_h, reg_h, f_h = _line_fit(col_means)
     significant = any(points >= 3 and f > _f_critical(points) for points, f in ((rows, f_v), (cols, f_h)))
-    rest = fixed - plane_fit(fixed)
+    plane_ss = cols * reg_v + rows * reg_h
+    # the pattern less its plane: row offsets, column offsets and the rest (pixels)
+    row_offsets = row_means - slope_v * v
+    col_offsets = col_means - slope_h * h
+    pixels_ss = (float(np.vdot(fixed, fixed)) - plane_ss - cols * float(row_offsets @ row_offsets)
+                 - rows * float(col_offsets @ col_offsets))
     w = max(3, min(rows, cols) // 8)
     observed = expected = 0.0
     if min(rows, cols) >= w:
-        box = _box_means(rest, w)
-        observed = float(np.mean(box * box))
-        row_means, col_means = rest.mean(axis=1), rest.mean(axis=0)
-        pixels = rest - row_means[:, None] - col_means[None, :]
-        expected = float(np.mean(row_means ** 2) + np.mean(col_means ** 2)) / w + float(np.mean(pixels ** 2)) / w**2
+        tile_v = v[: rows // w * w].reshape(-1, w).mean(axis=1)
+        tile_h = h[: cols // w * w].reshape(-1, w).mean(axis=1)
+        tiles = _box_means(fixed, w) - slope_v * tile_v[:, None] - slope_h * tile_h[None, :]
+        observed = float(np.mean(tiles * tiles))
+        expected = (float(np.mean(row_offsets ** 2) + np.mean(col_offsets ** 2)) / w
+                    + max(pixels_ss, 0.0) / (rows * cols) / w**2)
     scale = 1 / total_variance if total_variance > 0 else 0.0
-    return {"plane": (reg_v / rows + reg_h / cols) * scale, "plane_significant": bool(significant),
+    return {"plane": plane_ss / (rows * cols) * scale, "plane_significant": bool(significant),
             "low_frequency": max(observed - expected, 0.0) * scale,
             "low_frequency_ratio": observed / expected if expected > 0 else (math.inf if observed > 0 else 1.0),
             "box": w}
