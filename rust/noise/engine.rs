@@ -7,8 +7,9 @@
 //! strictly in chunk order. A float chunk is summed into its own [`NoiseSums`], so the
 //! result does not depend on the number of workers (bit-identical); an integer chunk adds
 //! its pixels into its worker's accumulator (exact sums do not depend on the order) and
-//! hands on only its per-frame sums. Memory stays bounded: a worker does not start a chunk
-//! more than `2·workers` chunks ahead of the last one appended.
+//! hands on only its per-frame sums. Memory stays bounded: a worker does not start a float
+//! chunk more than `2·workers` chunks ahead of the last one appended (integer chunks hold
+//! only per-frame sums, which the result keeps anyway).
 
 use std::ops::Range;
 use std::path::PathBuf;
@@ -329,10 +330,12 @@ pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSum
         Acc::Float(a) => Some(Arc::clone(&a.pivot)),
         Acc::Int(_) => None,
     };
-    let chunk = chunk_len(n);
+    // Integer chunks cost only their per-frame sums, so they are short (the workers share
+    // the frames evenly whatever the machine's load) and may run any distance ahead.
+    let chunk = if pivot.is_some() { chunk_len(n) } else { BATCH };
     let chunks = (n - 1).div_ceil(chunk);
     let workers = effective_workers(opts.workers).min(chunks.max(1));
-    let ahead = 2 * workers;
+    let ahead = if pivot.is_some() { 2 * workers } else { usize::MAX / 2 };
     let shared =
         Mutex::new(Shared { total: first, pending: Default::default(), locals: Vec::new(), next: 0, error: None });
     let appended = Condvar::new();

@@ -62,10 +62,49 @@ impl IntAcc {
         }
     }
 
+    /// Add a batch of frames, with the loops compiled for AVX2 when the CPU has it (the
+    /// baseline x86-64 build assumes only SSE2). Same code, same results.
+    pub(crate) fn add_frames<S: FrameSample>(
+        &mut self,
+        frames: &[&[S]],
+        region: &Region,
+        label: &dyn Fn(usize) -> String,
+    ) -> Result<()> {
+        #[cfg(target_arch = "x86_64")]
+        if crate::kernel::use_avx2() {
+            // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+            return unsafe { self.add_frames_avx2(frames, region, label) };
+        }
+        self.add_frames_impl(frames, region, label)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn add_frames_avx2<S: FrameSample>(
+        &mut self,
+        frames: &[&[S]],
+        region: &Region,
+        label: &dyn Fn(usize) -> String,
+    ) -> Result<()> {
+        self.add_frames_impl(frames, region, label)
+    }
+
+    /// The batch add without the dispatch (tests compare it with the AVX2 copy).
+    #[cfg(test)]
+    pub(crate) fn add_frames_baseline<S: FrameSample>(
+        &mut self,
+        frames: &[&[S]],
+        region: &Region,
+        label: &dyn Fn(usize) -> String,
+    ) -> Result<()> {
+        self.add_frames_impl(frames, region, label)
+    }
+
     /// Add a batch of frames. Each frame's rows are scanned into its row and column sums
     /// and into per-row scratch sums; the per-pixel sums are updated once per row of the
     /// batch (their memory traffic is shared by the batch's frames).
-    pub(crate) fn add_frames<S: FrameSample>(
+    #[inline(always)]
+    fn add_frames_impl<S: FrameSample>(
         &mut self,
         frames: &[&[S]],
         region: &Region,
@@ -94,6 +133,7 @@ impl IntAcc {
     }
 
     /// Range check and clipping counts of one row (counting only when a limit is reached).
+    #[inline(always)]
     fn check_row<S: FrameSample>(&mut self, row: &[S], r: usize, label: &dyn Fn() -> String) -> Result<()> {
         let (lo, hi) = (self.lo, self.hi);
         let (min, max) = if S::NARROW {
@@ -121,6 +161,7 @@ impl IntAcc {
         Ok(())
     }
 
+    #[inline(always)]
     fn add_narrow<S: FrameSample>(
         &mut self,
         frames: &[&[S]],
@@ -151,6 +192,7 @@ impl IntAcc {
         Ok(())
     }
 
+    #[inline(always)]
     fn add_general<S: FrameSample>(
         &mut self,
         frames: &[&[S]],
@@ -344,6 +386,7 @@ fn ratio_i128(a: i128, b: u128) -> f64 {
 /// One row of 8/16-bit samples into the batch's scratch sums and the frame's column sums
 /// (i32: the caller bounds the rows and columns); returns the row's sum. Squares fit u32
 /// (|x| ≤ 65535) and are summed in u64.
+#[inline(always)]
 fn scan_narrow<S: FrameSample>(row: &[S], sums: &mut [i32], sq: &mut [u64], col_sums: &mut [i32]) -> i32 {
     let n = row.len();
     let (sums, sq, col_sums) = (&mut sums[..n], &mut sq[..n], &mut col_sums[..n]);
@@ -360,6 +403,7 @@ fn scan_narrow<S: FrameSample>(row: &[S], sums: &mut [i32], sq: &mut [u64], col_
 }
 
 /// One row of any integer samples (32-bit, or frames too large for i32 sums); returns its sum.
+#[inline(always)]
 fn scan_general<S: FrameSample>(row: &[S], sums: &mut [i64], sq: &mut [u128], col_sums: &mut [i64]) -> i64 {
     let n = row.len();
     let (sums, sq, col_sums) = (&mut sums[..n], &mut sq[..n], &mut col_sums[..n]);

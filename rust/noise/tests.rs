@@ -262,3 +262,30 @@ fn pixel_maps_are_the_temporal_moments() {
     let pivot = Arc::new(vec![0.0; 4]);
     assert_eq!(NoiseSums::with_pivot(2, 2, Dtype::F64, pivot).frames, 0);
 }
+
+#[test]
+fn avx2_copy_of_the_integer_batch_loops_gives_the_same_sums() {
+    let (t, v, h) = (8, 7, 37);
+    let ints = cube(t, v, h, 21);
+    let region = Region { stride: h, row0: 0, col0: 0, rows: v, cols: h };
+    let frames: Vec<&[u16]> = ints.chunks_exact(v * h).collect();
+    let label = |k: usize| format!("frame {k}");
+    let mut base = IntAcc::new(v * h, false, (0, 65535));
+    base.add_frames_baseline(&frames, &region, &label).unwrap();
+    // the dispatcher takes one copy or the other: it must agree with the baseline
+    let mut dispatched = IntAcc::new(v * h, false, (0, 65535));
+    dispatched.add_frames(&frames, &region, &label).unwrap();
+    assert_eq!(dispatched, base);
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        let mut avx = IntAcc::new(v * h, false, (0, 65535));
+        // SAFETY: the CPU reports AVX2 (checked just above).
+        unsafe { avx.add_frames_avx2(&frames, &region, &label) }.unwrap();
+        assert_eq!(avx, base);
+        // and the error path: a value above the limit, found by the AVX2 copy too
+        let mut strict = IntAcc::new(v * h, false, (0, 1005));
+        // SAFETY: as above.
+        let err = unsafe { strict.add_frames_avx2(&frames, &region, &label) }.unwrap_err();
+        assert!(matches!(err, Error::Range(m) if m.contains("outside the valid range")));
+    }
+}
