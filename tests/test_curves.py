@@ -18,10 +18,9 @@ import warnings
 import numpy as np
 import pytest
 
-from irfidelity.curves import Curve, CurveSimilarity, curve_similarity, cy_per_px_to_cy_per_mrad
-from irfidelity.edge import EdgeWarning, mtf_from_edge
-from irfidelity.mtf import mtf50, mtf_from_esf, mtf_from_lsf, mtf_similarity
-from irfidelity.sitf import SiTFFit, netd, sitf_fit, sitf_similarity
+from irfidelity.curves import (CameraGeometry, Curve, CurveSimilarity, CurveUnitsWarning, EdgeWarning,
+                               SiTFFit, curve_similarity, mtf50, mtf_from_edge, mtf_from_esf, mtf_from_lsf,
+                               mtf_similarity, netd, sitf_fit, sitf_similarity)
 from irfidelity.errors import FidelityError
 
 DATA = pathlib.Path(__file__).parent / "data" / "curves"

@@ -21,8 +21,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import stats as _stats
-from .curves import Curve
-from .mtf import mtf_similarity
+from .curves import Curve, mtf_similarity
 from .errors import FidelityError
 from .fuzzy import COMPONENTS, GradeScale, Weights, fidelity_sum, ordered_components
 from .normalize import DEFAULT_PSNR_ANCHORS, normalize_psnr
@@ -308,7 +307,7 @@ def _as_curve(x: Any, what: str, *, edge_ok: bool, channel: str | None = None) -
             return Curve.from_csv(p, name=what)
         if not edge_ok:
             raise FidelityError(f"{what}: {p!r} is not a curve file ({', '.join(_CURVE_EXT)})")
-        from .edge import mtf_from_edge
+        from .curves import mtf_from_edge
         from .frames import load_frame
 
         img = load_frame(p, channel=channel)
@@ -317,7 +316,7 @@ def _as_curve(x: Any, what: str, *, edge_ok: bool, channel: str | None = None) -
         except FidelityError as exc:
             raise FidelityError(f"{what} ({p}): {exc}") from None
     if isinstance(x, np.ndarray) and x.ndim == 2 and edge_ok and min(x.shape) > 2:
-        from .edge import mtf_from_edge
+        from .curves import mtf_from_edge
 
         try:
             return mtf_from_edge(x, name=what)
@@ -370,7 +369,7 @@ def curve_components(weights: Any, real_mtf: Any = None, sim_mtf: Any = None, re
                            mtf_area=s.area)
             inputs.update(real_mtf=_describe(real_mtf), sim_mtf=_describe(sim_mtf))
         if w.sitf > 0:
-            from .sitf import sitf_similarity
+            from .curves import sitf_similarity
 
             rc = _as_curve(real_sitf, "real SiTF", edge_ok=False)
             sc = _as_curve(sim_sitf, "simulated SiTF", edge_ok=False)
