@@ -12,16 +12,13 @@ import pytest
 
 import irfidelity._core as core
 import irfidelity.stats as stats_mod
-from irfidelity.curves import Curve
-from irfidelity.edge import EdgeWarning, mtf_from_edge
-from irfidelity.mtf import mtf_similarity
+from irfidelity.curves import Curve, EdgeWarning, mtf_from_edge, mtf_similarity, sitf_similarity
 from irfidelity.errors import FidelityError, ShapeError
 from irfidelity.evaluation import FidelityReport, evaluate, image_components, plan_components
 from irfidelity.frames import load_frame
 from irfidelity.fuzzy import COMPONENTS, Weights, fidelity_sum
 from irfidelity.metrics import SSIM, nmi_from_entropies
 from irfidelity.normalize import normalize_psnr
-from irfidelity.sitf import sitf_similarity
 from irfidelity.stats import nmi, pair_stats, psnr, ssim
 
 DATA = pathlib.Path(__file__).parent / "data"

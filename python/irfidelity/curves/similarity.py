@@ -141,10 +141,10 @@ def align_units(real: Curve, sim: Curve, *, camera: CameraGeometry | None = None
                 what: str = "curves", axes: tuple[str, ...] = ("x", "y")) -> tuple[Curve, list[str]]:
     """The simulated curve in the real curve's units, and notes on what was done.
 
-    For each axis: equal units pass; an axis unknown on both passes with a
-    :class:`~irfidelity.curves.units.CurveUnitsWarning` and the note ``"units unknown"``;
-    known on one side only ("half-known") is an error; two known units are converted (when
-    ``convert_sim``) or an error naming both and how to convert.
+    For each axis: equal units pass; an axis unknown on both passes with the note "units
+    unknown" and one :class:`~irfidelity.curves.units.CurveUnitsWarning`; known on one side
+    only ("half-known") is an error; two known units are converted (when ``convert_sim``) or
+    an error naming both and how to convert.
 
     Raises
     ------
@@ -152,13 +152,12 @@ def align_units(real: Curve, sim: Curve, *, camera: CameraGeometry | None = None
         Half-known or different units that cannot (or may not) be converted.
     """
     notes: list[str] = []
+    unknown = []
     for axis in axes:
         ru, su = getattr(real, f"{axis}_unit"), getattr(sim, f"{axis}_unit")
         if ru == su:
             if ru is None:
-                note = f"units unknown: the {axis} axes of both {what} carry no unit; they are assumed to agree"
-                notes.append(note)
-                warn_unknown(note + " (name the unit in the CSV header, e.g. freq_cy_per_px or dT_K)")
+                unknown.append(axis)
             continue
         if ru is None or su is None:
             known, side = (su, "simulated") if ru is None else (ru, "real")
@@ -166,7 +165,7 @@ def align_units(real: Curve, sim: Curve, *, camera: CameraGeometry | None = None
             raise FidelityError(
                 f"{what}: the {side} {axis} axis is in {_describe_unit(known)}, the {other} one in an "
                 f"unknown unit: cannot compare them; name the unit in the {other} curve's CSV header "
-                f"(see the unit table of irfidelity.curves.units, e.g. freq_cy_per_px, dT_K)")
+                f"({_HEADER_EXAMPLES}; the table is in irfidelity.curves.units)")
         if not convert_sim:
             raise FidelityError(f"{what}: the real {axis} axis is in {_describe_unit(ru)}, the simulated one "
                                 f"in {_describe_unit(su)}; {conversion_hint(su, ru)}")
@@ -179,7 +178,15 @@ def align_units(real: Curve, sim: Curve, *, camera: CameraGeometry | None = None
         unit = UNITS.get(ru)
         via = f" with {camera.describe((su, ru))}" if camera and unit and unit.quantity == FREQUENCY else ""
         notes.append(f"simulated {axis} axis converted from {su} to {ru}{via}")
+    if unknown:
+        axes_text = " and ".join(f"{a} axes" if i == len(unknown) - 1 else a for i, a in enumerate(unknown))
+        note = f"units unknown: the {axes_text} of both {what} carry no unit, assumed to agree"
+        notes.append(note)
+        warn_unknown(f"{note} (name the units in the CSV headers: {_HEADER_EXAMPLES})")
     return sim, notes
+
+
+_HEADER_EXAMPLES = "e.g. freq_cy_per_px, freq_cy_per_mrad, lp_mm, dT_K, temperature_C, counts"
 
 
 def curve_similarity(real: Any, sim: Any, *, a: float, b: float, points: Any = 64,

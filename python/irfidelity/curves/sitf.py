@@ -100,7 +100,7 @@ def _longest_run(mask: np.ndarray) -> tuple[int, int]:
 
 def sitf_fit(curve: Any, *, lo_frac: float = 0.1, hi_frac: float = 0.9, method: str = "band",
              window: tuple[float, float] | None = None) -> SiTFFit:
-    """Slope of the linear portion of a SiTF curve (paper §1.1, Fig. 2; used in eq. 4).
+    r"""Slope of the linear portion of a SiTF curve (paper §1.1, Fig. 2; used in eq. 4).
 
     ``method="band"`` (default): the linear portion is the longest run of consecutive points
     whose signal lies in the band
