@@ -404,3 +404,14 @@ def test_sitffit_is_dataclass():
     f = sitf_fit(Curve(np.arange(10.0), 3 * np.arange(10.0) + 1))
     assert isinstance(f, SiTFFit) and f.slope == pytest.approx(3) and f.intercept == pytest.approx(1)
     assert f.to_dict()["method"] == "band"
+
+
+@pytest.mark.parametrize("module", ["curve", "table", "units", "similarity", "mtf", "edge", "sitf"])
+def test_docstring_examples(module):
+    """The Examples sections of the curves package run as written."""
+    import doctest
+    import importlib
+
+    mod = importlib.import_module(f"irfidelity.curves.{module}")
+    result = doctest.testmod(mod, extraglobs={"np": np, "Curve": Curve}, optionflags=doctest.ELLIPSIS)
+    assert result.failed == 0 and (result.attempted > 0 or module == "table")

@@ -459,21 +459,22 @@ def _oversampled_esf(pixels: np.ndarray, fit: EdgeFit, rows: np.ndarray, factor:
     """Mean pixel value per bin of ``1/factor`` px of horizontal distance to the fitted edge.
 
     The bins are centred on whole multiples of ``1/factor`` (so that mirroring the ROI mirrors
-    the ESF) and span the whole ROI: ±(the farthest any used row reaches on either side). Bins
-    beyond the reach of one side's rows repeat that side's outermost value (the plateau);
-    empty bins between filled ones (too few sub-pixel phases) are filled by linear
-    interpolation, with a warning.
+    the ESF) and span the whole ROI: ±(the farthest any used row reaches on either side). Empty
+    bins are filled by linear interpolation, or beyond the outermost filled bin by its value
+    (the plateau); empty bins within the distances every row covers mean too few sub-pixel
+    phases and are counted, with a warning.
     """
     distance = np.arange(pixels.shape[1])[None, :] - fit.poly(rows.astype(np.float64))[:, None]
     bins = np.rint(distance * factor).astype(np.int64)
     reach = int(max(-bins.min(), bins.max()))
-    index = (bins + reach).ravel()
+    index = bins + reach
     nbins = 2 * reach + 1
-    counts = np.bincount(index, minlength=nbins)
-    sums = np.bincount(index, weights=pixels[rows].ravel(), minlength=nbins)
+    counts = np.bincount(index.ravel(), minlength=nbins)
+    sums = np.bincount(index.ravel(), weights=pixels[rows].ravel(), minlength=nbins)
     filled = np.flatnonzero(counts)
     esf = np.interp(np.arange(nbins), filled, sums[filled] / counts[filled])
-    gaps = int(filled[-1] - filled[0] + 1 - filled.size)
+    covered_by_all = slice(int(index.min(axis=1).max()), int(index.max(axis=1).min()) + 1)
+    gaps = int((counts[covered_by_all] == 0).sum())
     if gaps:
         _warn(f"{gaps} of {nbins} ESF bins received no pixel (too few sub-pixel phases); "
               f"filled by interpolation")

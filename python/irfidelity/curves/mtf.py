@@ -119,9 +119,9 @@ def mtf_from_lsf(lsf: Any, *, dx: float = 1.0, pad: int | None = None, window: A
 
     Examples
     --------
-    >>> c = mtf_from_lsf([0.25, 0.5, 0.25])  # a [1, 2, 1]/4 blur: MTF = cos²(πf)
+    >>> c = mtf_from_lsf([0.25, 0.5, 0.25], pad=8)  # a [1, 2, 1]/4 blur: MTF = cos²(πf)
     >>> c.x.tolist(), c.y.round(4).tolist()
-    ([0.0, 0.3333333333333333], [1.0, 0.25])
+    ([0.0, 0.125, 0.25, 0.375, 0.5], [1.0, 0.8536, 0.5, 0.1464, 0.0])
     """
     v = np.asarray(lsf, dtype=np.float64)
     if v.ndim != 1 or v.size < 3:
@@ -371,7 +371,7 @@ def mtf_similarity(real: Any, sim: Any, *, smooth: bool = False, points: Any = 6
     >>> sim = Curve(f / 0.1, np.exp(-10 * f**2), x_unit="cy/mrad")  # IFOV 0.1 mrad
     >>> s = mtf_similarity(real, sim, camera=CameraGeometry(ifov_mrad=0.1))
     >>> round(s.a, 4), round(s.b, 4), s.x_unit, s.notes
-    (0.2943, 0.2633, 'cy/px', ('simulated x axis converted from cy/mrad to cy/px with IFOV 0.1 mrad',))
+    (0.2944, 0.2633, 'cy/px', ('simulated x axis converted from cy/mrad to cy/px with IFOV 0.1 mrad',))
     """
     r_c = _as_ratio(as_curve(real, "real MTF"))
     s_c = _as_ratio(as_curve(sim, "simulated MTF"))
