@@ -201,3 +201,18 @@ def test_unit_checks_from_csv(tmp_path):
         mtf_similarity(r, s)
     out = mtf_similarity(r, s, camera=CameraGeometry(ifov_mrad=0.1))
     assert out.b == pytest.approx(mtf50(Curve(f, gauss_mtf(f, 1.1))), rel=1e-6)
+
+
+def test_docstring_table_is_the_table():
+    """The module docstring's table lists exactly the spellings UNITS recognises."""
+    from irfidelity.curves import units
+
+    rows = {}
+    for line in units.__doc__.splitlines():
+        parts = line.split(None, 1)
+        if parts and parts[0] in UNITS:
+            rows[parts[0]] = units._normalise(line)
+    assert set(rows) == set(UNITS)
+    for symbol, unit in UNITS.items():
+        for spelling in unit.spellings:
+            assert units._normalise(spelling) in rows[symbol], (symbol, spelling)

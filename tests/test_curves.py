@@ -10,14 +10,13 @@ from __future__ import annotations
 
 import math
 import pathlib
-import warnings
 
 import numpy as np
 import pytest
 
 import irfidelity
 from edge_render import erf, gauss_mtf, gauss_mtf50
-from irfidelity.curves import (Curve, CurveSimilarity, CurveUnitsWarning, SiTFFit, curve_similarity, mtf50,
+from irfidelity.curves import (Curve, CurveSimilarity, SiTFFit, curve_similarity, mtf50,
                                mtf_from_esf, mtf_from_lsf, mtf_similarity, netd, sitf_fit, sitf_similarity)
 from irfidelity.errors import FidelityError
 
@@ -286,7 +285,8 @@ def test_sitf_real_jade_calibration():
     # the same blackbody temperatures in kelvin: converted, same result
     warm_k = warm.to_units(x_unit="K")
     s_k = sitf_similarity(cold, warm_k)
-    assert s_k.value == pytest.approx(s.value, rel=1e-12) and s_k.notes == ("simulated x axis converted from K to degC",)
+    assert s_k.value == pytest.approx(s.value, rel=1e-12)
+    assert s_k.notes == ("simulated x axis converted from K to degC",)
 
 
 def test_sitf_similarity_windows():

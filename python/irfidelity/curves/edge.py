@@ -1,35 +1,45 @@
 """Slanted-edge MTF following ISO 12233:2023 e-SFR (the edge-based spatial frequency response).
 
-A slightly tilted straight (or gently curved) edge is sampled at a different sub-pixel phase
-in every row, so projecting all pixels onto the edge gives an oversampled edge spread function
-(ESF) without aliasing. The steps, one function each:
+A slightly tilted straight (or lens-curved) edge is sampled at a different sub-pixel phase in
+every row, so binning all pixels by their distance to the edge gives an oversampled edge spread
+function (ESF) without aliasing. The steps, one function each:
 
-1. :func:`_orient` — make the edge run along the columns (transpose a horizontal edge);
-2. :func:`_locate_edge` — per row, the centroid of the windowed two-tap derivative; a polynomial
-   of the row (order 5 by default, as ISO 12233:2023 / sfrmat5; 1 = the straight line of
-   ISO 12233:2014) fitted to the centroids; the window re-centred on the fit and the fit
-   repeated;
-3. :func:`_check_edge` — refuse an image without a usable edge (see the thresholds below);
-4. :func:`_oversampled_esf` — every pixel of the rows used binned at ``1/oversample`` pixel of
-   its horizontal distance to the fitted edge;
-5. :func:`_contrast` — the edge step against the pixel noise (warnings only);
-6. :func:`~irfidelity.curves.mtf.mtf_from_esf` — derivative, window, DFT, the derivative's
-   ``sinc`` divided out; frequencies scaled by ``1/cos(angle)`` to cycles/pixel along the edge
-   normal.
+1. :func:`_orient` — make the edge run along the columns (transpose a horizontal edge) and find
+   its polarity;
+2. :func:`_locate_edge` — per row, the centroid of the Hamming-windowed two-tap derivative; a
+   polynomial of the row fitted to the centroids (order 5 by default as ISO 12233:2023 / sfrmat5,
+   1 = the straight line of ISO 12233:2014); the windows re-centred on the fit, the fit repeated;
+3. :func:`_rows_for_esf` and :func:`_check_edge` — a centred block of rows spanning a whole
+   number of phase cycles (as ISO); refuse an image without a usable edge (below);
+4. :func:`_oversampled_esf` — every pixel of those rows binned at ``1/oversample`` pixel of its
+   horizontal distance to the fitted edge, over the whole ROI;
+5. :func:`_contrast` — the edge step against the pixel noise, and the plateaus on both sides;
+6. :func:`~irfidelity.curves.mtf.mtf_from_esf` — derivative, window (centred on the fitted
+   edge), DFT, the derivative's ``sinc`` divided out; frequencies scaled by ``1/cos(angle)``
+   (angle of the straight-line fit) to cycles/pixel along the edge normal.
 
-What counts as "no usable edge" (a :class:`~irfidelity.errors.FidelityError` saying which):
+An image without a usable edge is a :class:`~irfidelity.errors.FidelityError` saying which of
+these failed (measured on rendered edges, the real crops and the shipped thermal frames):
 
-* no step between the two sides of the ROI, or a derivative without a positive peak;
-* ``EDGE_RESIDUAL_LIMIT_PX``: the RMS distance of the rows' centroids from the fitted edge above
-  0.5 px — a straight or lens-curved edge leaves ~0.02-0.15 px (real crops, noisy renders), a
-  scene without an edge several pixels;
-* ``MIN_CROSSING_FRACTION``: fewer than 90 % of the rows cross the edge (their own step across
-  the fitted location is below half the median step), or fewer than ``MIN_ROWS`` = 8 rows;
-* the edge shifts by less than one pixel over the rows (too few sub-pixel phases to oversample)
-  or runs more than 45° off the axis;
-* ``MTF_LIMIT``: an MTF above 1.2 at any returned frequency. An optical system's MTF is at most
-  1; in-camera sharpening lifts it, typically to 1.05-1.15 and in strongly sharpened cameras to
-  about 1.2; a measurement above that is noise or a non-edge, not a camera property.
+* no step between the two sides of the ROI, or too few rows with a rising derivative;
+* the edge fit does not fit: the rows' centroids scatter around the fitted edge by more than
+  ``EDGE_RESIDUAL_ALLOWANCE_PX`` = 0.5 px plus ``EDGE_RESIDUAL_NOISE_FACTOR`` = 3 times the
+  scatter the pixel noise explains (:func:`_noise_scatter`; rendered edges at any noise level
+  stay below 0.35 of that limit, the real crops leave 0.07-0.21 px; thermal scenes 10-80 px);
+* fewer than ``MIN_CROSSING_FRACTION`` = 95 % of the rows cross the fitted edge with at least
+  half the median row step (every rendered edge, down to SNR 5, and every real crop: 100 %), or
+  fewer than ``MIN_ROWS`` = 8 rows;
+* an angle outside the usable range: the edge shifts by less than one pixel over the ROI (too
+  few sub-pixel phases to oversample) or runs more than 45° off the axis it is read along;
+* the edge profile has no plateaus: more than ``MAX_RAMP_FRACTION`` = 50 % of the ESF lies
+  between 10 % and 90 % of the step (a gradient across the ROI);
+* the step is below ``MIN_SNR`` = 5 times the pixel noise (below 20 warns): below 5 the MTF50
+  of rendered edges scatters by ±90 % and more between noise realisations;
+* an MTF above ``MTF_LIMIT`` = 1.2 up to the Nyquist frequency. An optical system's MTF is at
+  most 1; in-camera sharpening lifts it, typically to 1.05-1.15, in strongly sharpened cameras
+  to about 1.2; a value above that is noise or a non-edge, not a camera property. (Beyond
+  Nyquist the e-SFR is aliasing, with a spike at the sampling frequency wherever the phases are
+  unevenly covered; it is returned but not checked.)
 
 Problems that leave the result usable but doubtful are :class:`EdgeWarning`.
 
@@ -54,7 +64,7 @@ from .mtf import apodization, mtf_from_esf
 
 __all__ = ["EdgeWarning", "mtf_from_edge", "EdgeFit"]
 
-#: an MTF above this at any returned frequency is refused (sharpening allowance, see above)
+#: an MTF above this up to the Nyquist frequency is refused (sharpening allowance, see above)
 MTF_LIMIT = 1.2
 #: the rows' edge locations may scatter around the fitted edge by this allowance (px, RMS) plus
 #: this factor times the scatter pixel noise explains
@@ -78,7 +88,7 @@ class EdgeWarning(FidelityWarning):
 
 
 def _warn(msg: str) -> None:
-    warnings.warn(msg, EdgeWarning, stacklevel=3)
+    warnings.warn(msg, EdgeWarning, stacklevel=4)  # the caller of mtf_from_edge
 
 
 @dataclass(frozen=True)
@@ -143,11 +153,12 @@ def mtf_from_edge(image: Any, *, edge_fit_order: int = 5, oversample: int = 4, w
     edge_fit_order : int
         Order of the polynomial fitted to the per-row edge locations, 1..5: 5 (default) as
         ISO 12233:2023 (follows an edge bent by lens distortion), 1 = the straight line of
-        ISO 12233:2014, which reads MTF50 high on long curved edges.
+        ISO 12233:2014, which misplaces a bowed edge in some rows and so blurs the ESF.
     oversample : int
         ESF bins per pixel (ISO: 4).
     window : "hamming" | "hann" | "tukey" | None
-        Window applied to the LSF before the DFT, centred on the LSF.
+        Window applied to the LSF before the DFT, as long as the LSF and centred on the fitted
+        edge (where the LSF peaks).
     orientation : "auto" | "vertical" | "horizontal"
         A vertical edge runs along the columns (intensity changes along a row). ``"auto"``
         picks the direction in which the ROI's sides differ most.
@@ -182,11 +193,13 @@ def mtf_from_edge(image: Any, *, edge_fit_order: int = 5, oversample: int = 4, w
     Raises
     ------
     FidelityError (a ValueError)
-        Not a 2-D numeric array, non-finite pixels, ROI smaller than 8x8, or no usable edge:
-        no step between the sides, centroids that do not follow the fitted edge (RMS above
-        0.5 px), fewer than 90 % of the rows crossing it, too few rows, an angle outside the
-        usable range, an edge too close to the ROI border, or an MTF above 1.2 — the message
-        says which.
+        Not a 2-D numeric array, non-finite pixels, ROI smaller than 8x8, or no usable edge
+        (thresholds and their reasons in :mod:`irfidelity.curves.edge`): no step between the
+        sides, an edge fit that does not fit (centroids scattering by more than 0.5 px plus
+        three times what noise explains), fewer than 95 % of the rows crossing the edge, too
+        few rows, an angle outside the usable range, an edge too close to the ROI border, no
+        plateaus (a gradient), a step below 5x the pixel noise, or an MTF above 1.2 up to
+        Nyquist — the message says which.
 
     References
     ----------
@@ -249,11 +262,13 @@ def _edge_pixels(image: Any) -> tuple[np.ndarray, bool]:
 
 
 def _check_options(edge_fit_order: Any, oversample: Any) -> tuple[int, int]:
-    order = int(edge_fit_order) if isinstance(edge_fit_order, (int, np.integer)) else -1
-    if order != edge_fit_order or not 1 <= order <= 5:
+    whole = isinstance(edge_fit_order, (int, np.integer)) and not isinstance(edge_fit_order, bool)
+    order = int(edge_fit_order) if whole else -1
+    if not 1 <= order <= 5:
         raise FidelityError(f"edge_fit_order must be an integer 1..5, got {edge_fit_order!r}")
-    factor = int(oversample) if isinstance(oversample, (int, np.integer)) else -1
-    if factor != oversample or factor < 1:
+    whole = isinstance(oversample, (int, np.integer)) and not isinstance(oversample, bool)
+    factor = int(oversample) if whole else -1
+    if factor < 1:
         raise FidelityError(f"oversample must be a positive integer, got {oversample!r}")
     return order, factor
 

@@ -375,7 +375,8 @@ def mtf_similarity(real: Any, sim: Any, *, smooth: bool = False, points: Any = 6
     """
     r_c = _as_ratio(as_curve(real, "real MTF"))
     s_c = _as_ratio(as_curve(sim, "simulated MTF"))
-    s_c, notes = align_units(r_c, s_c, camera=camera, what="MTF curves", axes=("x",))
+    s_c, notes = align_units(r_c, s_c, camera=camera, what="MTF curves", axes=("x",),
+                             examples="freq_cy_per_px, freq_cy_per_mrad, lp_mm")
     try:
         a = mtf50(r_c, smooth=smooth)
     except FidelityError as exc:

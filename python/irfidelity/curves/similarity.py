@@ -138,13 +138,14 @@ def _describe_unit(unit: str | None) -> str:
 
 
 def align_units(real: Curve, sim: Curve, *, camera: CameraGeometry | None = None, convert_sim: bool = True,
-                what: str = "curves", axes: tuple[str, ...] = ("x", "y")) -> tuple[Curve, list[str]]:
+                what: str = "curves", axes: tuple[str, ...] = ("x", "y"),
+                examples: str = "freq_cy_per_px, dT_K, temperature_C, counts") -> tuple[Curve, list[str]]:
     """The simulated curve in the real curve's units, and notes on what was done.
 
     For each axis: equal units pass; an axis unknown on both passes with the note "units
     unknown" and one :class:`~irfidelity.curves.units.CurveUnitsWarning`; known on one side
     only ("half-known") is an error; two known units are converted (when ``convert_sim``) or
-    an error naming both and how to convert.
+    an error naming both and how to convert. ``examples`` are header names quoted in messages.
 
     Raises
     ------
@@ -165,7 +166,7 @@ def align_units(real: Curve, sim: Curve, *, camera: CameraGeometry | None = None
             raise FidelityError(
                 f"{what}: the {side} {axis} axis is in {_describe_unit(known)}, the {other} one in an "
                 f"unknown unit: cannot compare them; name the unit in the {other} curve's CSV header "
-                f"({_HEADER_EXAMPLES}; the table is in irfidelity.curves.units)")
+                f"(e.g. {examples}; the table is in irfidelity.curves.units)")
         if not convert_sim:
             raise FidelityError(f"{what}: the real {axis} axis is in {_describe_unit(ru)}, the simulated one "
                                 f"in {_describe_unit(su)}; {conversion_hint(su, ru)}")
@@ -182,11 +183,8 @@ def align_units(real: Curve, sim: Curve, *, camera: CameraGeometry | None = None
         axes_text = " and ".join(f"{a} axes" if i == len(unknown) - 1 else a for i, a in enumerate(unknown))
         note = f"units unknown: the {axes_text} of both {what} carry no unit, assumed to agree"
         notes.append(note)
-        warn_unknown(f"{note} (name the units in the CSV headers: {_HEADER_EXAMPLES})")
+        warn_unknown(f"{note} (name the units in the CSV headers, e.g. {examples})")
     return sim, notes
-
-
-_HEADER_EXAMPLES = "e.g. freq_cy_per_px, freq_cy_per_mrad, lp_mm, dT_K, temperature_C, counts"
 
 
 def curve_similarity(real: Any, sim: Any, *, a: float, b: float, points: Any = 64,

@@ -347,7 +347,7 @@ def sitf_similarity(real: Any, sim: Any, *, window: Any = "real", lo_frac: float
     (40.0, 36.0, 0.9945, ('simulated x axis converted from K to degC',))
     """
     r_c, s_c = as_curve(real, "real SiTF"), as_curve(sim, "simulated SiTF")
-    s_c, notes = align_units(r_c, s_c, what="SiTF curves")
+    s_c, notes = align_units(r_c, s_c, what="SiTF curves", examples="dT_K, temperature_C, counts, signal_mV")
 
     def fit(c: Curve, who: str, **kw: Any) -> SiTFFit:
         try:
