@@ -109,7 +109,9 @@ class Curve:
                                 f"[{self.x[0]:g}, {self.x[-1]:g}] (no extrapolation)")
         return np.interp(q, self.x, self.y)
 
-    def _replace(self, **changes: Any) -> "Curve":
+    def replace(self, **changes: Any) -> "Curve":
+        """A new curve with some of ``x``, ``y``, ``name``, ``x_unit``, ``y_unit``, ``meta`` changed
+        (checked like any new curve)."""
         fields = {"x": self.x, "y": self.y, "name": self.name, "x_unit": self.x_unit, "y_unit": self.y_unit,
                   "meta": self.meta}
         fields.update(changes)
@@ -119,7 +121,7 @@ class Curve:
     def with_units(self, *, x_unit: Any = ..., y_unit: Any = ...) -> "Curve":
         """The same samples labelled with other units (no conversion); an omitted axis keeps its unit."""
         changes = {k: v for k, v in (("x_unit", x_unit), ("y_unit", y_unit)) if v is not ...}
-        return self._replace(**changes)
+        return self.replace(**changes)
 
     def to_units(self, *, x_unit: str | None = None, y_unit: str | None = None,
                  camera: CameraGeometry | None = None) -> "Curve":
@@ -143,7 +145,7 @@ class Curve:
             target = canonical_unit(y_unit, what="y_unit")
             y = convert(self.y, self.y_unit, target, camera=camera)
             changes["y_unit"] = target
-        return self._replace(x=x, y=y, **changes)
+        return self.replace(x=x, y=y, **changes)
 
     @classmethod
     def from_csv(cls, path: str | os.PathLike[str], *, columns: Sequence[int | str] | None = None,

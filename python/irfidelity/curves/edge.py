@@ -99,8 +99,10 @@ class EdgeFit:
     ----------
     poly : numpy.polynomial.Polynomial
         The fitted edge (order ``edge_fit_order``).
-    line : numpy.polynomial.Polynomial
-        The straight line fitted to the same centroids: its slope gives the edge angle.
+    columns : numpy.ndarray
+        ``poly`` at every row.
+    slope : float
+        Columns per row of the straight line fitted to the same centroids (the edge angle).
     centroids : numpy.ndarray
         Per-row edge location (NaN where a row has no positive derivative).
     residual_rms : float
@@ -110,15 +112,11 @@ class EdgeFit:
     """
 
     poly: np.polynomial.Polynomial
-    line: np.polynomial.Polynomial
+    columns: np.ndarray
+    slope: float
     centroids: np.ndarray
     residual_rms: float
     noise_rms: float
-
-    @property
-    def slope(self) -> float:
-        """Columns per row of the straight-line fit."""
-        return float(self.line.convert().coef[1]) if self.line.degree() >= 1 else 0.0
 
     @property
     def angle_deg(self) -> float:
@@ -377,9 +375,9 @@ def _locate_edge(pixels: np.ndarray, polarity: float, order: int) -> EdgeFit:
                                 f"with a positive peak across the ROI")
         poly = np.polynomial.Polynomial.fit(rows[found], centroids[found], order)
         centres = poly(rows)
-    line = np.polynomial.Polynomial.fit(rows[found], centroids[found], 1)
-    residual = float(np.sqrt(np.mean((centroids[found] - poly(rows[found])) ** 2)))
-    return EdgeFit(poly=poly, line=line, centroids=centroids, residual_rms=residual,
+    slope = float(np.polynomial.polynomial.polyfit(rows[found], centroids[found], 1)[1])
+    residual = float(np.sqrt(np.mean((centroids[found] - centres[found]) ** 2)))
+    return EdgeFit(poly=poly, columns=centres, slope=slope, centroids=centroids, residual_rms=residual,
                    noise_rms=_noise_scatter(derivative, centres, _pixel_noise(pixels)))
 
 
@@ -394,8 +392,7 @@ def _rows_for_esf(fit: EdgeFit, shape: tuple[int, int]) -> np.ndarray:
     used, so that every sub-pixel phase is equally represented.
     """
     nrows, ncols = shape
-    edge = fit.poly(np.arange(nrows, dtype=np.float64))
-    margin = np.minimum(edge, (ncols - 1) - edge)
+    margin = np.minimum(fit.columns, (ncols - 1) - fit.columns)
     required = float(margin.min())
     usable = np.ones(nrows, dtype=bool)
     if required < 8:
@@ -419,7 +416,7 @@ def _rows_for_esf(fit: EdgeFit, shape: tuple[int, int]) -> np.ndarray:
 def _row_steps(pixels: np.ndarray, fit: EdgeFit, polarity: float, rows: np.ndarray) -> np.ndarray:
     """Each row's own step across the fitted edge: mean of the pixels 2..8 px beyond it minus
     the mean of those 2..8 px before it, in the edge's polarity."""
-    distance = np.arange(pixels.shape[1])[None, :] - fit.poly(rows.astype(np.float64))[:, None]
+    distance = np.arange(pixels.shape[1])[None, :] - fit.columns[rows, None]
     values = pixels[rows]
     after = (distance >= 2) & (distance <= 8)
     before = (distance <= -2) & (distance >= -8)
@@ -479,7 +476,7 @@ def _oversampled_esf(pixels: np.ndarray, fit: EdgeFit, rows: np.ndarray, factor:
     (the plateau); empty bins within the distances every row covers mean too few sub-pixel
     phases and are counted, with a warning.
     """
-    distance = np.arange(pixels.shape[1])[None, :] - fit.poly(rows.astype(np.float64))[:, None]
+    distance = np.arange(pixels.shape[1])[None, :] - fit.columns[rows, None]
     bins = np.rint(distance * factor).astype(np.int64)
     reach = int(max(-bins.min(), bins.max()))
     index = bins + reach

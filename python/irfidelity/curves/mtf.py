@@ -200,7 +200,7 @@ def mtf_from_esf(esf: Any, *, dx: float = 1.0, pad: int | None = None, window: A
     c = mtf_from_lsf(lsf, dx=dx, pad=pad, window=window, name=name, x_unit=x_unit)
     if not correct:
         return c
-    return c._replace(y=c.y * derivative_correction(c.x, _positive_spacing(dx), cap))
+    return c.replace(y=c.y * derivative_correction(c.x, _positive_spacing(dx), cap))
 
 
 # --------------------------------------------------------------------------- MTF50
@@ -318,7 +318,7 @@ def _as_ratio(c: Curve) -> Curve:
     if c.y_unit is None:
         return c.with_units(y_unit="1")
     if c.y_unit == "%":
-        return c._replace(y=convert(c.y, "%", "1"), y_unit="1")
+        return c.replace(y=convert(c.y, "%", "1"), y_unit="1")
     return c
 
 

@@ -175,7 +175,7 @@ def align_units(real: Curve, sim: Curve, *, camera: CameraGeometry | None = None
         except FidelityError as exc:
             raise FidelityError(f"{what}: the real {axis} axis is in {_describe_unit(ru)}, the simulated one "
                                 f"in {_describe_unit(su)}; {conversion_hint(su, ru)}") from exc
-        sim = sim._replace(**{axis: values, f"{axis}_unit": ru})
+        sim = sim.replace(**{axis: values, f"{axis}_unit": ru})
         unit = UNITS.get(ru)
         via = f" with {camera.describe((su, ru))}" if camera and unit and unit.quantity == FREQUENCY else ""
         notes.append(f"simulated {axis} axis converted from {su} to {ru}{via}")
