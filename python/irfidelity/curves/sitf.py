@@ -62,7 +62,7 @@ class SiTFFit:
         return dict(self.__dict__)
 
 
-def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]:
+def _least_squares_line(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]:
     xm, ym = x.mean(), y.mean()
     dx = x - xm
     sxx = float(dx @ dx)
@@ -79,7 +79,7 @@ def _r2(y: np.ndarray, resid: np.ndarray) -> float:
     return 1.0 - ss_res / ss_tot
 
 
-def _lin_err(resid: np.ndarray, slope: float, lo: float, hi: float) -> float:
+def _linearity_error(resid: np.ndarray, slope: float, lo: float, hi: float) -> float:
     m = float(np.abs(resid).max()) if resid.size else 0.0
     rise = abs(slope) * (hi - lo)
     if rise == 0:
@@ -171,8 +171,8 @@ def sitf_fit(curve: Any, *, lo_frac: float = 0.1, hi_frac: float = 0.9, method: 
 
 def _line_fit(x: np.ndarray, y: np.ndarray, lo: float, hi: float, method: str, floor: float,
               ceiling: float) -> SiTFFit:
-    slope, intercept, resid = _line(x, y)
-    return SiTFFit(slope, intercept, lo, hi, _r2(y, resid), _lin_err(resid, slope, lo, hi), int(x.size),
+    slope, intercept, resid = _least_squares_line(x, y)
+    return SiTFFit(slope, intercept, lo, hi, _r2(y, resid), _linearity_error(resid, slope, lo, hi), int(x.size),
                    method, floor, ceiling)
 
 
@@ -271,7 +271,7 @@ def _fit_logistic(c: Curve, lo_f: float, hi_f: float) -> SiTFFit:
     resid_line = y[inside] - (slope * x[inside] + intercept)
     model = _logistic(u, p)[0] * (ceiling - floor) + floor
     return SiTFFit(float(slope), float(intercept), float(lo), float(hi), _r2(y, y - model),
-                   _lin_err(resid_line, slope, lo, hi), int(inside.sum()), "logistic", floor, ceiling)
+                   _linearity_error(resid_line, slope, lo, hi), int(inside.sum()), "logistic", floor, ceiling)
 
 
 def netd(noise_rms: float, fit: SiTFFit | float) -> float:
