@@ -216,3 +216,23 @@ def test_docstring_table_is_the_table():
     for symbol, unit in UNITS.items():
         for spelling in unit.spellings:
             assert units._normalise(spelling) in rows[symbol], (symbol, spelling)
+
+
+def test_evaluate_reads_units_and_takes_the_camera(tmp_path):
+    """Through evaluate: a CSV MTF in cy/mrad against a slanted-edge MTF (cy/px) is refused until
+    the camera constants come in (mtf_options={"camera": ...})."""
+    import pathlib
+
+    import irfidelity as irf
+    from irfidelity.curves import mtf_from_edge
+    from irfidelity.frames import load_frame
+
+    edge = pathlib.Path(__file__).parent / "data" / "curves" / "sfr_edge_x2084_y0616_F2.png"
+    measured = mtf_from_edge(load_frame(edge, channel="G"))
+    csv = tmp_path / "sim_mtf.csv"
+    csv.write_text("freq_cy_per_mrad,mtf\n" + "".join(f"{f / 0.5},{m}\n" for f, m in zip(measured.x, measured.y)))
+    kw = dict(real_mtf=measured, sim_mtf=str(csv), weights="mtf=1")
+    with pytest.raises(FidelityError, match=r"cy/px .* cy/mrad .*--ifov MRAD"):
+        irf.evaluate(**kw)
+    rep = irf.evaluate(**kw, mtf_options={"camera": CameraGeometry(ifov_mrad=0.5)})
+    assert rep.components["mtf"] == pytest.approx(1.0, abs=1e-9)
