@@ -383,18 +383,28 @@ class Grading:
         ``R``: ``{component: {grade: membership}}`` (each row sums to 1).
     membership : dict
         ``B = K·R``: ``{grade: membership}`` (sums to 1).
+    component_grades : dict
+        ``{component: grade}``: each weighted component's own grade (the grade of maximum
+        membership in its row of ``R``; ties go to the worse grade).
     grade : str
-        The grade of maximum membership (ties go to the lower grade).
+        The overall grade (:meth:`GradeScale.evaluate` states the rule).
     """
 
     grades: tuple
     matrix: dict
     membership: dict
+    component_grades: dict
     grade: str
 
     def to_dict(self) -> dict:
         return {"grades": list(self.grades), "matrix": {k: dict(v) for k, v in self.matrix.items()},
-                "membership": dict(self.membership), "grade": self.grade}
+                "membership": dict(self.membership), "component_grades": dict(self.component_grades),
+                "grade": self.grade}
+
+
+def _max_membership(row: Mapping[str, float], grades: tuple) -> str:
+    """The grade of largest membership; ties go to the worse grade."""
+    return max(reversed(grades), key=lambda g: row[g])
 
 
 @dataclass(frozen=True)
@@ -413,11 +423,19 @@ class GradeScale:
     to 1 as well. With ``width = 0`` the grading is crisp.
 
     Default grades: ``("excellent", "good", "fair", "poor")``; default boundaries
-    (:data:`DEFAULT_CUTS`): MTF, SiTF and SSIM 0.70 / 0.85 / 0.95; normalised PSNR
-    0.60 / 0.80 / 0.90 (0.9 = 30 dB, the paper's "indistinguishable" anchor); NMI
-    0.15 / 0.30 / 0.50 (NMI of a real and simulated frame runs much lower than the
-    other components: the paper's example has 0.22 next to SSIM 0.93). These are
-    judgement calls, not from the paper: pass your own ``cuts`` for a mission.
+    (:data:`DEFAULT_CUTS`; docs/interpretation.md says where each comes from): MTF, SiTF
+    and SSIM 0.70 / 0.85 / 0.95; normalised PSNR 0.60 / 0.80 / 0.90 (0.9 = 30 dB, the
+    paper's "indistinguishable" anchor); NMI 0.15 / 0.30 / 0.50 (NMI of a real and a
+    simulated frame runs much lower than the other components: the paper's example has
+    0.22 next to SSIM 0.93). Pass your own ``cuts`` for a mission.
+
+    The overall grade (:meth:`evaluate`) is not the grade of maximum membership in ``B``
+    alone, which can call a pair "excellent" while a weighted component is poor. It is
+
+    1. the *weighted-average* grade of ``B``: with grades scored 0 (worst) .. m−1 (best),
+       the score ``Σ_g B_g·score(g)`` rounded to the nearest grade (halves to the worse);
+    2. capped one grade above the worst weighted component's own grade (a weakest-link
+       rule: one poor component keeps the whole at "fair" or below).
     """
 
     grades: tuple = ("excellent", "good", "fair", "poor")
@@ -459,15 +477,21 @@ class GradeScale:
         return dict(zip(self.grades, reversed(worst_first)))
 
     def evaluate(self, weights: Weights, components: Mapping[str, float]) -> Grading:
-        """``R`` from the components, ``B = K·R`` and the grade of maximum membership."""
+        """``R`` from the components, ``B = K·R``, each component's grade and the overall
+        grade by the rule in the class notes."""
         w = Weights.coerce(weights)
         R = {k: self.memberships(k, components[k]) for k in COMPONENTS if k in components and w[k] > 0}
         if not R:
             raise FidelityError("no component with a positive weight to grade")
         B = {g: math.fsum(w[k] * R[k][g] for k in R) for g in self.grades}
-        # ties go to the lower (worse) grade: scan from worst to best, keep the first maximum
-        best = max(reversed(self.grades), key=lambda g: B[g])
-        return Grading(grades=self.grades, matrix=R, membership=B, grade=best)
+        own = {k: _max_membership(row, self.grades) for k, row in R.items()}
+        score = {g: len(self.grades) - 1 - i for i, g in enumerate(self.grades)}  # best = m−1
+        average = math.fsum(B[g] * score[g] for g in self.grades)
+        nearest = math.ceil(average - 0.5)  # halves go to the worse grade
+        cap = min(score[g] for g in own.values()) + 1
+        by_score = {v: g for g, v in score.items()}
+        return Grading(grades=self.grades, matrix=R, membership=B, component_grades=own,
+                       grade=by_score[min(nearest, cap, len(self.grades) - 1)])
 
 
 # --------------------------------------------------------------------------- compare
