@@ -38,8 +38,7 @@ class ConfigError(FidelityError):
     """A scoring configuration value (or file) that is not valid; names the field."""
 
     def __init__(self, field_name: str, message: str):
-        super().__init__(f"{field_name}: {message}")
-        self.field = field_name
+        super().__init__(f"{field_name}: {message}", option=field_name)
 
 
 def _choice(name: str, value: Any, choices: tuple) -> str:
@@ -186,7 +185,8 @@ class ScoringConfig:
         out["bits"] = _optional_int("bits", self.bits, 1, 32)
         out["peak"] = _peak(self.peak)
         if out["bits"] is not None and isinstance(out["peak"], float):
-            raise ConfigError("peak", "give either bits or a numeric peak, not both")
+            raise ConfigError("peak", "a numeric peak and bits both set the PSNR peak; give one of them (bits "
+                                      "still bounds the values with the peak 'range')")
         out["bins"] = _bins(self.bins)
         out["hist_range"] = _hist_range(self.hist_range)
         anchors = tuple(_numbers("psnr_anchors", a, 2) for a in _pairs("psnr_anchors", self.psnr_anchors))
@@ -239,7 +239,7 @@ class ScoringConfig:
         unknown = sorted(set(changes) - set(self.fields()))
         if unknown:
             raise FidelityError(f"unknown scoring option(s) {', '.join(unknown)}; "
-                                f"the options are: {', '.join(self.fields())}, channel")
+                                f"the options are: {', '.join(self.fields())}, channel", option=unknown[0])
         return dataclasses.replace(self, **changes) if changes else self
 
     @classmethod

@@ -17,7 +17,7 @@ import numpy as np
 from . import stats as _stats
 from .camera_curves import CurveInputs, curve_components, describe_input
 from .config import ScoringConfig
-from .errors import FidelityError
+from .errors import FidelityError, RangeError, ShapeError
 from .results import FidelityReport, recorded_warnings
 from .scoring import image_components, plan_components, psnr_peak, score_components
 
@@ -59,8 +59,15 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
                   dtype=np.asarray(r).dtype.name)
     numeric_peak = config.peak if isinstance(config.peak, float) else None
-    st = _stats.pair_stats(r, s, bits=config.bits, peak=numeric_peak, bins=config.bins,
-                           hist_range=config.hist_range, mask=mask, need=components, nonfinite=config.nonfinite)
+    try:
+        st = _stats.pair_stats(r, s, bits=config.bits, peak=numeric_peak, bins=config.bins,
+                               hist_range=config.hist_range, mask=mask, need=components, nonfinite=config.nonfinite)
+    except (ShapeError, RangeError) as exc:
+        paths = [f"{which} {inputs[which]}" for which, x in (("real", real), ("sim", sim))
+                 if isinstance(x, (str, os.PathLike))]
+        if not paths:
+            raise
+        raise type(exc)(f"{' / '.join(paths)}: {exc}", option=getattr(exc, "option", None)) from None
     if "psnr" in components:
         dtype = np.asarray(r).dtype
         default = _stats.peak_and_valid(dtype, config.bits, None)[0]

@@ -74,18 +74,31 @@ def _pages(seq: FrameSequence, spec: str) -> FrameSequence:
 def _sequence(a: argparse.Namespace, config: ScoringConfig, curves: dict) -> Any:
     from ..sequence import score_sequence
 
-    real = FrameSequence(a.real, channel=config.real_channel)
-    sim = FrameSequence(a.sim, channel=config.sim_channel)
+    real: Any = a.real
+    sim: Any = a.sim
     if a.pages is not None:
-        real, sim = _pages(real, a.pages), _pages(sim, a.pages)
+        real = _pages(FrameSequence(a.real, channel=config.real_channel), a.pages)
+        sim = _pages(FrameSequence(a.sim, channel=config.sim_channel), a.pages)
     return score_sequence(real, sim, config=config, workers=a.workers, progress=not a.no_progress, csv=a.csv,
                           resume=a.resume, **curves)
+
+
+def _curves(a: argparse.Namespace) -> dict:
+    curves = {f"{side}_{kind}": _curve(a, side, kind) for side in ("real", "sim") for kind in ("mtf", "sitf")}
+    for kind in ("mtf", "sitf"):
+        real, sim = curves[f"real_{kind}"], curves[f"sim_{kind}"]
+        if (real is None) != (sim is None):
+            given, absent = ("real", "sim") if sim is None else ("sim", "real")
+            alternative = f" (or --{absent}-edge)" if kind == "mtf" else ""
+            raise UsageError(f"the {given} {kind.upper()} needs the {absent} one too: give --{absent}-{kind}"
+                             f"{alternative}")
+    return curves
 
 
 def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
     """Score as the arguments say; returns the report and whether it is a sequence's."""
     config = _config(a)
-    curves = {f"{side}_{kind}": _curve(a, side, kind) for side in ("real", "sim") for kind in ("mtf", "sitf")}
+    curves = _curves(a)
     seq_real, seq_sim = _is_sequence(a.real), _is_sequence(a.sim)
     if seq_real != seq_sim:
         one, other = ("REAL", "SIM") if seq_real else ("SIM", "REAL")

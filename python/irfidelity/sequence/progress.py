@@ -45,11 +45,13 @@ class Progress:
         self.callback = progress if callable(progress) else None
         self.bar = _bar(total) if progress is True else None
 
-    def advance(self) -> None:
+    def advance(self, *, resumed: bool = False) -> None:
+        """One more frame done; the callback hears only of frames scored in this run (after
+        the resumed ones, so its first ``done`` is the resumed count + 1)."""
         self.done += 1
         if self.bar is not None:
             self.bar.update(1)
-        if self.callback is not None:
+        if self.callback is not None and not resumed:
             self.callback(self.done, self.total)
 
     def close(self) -> None:

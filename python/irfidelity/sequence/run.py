@@ -100,12 +100,12 @@ class _Scorer:
         entry, stats = frame_entry(self.plan, outcome, real, sim)
         if self.log is not None and not resumed:
             self.log.write(flat_row(entry, self.columns), _record(outcome, stats, fingerprint))
-        self._keep(entry, stats, outcome.real_extent)
+        self._keep(entry, stats, outcome.real_extent, resumed=resumed)
 
-    def _keep(self, entry: dict, stats: PairStats | None, extent: tuple | None) -> None:
+    def _keep(self, entry: dict, stats: PairStats | None, extent: tuple | None, *, resumed: bool = False) -> None:
         self.entries[entry["index"]] = entry
         self.pool.add(entry["index"], stats, extent)
-        self.progress.advance()
+        self.progress.advance(resumed=resumed)
 
 
 def _record(outcome: Outcome, stats: PairStats | None, fingerprint: Any) -> Record | None:
