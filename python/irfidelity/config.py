@@ -216,7 +216,7 @@ class ScoringConfig:
         out["register_method"] = _choice("register_method", self.register_method, REGISTRATION_METHODS)
         if not isinstance(self.register_each, bool):
             raise ConfigError("register_each", f"expected true or false; got {self.register_each!r}")
-        out["max_delay"] = _optional_int("max_delay", self.max_delay, 0)
+        out["max_delay"] = _optional_int("max_delay", self.max_delay, 0, 1 << 20)
         out["pair_by"] = _choice("pair_by", self.pair_by, PAIRING_RULES)
         return out
 

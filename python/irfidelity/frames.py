@@ -47,17 +47,22 @@ def _is_npy(path: str) -> bool:
     return path.lower().endswith(".npy")
 
 
+_LARGEST = 2**63 - 1  # what the decoders count in
+
+
 def _check_page(path: str, page: Any) -> int:
-    if isinstance(page, bool) or not isinstance(page, (int, np.integer)) or page < 0:
-        raise FrameError(f"{path}: page must be a non-negative integer, got {page!r}")
+    if isinstance(page, bool) or not isinstance(page, (int, np.integer)) or not 0 <= page <= _LARGEST:
+        raise FrameError(f"{path}: page must be an integer in 0..2^63-1, got {page!r}", option="page")
     return int(page)
 
 
 def _check_max_pixels(path: str, max_pixels: Any) -> int | None:
     if max_pixels is None:
         return None
-    if isinstance(max_pixels, bool) or not isinstance(max_pixels, (int, np.integer)) or max_pixels < 1:
-        raise FrameError(f"{path}: max_pixels must be a positive integer, got {max_pixels!r}")
+    if isinstance(max_pixels, bool) or not isinstance(max_pixels, (int, np.integer)) or \
+            not 1 <= max_pixels <= _LARGEST:
+        raise FrameError(f"{path}: max_pixels must be an integer in 1..2^63-1, got {max_pixels!r}",
+                         option="max_pixels")
     return int(max_pixels)
 
 

@@ -66,7 +66,7 @@ def _number(v: Any, name: str) -> float:
     return f
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Weights:
     """The weight set ``K`` of eq. (15): one non-negative weight per component.
 
@@ -91,17 +91,24 @@ class Weights:
     nmi: float = 0.2
     ssim: float = 0.2
 
-    def __post_init__(self) -> None:
-        vals = {}
-        for f in fields(self):
-            vals[f.name] = _number(getattr(self, f.name), f.name)
-            object.__setattr__(self, f.name, vals[f.name])
-        total = math.fsum(vals.values())
+    def __init__(self, mtf: float = 0.2, sitf: float = 0.2, psnr: float = 0.2, nmi: float = 0.2,
+                 ssim: float = 0.2, **unknown: Any) -> None:
+        if unknown:
+            raise FidelityError(f"unknown weight name(s) {sorted(unknown)}; expected some of {list(COMPONENTS)}",
+                                option="weights")
+        vals = {name: _number(value, name) for name, value in zip(COMPONENTS, (mtf, sitf, psnr, nmi, ssim))}
+        for name, value in vals.items():
+            object.__setattr__(self, name, value)
+        try:
+            total = math.fsum(vals.values())
+        except OverflowError:
+            total = math.inf
         if abs(total - 1.0) > _TOL:
             raise FidelityError(
                 f"weights must sum to 1 (within 1e-9), got {total!r} "
                 f"({', '.join(f'{k}={v:g}' for k, v in vals.items())}); "
-                f"use Weights.normalized(...) to scale raw importances")
+                f"scale raw importances with Weights.normalized, or 'normalize' in a weights string",
+                option="weights")
 
     # -- construction ---------------------------------------------------------------
     @classmethod
@@ -114,7 +121,11 @@ class Weights:
         if unknown:
             raise FidelityError(f"unknown weight name(s) {sorted(unknown)}; expected some of {list(COMPONENTS)}")
         vals = {k: _number(raw.get(k, 0.0), k) for k in COMPONENTS}
-        total = math.fsum(vals.values())
+        try:
+            total = math.fsum(vals.values())
+        except OverflowError:  # scale down first: the ratios are what matter
+            vals = {k: v / 2.0 ** 1000 for k, v in vals.items()}
+            total = math.fsum(vals.values())
         if total <= 0:
             raise FidelityError("weights must not all be 0: at least one component needs a positive weight")
         out = {k: v / total for k, v in vals.items()}

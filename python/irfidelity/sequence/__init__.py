@@ -30,12 +30,15 @@ from .sources import as_sequence
 __all__ = ["score_sequence", "SequenceReport"]
 
 
+_MOST = 1 << 16  # workers or pairs per Dask task: far beyond any machine
+
+
 def _positive(name: str, value: Any, allow_none: bool = False) -> Any:
     if value is None and allow_none:
         return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise FidelityError(f"{name} must be a positive integer{' or None' if allow_none else ''}, got {value!r}",
-                            option=name)
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= _MOST:
+        raise FidelityError(f"{name} must be an integer in 1..{_MOST}{' or None' if allow_none else ''}, "
+                            f"got {value!r}", option=name)
     return int(value)
 
 
