@@ -318,11 +318,13 @@ class ScoringConfig:
             fh.write(text)
 
     def to_toml(self) -> str:
-        """The configuration as TOML (fields that are None are left out: TOML has no null)."""
+        """The configuration as TOML. TOML has no null: a field that is None is written as a
+        commented-out example."""
         data = self.to_dict()
         tables = {k: data.pop(k) for k in ("weights", "mtf_options", "sitf_options", "grades")}
         lines = ["# irfidelity scoring configuration (irfidelity score --config FILE)"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in data.items() if v is not None]
+        lines += [f"{k} = {_toml_value(v)}" if v is not None else f"# {k} = {_UNSET_EXAMPLES[k]}"
+                  for k, v in data.items()]
         for name, table in tables.items():
             lines += ["", f"[{name}]"]
             lines += [f"{k} = {_toml_value(v)}" for k, v in table.items() if not isinstance(v, dict)]
@@ -330,6 +332,20 @@ class ScoringConfig:
                 if isinstance(v, dict):
                     lines += ["", f"[{name}.{k}]"] + [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items()]
         return "\n".join(lines) + "\n"
+
+
+#: What a commented-out line shows for a field that is not set.
+_UNSET_EXAMPLES = {
+    "bits": "14            # bit depth of integer frames (default PSNR peak 2^bits - 1)",
+    "peak": '"range"       # or a number: the PSNR peak',
+    "real_channel": '"Y"   # channel of the real frame files',
+    "sim_channel": '"Y"    # channel of the simulated frame files',
+    "edge_channel": '"R"   # channel of slanted-edge images',
+    "ifov_mrad": "0.5     # camera geometry for curve unit conversions",
+    "pixel_pitch_um": "12.0",
+    "focal_length_mm": "25.0",
+    "register": '"translation"   # or "rigid", "similarity": align before the image metrics',
+}
 
 
 def _toml_value(value: Any) -> str:

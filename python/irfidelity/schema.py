@@ -5,7 +5,7 @@ A single pair (:class:`~irfidelity.FidelityReport`) and a sequence
 ``frames`` are per-frame results) use the same keys for the same quantities. JSON nests
 them (``components.psnr``, ``metrics.psnr_db``); CSV flattens them by one rule:
 ``components.X`` is the column ``f_X`` (the paper's f_i), ``metrics.Y`` the column ``Y``.
-``docs/schema.md`` is generated from the tables here (``python -m irfidelity.schema``).
+The table in ``docs/schema.md`` is :func:`markdown_table` (a test checks they agree).
 """
 
 from __future__ import annotations
