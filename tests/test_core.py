@@ -1,4 +1,4 @@
-"""Core statistics: exact references, DESIGN §4 conventions, planning, merge, pickling."""
+"""Core statistics: exact references, docs/design.md §4 conventions, planning, merge, pickling."""
 
 from __future__ import annotations
 
@@ -207,7 +207,7 @@ def test_span_within_bins_equals_levels():
     assert irf.nmi(r, s, bins=256).value == pytest.approx(irf.nmi(r, s, bins="levels").value, abs=1e-14)
 
 
-# --- DESIGN §4 conventions -----------------------------------------------------------
+# --- docs/design.md §4 conventions -----------------------------------------------------------
 
 
 def test_identical_frames():

@@ -34,7 +34,7 @@ def _mp(x: Fraction) -> mpmath.mpf:
 
 
 def exact_moments(r: np.ndarray, s: np.ndarray) -> dict:
-    """MSE and SSIM factors (DESIGN §4 limits) in exact / 60-digit arithmetic."""
+    """MSE and SSIM factors (docs/design.md §4 limits) in exact / 60-digit arithmetic."""
     R, S = _vals(r), _vals(s)
     n = len(R)
     mr, ms = sum(R) / n, sum(S) / n
@@ -484,7 +484,7 @@ def test_anticorrelated_fractional_gamma_is_sign_preserving(gamma):
     s = (63 - r).astype(U16)  # same mean, s = −1 exactly
     sm = irf.ssim(r, s, gamma=gamma)
     assert (sm.luminance, sm.contrast, sm.structure) == (1.0, 1.0, -1.0)
-    assert sm.value == -1.0  # sign(s)·|s|^γ = −1 for every γ, even γ = 2 (DESIGN §4)
+    assert sm.value == -1.0  # sign(s)·|s|^γ = −1 for every γ, even γ = 2 (docs/design.md §4)
     # partially anti-correlated: value = −|s|^γ, real and finite
     rng = np.random.default_rng(5)
     noisy = np.clip(s.astype(np.int64) + rng.integers(-20, 21, s.shape), 0, 200).astype(U16)

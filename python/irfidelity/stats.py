@@ -1,4 +1,4 @@
-"""Frame-pair statistics (DESIGN §2): :func:`pair_stats` and :class:`PairStats`, the one
+"""Frame-pair statistics (docs/design.md §2): :func:`pair_stats` and :class:`PairStats`, the one
 value every image metric is computed from, plus the array-level metric functions
 :func:`mse`, :func:`psnr`, :func:`ssim` and :func:`nmi`.
 
@@ -23,7 +23,7 @@ _SUPPORTED = ("uint8", "uint16", "int16", "uint32", "float16", "float32", "float
 # dtype.name is slow (it formats a string); compare the type objects instead
 _SUPPORTED_TYPES = frozenset(np.dtype(n).type for n in _SUPPORTED)
 
-# What each metric needs from the pass (DESIGN §2, "plan only what is needed").
+# What each metric needs from the pass (docs/design.md §2, "plan only what is needed").
 _NEEDS = {
     "mse": {"sse"},
     "psnr": {"sse"},
@@ -124,7 +124,7 @@ class PairStats:
         c2: float = 0.0,
         c3: float | None = None,
     ) -> SSIM:
-        """Global SSIM ``l^α·c^β·s^γ`` (eqs. 11–14) with the limits of DESIGN §4."""
+        """Global SSIM ``l^α·c^β·s^γ`` (eqs. 11–14) with the limits of docs/design.md §4."""
         self._nonempty()
         moments = self._raw.moments()
         if moments is None:
