@@ -271,7 +271,7 @@ class ScoringConfig:
                 value = value.as_dict()
             elif isinstance(value, GradeScale):
                 value = {"grades": list(value.grades), "cuts": {k: list(v) for k, v in value.cuts.items()},
-                         "width": value.width}
+                         "width": dict(value.width)}
             elif isinstance(value, tuple):
                 value = [list(v) if isinstance(v, tuple) else v for v in value]
             out[name] = value

@@ -366,13 +366,22 @@ def ahp(matrix: Any, *, names: Iterable[str] = COMPONENTS, on_inconsistent: str 
 
 # --------------------------------------------------------------------------- grades
 #: Default grade boundaries per component (ascending: poor|fair, fair|good, good|excellent).
+#: psnr: the paper's dB scale, f3 = 0.6 / 0.8 / 0.9 at 17.2 / 23.4 / 30 dB (30 dB: the paper's
+#: "indistinguishable"). nmi, ssim: the values they take for the same degradation, white noise
+#: at those PSNRs relative to the scene's range, median over the real thermal frames of
+#: tests/data (benches/calibrate_grades.py). mtf, sitf: judgement (a curve comparison has no
+#: noise scale), documented in docs/interpretation.md.
 DEFAULT_CUTS = {
     "mtf": (0.70, 0.85, 0.95),
     "sitf": (0.70, 0.85, 0.95),
-    "psnr": (0.60, 0.80, 0.90),   # normalised PSNR: ≈ 17.2 dB, 23.4 dB, 30 dB
-    "nmi": (0.15, 0.30, 0.50),
-    "ssim": (0.70, 0.85, 0.95),
+    "psnr": (0.60, 0.80, 0.90),
+    "nmi": (0.05, 0.07, 0.145),
+    "ssim": (0.20, 0.50, 0.82),
 }
+
+#: Half-width of the fuzzy transition around each boundary, per component (at most half the
+#: smallest gap between boundaries, so every value's memberships still sum to 1).
+DEFAULT_WIDTHS = {"mtf": 0.04, "sitf": 0.04, "psnr": 0.04, "nmi": 0.01, "ssim": 0.04}
 
 
 def _ramp_up(x: float, c: float, w: float) -> float:
@@ -431,14 +440,16 @@ class GradeScale:
 
     i.e. 1 well inside ``[c_j, c_{j+1}]``, falling linearly to 0 across ``c ± w`` — so
     the memberships of every value sum to 1 (a Ruspini partition) and ``B = K·R`` sums
-    to 1 as well. With ``width = 0`` the grading is crisp.
+    to 1 as well. With ``width = 0`` the grading is crisp; ``width`` is one number or one
+    per component (default :data:`DEFAULT_WIDTHS`).
 
     Default grades: ``("excellent", "good", "fair", "poor")``; default boundaries
-    (:data:`DEFAULT_CUTS`; docs/interpretation.md says where each comes from): MTF, SiTF
-    and SSIM 0.70 / 0.85 / 0.95; normalised PSNR 0.60 / 0.80 / 0.90 (0.9 = 30 dB, the
-    paper's "indistinguishable" anchor); NMI 0.15 / 0.30 / 0.50 (NMI of a real and a
-    simulated frame runs much lower than the other components: the paper's example has
-    0.22 next to SSIM 0.93). Pass your own ``cuts`` for a mission.
+    (:data:`DEFAULT_CUTS`): normalised PSNR 0.60 / 0.80 / 0.90 (17.2 / 23.4 / 30 dB; 30 dB
+    is the paper's "indistinguishable" anchor); NMI 0.05 / 0.07 / 0.145 and SSIM
+    0.20 / 0.50 / 0.82, the values these take on real thermal frames for white noise at
+    those same PSNRs relative to the scene's range (so every image component grades one
+    degradation alike); MTF and SiTF 0.70 / 0.85 / 0.95 (judgement).
+    docs/interpretation.md has the derivation; pass your own ``cuts`` for a mission.
 
     The overall grade (:meth:`evaluate`) is not the grade of maximum membership in ``B``
     alone, which can call a pair "excellent" while a weighted component is poor. It is
@@ -451,19 +462,26 @@ class GradeScale:
 
     grades: tuple = ("excellent", "good", "fair", "poor")
     cuts: Mapping[str, tuple] = field(default_factory=lambda: dict(DEFAULT_CUTS))
-    width: float = 0.04
+    width: float | Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_WIDTHS))
 
     def __post_init__(self) -> None:
         g = tuple(self.grades)
         if len(g) < 2 or len(set(g)) != len(g) or not all(isinstance(x, str) and x for x in g):
             raise FidelityError(f"grades must be at least 2 distinct non-empty names, got {self.grades!r}")
         object.__setattr__(self, "grades", g)
-        w = float(self.width)
-        if not (math.isfinite(w) and w >= 0):
-            raise FidelityError(f"grade width must be finite and >= 0, got {self.width!r}")
-        object.__setattr__(self, "width", w)
+        widths = {}
+        for name in COMPONENTS:
+            try:
+                w = float(self.width[name] if isinstance(self.width, Mapping) else self.width)
+            except (KeyError, TypeError, ValueError):
+                raise FidelityError(f"grade width must be a number or one per component, got {self.width!r}") from None
+            if not (math.isfinite(w) and w >= 0):
+                raise FidelityError(f"grade width must be finite and >= 0, got {self.width!r}")
+            widths[name] = w
+        object.__setattr__(self, "width", widths)
         cuts = {}
         for name in COMPONENTS:
+            w = widths[name]
             if name not in self.cuts:
                 raise FidelityError(f"grade cuts missing for component {name!r}")
             c = tuple(float(v) for v in self.cuts[name])
@@ -482,7 +500,7 @@ class GradeScale:
         """Row of ``R`` for one component value: ``{grade: membership}`` (sums to 1)."""
         c = self.cuts[component]
         x = float(value)
-        ups = [1.0] + [_ramp_up(x, ci, self.width) for ci in c] + [0.0]
+        ups = [1.0] + [_ramp_up(x, ci, self.width[component]) for ci in c] + [0.0]
         # ups[j] = membership in "grade j or better" counted from the worst; grade j (worst=0)
         worst_first = [ups[j] - ups[j + 1] for j in range(len(c) + 1)]
         return dict(zip(self.grades, reversed(worst_first)))
