@@ -128,9 +128,7 @@ class Weights:
             total = math.fsum(vals.values())
         if total <= 0:
             raise FidelityError("weights must not all be 0: at least one component needs a positive weight")
-        out = {k: v / total for k, v in vals.items()}
-        # make the sum exactly representable as close to 1 as floats allow
-        return cls(**out)
+        return cls(**{k: v / total for k, v in vals.items()})
 
     @classmethod
     def balanced(cls) -> Weights:

@@ -19,7 +19,23 @@ from .errors import FidelityError
 from .fuzzy import COMPONENTS, Weights
 from .schema import from_json, to_json
 
-__all__ = ["FidelityReport", "component_lines", "recorded_warnings"]
+__all__ = ["FidelityReport", "component_lines", "recorded_warnings", "reading_report"]
+
+
+@contextlib.contextmanager
+def reading_report(cls: type, data: Any) -> Iterator[dict]:
+    """The decoded dict of a report's JSON form; a FidelityError naming the report class for
+    anything that is not one."""
+    if not isinstance(data, Mapping):
+        raise FidelityError(f"not a {cls.__name__} dict: got {type(data).__name__}")
+    try:
+        yield from_json(dict(data))
+    except KeyError as exc:
+        raise FidelityError(f"not a {cls.__name__} dict: missing key {exc}") from None
+    except (TypeError, ValueError, AttributeError) as exc:
+        if isinstance(exc, FidelityError):
+            raise
+        raise FidelityError(f"not a {cls.__name__} dict: {exc}") from None
 
 
 @contextlib.contextmanager
@@ -139,10 +155,7 @@ class FidelityReport:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> FidelityReport:
         """A report from :meth:`to_dict`'s output; FidelityError naming what is wrong otherwise."""
-        if not isinstance(data, Mapping):
-            raise FidelityError(f"not a FidelityReport dict: got {type(data).__name__}")
-        d = from_json(dict(data))
-        try:
+        with reading_report(cls, data) as d:
             return cls(fidelity=float(d["fidelity"]), grade=str(d["grade"]), components=dict(d["components"]),
                        weights=Weights.coerce(d["weights"]), metrics=dict(d.get("metrics", {})),
                        component_grades=dict(d.get("component_grades", {})),
@@ -150,10 +163,6 @@ class FidelityReport:
                        config=ScoringConfig.from_dict(d.get("config", {})),
                        version=str(d.get("irfidelity", "unknown")), grading=dict(d.get("grading", {})),
                        notes=list(d.get("notes", [])), inputs=dict(d.get("inputs", {})))
-        except KeyError as exc:
-            raise FidelityError(f"not a FidelityReport dict: missing key {exc}") from None
-        except (TypeError, ValueError) as exc:
-            raise FidelityError(f"not a FidelityReport dict: {exc}") from None
 
     @property
     def grades(self) -> tuple:

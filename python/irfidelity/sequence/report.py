@@ -13,10 +13,9 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from ..config import ScoringConfig
-from ..errors import FidelityError
 from ..fuzzy import Weights
-from ..results import component_lines, settings_line, version
-from ..schema import csv_columns, from_json, to_json
+from ..results import component_lines, reading_report, settings_line, version
+from ..schema import csv_columns, to_json
 from .log import csv_line
 from .outcomes import flat_row
 
@@ -96,18 +95,11 @@ class SequenceReport:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> SequenceReport:
         """A report from :meth:`to_dict`'s output; FidelityError naming what is wrong otherwise."""
-        if not isinstance(data, Mapping):
-            raise FidelityError(f"not a SequenceReport dict: got {type(data).__name__}")
-        d = from_json(dict(data))
-        try:
+        with reading_report(cls, data) as d:
             values = {k: d[k] for k in cls._FIELDS if k in d}
             return cls(frames=list(d["frames"]), weights=Weights.coerce(d["weights"]),
                        config=ScoringConfig.from_dict(d.get("config", {})),
                        version=str(d.get("irfidelity", "unknown")), **values)
-        except KeyError as exc:
-            raise FidelityError(f"not a SequenceReport dict: missing key {exc}") from None
-        except (TypeError, ValueError) as exc:
-            raise FidelityError(f"not a SequenceReport dict: {exc}") from None
 
     def summary_text(self) -> str:
         """A short human-readable summary: pooled table, per-frame spread, failures."""
