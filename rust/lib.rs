@@ -3,6 +3,7 @@
 //! `cargo test` needs no Python.
 
 pub mod error;
+pub mod fingerprint;
 pub mod hist;
 pub mod io;
 pub mod kernel;

@@ -186,7 +186,7 @@ def test_levels_nmi_equals_sklearn(pair):
     r, s = pair
     got = irf.nmi(r, s, bins="levels")
     ref = sklearn_metrics.normalized_mutual_info_score(r.ravel(), s.ravel(), average_method="arithmetic")
-    # sklearn returns 1.0 when both labelings are constant, and so does irfidelity (DESIGN §4);
+    # sklearn returns 1.0 when both labelings are constant, and so does irfidelity (docs/design.md §4);
     # when exactly one is constant sklearn's MI is 0 → 0, as ours.
     assert got.value == pytest.approx(ref, abs=1e-12)
 

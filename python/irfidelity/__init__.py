@@ -3,49 +3,50 @@
 Implements the fuzzy-logic fidelity framework of Acta Photonica Sinica 41(5):547 (2012),
 doi:10.3788/gzxb20124105.0547: five components in [0, 1] (MTF and SiTF curve similarity,
 normalised PSNR, NMI, global SSIM) and their weighted sum, with an exact Rust core.
+
+The top level holds what a scoring session needs; the tools of each stage live in their
+module: :mod:`irfidelity.curves` (MTF, slanted edge, SiTF, curve similarity),
+:mod:`irfidelity.fuzzy` (grades, AHP weights, comparing simulators), :mod:`irfidelity.frames`
+(channels, pages), :mod:`irfidelity.schema` (the names and units of every output).
 """
 
+from . import curves, fuzzy
+from .config import ScoringConfig
 from .curves import Curve
-from .errors import FidelityError, FrameError, RangeError, ShapeError
-from .evaluation import FidelityReport, evaluate, image_components, plan_components
-from .frames import FrameSequence, list_channels, load_frame, page_count
-from .fuzzy import AHPConsistencyWarning, Comparison, GradeScale, Weights, ahp, compare
-from .metrics import NMI, SSIM
-from .normalize import normalize_psnr
+from .errors import FidelityError, FidelityWarning, FrameError, RangeError, RegistrationError, ShapeError
+from .evaluation import evaluate
+from .frames import FrameSequence, load_frame
+from .fuzzy import Weights
+from .results import FidelityReport
 from .sequence import SequenceReport, score_sequence
 from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
-    "FidelityError",
-    "FrameError",
-    "RangeError",
-    "ShapeError",
-    "NMI",
-    "SSIM",
-    "PairStats",
+    # scoring
+    "evaluate",
+    "score_sequence",
+    "FidelityReport",
+    "SequenceReport",
+    "ScoringConfig",
+    "Weights",
+    # frame statistics and image metrics
     "pair_stats",
+    "PairStats",
     "mse",
     "psnr",
     "ssim",
     "nmi",
-    "normalize_psnr",
-    "Curve",
-    "FidelityReport",
-    "evaluate",
-    "plan_components",
-    "image_components",
-    "Weights",
-    "GradeScale",
-    "ahp",
-    "AHPConsistencyWarning",
-    "compare",
-    "Comparison",
-    "FrameSequence",
+    # inputs
     "load_frame",
-    "list_channels",
-    "page_count",
-    "score_sequence",
-    "SequenceReport",
+    "FrameSequence",
+    "Curve",
+    # errors and warnings
+    "FidelityError",
+    "FrameError",
+    "ShapeError",
+    "RangeError",
+    "RegistrationError",
+    "FidelityWarning",
 ]

@@ -23,7 +23,7 @@ import numpy as np
 from . import _core
 from .errors import FrameError
 
-__all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "natural_key"]
+__all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "natural_key", "display_name"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -47,17 +47,22 @@ def _is_npy(path: str) -> bool:
     return path.lower().endswith(".npy")
 
 
+_LARGEST = 2**63 - 1  # what the decoders count in
+
+
 def _check_page(path: str, page: Any) -> int:
-    if isinstance(page, bool) or not isinstance(page, (int, np.integer)) or page < 0:
-        raise FrameError(f"{path}: page must be a non-negative integer, got {page!r}")
+    if isinstance(page, bool) or not isinstance(page, (int, np.integer)) or not 0 <= page <= _LARGEST:
+        raise FrameError(f"{path}: page must be an integer in 0..2^63-1, got {page!r}", option="page")
     return int(page)
 
 
 def _check_max_pixels(path: str, max_pixels: Any) -> int | None:
     if max_pixels is None:
         return None
-    if isinstance(max_pixels, bool) or not isinstance(max_pixels, (int, np.integer)) or max_pixels < 1:
-        raise FrameError(f"{path}: max_pixels must be a positive integer, got {max_pixels!r}")
+    if isinstance(max_pixels, bool) or not isinstance(max_pixels, (int, np.integer)) or \
+            not 1 <= max_pixels <= _LARGEST:
+        raise FrameError(f"{path}: max_pixels must be an integer in 1..2^63-1, got {max_pixels!r}",
+                         option="max_pixels")
     return int(max_pixels)
 
 
@@ -182,6 +187,15 @@ def page_count(path: PathLike) -> int:
     return int(_core.page_count(spath))
 
 
+def display_name(name: str) -> str:
+    """A file name as valid text: bytes that are not UTF-8 (kept by Python as surrogate
+    escapes) are shown as ``\\xNN``, so reports, CSV and JSON can always be written."""
+    try:
+        return name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # a lone surrogate that no file system byte produced
+        return name.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
 def natural_key(text: str) -> list[Any]:
     """Sort key that orders embedded numbers by value: ``frame_2`` before ``frame_10``."""
     return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", text)]
@@ -279,9 +293,12 @@ class FrameSequence(Sequence[np.ndarray]):
     def _expand(self, paths: list[str], *, label_dirs: bool) -> list[tuple[str | None, int, str]]:
         out: list[tuple[str | None, int, str]] = []
         for p in paths:
-            base = os.path.basename(p) or p
+            base = display_name(os.path.basename(p) or p)
             if _is_tiff(p):
-                n = page_count(p)
+                try:
+                    n = page_count(p)
+                except FrameError:
+                    n = 1  # unreadable: one frame, whose decode reports why
                 if n > 1:
                     out.extend((p, i, f"{base}[{i}]") for i in range(n))
                     continue
@@ -317,6 +334,17 @@ class FrameSequence(Sequence[np.ndarray]):
             raise IndexError(f"frame index {i} out of range for a sequence of {n} frames")
         return self._load(self._entries[i])
 
+    def take(self, indices: Iterable[int]) -> FrameSequence:
+        """A new sequence of the frames at these positions (0-based; negative from the end)."""
+        n = len(self._entries)
+        picked = []
+        for i in indices:
+            i = int(i)
+            if i < -n or i >= n:
+                raise IndexError(f"frame index {i} out of range for a sequence of {n} frames")
+            picked.append(self._entries[i])
+        return FrameSequence._subset(self, picked)
+
     def __iter__(self) -> Iterator[np.ndarray]:
         for entry in self._entries:
             yield self._load(entry)
@@ -325,6 +353,16 @@ class FrameSequence(Sequence[np.ndarray]):
     def names(self) -> list[str]:
         """Display name of each frame: file name, ``"file.tif[3]"`` for TIFF pages, ``"[i]"`` for arrays."""
         return [e[2] for e in self._entries]
+
+    @property
+    def entries(self) -> list[tuple[str | None, int, str]]:
+        """``(path, page, display name)`` of each frame (path None for a 3-D array source)."""
+        return list(self._entries)
+
+    @property
+    def is_files(self) -> bool:
+        """True when the frames come from files (not a 3-D array)."""
+        return self._array is None
 
     @property
     def sources(self) -> list[tuple[str | None, int]]:

@@ -1,4 +1,4 @@
-"""Frame-pair statistics (DESIGN §2): :func:`pair_stats` and :class:`PairStats`, the one
+"""Frame-pair statistics (docs/design.md §2): :func:`pair_stats` and :class:`PairStats`, the one
 value every image metric is computed from, plus the array-level metric functions
 :func:`mse`, :func:`psnr`, :func:`ssim` and :func:`nmi`.
 
@@ -17,13 +17,13 @@ from . import _core
 from .errors import FidelityError, ShapeError
 from .metrics import NMI, SSIM, nmi_from_entropies, psnr_from_mse, ssim_from_moments
 
-__all__ = ["PairStats", "pair_stats", "mse", "psnr", "ssim", "nmi", "plan_need", "peak_and_valid", "hist_params"]
+__all__ = ["PairStats", "pair_stats", "merge_all", "mse", "psnr", "ssim", "nmi", "plan_need", "peak_and_valid", "hist_params"]
 
 _SUPPORTED = ("uint8", "uint16", "int16", "uint32", "float16", "float32", "float64")
 # dtype.name is slow (it formats a string); compare the type objects instead
 _SUPPORTED_TYPES = frozenset(np.dtype(n).type for n in _SUPPORTED)
 
-# What each metric needs from the pass (DESIGN §2, "plan only what is needed").
+# What each metric needs from the pass (docs/design.md §2, "plan only what is needed").
 _NEEDS = {
     "mse": {"sse"},
     "psnr": {"sse"},
@@ -124,7 +124,7 @@ class PairStats:
         c2: float = 0.0,
         c3: float | None = None,
     ) -> SSIM:
-        """Global SSIM ``l^α·c^β·s^γ`` (eqs. 11–14) with the limits of DESIGN §4."""
+        """Global SSIM ``l^α·c^β·s^γ`` (eqs. 11–14) with the limits of docs/design.md §4."""
         self._nonempty()
         moments = self._raw.moments()
         if moments is None:
@@ -171,7 +171,20 @@ class PairStats:
             out.update(nmi=v.value, h_real=v.h_real, h_sim=v.h_sim, h_joint=v.h_joint, mi=v.mi)
         return out
 
+    def with_peak(self, peak: float | None) -> PairStats:
+        """The same statistics with another PSNR peak (nothing is recomputed)."""
+        return PairStats(self._raw, peak=None if peak is None else float(peak), bins=self.bins)
+
     # -- combining ----------------------------------------------------------------
+    def to_bytes(self) -> bytes:
+        """The statistics as bytes (peak and binning not included); see :meth:`from_bytes`."""
+        return self._raw.to_bytes()
+
+    @classmethod
+    def from_bytes(cls, data: bytes, *, peak: float | None = None, bins: object = None) -> PairStats:
+        """Statistics from :meth:`to_bytes` (a FidelityError for damaged bytes)."""
+        return cls(_core.PairStats.from_bytes(data), peak=peak, bins=bins)
+
     def merge(self, other: PairStats) -> PairStats:
         """Statistics of the union of both pixel sets (exact for integer frames)."""
         if not isinstance(other, PairStats):
@@ -195,6 +208,16 @@ class PairStats:
         if self._raw.n:
             parts += [f"{k}={v:.6g}" for k, v in self.metrics().items() if k != "n"]
         return f"PairStats({', '.join(parts)})"
+
+
+def merge_all(stats: list[PairStats], *, histograms: bool = True) -> PairStats | None:
+    """Statistics of the union of every pixel set in ``stats`` (None for an empty list), merged
+    in list order. Histograms are merged when ``histograms`` and every item has one on the same
+    edges, and left out otherwise."""
+    if not stats:
+        return None
+    merged, _ = _core.merge_all([s._raw for s in stats], keep_hist=histograms)
+    return PairStats(merged, peak=stats[0].peak, bins=stats[0].bins if merged.has_hist else None)
 
 
 def _restore(data: bytes, peak, bins) -> PairStats:

@@ -4,6 +4,7 @@
 
 use pyo3::prelude::*;
 
+mod fingerprint;
 mod io;
 mod sequence;
 mod stats;
@@ -41,5 +42,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     stats::register(m)?;
     io::register(m)?;
     sequence::register(m)?;
+    fingerprint::register(m)?;
     Ok(())
 }
