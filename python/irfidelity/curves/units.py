@@ -314,9 +314,8 @@ class CameraGeometry:
 
 def _how_to_give(link: str) -> str:
     others = [k for k in _CONSTANTS if k != link]
-    return (f"the {_NAMES[link]} ({_CONSTANTS[link]} on the command line, CameraGeometry({link}=...) in "
-            f"Python) or both the {_NAMES[others[0]]} and the {_NAMES[others[1]]} "
-            f"({_CONSTANTS[others[0]]} and {_CONSTANTS[others[1]]})")
+    return (f"the {_NAMES[link]} ({_CONSTANTS[link]}; {link} in Python) or both the {_NAMES[others[0]]} "
+            f"and the {_NAMES[others[1]]} ({_CONSTANTS[others[0]]} and {_CONSTANTS[others[1]]})")
 
 
 def conversion_hint(from_unit: str, to_unit: str) -> str:
