@@ -56,7 +56,7 @@ from .framelog import FrameLog, csv_columns, csv_line, row_values
 from .frames import FrameSequence, load_frame
 from .fuzzy import Weights, fidelity_sum, ordered_components
 from .normalize import DEFAULT_PSNR_ANCHORS
-from .stats import PairStats, hist_params, pair_stats, peak_and_valid, plan_need
+from .stats import KernelRequest, PairStats, hist_params, pair_stats, peak_and_valid, plan_need
 
 __all__ = ["score_sequence", "SequenceReport"]
 
@@ -562,7 +562,7 @@ def score_sequence(
         if store is not None:
             scorer.add_resumed(store.done_rows, store.done_stats)
 
-        kernel = dict(
+        kernel = dict(request=KernelRequest(
             channel=channel,
             sse="sse" in wanted,
             moments="moments" in wanted,
@@ -572,7 +572,7 @@ def score_sequence(
             valid=valid,
             mask_nonfinite=nonfinite == "mask",
             max_pixels=max_pixels,
-        )
+        ))
         if todo and engine and client is None:
             rp = [rfiles[i][0] for i in todo]
             sp = [sfiles[i][0] for i in todo]
