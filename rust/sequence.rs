@@ -606,7 +606,7 @@ mod tests {
         assert_eq!(done(), bound, "workers went on past a full queue");
         // a slow consumer never sees more than the bound finished ahead of it
         let mut received = Vec::new();
-        while let Some(o) = stream.next() {
+        for o in stream.by_ref() {
             received.push(o.index);
             assert!(done() - received.len() <= bound, "{} finished, {} received", done(), received.len());
             if received.len() % 10 == 0 {
