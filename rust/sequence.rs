@@ -65,8 +65,13 @@ pub struct SeqRequest {
     pub valid: Option<(i64, i64)>,
     /// Float frames: exclude NaN/Inf pairs instead of failing the pair.
     pub mask_nonfinite: bool,
-    /// Channel to decode (EXR channel name, or PNG/TIFF channel); `None` = the only one / "Y".
-    pub channel: Option<String>,
+    /// Channel to decode from the real / simulated frames (EXR channel name, or PNG/TIFF
+    /// channel); `None` = the only one / "Y".
+    pub real_channel: Option<String>,
+    pub sim_channel: Option<String>,
+    /// Report the real frame's (min, max) over its finite values (for a PSNR peak of the
+    /// real frame's range).
+    pub real_extent: bool,
     pub max_pixels: u64,
     /// Byte budget of one decode (all channels, samples and scratch); `None` = the
     /// decoder's default. Not yet read by [`crate::io::decode_frame`].
@@ -81,7 +86,9 @@ impl Default for SeqRequest {
             hist: Some(HistRequest::Bins { bins: 256, range: None }),
             valid: None,
             mask_nonfinite: false,
-            channel: None,
+            real_channel: None,
+            sim_channel: None,
+            real_extent: false,
             max_pixels: io::DEFAULT_MAX_PIXELS,
             max_bytes: None,
         }
@@ -100,6 +107,27 @@ pub struct PairOutcome {
     /// The histogram's entropies, computed on the worker (not on the thread that hands
     /// outcomes to Python, which all workers share).
     pub entropies: Option<Entropies>,
+    /// The real frame's (min, max) over its finite values, when asked for.
+    pub real_extent: Option<(f64, f64)>,
+}
+
+/// (min, max) over the finite values of a frame; None when it has none.
+fn extent(data: &FrameData) -> Option<(f64, f64)> {
+    fn fold<T: Copy>(v: &[T], to_f64: impl Fn(T) -> f64) -> Option<(f64, f64)> {
+        v.iter().map(|&x| to_f64(x)).filter(|x| x.is_finite()).fold(None, |acc, x| match acc {
+            None => Some((x, x)),
+            Some((lo, hi)) => Some((lo.min(x), hi.max(x))),
+        })
+    }
+    match data {
+        FrameData::U8(v) => fold(v, f64::from),
+        FrameData::U16(v) => fold(v, f64::from),
+        FrameData::I16(v) => fold(v, f64::from),
+        FrameData::U32(v) => fold(v, f64::from),
+        FrameData::F16(v) => fold(v, f64::from),
+        FrameData::F32(v) => fold(v, f64::from),
+        FrameData::F64(v) => fold(v, |x| x),
+    }
 }
 
 fn run_kernel(r: FrameData, s: FrameData, req: &Request) -> Result<PairStats> {
@@ -131,20 +159,29 @@ fn prefix(err: Error, what: &str) -> Error {
     }
 }
 
-fn decode(src: &Source, req: &SeqRequest) -> Result<Frame> {
-    let opts = DecodeOptions { channel: req.channel.clone(), max_pixels: req.max_pixels, page: src.page };
+fn decode(src: &Source, channel: &Option<String>, req: &SeqRequest) -> Result<Frame> {
+    let opts = DecodeOptions { channel: channel.clone(), max_pixels: req.max_pixels, page: src.page };
     io::decode_frame(&src.path, &opts)
 }
 
 /// Decode and score one pair on the current thread (and the current rayon pool).
 pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -> PairOutcome {
-    let mut out =
-        PairOutcome { index, stats: Err(Error::Value(String::new())), shape: None, dtype: None, entropies: None };
+    let mut out = PairOutcome {
+        index,
+        stats: Err(Error::Value(String::new())),
+        shape: None,
+        dtype: None,
+        entropies: None,
+        real_extent: None,
+    };
     let body = || -> Result<PairStats> {
-        let r = decode(real, req)?;
+        let r = decode(real, &req.real_channel, req)?;
         out.shape = Some((r.rows, r.cols));
         out.dtype = Some(r.data.dtype_name());
-        let s = decode(sim, req)?;
+        if req.real_extent {
+            out.real_extent = extent(&r.data);
+        }
+        let s = decode(sim, &req.sim_channel, req)?;
         let what = || format!("{} vs {}", real.label(), sim.label());
         if (r.rows, r.cols) != (s.rows, s.cols) {
             return Err(Error::Shape(format!(

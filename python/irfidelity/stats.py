@@ -72,8 +72,11 @@ class KernelRequest:
         :class:`~irfidelity.errors.RangeError`.
     mask_nonfinite : bool
         Float frames: exclude NaN/Inf pairs instead of raising.
-    channel : str or None
-        Sequences: the channel to decode (``None``: the only one, or luminance).
+    real_channel, sim_channel : str or None
+        Sequences: the channel to decode from each side's files (``None``: the only one, or
+        luminance).
+    real_extent : bool
+        Sequences: report each real frame's (min, max) over its finite values.
     max_pixels, max_bytes : int or None
         Sequences: the decode limits per frame (``None``: the defaults).
     """
@@ -85,7 +88,9 @@ class KernelRequest:
     hist_range: tuple[float, float] | None = None
     valid: tuple[int, int] | None = None
     mask_nonfinite: bool = False
-    channel: str | None = None
+    real_channel: str | None = None
+    sim_channel: str | None = None
+    real_extent: bool = False
     max_pixels: int | None = None
     max_bytes: int | None = None
 

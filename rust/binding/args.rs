@@ -20,7 +20,9 @@ pub(crate) struct KernelRequest {
     hist_range: Option<(f64, f64)>,
     valid: Option<(i64, i64)>,
     mask_nonfinite: bool,
-    channel: Option<String>,
+    real_channel: Option<String>,
+    sim_channel: Option<String>,
+    real_extent: bool,
     max_pixels: Option<u64>,
     max_bytes: Option<u64>,
 }
@@ -61,7 +63,9 @@ impl KernelRequest {
             moments: self.moments,
             valid: self.valid,
             mask_nonfinite: self.mask_nonfinite,
-            channel: self.channel,
+            real_channel: self.real_channel,
+            sim_channel: self.sim_channel,
+            real_extent: self.real_extent,
             max_pixels: self.max_pixels.unwrap_or(crate::io::DEFAULT_MAX_PIXELS),
             max_bytes: self.max_bytes,
         }

@@ -34,7 +34,7 @@ fn outcome_tuple<'py>(py: Python<'py>, o: PairOutcome) -> PyResult<Bound<'py, Py
         Ok(s) => (Some(Py::new(py, PyPairStats::with_entropies(s, o.entropies))?), None),
         Err(e) => (None, Some(e.to_string())),
     };
-    (o.index, stats, err, o.shape, o.dtype).into_pyobject(py)
+    (o.index, stats, err, o.shape, o.dtype, o.real_extent).into_pyobject(py)
 }
 
 /// Where outcomes go: a Python callback (streaming), or slots in index order (collecting).

@@ -57,22 +57,13 @@ def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
     return [(p, page) for p, page, _ in entries]
 
 
-def _engine_request(plan: SequencePlan, decoding: Decoding) -> KernelRequest:
-    if plan.config.real_channel != plan.config.sim_channel:
-        raise FidelityError("the Rust sequence engine reads one channel for both sequences; give the same "
-                            "channel for both, or convert one sequence", option="sim_channel")
-    if plan.config.peak == "range":
-        raise FidelityError("the PSNR peak 'range' is not available for file sequences in this version; "
-                            "give a number or bits", option="peak")
-    return plan.kernel_request(channel=plan.config.real_channel, max_pixels=decoding.max_pixels)
-
-
 def _outcomes(todo: Todo, rows: list, plan: SequencePlan) -> list[Outcome]:
-    """Outcomes from the engine's ``(k, stats, error, shape, dtype)`` tuples (k indexes ``todo``)."""
+    """Outcomes from the engine's ``(k, stats, error, shape, dtype, real extent)`` tuples (k
+    indexes ``todo``)."""
     out = []
-    for k, raw, err, shape, dtype in rows:
+    for k, raw, err, shape, dtype, extent in rows:
         stats = None if raw is None else PairStats(raw, bins=plan.bin_label)
-        out.append(Outcome(todo[k][0], stats, err, None if shape is None else tuple(shape), dtype))
+        out.append(Outcome(todo[k][0], stats, err, None if shape is None else tuple(shape), dtype, extent))
     return out
 
 
@@ -82,7 +73,7 @@ class RustEngine:
         self.plan, self.decoding = plan, decoding
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
-        request = _engine_request(self.plan, self.decoding)
+        request = self.plan.kernel_request(self.decoding.max_pixels)
         real = [self.real[r] for _, r, _ in todo]
         sim = [self.sim[s] for _, _, s in todo]
         _core.score_pairs([p for p, _ in real], [p for p, _ in sim], [g for _, g in real], [g for _, g in sim],
@@ -96,7 +87,7 @@ def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: 
     from irfidelity import _core as core
 
     out = core.score_pairs(real_paths, sim_paths, real_pages, sim_pages, request=request, workers=workers)
-    return [(k, None if st is None else st.to_bytes(), err, shape, dtype) for k, st, err, shape, dtype in out]
+    return [(k, None if st is None else st.to_bytes(), *rest) for k, st, *rest in out]
 
 
 class DaskBackend(RustEngine):
@@ -110,7 +101,7 @@ class DaskBackend(RustEngine):
             from distributed import as_completed
         except ImportError as exc:  # only without the dask extra
             raise FidelityError("a Dask client needs dask.distributed (pip install 'irfidelity[dask]')") from exc
-        request = _engine_request(self.plan, self.decoding)
+        request = self.plan.kernel_request(self.decoding.max_pixels)
         workers = int(self.decoding.workers or 1)
         futures = {}
         for start in range(0, len(todo), self.chunk_size):
@@ -125,8 +116,8 @@ class DaskBackend(RustEngine):
                 chunk = futures.pop(future)
                 rows = future.result()
                 future.release()
-                deliver(_outcomes(chunk, [(k, None if data is None else _core.PairStats.from_bytes(data), err, shape,
-                                           dtype) for k, data, err, shape, dtype in rows], self.plan))
+                deliver(_outcomes(chunk, [(k, None if data is None else _core.PairStats.from_bytes(data), *rest)
+                                          for k, data, *rest in rows], self.plan))
         finally:
             if futures:
                 self.client.cancel(list(futures))
