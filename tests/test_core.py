@@ -71,7 +71,7 @@ def test_integer_sums_are_exact(dtype):
     r, s = rand_pair(dtype)
     st = irf.pair_stats(r, s)
     ref = exact_ref(r, s)
-    assert st._raw.int_sums() == ref["sums"]
+    assert st.int_sums() == ref["sums"]
     assert st.mse() == float(ref["mse"])
     m = st.moments()
     assert rel(m["var_real"], ref["var_r"]) < 1e-15
@@ -91,7 +91,7 @@ def test_large_frames_near_65535_one_lsb_apart():
     assert st.mse() == float(Fraction(k, n))
     assert st.psnr() == pytest.approx(10 * math.log10(65535**2 * n / k), rel=1e-15)
     # exact sums via int64 numpy (no overflow at this size) against the kernel's i128
-    sums = st._raw.int_sums()
+    sums = st.int_sums()
     r64, s64 = r.astype(np.int64), s.astype(np.int64)
     assert sums["sum_real"] == int(r64.sum())
     assert sums["sum_real_sq"] == int((r64 * r64).sum())
@@ -104,7 +104,7 @@ def test_uint32_products_do_not_overflow():
     s[0, 0] = 0
     st = irf.pair_stats(r, s)
     ref = exact_ref(r, s)
-    assert st._raw.int_sums() == ref["sums"]
+    assert st.int_sums() == ref["sums"]
     assert rel(st.moments()["var_sim"], ref["var_s"]) < 1e-15
 
 
@@ -593,12 +593,13 @@ def test_entropies_from_many_threads_at_once():
     script = r"""
 import threading, numpy as np
 from irfidelity import _core
+from irfidelity.stats import KernelRequest
 rng = np.random.default_rng(1)
 r = rng.integers(0, 16384, (256, 320)).astype(np.uint16)
 s = (r // 2 + rng.integers(0, 3, r.shape)).astype(np.uint16)
-want = _core.pair_stats(r, s, sse=False, moments=False, bins=256).entropies()
+want = _core.pair_stats(r, s, KernelRequest(sse=False, moments=False, bins=256)).entropies()
 for _ in range(40):
-    st = _core.pair_stats(r, s, sse=False, moments=False, bins=256)
+    st = _core.pair_stats(r, s, KernelRequest(sse=False, moments=False, bins=256))
     out = []
     ts = [threading.Thread(target=lambda: out.append(st.entropies())) for _ in range(4)]
     [t.start() for t in ts]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import pathlib
@@ -160,9 +161,9 @@ class _Spy:
         self.calls = []
         real = core.pair_stats
 
-        def spy(*a, **kw):
-            self.calls.append(kw)
-            return real(*a, **kw)
+        def spy(real_frame, sim_frame, request, *a):
+            self.calls.append(dataclasses.asdict(request))
+            return real(real_frame, sim_frame, request, *a)
 
         monkeypatch.setattr(core, "pair_stats", spy)
 

@@ -125,7 +125,7 @@ def test_merge_equals_concatenation_integer(pair, cut, bins):
     bot = irf.pair_stats(r[cut:], s[cut:], bits=16, bins=bins, hist_range=rng)
     merged = top.merge(bot)
     assert merged.n == whole.n
-    assert merged._raw.int_sums() == whole._raw.int_sums()
+    assert merged.int_sums() == whole.int_sums()
     assert merged.metrics() == whole.metrics()  # exact: same integers, same counts
 
 

@@ -235,3 +235,25 @@ def test_plain_progress_line_without_tqdm(tmp_path):
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
     assert "scoring: 100/100 frames (100 %)" in p.stderr
+
+
+def test_file_sequences_take_the_range_peak_and_per_side_channels(tmp_path):
+    tifffile = pytest.importorskip("tifffile")
+    cv2 = pytest.importorskip("cv2")
+    stack = tifffile.imread(STACK)[:4]
+    noisy = np.clip(stack.astype(np.int64) + np.random.default_rng(1).normal(0, 20, stack.shape), 0,
+                    16383).astype(np.uint16)
+    rdir, sdir = tmp_path / "r", tmp_path / "s"
+    rdir.mkdir()
+    sdir.mkdir()
+    for i in range(4):
+        assert cv2.imwrite(str(rdir / f"f{i}.png"), stack[i])
+        rgb = np.stack([noisy[i], stack[i], stack[i]], axis=-1)[..., ::-1]  # R = the noisy frame
+        assert cv2.imwrite(str(sdir / f"f{i}.png"), np.ascontiguousarray(rgb))
+    files = irf.score_sequence(rdir, sdir, bits=14, peak="range", sim_channel="R", progress=False)
+    arrays = irf.score_sequence(stack, noisy, bits=14, peak="range", progress=False)
+    assert files.failed == [] and [f["metrics"] for f in files.frames] == [f["metrics"] for f in arrays.frames]
+    spans = [float(f.max()) - float(f.min()) for f in stack]
+    assert [f["metrics"]["psnr_peak"] for f in files.frames] == spans
+    assert files.metrics["psnr_peak"] == float(stack.max()) - float(stack.min())
+    assert files.metrics == arrays.metrics

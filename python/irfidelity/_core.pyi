@@ -2,11 +2,32 @@
 
 import os
 from collections.abc import Callable
-from typing import Any
+from typing import Any, final
 
 import numpy as np
 import numpy.typing as npt
 
+from irfidelity.stats import KernelRequest
+
+__all__ = [
+    "PairStats",
+    "SUPPORTED_DTYPES",
+    "default_max_pixels",
+    "file_digests",
+    "list_channels",
+    "load_frame",
+    "merge_all",
+    "page_count",
+    "pair_stats",
+    "plain_moments",
+    "plain_mse",
+    "score_pairs",
+]
+
+#: numpy names of the frame dtypes the kernel accepts.
+SUPPORTED_DTYPES: tuple[str, ...]
+
+@final
 class PairStats:
     """Sufficient statistics of a frame pair (wrapped by `irfidelity.PairStats`)."""
 
@@ -36,27 +57,19 @@ class PairStats:
     @staticmethod
     def from_bytes(data: bytes) -> PairStats: ...
 
-def plain_mse(real: object, sim: object, /) -> float | None:
-    """MSE of two non-empty 2-D C-contiguous arrays of one supported dtype and shape; None otherwise."""
+def plain_mse(real: object, sim: object) -> float | None:
+    """MSE of two non-empty, aligned, 2-D C-contiguous arrays of one supported dtype and
+    shape; None otherwise."""
 
-def plain_moments(real: object, sim: object, /) -> PairStats | None:
-    """PairStats with the moments only (SSIM) of two non-empty 2-D C-contiguous arrays of one
-    supported dtype and shape; None otherwise."""
+def plain_moments(real: object, sim: object) -> PairStats | None:
+    """PairStats with the moments only (SSIM) of two non-empty, aligned, 2-D C-contiguous
+    arrays of one supported dtype and shape; None otherwise."""
 
 def pair_stats(
     real: npt.NDArray[Any],
     sim: npt.NDArray[Any],
-    *,
-    sse: bool = True,
-    moments: bool = True,
-    bins: int | None = None,
-    levels: bool = False,
-    hist_range: tuple[float, float] | None = None,
+    request: KernelRequest,
     mask: npt.NDArray[np.bool_] | None = None,
-    valid: tuple[int, int] | None = None,
-    mask_nonfinite: bool = False,
-    shape: tuple[int, int] = (0, 0),
-    fortran: bool = False,
 ) -> PairStats: ...
 
 # ---- frame I/O (rust/binding/io.rs) ---------------------------------------------------------
@@ -79,19 +92,11 @@ def score_pairs(
     real_pages: list[int] | None = None,
     sim_pages: list[int] | None = None,
     *,
-    channel: str | None = None,
-    sse: bool = True,
-    moments: bool = True,
-    bins: int | None = None,
-    levels: bool = False,
-    hist_range: tuple[float, float] | None = None,
-    valid: tuple[int, int] | None = None,
-    mask_nonfinite: bool = False,
-    max_pixels: int | None = None,
+    request: KernelRequest,
     workers: int = 0,
     progress: Callable[[int], Any] | None = None,
     on_result: Callable[[list[Any]], Any] | None = None,
-) -> list[tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None]] | None: ...
+) -> list[tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None, tuple[float, float] | None]] | None: ...
 def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats | None, bool]: ...
 
 # ---- file fingerprints (rust/binding/fingerprint.rs) -------------------------------------

@@ -31,9 +31,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 FRAME_EXTENSIONS = (".exr", ".png", ".tif", ".tiff", ".npy")
 
 #: dtypes a frame may have (the dtypes the metrics accept).
-FRAME_DTYPES = tuple(
-    np.dtype(t) for t in ("uint8", "uint16", "int16", "uint32", "float16", "float32", "float64")
-)
+FRAME_DTYPES = tuple(np.dtype(t) for t in _core.SUPPORTED_DTYPES)
 
 _GLOB_CHARS = re.compile(r"[*?\[]")
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -19,7 +20,7 @@ from .metrics import NMI, SSIM, nmi_from_entropies, psnr_from_mse, ssim_from_mom
 
 __all__ = ["PairStats", "pair_stats", "merge_all", "mse", "psnr", "ssim", "nmi", "plan_need", "peak_and_valid", "hist_params"]
 
-_SUPPORTED = ("uint8", "uint16", "int16", "uint32", "float16", "float32", "float64")
+_SUPPORTED = _core.SUPPORTED_DTYPES
 # dtype.name is slow (it formats a string); compare the type objects instead
 _SUPPORTED_TYPES = frozenset(np.dtype(n).type for n in _SUPPORTED)
 
@@ -47,6 +48,51 @@ def plan_need(need: Iterable[str] | None) -> set[str]:
             raise FidelityError(f"need: unknown item {name!r}; expected some of {sorted(_NEEDS)}")
         out |= _NEEDS[name]
     return out
+
+
+@dataclass(frozen=True, slots=True)
+class KernelRequest:
+    """What one pass of the Rust kernel computes, and how a sequence's frames are decoded.
+
+    The one list of the kernel's request fields: :func:`pair_stats` and the sequence
+    engine build it, ``irfidelity._core`` reads it attribute by attribute.
+
+    Attributes
+    ----------
+    sse, moments : bool
+        Compute the squared error (MSE, PSNR) and the moments (SSIM).
+    bins : int or None
+        Uniform histogram bins over ``hist_range`` (NMI); ``None``: no histogram.
+    levels : bool
+        One histogram bin per grey level (integer frames); overrides ``bins``.
+    hist_range : (float, float) or None
+        Explicit histogram edges; ``None``: the data's min..max over both frames.
+    valid : (int, int) or None
+        Integer frames: the allowed values ``[lo, hi]`` (from ``bits``); anything else is a
+        :class:`~irfidelity.errors.RangeError`.
+    mask_nonfinite : bool
+        Float frames: exclude NaN/Inf pairs instead of raising.
+    real_channel, sim_channel : str or None
+        Sequences: the channel to decode from each side's files (``None``: the only one, or
+        luminance).
+    real_extent : bool
+        Sequences: report each real frame's (min, max) over its finite values.
+    max_pixels, max_bytes : int or None
+        Sequences: the decode limits per frame (``None``: the defaults).
+    """
+
+    sse: bool = True
+    moments: bool = True
+    bins: int | None = None
+    levels: bool = False
+    hist_range: tuple[float, float] | None = None
+    valid: tuple[int, int] | None = None
+    mask_nonfinite: bool = False
+    real_channel: str | None = None
+    sim_channel: str | None = None
+    real_extent: bool = False
+    max_pixels: int | None = None
+    max_bytes: int | None = None
 
 
 class PairStats:
@@ -145,6 +191,24 @@ class PairStats:
         if ent is None:
             raise self._missing("a histogram", "nmi")
         return nmi_from_entropies(*ent, bins=self.bins)
+
+    def int_sums(self) -> dict[str, int] | None:
+        """The exact integer sums of integer frames, as Python ints; ``None`` for float frames.
+
+        Keys: ``sum_real`` Σx, ``sum_sim`` Σy, ``sum_real_sq`` Σx², ``sum_sim_sq`` Σy²,
+        ``sum_cross`` Σxy and ``sse`` Σ(x − y)², over the ``n`` counted pixel pairs. Every
+        integer-frame metric is a function of these and ``n``, rounded once at the end, so
+        they are an exact reference (they do not depend on threads, layout or merging).
+        Sums the pass did not compute (see ``need``) are 0.
+
+        Examples
+        --------
+        >>> import numpy as np, irfidelity as irf
+        >>> r = np.array([[1, 2], [3, 4]], dtype=np.uint16)
+        >>> irf.pair_stats(r, r + 1).int_sums()["sse"]
+        4
+        """
+        return self._raw.int_sums()
 
     def moments(self) -> dict:
         """Population means, variances and covariance."""
@@ -364,14 +428,6 @@ def pair_stats(
     if "hist" in wanted:
         nbins, levels, rng = hist_params(bins, hist_range, r.dtype, bits, peak, pk)
 
-    # Layout: the kernel reads both frames as one flat run in the same pixel order.
-    fortran = False
-    if r.flags.c_contiguous and s.flags.c_contiguous:
-        pass
-    elif r.flags.f_contiguous and s.flags.f_contiguous and r.ndim == 2:
-        fortran = True
-    else:
-        r, s = np.ascontiguousarray(r), np.ascontiguousarray(s)
     m = None
     if mask is not None:
         m = np.asarray(mask)
@@ -379,22 +435,18 @@ def pair_stats(
             raise ShapeError(f"mask: shape {m.shape} differs from the frames' {r.shape}")
         if m.dtype != np.bool_:
             raise ShapeError(f"mask: expected a bool array, got dtype {m.dtype}")
-        m = np.asfortranarray(m) if fortran else np.ascontiguousarray(m)
 
-    raw = _core.pair_stats(
-        r,
-        s,
+    # the kernel reads the frames in place when it can (any shared contiguous layout)
+    request = KernelRequest(
         sse="sse" in wanted,
         moments="moments" in wanted,
         bins=nbins,
-        levels=levels and "hist" in wanted,
+        levels=levels,
         hist_range=rng,
-        mask=m,
         valid=valid if is_int else None,
         mask_nonfinite=nonfinite == "mask",
-        shape=(int(r.shape[0]), int(r.shape[1])),
-        fortran=fortran,
     )
+    raw = _core.pair_stats(r, s, request, m)
     return PairStats(raw, peak=pk, bins=("levels" if levels else nbins) if "hist" in wanted else None)
 
 

@@ -25,7 +25,7 @@ import numpy as np
 from .. import _core
 from ..errors import FidelityError
 from ..frames import FrameSequence
-from ..stats import PairStats, pair_stats
+from ..stats import KernelRequest, PairStats, pair_stats
 from .outcomes import Outcome
 from .plan import SequencePlan
 
@@ -57,24 +57,13 @@ def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
     return [(p, page) for p, page, _ in entries]
 
 
-def _engine_request(plan: SequencePlan, decoding: Decoding) -> dict:
-    request = plan.kernel_request()
-    if plan.config.real_channel != plan.config.sim_channel:
-        raise FidelityError("the Rust sequence engine reads one channel for both sequences; give the same "
-                            "channel for both, or convert one sequence", option="sim_channel")
-    if plan.config.peak == "range":
-        raise FidelityError("the PSNR peak 'range' is not available for file sequences in this version; "
-                            "give a number or bits", option="peak")
-    request.update(channel=plan.config.real_channel, max_pixels=decoding.max_pixels)
-    return request
-
-
 def _outcomes(todo: Todo, rows: list, plan: SequencePlan) -> list[Outcome]:
-    """Outcomes from the engine's ``(k, stats, error, shape, dtype)`` tuples (k indexes ``todo``)."""
+    """Outcomes from the engine's ``(k, stats, error, shape, dtype, real extent)`` tuples (k
+    indexes ``todo``)."""
     out = []
-    for k, raw, err, shape, dtype in rows:
+    for k, raw, err, shape, dtype, extent in rows:
         stats = None if raw is None else PairStats(raw, bins=plan.bin_label)
-        out.append(Outcome(todo[k][0], stats, err, None if shape is None else tuple(shape), dtype))
+        out.append(Outcome(todo[k][0], stats, err, None if shape is None else tuple(shape), dtype, extent))
     return out
 
 
@@ -84,20 +73,21 @@ class RustEngine:
         self.plan, self.decoding = plan, decoding
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
-        request = _engine_request(self.plan, self.decoding)
+        request = self.plan.kernel_request(self.decoding.max_pixels)
         real = [self.real[r] for _, r, _ in todo]
         sim = [self.sim[s] for _, _, s in todo]
         _core.score_pairs([p for p, _ in real], [p for p, _ in sim], [g for _, g in real], [g for _, g in sim],
-                          workers=int(self.decoding.workers or 0),
-                          on_result=lambda rows: deliver(_outcomes(todo, rows, self.plan)), **request)
+                          request=request, workers=int(self.decoding.workers or 0),
+                          on_result=lambda rows: deliver(_outcomes(todo, rows, self.plan)))
 
 
-def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: list, request: dict) -> list:
+def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: list, request: KernelRequest,
+                workers: int) -> list:
     """Run on a Dask worker: score one chunk with the Rust engine; statistics as bytes."""
     from irfidelity import _core as core
 
-    out = core.score_pairs(real_paths, sim_paths, real_pages, sim_pages, **request)
-    return [(k, None if st is None else st.to_bytes(), err, shape, dtype) for k, st, err, shape, dtype in out]
+    out = core.score_pairs(real_paths, sim_paths, real_pages, sim_pages, request=request, workers=workers)
+    return [(k, None if st is None else st.to_bytes(), *rest) for k, st, *rest in out]
 
 
 class DaskBackend(RustEngine):
@@ -111,22 +101,23 @@ class DaskBackend(RustEngine):
             from distributed import as_completed
         except ImportError as exc:  # only without the dask extra
             raise FidelityError("a Dask client needs dask.distributed (pip install 'irfidelity[dask]')") from exc
-        request = dict(_engine_request(self.plan, self.decoding), workers=int(self.decoding.workers or 1))
+        request = self.plan.kernel_request(self.decoding.max_pixels)
+        workers = int(self.decoding.workers or 1)
         futures = {}
         for start in range(0, len(todo), self.chunk_size):
             chunk = todo[start:start + self.chunk_size]
             real = [self.real[r] for _, r, _ in chunk]
             sim = [self.sim[s] for _, _, s in chunk]
             future = self.client.submit(score_chunk, [p for p, _ in real], [p for p, _ in sim],
-                                        [g for _, g in real], [g for _, g in sim], request, pure=False)
+                                        [g for _, g in real], [g for _, g in sim], request, workers, pure=False)
             futures[future] = chunk
         try:
             for future in as_completed(list(futures)):
                 chunk = futures.pop(future)
                 rows = future.result()
                 future.release()
-                deliver(_outcomes(chunk, [(k, None if data is None else _core.PairStats.from_bytes(data), err, shape,
-                                           dtype) for k, data, err, shape, dtype in rows], self.plan))
+                deliver(_outcomes(chunk, [(k, None if data is None else _core.PairStats.from_bytes(data), *rest)
+                                          for k, data, *rest in rows], self.plan))
         finally:
             if futures:
                 self.client.cancel(list(futures))

@@ -20,7 +20,7 @@ from ..frames import FrameSequence
 from ..fuzzy import Weights
 from ..results import recorded_warnings
 from ..scoring import plan_components, psnr_peak
-from ..stats import hist_params, peak_and_valid
+from ..stats import KernelRequest, hist_params, peak_and_valid
 from .pairing import Pairing
 
 __all__ = ["SequencePlan", "make_plan"]
@@ -58,11 +58,15 @@ class SequencePlan:
         """Whether frames share histogram edges, so their histograms pool."""
         return "nmi" in self.image and (self.levels or self.hist_range is not None)
 
-    def kernel_request(self) -> dict:
-        """What the Rust engine computes per pair: only what the image components need."""
-        return dict(sse="psnr" in self.image, moments="ssim" in self.image, bins=self.bins,
-                    levels=self.levels, hist_range=self.hist_range, valid=self.valid,
-                    mask_nonfinite=self.config.nonfinite == "mask")
+    def kernel_request(self, max_pixels: int | None = None) -> KernelRequest:
+        """What the Rust engine computes per pair (only what the image components need) and
+        how it decodes frames."""
+        cfg = self.config
+        return KernelRequest(sse="psnr" in self.image, moments="ssim" in self.image, bins=self.bins,
+                             levels=self.levels, hist_range=self.hist_range, valid=self.valid,
+                             mask_nonfinite=cfg.nonfinite == "mask", real_channel=cfg.real_channel,
+                             sim_channel=cfg.sim_channel, real_extent=cfg.peak == "range" and "psnr" in self.image,
+                             max_pixels=max_pixels)
 
     def settings(self) -> dict:
         """What a resumed run must share with the one it continues (beyond the config)."""
