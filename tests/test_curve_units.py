@@ -223,7 +223,7 @@ def test_docstring_table_is_the_table():
 
 def test_evaluate_reads_units_and_takes_the_camera(tmp_path):
     """Through evaluate: a CSV MTF in cy/mrad against a slanted-edge MTF (cy/px) is refused until
-    the camera constants come in (mtf_options={"camera": ...})."""
+    the camera constants come in (ifov_mrad in the configuration, --ifov on the command line)."""
     import pathlib
 
     import irfidelity as irf
@@ -237,5 +237,6 @@ def test_evaluate_reads_units_and_takes_the_camera(tmp_path):
     kw = dict(real_mtf=measured, sim_mtf=str(csv), weights="mtf=1")
     with pytest.raises(FidelityError, match=r"cy/px .* cy/mrad .*--ifov MRAD"):
         irf.evaluate(**kw)
-    rep = irf.evaluate(**kw, mtf_options={"camera": CameraGeometry(ifov_mrad=0.5)})
+    rep = irf.evaluate(**kw, ifov_mrad=0.5)
     assert rep.components["mtf"] == pytest.approx(1.0, abs=1e-9)
+    assert rep.metrics["mtf50_unit"] == "cy/px" and rep.config.ifov_mrad == 0.5

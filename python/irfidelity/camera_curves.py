@@ -60,20 +60,20 @@ def describe_input(x: Any) -> Any:
     return type(x).__name__
 
 
-def _edge_curve(image: Any, what: str, channel: str | None) -> Curve:
+def _edge_curve(image: Any, what: str, config: ScoringConfig) -> Curve:
     from .curves import mtf_from_edge
     from .frames import load_frame
 
     source = os.fspath(image) if isinstance(image, (str, os.PathLike)) else None
     if source is not None:
-        image = load_frame(source, channel=channel)
+        image = load_frame(source, channel=config.edge_channel)
     try:
-        return mtf_from_edge(image, name=what)
+        return mtf_from_edge(image, name=what, edge_fit_order=config.edge_fit_order)
     except FidelityError as exc:
         raise FidelityError(f"{what}{f' ({source})' if source else ''}: {exc}") from None
 
 
-def as_curve(x: Any, what: str, *, edge_ok: bool, channel: str | None = None) -> Curve:
+def as_curve(x: Any, what: str, config: ScoringConfig, *, edge_ok: bool) -> Curve:
     """A Curve from a Curve, an (x, y) pair, a CSV path, or (MTF only) an edge image/path."""
     if isinstance(x, Curve):
         return x
@@ -83,9 +83,9 @@ def as_curve(x: Any, what: str, *, edge_ok: bool, channel: str | None = None) ->
             return Curve.from_csv(path, name=what)
         if not edge_ok:
             raise FidelityError(f"{what}: {path!r} is not a curve file ({', '.join(_CURVE_EXTENSIONS)})")
-        return _edge_curve(path, what, channel)
+        return _edge_curve(path, what, config)
     if isinstance(x, np.ndarray) and x.ndim == 2 and edge_ok and min(x.shape) > 2:
-        return _edge_curve(x, what, channel)
+        return _edge_curve(x, what, config)
     try:
         cx, cy = x
     except (TypeError, ValueError):
@@ -94,10 +94,31 @@ def as_curve(x: Any, what: str, *, edge_ok: bool, channel: str | None = None) ->
     return Curve(cx, cy, name=what)
 
 
+def _compare(kind: str, inputs: CurveInputs, config: ScoringConfig) -> tuple[float, dict, dict]:
+    """One curve component: its value, raw metrics and input descriptions."""
+    from .curves import CameraGeometry, mtf_similarity, sitf_similarity
+
+    real_in, sim_in = getattr(inputs, f"real_{kind}"), getattr(inputs, f"sim_{kind}")
+    real = as_curve(real_in, f"real {kind.upper()}", config, edge_ok=kind == "mtf")
+    sim = as_curve(sim_in, f"simulated {kind.upper()}", config, edge_ok=kind == "mtf")
+    if kind == "mtf":
+        camera = CameraGeometry(ifov_mrad=config.ifov_mrad, pixel_pitch_um=config.pixel_pitch_um,
+                                focal_length_mm=config.focal_length_mm)
+        s = mtf_similarity(real, sim, camera=camera, **config.mtf_options)
+        metrics = {"mtf50_real": s.a, "mtf50_sim": s.b, "mtf50_unit": s.x_unit}
+    else:
+        s = sitf_similarity(real, sim, **config.sitf_options)
+        unit = None if s.x_unit is None and s.y_unit is None else f"{s.y_unit or '?'}/{s.x_unit or '?'}"
+        metrics = {"sitf_slope_real": s.a, "sitf_slope_sim": s.b, "sitf_slope_unit": unit}
+    metrics.update({f"{kind}_mu": s.mu, f"{kind}_rho": s.rho, f"{kind}_ccc": s.ccc, f"{kind}_area": s.area})
+    return float(s.value), metrics, {f"real_{kind}": describe_input(real_in), f"sim_{kind}": describe_input(sim_in)}
+
+
 def curve_components(inputs: CurveInputs, weights: Weights, config: ScoringConfig) -> tuple[dict, dict, dict]:
     """Components f1 (MTF, eqs. 1–4) and f2 (SiTF) of the curves whose weight is positive.
 
-    Curves with weight 0 are not read at all.
+    Curves with weight 0 are not read at all. Curves in different units are converted with
+    the configuration's camera geometry, or refused (:mod:`irfidelity.curves.units`).
 
     Returns
     -------
@@ -105,25 +126,12 @@ def curve_components(inputs: CurveInputs, weights: Weights, config: ScoringConfi
         ``{"mtf"|"sitf": f}``; the raw metrics (:data:`irfidelity.schema.METRICS`); and short
         input descriptions.
     """
-    from .curves import mtf_similarity
-    from .curves import sitf_similarity
-
     components: dict[str, float] = {}
     metrics: dict[str, Any] = {}
     described: dict[str, Any] = {}
-    geometry = {k: getattr(config, k) for k in ("ifov_mrad", "pixel_pitch_um", "focal_length_mm")
-                if getattr(config, k) is not None}
-    for kind, similarity, edge_ok, options in (("mtf", mtf_similarity, True, config.mtf_options),
-                                               ("sitf", sitf_similarity, False, config.sitf_options)):
-        if weights[kind] == 0:
-            continue
-        real_in, sim_in = getattr(inputs, f"real_{kind}"), getattr(inputs, f"sim_{kind}")
-        real = as_curve(real_in, f"real {kind.upper()}", edge_ok=edge_ok, channel=config.edge_channel)
-        sim = as_curve(sim_in, f"simulated {kind.upper()}", edge_ok=edge_ok, channel=config.edge_channel)
-        s = similarity(real, sim, **geometry, **dict(options))
-        components[kind] = float(s.value)
-        a, b = ("mtf50_real", "mtf50_sim") if kind == "mtf" else ("sitf_slope_real", "sitf_slope_sim")
-        metrics.update({a: s.a, b: s.b, f"{kind}_mu": s.mu, f"{kind}_rho": s.rho, f"{kind}_ccc": s.ccc,
-                        f"{kind}_area": s.area})
-        described.update({f"real_{kind}": describe_input(real_in), f"sim_{kind}": describe_input(sim_in)})
+    for kind in ("mtf", "sitf"):
+        if weights[kind] > 0:
+            components[kind], kind_metrics, kind_inputs = _compare(kind, inputs, config)
+            metrics.update(kind_metrics)
+            described.update(kind_inputs)
     return components, metrics, described

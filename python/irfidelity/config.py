@@ -127,6 +127,9 @@ class ScoringConfig:
         Channel of multi-channel frame files ("Y", "R", an EXR channel name, ...), per side.
     edge_channel : str or None
         Channel of multi-channel slanted-edge images.
+    edge_fit_order : int
+        Order (1..5) of the polynomial fitted to the edge location of slanted-edge images:
+        5 follows lens curvature (ISO 12233:2023), 1 is the straight line of ISO 12233:2014.
     ifov_mrad, pixel_pitch_um, focal_length_mm : float or None
         Camera geometry for converting curve frequencies between cycles/pixel, cycles/mrad
         and line pairs/mm (only needed when the two curves are in different units).
@@ -160,6 +163,7 @@ class ScoringConfig:
     real_channel: str | None = None
     sim_channel: str | None = None
     edge_channel: str | None = None
+    edge_fit_order: int = 5
     ifov_mrad: float | None = None
     pixel_pitch_um: float | None = None
     focal_length_mm: float | None = None
@@ -203,6 +207,7 @@ class ScoringConfig:
         out["nonfinite"] = _choice("nonfinite", self.nonfinite, NONFINITE_MODES)
         for name in ("real_channel", "sim_channel", "edge_channel"):
             out[name] = _optional_name(name, getattr(self, name))
+        out["edge_fit_order"] = _optional_int("edge_fit_order", self.edge_fit_order, 1, 5)
         for name in ("ifov_mrad", "pixel_pitch_um", "focal_length_mm"):
             out[name] = _optional_positive(name, getattr(self, name))
         for name in ("mtf_options", "sitf_options"):

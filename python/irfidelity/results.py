@@ -58,10 +58,10 @@ def version() -> str:
 
 
 _RAW = {
-    "mtf": lambda m: f"MTF50 real {m['mtf50_real']:.4g}, sim {m['mtf50_sim']:.4g}; mu {m['mtf_mu']:.4f}, "
-                     f"rho {m['mtf_rho']:.4f}",
-    "sitf": lambda m: f"slope real {m['sitf_slope_real']:.4g}, sim {m['sitf_slope_sim']:.4g}; "
-                      f"mu {m['sitf_mu']:.4f}, rho {m['sitf_rho']:.4f}",
+    "mtf": lambda m: f"MTF50 real {m['mtf50_real']:.4g}, sim {m['mtf50_sim']:.4g} {m.get('mtf50_unit') or ''}; "
+                     f"mu {m['mtf_mu']:.4f}, rho {m['mtf_rho']:.4f}",
+    "sitf": lambda m: f"slope real {m['sitf_slope_real']:.4g}, sim {m['sitf_slope_sim']:.4g} "
+                      f"{m.get('sitf_slope_unit') or ''}; mu {m['sitf_mu']:.4f}, rho {m['sitf_rho']:.4f}",
     "psnr": lambda m: f"PSNR {m['psnr_db']:.3f} dB (peak {m['psnr_peak']:g}), MSE {m['mse']:.6g}",
     "nmi": lambda m: f"MI {m['mi']:.4f}, H(R) {m['h_real']:.4f}, H(S) {m['h_sim']:.4f}, H(R,S) {m['h_joint']:.4f}",
     "ssim": lambda m: f"SSIM {m['ssim']:.4f} = l {m['ssim_luminance']:.4f} · c {m['ssim_contrast']:.4f} · "

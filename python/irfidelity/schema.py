@@ -24,6 +24,7 @@ METRICS: dict[str, tuple[tuple[str, str, str], ...]] = {
     "mtf": (
         ("mtf50_real", "curve x unit", "MTF50 of the real camera (eq. 4's a)"),
         ("mtf50_sim", "curve x unit", "MTF50 of the simulated camera (eq. 4's b)"),
+        ("mtf50_unit", "", "the unit of the MTF50s (cy/px, cy/mrad, lp/mm; empty when unknown)"),
         ("mtf_mu", "1", "mu = 2|a||b|/(a²+b²) of the MTF50s (eq. 4)"),
         ("mtf_rho", "1", "Pearson correlation of the curves at common points (eq. 2)"),
         ("mtf_ccc", "1", "Lin's concordance of the curves (not in eq. 15)"),
@@ -32,6 +33,7 @@ METRICS: dict[str, tuple[tuple[str, str, str], ...]] = {
     "sitf": (
         ("sitf_slope_real", "signal / K", "slope of the real SiTF's linear region"),
         ("sitf_slope_sim", "signal / K", "slope of the simulated SiTF's linear region"),
+        ("sitf_slope_unit", "", "the unit of the slopes (signal unit / temperature unit; empty when unknown)"),
         ("sitf_mu", "1", "mu of the slopes (eq. 4)"),
         ("sitf_rho", "1", "Pearson correlation of the curves (eq. 2)"),
         ("sitf_ccc", "1", "Lin's concordance of the curves (not in eq. 15)"),

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 
 from ..config import MISSING_MODES, NONFINITE_MODES, PAIRING_RULES, REGISTRATION_MODELS
+from ..curves.table import parse_columns, parse_where
+from ..errors import FidelityError
 
 __all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "flag_for"]
 
@@ -79,11 +81,18 @@ def _hist_range(text: str) -> str | tuple[float, float]:
     return (lo, hi)
 
 
-def _columns(text: str) -> tuple[str | int, str | int]:
-    parts = [p.strip() for p in text.split(",")]
-    if len(parts) != 2 or not all(parts):
-        raise argparse.ArgumentTypeError(f"expected two columns X,Y (names or 0-based indices), got {text!r}")
-    return tuple(int(p) if p.isdigit() else p for p in parts)  # type: ignore[return-value]
+def _argument_type(parse):
+    """An argparse type from a parser that raises FidelityError."""
+    def convert(text: str):
+        try:
+            return parse(text)
+        except FidelityError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    return convert
+
+
+_columns, _where = _argument_type(parse_columns), _argument_type(parse_where)
 
 
 def _add_score(sub: argparse._SubParsersAction) -> None:
@@ -129,6 +138,11 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
         for kind in ("mtf", "sitf"):
             k.add_argument(f"--{side}-{kind}-columns", type=_columns, metavar="X,Y",
                            help=f"the two columns of the {side} {kind.upper()} CSV (names or 0-based indices)")
+            k.add_argument(f"--{side}-{kind}-where", type=_where, metavar="NAME=VALUE",
+                           help=f"only the rows of the {side} {kind.upper()} CSV where column NAME equals VALUE")
+    k.add_argument("--edge-fit-order", type=_int_from(1), metavar="N", choices=range(1, 6),
+                   help="order of the edge-location fit of slanted-edge images: 5 (default, ISO 12233:2023) .. 1 "
+                        "(a straight line, ISO 12233:2014)")
     k.add_argument("--ifov", type=_positive_float, metavar="MRAD", dest="ifov_mrad",
                    help="instantaneous field of view of a pixel, to convert cycles/pixel <-> cycles/mrad")
     k.add_argument("--pixel-pitch", type=_positive_float, metavar="UM", dest="pixel_pitch_um",

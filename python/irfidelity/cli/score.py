@@ -17,7 +17,7 @@ __all__ = ["score_command"]
 
 #: Flags that set a ScoringConfig field of the same name.
 _CONFIG_FLAGS = ("bits", "peak", "bins", "hist_range", "missing", "nonfinite", "channel", "real_channel",
-                 "sim_channel", "edge_channel", "ifov_mrad", "pixel_pitch_um", "focal_length_mm", "register",
+                 "sim_channel", "edge_channel", "edge_fit_order", "ifov_mrad", "pixel_pitch_um", "focal_length_mm", "register",
                  "register_each", "max_delay", "pair_by")
 
 
@@ -48,12 +48,13 @@ def _curve(a: argparse.Namespace, side: str, kind: str) -> Any:
         if given is not None:
             raise UsageError(f"give the {side} MTF either as --{side}-mtf or as --{side}-edge, not both")
         given = getattr(a, f"{side}_edge")
-    columns = getattr(a, f"{side}_{kind}_columns")
-    if columns is None:
+    columns, where = getattr(a, f"{side}_{kind}_columns"), getattr(a, f"{side}_{kind}_where")
+    if columns is None and where is None:
         return given
     if given is None or not given.lower().endswith((".csv", ".txt", ".tsv", ".dat")):
-        raise UsageError(f"--{side}-{kind}-columns selects the columns of a curve CSV given with --{side}-{kind}")
-    return Curve.from_csv(given, columns=columns, name=os.path.basename(given))
+        flag = f"--{side}-{kind}-columns" if columns is not None else f"--{side}-{kind}-where"
+        raise UsageError(f"{flag} selects from a curve CSV given with --{side}-{kind}")
+    return Curve.from_csv(given, columns=columns, where=where, name=os.path.basename(given))
 
 
 def _pages(seq: FrameSequence, spec: str) -> FrameSequence:

@@ -101,9 +101,9 @@ def frame_statistics(frames: list[dict]) -> dict:
     out: dict[str, Any] = {"fidelity": _percentiles([f["fidelity"] for f in scored]), "components": {},
                            "metrics": {}}
     for group in ("components", "metrics"):
-        keys = dict.fromkeys(k for f in scored for k in f[group])
+        keys = dict.fromkeys(k for f in scored for k, v in f[group].items() if isinstance(v, (int, float)))
         for k in keys:
-            stats = _percentiles([f[group][k] for f in scored if f[group].get(k) is not None])
+            stats = _percentiles([f[group][k] for f in scored if isinstance(f[group].get(k), (int, float))])
             if stats:
                 out[group][k] = stats
     return out
