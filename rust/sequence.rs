@@ -62,6 +62,8 @@ pub struct SeqRequest {
     /// Channel to decode (EXR channel name, or PNG/TIFF channel); `None` = the only one / "Y".
     pub channel: Option<String>,
     pub max_pixels: u64,
+    /// Decoding budget per frame, in bytes (`DecodeOptions::max_bytes`).
+    pub max_bytes: u64,
 }
 
 impl Default for SeqRequest {
@@ -74,6 +76,7 @@ impl Default for SeqRequest {
             mask_nonfinite: false,
             channel: None,
             max_pixels: io::DEFAULT_MAX_PIXELS,
+            max_bytes: io::DEFAULT_MAX_BYTES,
         }
     }
 }
@@ -121,7 +124,12 @@ fn prefix(err: Error, what: &str) -> Error {
 }
 
 fn decode(src: &Source, req: &SeqRequest) -> Result<Frame> {
-    let opts = DecodeOptions { channel: req.channel.clone(), max_pixels: req.max_pixels, page: src.page };
+    let opts = DecodeOptions {
+        channel: req.channel.clone(),
+        max_pixels: req.max_pixels,
+        max_bytes: req.max_bytes,
+        page: src.page,
+    };
     io::decode_frame(&src.path, &opts)
 }
 

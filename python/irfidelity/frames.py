@@ -15,6 +15,7 @@ from __future__ import annotations
 import glob as _glob
 import os
 import re
+import stat
 from collections.abc import Iterable, Iterator, Sequence
 from typing import Any, Union, overload
 
@@ -65,6 +66,15 @@ def _load_npy(path: str, channel: str | None, page: int, max_pixels: int | None)
     if channel is not None:
         raise FrameError(f"{path}: .npy files have no channels (got channel={channel!r})")
     limit = default_max_pixels() if max_pixels is None else max_pixels
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as e:
+        raise FrameError(f"{path}: cannot open: {e.strerror or e}") from None
+    if stat.S_ISDIR(mode):
+        raise FrameError(f"{path}: is a directory, not an image file")
+    if not stat.S_ISREG(mode):
+        # opening a FIFO for reading blocks until a writer appears
+        raise FrameError(f"{path}: not a regular file (a FIFO, socket or device); frames are read from regular files")
     try:
         # mmap reads the header only, so a lying shape is refused before allocating
         mapped = np.load(path, mmap_mode="r", allow_pickle=False)

@@ -58,7 +58,7 @@ fn outcome_tuple<'py>(py: Python<'py>, o: PairOutcome) -> PyResult<Bound<'py, Py
 
 /// `score_pairs(real_paths, sim_paths, real_pages=None, sim_pages=None, *, channel=None,
 /// sse=True, moments=True, bins=None, levels=False, hist_range=None, valid=None,
-/// mask_nonfinite=False, max_pixels=None, workers=0, progress=None, on_result=None)`
+/// mask_nonfinite=False, max_pixels=None, workers=0, progress=None, on_result=None, max_bytes=None)`
 ///
 /// Decode and score every pair `(real_paths[i] page real_pages[i], sim_paths[i] page
 /// sim_pages[i])` on `workers` threads (0 = all cores) with the GIL released. Each
@@ -78,7 +78,8 @@ fn outcome_tuple<'py>(py: Python<'py>, o: PairOutcome) -> PyResult<Bound<'py, Py
 #[pyfunction]
 #[pyo3(signature = (real_paths, sim_paths, real_pages=None, sim_pages=None, *, channel=None, sse=true,
                     moments=true, bins=None, levels=false, hist_range=None, valid=None,
-                    mask_nonfinite=false, max_pixels=None, workers=0, progress=None, on_result=None))]
+                    mask_nonfinite=false, max_pixels=None, workers=0, progress=None, on_result=None,
+                    max_bytes=None))]
 #[allow(clippy::too_many_arguments)]
 fn score_pairs<'py>(
     py: Python<'py>,
@@ -98,6 +99,7 @@ fn score_pairs<'py>(
     workers: usize,
     progress: Option<Bound<'py, PyAny>>,
     on_result: Option<Bound<'py, PyAny>>,
+    max_bytes: Option<u64>,
 ) -> PyResult<Option<Bound<'py, PyList>>> {
     let real = sources(real_paths, real_pages, "real")?;
     let sim = sources(sim_paths, sim_pages, "sim")?;
@@ -118,6 +120,7 @@ fn score_pairs<'py>(
         mask_nonfinite,
         channel,
         max_pixels: max_pixels.unwrap_or(crate::io::DEFAULT_MAX_PIXELS),
+        max_bytes: max_bytes.unwrap_or(crate::io::DEFAULT_MAX_BYTES),
     };
     let n = real.len();
     let workers_n = sequence::effective_workers(workers).max(1);
