@@ -52,16 +52,9 @@ CHILD = textwrap.dedent(
             rec.update(kind="ok", value=page_count(job["path"]))
         elif job["op"] == "nmi":
             import irfidelity as irf
-            dtype = np.dtype(job["dtype"])
-            rng = np.random.default_rng(5)
-            info = np.iinfo(dtype)
-            r = rng.integers(info.min, int(info.max) + 1, size=(64, 64), dtype=dtype)
-            s = rng.integers(info.min, int(info.max) + 1, size=(64, 64), dtype=dtype)
-            lo, hi = job["range"]
-            rec.update(kind="ok", value=[
-                irf.nmi(r, s, hist_range=(lo, hi), bins=job["bins"]).value,
-                irf.nmi(r.astype(np.float64), s.astype(np.float64), hist_range=(lo, hi), bins=job["bins"]).value,
-            ])
+            r, s = (np.array(a, dtype=job["dtype"]) for a in job["frames"])
+            got = irf.nmi(r, s, hist_range=tuple(job["range"]), bins=job["bins"])
+            rec.update(kind="ok", value=[got.value, got.h_real, got.h_sim, got.h_joint])
     except FrameError as e:
         rec.update(kind="frame_error", message=str(e))
     except BaseException as e:  # anything else is a bug
@@ -368,15 +361,42 @@ def test_fifo_is_refused_not_waited_on(tmp_path: Path, name: str, op: str) -> No
 # ------------------------------------------------------------- integer histogram edges
 
 
+def _entropy(keys: np.ndarray) -> float:
+    _, counts = np.unique(keys, axis=0, return_counts=True)
+    p = counts / counts.sum()
+    return float(-(p * np.log2(p)).sum())
+
+
+def exact_nmi(r: np.ndarray, s: np.ndarray, lo: float, hi: float, bins: int) -> list[float]:
+    """NMI and entropies with the documented integer bins, in Python integers: width =
+    ceil((hi - lo + 1) / bins) levels, values outside [lo, hi] in the edge bins."""
+    lo_i, hi_i = int(lo), int(hi)
+    width = -(-(hi_i - lo_i + 1) // bins)
+    top = (hi_i - lo_i) // width
+    rb, sb = ([min(max((int(v) - lo_i) // width, 0), top) for v in a.ravel()] for a in (r, s))
+    h_r, h_s = _entropy(np.array(rb)), _entropy(np.array(sb))
+    h_j = _entropy(np.array([rb, sb]).T)
+    mi = max(h_r + h_s - h_j, 0.0)
+    return [1.0 if h_r + h_s == 0 else min(2 * mi / (h_r + h_s), 1.0), h_r, h_s, h_j]
+
+
+HUGE_RANGES = [(-1e19, 1e3), (-1e19, 1e19), (0.0, 1e19), (-9.3e18, -9.2e18), (-(2.0**100), 2.0**100), (-(2.0**70), 5.0)]
+
+
 @pytest.mark.parametrize("dtype", ["uint8", "uint16", "int16", "uint32"])
-@pytest.mark.parametrize("rng", [(-1e19, 1e3), (-1e19, 1e19), (0.0, 1e19), (-9.3e18, -9.2e18), (-(2.0**100), 2.0**100)])
-def test_huge_integer_hist_range_is_binned_exactly(dtype: str, rng: tuple[float, float]) -> None:
+@pytest.mark.parametrize("rng", HUGE_RANGES)
+@pytest.mark.parametrize("bins", [1, 3, 256, 70000])
+def test_huge_integer_hist_range_is_binned_exactly(dtype: str, rng: tuple[float, float], bins: int) -> None:
     # spans beyond 2^63 overflowed the integer binner: an out-of-bounds write (segfault) for
-    # 16-bit frames, a wrong NMI for 8-bit ones; ints must bin like float64 on these edges
-    rec = run_child(op="nmi", dtype=dtype, range=list(rng), bins=256)
+    # 16-bit frames, a wrong NMI for 8-bit ones; now exact, by the documented rule
+    info = np.iinfo(dtype)
+    gen = np.random.default_rng(5)
+    values = np.array([info.min, info.max, 0, 1, 255, -1 if info.min < 0 else 2], dtype=np.int64)
+    r = np.concatenate([values, gen.integers(info.min, int(info.max) + 1, size=58)]).astype(dtype).reshape(8, 8)
+    s = np.concatenate([values[::-1], gen.integers(info.min, int(info.max) + 1, size=58)]).astype(dtype).reshape(8, 8)
+    rec = run_child(op="nmi", dtype=dtype, frames=[r.tolist(), s.tolist()], range=list(rng), bins=bins)
     assert rec["kind"] == "ok", rec
-    got_int, got_float = rec["value"]
-    assert got_int == pytest.approx(got_float, abs=1e-12), rec
+    assert rec["value"] == pytest.approx(exact_nmi(r, s, *rng, bins), abs=1e-12), rec
 
 
 def test_integer_hist_range_beyond_2_to_100_is_a_clear_error() -> None:
@@ -385,7 +405,7 @@ def test_integer_hist_range_beyond_2_to_100_is_a_clear_error() -> None:
         irf.nmi(r, r, hist_range=(-1e300, 1e3))
 
 
-NARROW = [(0.0, 0.0), (5.0, 5.0), (2.0, 5.0), (10.0, 12.0), (0.0, 200.0), (-3.0, 3.0), (250.0, 255.0), (100.0, 400.0)]
+NARROW = [(0.0, 0.0), (5.0, 5.0), (2.0, 5.0), (10.0, 12.0), (0.0, 200.0), (-3.0, 3.0), (250.0, 255.0), (100.0, 355.0)]
 
 
 @pytest.mark.parametrize("lo,hi", NARROW)
