@@ -25,6 +25,8 @@ use std::path::Path;
 use crate::{Error, Result};
 
 mod exr;
+#[cfg(feature = "fuzzing")]
+pub mod fuzzing;
 mod piz;
 mod raster;
 mod zip;

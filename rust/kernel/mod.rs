@@ -549,8 +549,13 @@ fn run_chunk<T: Sample>(
 }
 
 /// AVX2 when the CPU has it, unless `IRFIDELITY_NO_SIMD` is set (to compare both copies).
+/// Every `unsafe` AVX2 call in the kernels is guarded by this being true.
 #[cfg(target_arch = "x86_64")]
 pub(crate) fn use_avx2() -> bool {
+    #[cfg(test)]
+    if tests::PORTABLE.with(|p| p.get()) {
+        return false;
+    }
     static USE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *USE.get_or_init(|| std::arch::is_x86_feature_detected!("avx2") && std::env::var_os("IRFIDELITY_NO_SIMD").is_none())
 }
@@ -740,9 +745,115 @@ fn describe<T: Sample>(bad: Bad, r: &[T], s: &[T], req: &Request) -> Error {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::stats::det_f64;
+
+    thread_local! {
+        /// Set: this thread's passes take the portable loops even on an AVX2 CPU.
+        pub(crate) static PORTABLE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    }
+
+    /// `f` with the AVX2 copies (where the CPU has them) and with the portable loops, on
+    /// this thread alone (no pool helpers, which would not see the switch).
+    pub(crate) fn both_paths<R>(f: impl Fn() -> R) -> [R; 2] {
+        with_pool_busy(true, || {
+            let simd = f();
+            PORTABLE.with(|p| p.set(true));
+            let portable = f();
+            PORTABLE.with(|p| p.set(false));
+            [simd, portable]
+        })
+    }
+
+    /// Run lengths around every step of the explicit loops (4, 8 and 16 lanes, blocks of
+    /// 128 and 256, a chunk), smaller under Miri.
+    pub(crate) fn boundary_lengths() -> Vec<usize> {
+        let mut n: Vec<usize> = (0..=20).chain([31, 32, 33, 127, 128, 129, 255, 256, 257, 511, 513]).collect();
+        if !cfg!(miri) {
+            n.extend([CHUNK - 1, CHUNK, CHUNK + 1, 2 * CHUNK + 3]);
+        }
+        n
+    }
+
+    /// Float frames: the AVX2 loops (squared error, scan, centred sums, dense histogram)
+    /// give bit-identical statistics to the portable ones at every boundary length, with
+    /// values beyond the histogram range on both sides (the clamps before the unchecked
+    /// table writes), and NaN/Inf masked.
+    #[test]
+    fn float_simd_equals_portable_at_the_boundaries() {
+        let mut seed = 3u64;
+        let mut next = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for n in boundary_lengths() {
+            let r: Vec<f64> = (0..n).map(|i| if i % 97 == 5 { 1e300 } else { next() * 300.0 - 100.0 }).collect();
+            let s: Vec<f64> =
+                r.iter().enumerate().map(|(i, v)| if i % 89 == 3 { -1e300 } else { v + next() }).collect();
+            let r32: Vec<f32> = r.iter().map(|&v| v.clamp(-3e38, 3e38) as f32).collect();
+            let s32: Vec<f32> = s.iter().map(|&v| v.clamp(-3e38, 3e38) as f32).collect();
+            let mut rn = r.clone();
+            if n > 2 {
+                rn[n / 2] = f64::NAN;
+                rn[1] = f64::INFINITY;
+            }
+            for hist in [
+                None,
+                Some(HistRequest::Bins { bins: 64, range: Some((0.0, 100.0)) }),
+                Some(HistRequest::Bins { bins: 512, range: None }),
+                Some(HistRequest::Bins { bins: 700, range: Some((-50.0, 50.0)) }),
+            ] {
+                for (sse, moments) in [(true, false), (true, true), (false, true)] {
+                    let req = Request { sse, moments, hist: hist.clone(), ..all() };
+                    let [a, b] = both_paths(|| pair_stats(&r, &s, &req));
+                    assert_eq!(a, b, "f64 n {n} {req:?}");
+                    let [a, b] = both_paths(|| pair_stats(&r32, &s32, &req));
+                    assert_eq!(a, b, "f32 n {n} {req:?}");
+                    let req = Request { mask_nonfinite: true, ..req };
+                    let [a, b] = both_paths(|| pair_stats(&rn, &s, &req));
+                    assert_eq!(a, b, "f64 with NaN/Inf n {n} {req:?}");
+                }
+            }
+        }
+    }
+
+    /// Integer frames: the AVX2 squared error and the unchecked dense-table counts equal
+    /// the portable loops and a naive count at every boundary length, levels at both ends
+    /// of each type.
+    #[test]
+    fn int_simd_equals_portable_at_the_boundaries() {
+        for n in boundary_lengths() {
+            let r16: Vec<u16> = (0..n).map(|i| [0u16, 65535, 1, 65534, 30000][i % 5] ^ (i as u16 & 7)).collect();
+            let s16: Vec<u16> = r16.iter().rev().copied().collect();
+            let r8: Vec<u8> = r16.iter().map(|&v| (v >> 8) as u8).collect();
+            let s8: Vec<u8> = s16.iter().map(|&v| v as u8).collect();
+            let ri: Vec<i16> = r16.iter().map(|&v| v as i16).collect();
+            let si: Vec<i16> = s16.iter().map(|&v| v as i16).collect();
+            for hist in [
+                None,
+                Some(HistRequest::Bins { bins: 256, range: None }),
+                Some(HistRequest::Bins { bins: 512, range: Some((-5.0, 40000.0)) }),
+                Some(HistRequest::Bins { bins: 3, range: Some((100.0, 101.0)) }),
+                Some(HistRequest::Levels),
+            ] {
+                for (sse, moments) in [(true, false), (true, true)] {
+                    let req = Request { sse, moments, hist: hist.clone(), ..all() };
+                    let [a, b] = both_paths(|| pair_stats(&r16, &s16, &req).unwrap());
+                    assert_eq!(a, b, "u16 n {n} {req:?}");
+                    let want: u128 = r16.iter().zip(&s16).map(|(&x, &y)| (x.abs_diff(y) as u128).pow(2)).sum();
+                    assert!(matches!(a.sums, Sums::Int(IntSums { sse, .. }) if sse == want));
+                    if let Some((_, joint)) = &a.hist {
+                        assert_eq!(joint.total(), n as u64);
+                    }
+                    let [a, b] = both_paths(|| pair_stats(&r8, &s8, &req).unwrap());
+                    assert_eq!(a, b, "u8 n {n} {req:?}");
+                    let [a, b] = both_paths(|| pair_stats(&ri, &si, &req).unwrap());
+                    assert_eq!(a, b, "i16 n {n} {req:?}");
+                }
+            }
+        }
+    }
 
     fn all() -> Request<'static> {
         Request { hist: Some(HistRequest::Bins { bins: 256, range: None }), ..Request::default() }
