@@ -73,8 +73,7 @@ pub struct SeqRequest {
     /// real frame's range).
     pub real_extent: bool,
     pub max_pixels: u64,
-    /// Byte budget of one decode (all channels, samples and scratch); `None` = the
-    /// decoder's default. Not yet read by [`crate::io::decode_frame`].
+    /// Decoding budget per frame, in bytes (`DecodeOptions::max_bytes`); `None` = the default.
     pub max_bytes: Option<u64>,
 }
 
@@ -160,7 +159,12 @@ fn prefix(err: Error, what: &str) -> Error {
 }
 
 fn decode(src: &Source, channel: &Option<String>, req: &SeqRequest) -> Result<Frame> {
-    let opts = DecodeOptions { channel: channel.clone(), max_pixels: req.max_pixels, page: src.page };
+    let opts = DecodeOptions {
+        channel: channel.clone(),
+        max_pixels: req.max_pixels,
+        max_bytes: req.max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES),
+        page: src.page,
+    };
     io::decode_frame(&src.path, &opts)
 }
 

@@ -12,6 +12,7 @@ from irfidelity.stats import KernelRequest
 __all__ = [
     "PairStats",
     "SUPPORTED_DTYPES",
+    "default_max_bytes",
     "default_max_pixels",
     "file_digests",
     "list_channels",
@@ -79,10 +80,13 @@ def load_frame(
     channel: str | None = None,
     page: int = 0,
     max_pixels: int | None = None,
+    *,
+    max_bytes: int | None = None,
 ) -> npt.NDArray[Any]: ...
 def page_count(path: str | os.PathLike[str]) -> int: ...
 def list_channels(path: str | os.PathLike[str]) -> list[str]: ...
 def default_max_pixels() -> int: ...
+def default_max_bytes() -> int: ...
 
 # ---- sequences (rust/binding/sequence.rs) ---------------------------------------------------
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import glob as _glob
 import os
 import re
+import stat
 from collections.abc import Iterable, Iterator, Sequence
 from typing import Any, Union, overload
 
@@ -54,20 +55,33 @@ def _check_page(path: str, page: Any) -> int:
     return int(page)
 
 
-def _check_max_pixels(path: str, max_pixels: Any) -> int | None:
-    if max_pixels is None:
+def default_max_bytes() -> int:
+    """The default decoding budget of one frame, in bytes (every allocation of a decode)."""
+    return int(_core.default_max_bytes())
+
+
+def _check_limit(path: str, name: str, value: Any) -> int | None:
+    """A decoding limit (``max_pixels``, ``max_bytes``): None or an integer in 1..2^63-1."""
+    if value is None:
         return None
-    if isinstance(max_pixels, bool) or not isinstance(max_pixels, (int, np.integer)) or \
-            not 1 <= max_pixels <= _LARGEST:
-        raise FrameError(f"{path}: max_pixels must be an integer in 1..2^63-1, got {max_pixels!r}",
-                         option="max_pixels")
-    return int(max_pixels)
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= _LARGEST:
+        raise FrameError(f"{path}: {name} must be an integer in 1..2^63-1, got {value!r}", option=name)
+    return int(value)
 
 
 def _load_npy(path: str, channel: str | None, page: int, max_pixels: int | None) -> np.ndarray:
     if channel is not None:
         raise FrameError(f"{path}: .npy files have no channels (got channel={channel!r})")
     limit = default_max_pixels() if max_pixels is None else max_pixels
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as e:
+        raise FrameError(f"{path}: cannot open: {e.strerror or e}") from None
+    if stat.S_ISDIR(mode):
+        raise FrameError(f"{path}: is a directory, not an image file")
+    if not stat.S_ISREG(mode):
+        # opening a FIFO for reading blocks until a writer appears
+        raise FrameError(f"{path}: not a regular file (a FIFO, socket or device); frames are read from regular files")
     try:
         # mmap reads the header only, so a lying shape is refused before allocating
         mapped = np.load(path, mmap_mode="r", allow_pickle=False)
@@ -112,6 +126,7 @@ def load_frame(
     channel: str | None = None,
     page: int = 0,
     max_pixels: int | None = None,
+    max_bytes: int | None = None,
 ) -> np.ndarray:
     """Load one frame as a 2-D numpy array in the file's own sample type.
 
@@ -131,6 +146,11 @@ def load_frame(
     max_pixels : int, optional
         Refuse files whose header claims more pixels (default 16384 * 16384). Checked
         before the pixel buffer is allocated.
+    max_bytes : int, optional
+        The decoding budget in bytes: everything the decode allocates (all channels of a
+        block, samples, decompression scratch, metadata), planned from the headers before
+        allocating (default :func:`default_max_bytes`, 640 MiB). A file that would need more
+        is a :class:`FrameError` naming the budget.
 
     Returns
     -------
@@ -142,7 +162,7 @@ def load_frame(
     ------
     FrameError
         The file is missing, unreadable, truncated, corrupt, unsupported (deep or
-        subsampled EXR, palette TIFF, ...) or larger than ``max_pixels``; the message
+        subsampled EXR, palette TIFF, ...) or larger than ``max_pixels`` / ``max_bytes``; the message
         names the path and the reason.
     """
     try:
@@ -152,12 +172,13 @@ def load_frame(
     if isinstance(spath, bytes):
         spath = os.fsdecode(spath)
     page = _check_page(spath, page)
-    max_pixels = _check_max_pixels(spath, max_pixels)
+    max_pixels = _check_limit(spath, "max_pixels", max_pixels)
+    max_bytes = _check_limit(spath, "max_bytes", max_bytes)
     if channel is not None and not isinstance(channel, str):
         raise FrameError(f"{spath}: channel must be a string, got {channel!r}")
     if _is_npy(spath):
         return _load_npy(spath, channel, page, max_pixels)
-    return _core.load_frame(spath, channel, page, max_pixels)
+    return _core.load_frame(spath, channel, page, max_pixels, max_bytes=max_bytes)
 
 
 def list_channels(path: PathLike) -> list[str]:
@@ -221,8 +242,8 @@ class FrameSequence(Sequence[np.ndarray]):
         accessed.
     channel : str, optional
         Channel passed to :func:`load_frame` for every file.
-    max_pixels : int, optional
-        Pixel limit passed to :func:`load_frame`.
+    max_pixels, max_bytes : int, optional
+        Decoding limits passed to :func:`load_frame`.
 
     Notes
     -----
@@ -237,9 +258,11 @@ class FrameSequence(Sequence[np.ndarray]):
         *,
         channel: str | None = None,
         max_pixels: int | None = None,
+        max_bytes: int | None = None,
     ) -> None:
         self.channel = channel
         self.max_pixels = max_pixels
+        self.max_bytes = max_bytes
         self._array: np.ndarray | None = None
         # entries: (path, page, display name); for arrays: (None, index, name)
         self._entries: list[tuple[str | None, int, str]]
@@ -263,6 +286,7 @@ class FrameSequence(Sequence[np.ndarray]):
         new = cls.__new__(cls)
         new.channel = parent.channel
         new.max_pixels = parent.max_pixels
+        new.max_bytes = parent.max_bytes
         new._array = parent._array
         new._entries = entries
         return new
@@ -313,7 +337,8 @@ class FrameSequence(Sequence[np.ndarray]):
         if path is None:
             assert self._array is not None
             return np.asarray(self._array[page])
-        return load_frame(path, channel=self.channel, page=page, max_pixels=self.max_pixels)
+        return load_frame(path, channel=self.channel, page=page, max_pixels=self.max_pixels,
+                          max_bytes=self.max_bytes)
 
     @overload
     def __getitem__(self, index: int) -> np.ndarray: ...

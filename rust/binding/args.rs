@@ -140,6 +140,10 @@ pub(crate) fn max_pixels(obj: &Bound<'_, PyAny>) -> PyResult<Option<u64>> {
     optional_unsigned(obj, "max_pixels")
 }
 
+pub(crate) fn max_bytes(obj: &Bound<'_, PyAny>) -> PyResult<Option<u64>> {
+    optional_unsigned(obj, "max_bytes")
+}
+
 pub(crate) fn real_pages(obj: &Bound<'_, PyAny>) -> PyResult<Option<Vec<usize>>> {
     optional_unsigned_list(obj, "real_pages")
 }

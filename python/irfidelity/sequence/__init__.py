@@ -46,7 +46,7 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
                    sim_sitf: Any = None, config: ScoringConfig | None = None, workers: int | None = None,
                    progress: bool | Callable[[int, int], Any] = True, client: Any = None,
                    csv: str | os.PathLike | None = None, resume: bool = False, chunk_size: int = 16,
-                   max_pixels: int | None = None, **options: Any) -> SequenceReport:
+                   max_pixels: int | None = None, max_bytes: int | None = None, **options: Any) -> SequenceReport:
     """Score a simulated sequence against the real one, frame by frame and pooled.
 
     Parameters
@@ -72,7 +72,8 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     resume : bool
         Keep the frames of an earlier run on ``csv`` whose records are intact and whose files
         are unchanged; score the rest.
-    max_pixels : per-frame pixel limit for decoding.
+    max_pixels, max_bytes : decoding limits per frame (:func:`irfidelity.load_frame`); a frame
+        beyond them is that frame's error row.
 
     Returns
     -------
@@ -93,9 +94,9 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         raise FidelityError("resuming needs the CSV of the interrupted run", option="csv")
     run = RunOptions(workers=_positive("workers", workers, allow_none=True), progress=progress, client=client,
                      csv=None if csv is None else os.fspath(csv), resume=bool(resume),
-                     chunk_size=_positive("chunk_size", chunk_size), max_pixels=max_pixels)
-    real_seq = as_sequence(real, "real", cfg.real_channel, max_pixels)
-    sim_seq = as_sequence(sim, "sim", cfg.sim_channel, max_pixels)
+                     chunk_size=_positive("chunk_size", chunk_size), max_pixels=max_pixels, max_bytes=max_bytes)
+    real_seq = as_sequence(real, "real", cfg.real_channel, max_pixels, max_bytes)
+    sim_seq = as_sequence(sim, "sim", cfg.sim_channel, max_pixels, max_bytes)
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError("empty sequences: nothing to score")
     pairing = pair_frames(real_seq, sim_seq, cfg.pair_by)

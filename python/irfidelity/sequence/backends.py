@@ -45,6 +45,7 @@ class Decoding:
 
     workers: int | None = None
     max_pixels: int | None = None
+    max_bytes: int | None = None
 
 
 def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
@@ -73,7 +74,7 @@ class RustEngine:
         self.plan, self.decoding = plan, decoding
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
-        request = self.plan.kernel_request(self.decoding.max_pixels)
+        request = self.plan.kernel_request(self.decoding.max_pixels, self.decoding.max_bytes)
         real = [self.real[r] for _, r, _ in todo]
         sim = [self.sim[s] for _, _, s in todo]
         _core.score_pairs([p for p, _ in real], [p for p, _ in sim], [g for _, g in real], [g for _, g in sim],
@@ -101,7 +102,7 @@ class DaskBackend(RustEngine):
             from distributed import as_completed
         except ImportError as exc:  # only without the dask extra
             raise FidelityError("a Dask client needs dask.distributed (pip install 'irfidelity[dask]')") from exc
-        request = self.plan.kernel_request(self.decoding.max_pixels)
+        request = self.plan.kernel_request(self.decoding.max_pixels, self.decoding.max_bytes)
         workers = int(self.decoding.workers or 1)
         futures = {}
         for start in range(0, len(todo), self.chunk_size):

@@ -58,7 +58,7 @@ class SequencePlan:
         """Whether frames share histogram edges, so their histograms pool."""
         return "nmi" in self.image and (self.levels or self.hist_range is not None)
 
-    def kernel_request(self, max_pixels: int | None = None) -> KernelRequest:
+    def kernel_request(self, max_pixels: int | None = None, max_bytes: int | None = None) -> KernelRequest:
         """What the Rust engine computes per pair (only what the image components need) and
         how it decodes frames."""
         cfg = self.config
@@ -66,7 +66,7 @@ class SequencePlan:
                              levels=self.levels, hist_range=self.hist_range, valid=self.valid,
                              mask_nonfinite=cfg.nonfinite == "mask", real_channel=cfg.real_channel,
                              sim_channel=cfg.sim_channel, real_extent=cfg.peak == "range" and "psnr" in self.image,
-                             max_pixels=max_pixels)
+                             max_pixels=max_pixels, max_bytes=max_bytes)
 
     def settings(self) -> dict:
         """What a resumed run must share with the one it continues (beyond the config)."""

@@ -35,6 +35,7 @@ class RunOptions:
     resume: bool = False
     chunk_size: int = 16
     max_pixels: int | None = None
+    max_bytes: int | None = None
 
 
 def _names(seq: FrameSequence, index: int | None) -> str | None:
@@ -144,7 +145,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
             if plan.dtype is None:
                 scorer.deliver([Outcome(i, None, _unreadable(real, r)) for i, r, _ in todo])
             else:
-                backend = choose_backend(real, sim, plan, Decoding(options.workers, options.max_pixels),
+                backend = choose_backend(real, sim, plan, Decoding(options.workers, options.max_pixels, options.max_bytes),
                                          options.client, options.chunk_size)
                 backend.run(todo, scorer.deliver)
         frames = [scorer.entries[i] for i in range(total)]

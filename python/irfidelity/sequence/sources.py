@@ -13,7 +13,8 @@ from ..frames import FrameSequence
 __all__ = ["as_sequence"]
 
 
-def as_sequence(x: Any, which: str, channel: str | None = None, max_pixels: int | None = None) -> FrameSequence:
+def as_sequence(x: Any, which: str, channel: str | None = None, max_pixels: int | None = None,
+                max_bytes: int | None = None) -> FrameSequence:
     """``x`` as a FrameSequence (``which`` names the side in messages)."""
     if isinstance(x, FrameSequence):
         return x
@@ -28,4 +29,4 @@ def as_sequence(x: Any, which: str, channel: str | None = None, max_pixels: int 
             raise FidelityError(f"{which}: a list of arrays must hold 2-D frames of one shape, got {sorted(shapes)}",
                                 option=which)
         return FrameSequence(np.stack(x))
-    return FrameSequence(x, channel=channel, max_pixels=max_pixels)
+    return FrameSequence(x, channel=channel, max_pixels=max_pixels, max_bytes=max_bytes)
