@@ -11,6 +11,7 @@ from .errors import FidelityError, FrameError, RangeError, ShapeError
 from .evaluation import FidelityReport, evaluate, image_components, plan_components
 from .frames import FrameSequence, list_channels, load_frame, page_count
 from .fuzzy import AHPConsistencyWarning, Comparison, GradeScale, Weights, ahp, compare
+from .maps import SSIMMap, ms_ssim, ssim_map
 from .metrics import NMI, SSIM
 from .mtf import mtf50, mtf_from_esf, mtf_from_lsf, mtf_similarity
 from .normalize import normalize_psnr
@@ -65,4 +66,7 @@ __all__ = [
     "page_count",
     "score_sequence",
     "SequenceReport",
+    "SSIMMap",
+    "ssim_map",
+    "ms_ssim",
 ]

@@ -31,6 +31,7 @@ class PairStats:
     def entropies(self) -> tuple[float, float, float] | None: ...
     def hist_spec(self) -> tuple[Any, ...] | None: ...
     def int_sums(self) -> dict[str, int] | None: ...
+    def joint_histogram(self, max_cells: int) -> tuple[npt.NDArray[np.int64], int, int] | None: ...
     def merge(self, other: PairStats) -> PairStats: ...
     def to_bytes(self) -> bytes: ...
     @staticmethod
@@ -93,3 +94,32 @@ def score_pairs(
     on_result: Callable[[list[Any]], Any] | None = None,
 ) -> list[tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None]] | None: ...
 def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats | None, bool]: ...
+
+# ---- SSIM maps (rust/binding/maps.rs) -------------------------------------------------------
+
+MS_SSIM_WEIGHTS: list[float]
+
+def ssim_map(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    *,
+    peak: float,
+    sigma: float,
+    win_size: int,
+    k1: float,
+    k2: float,
+    valid: tuple[int, int] | None = None,
+) -> tuple[npt.NDArray[np.float64], float]: ...
+def ms_ssim(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    *,
+    peak: float,
+    sigma: float,
+    win_size: int,
+    k1: float,
+    k2: float,
+    valid: tuple[int, int] | None = None,
+    scales: int | None = None,
+) -> tuple[float, list[float], list[float], list[float]]: ...
+def max_scales(rows: int, cols: int, win_size: int) -> int: ...

@@ -5,6 +5,7 @@
 use pyo3::prelude::*;
 
 mod io;
+mod maps;
 mod sequence;
 mod stats;
 
@@ -41,5 +42,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     stats::register(m)?;
     io::register(m)?;
     sequence::register(m)?;
+    maps::register(m)?;
     Ok(())
 }
