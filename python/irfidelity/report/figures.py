@@ -54,7 +54,8 @@ def _figure(width: float, height: float, **margins: float):
 
 def _png(fig) -> bytes:
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI)
+    # light zlib compression: noisy frames barely compress, and level 1 encodes them faster
+    fig.savefig(buf, format="png", dpi=DPI, pil_kwargs={"compress_level": 1})
     return buf.getvalue()
 
 

@@ -147,6 +147,7 @@ _CSS = """
 .irf-report th,.irf-report td{border:1px solid #ccc;padding:3px 8px;text-align:left;vertical-align:top}
 .irf-report th{background:#f0f0f0}
 .irf-report td{font-variant-numeric:tabular-nums;overflow-wrap:anywhere}
+.irf-report td:not(:last-child){white-space:nowrap}
 .irf-report table.kv td:first-child{font-family:ui-monospace,"DejaVu Sans Mono",monospace;color:#333}
 .irf-report .verdict{display:flex;gap:32px;align-items:center;flex-wrap:wrap}
 .irf-report .score{font-size:2.6em;font-weight:700}
