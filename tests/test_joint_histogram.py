@@ -114,3 +114,12 @@ def test_mask_merge_and_errors():
         irf.pair_stats(real, sim, bins="levels").joint_histogram(max_cells=100)
     with pytest.raises(FidelityError, match="max_cells"):
         st.joint_histogram(max_cells=0)
+
+
+def test_docstring_example():
+    import doctest
+
+    runner = doctest.DocTestRunner()
+    for test in doctest.DocTestFinder().find(irf.PairStats.joint_histogram, "joint_histogram", globs={}):
+        runner.run(test)
+    assert runner.tries >= 3 and runner.failures == 0

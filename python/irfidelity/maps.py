@@ -74,9 +74,16 @@ def _frames(real, sim, bits, peak):
 
 
 def _window(sigma, win_size, k1, k2):
+    """The window settings as the kernel takes them (it checks their domains)."""
     if isinstance(win_size, bool) or not isinstance(win_size, (int, np.integer)) or win_size < 1:
         raise FidelityError(f"win_size must be a positive odd integer, got {win_size!r}")
-    return {"sigma": float(sigma), "win_size": int(win_size), "k1": float(k1), "k2": float(k2)}
+    out = {"win_size": int(win_size)}
+    for name, value in (("sigma", sigma), ("k1", k1), ("k2", k2)):
+        try:
+            out[name] = float(value)
+        except (TypeError, ValueError):
+            raise FidelityError(f"{name} must be a number, got {value!r}") from None
+    return out
 
 
 def ssim_map(

@@ -165,6 +165,25 @@ class PairStats:
         simulated level over the span each frame occupies, edges ``v, v + 1``.
 
         A table of more than ``max_cells`` counts is a :class:`FidelityError` (use fewer bins).
+        The entropies of eqs. 7–8 are those of ``counts.sum(1)``, ``counts.sum(0)`` and ``counts``
+        (each divided by ``n``).
+
+        Examples
+        --------
+        >>> import numpy as np, irfidelity as irf
+        >>> real = np.array([[0, 1], [2, 3]], dtype=np.uint8)
+        >>> counts, real_edges, sim_edges = irf.pair_stats(real, 3 - real, bins="levels").joint_histogram()
+        >>> counts
+        array([[0, 0, 0, 1],
+               [0, 0, 1, 0],
+               [0, 1, 0, 0],
+               [1, 0, 0, 0]])
+        >>> real_edges
+        array([0., 1., 2., 3., 4.])
+
+        References
+        ----------
+        .. [1] Acta Photonica Sinica 41(5):547 (2012), doi:10.3788/gzxb20124105.0547, eqs. 7–10.
         """
         self._nonempty()
         spec = self._raw.hist_spec()

@@ -24,10 +24,11 @@ pub(crate) struct Window {
 
 impl Window {
     /// Gaussian weights `exp(−x²/2σ²)` for `x = −radius..=radius`, divided by their sum
-    /// (scipy.ndimage's kernel: the same formula and normalisation).
+    /// (scipy.ndimage's kernel). Written `−(x/σ)²/2`, so a tiny σ gives the weights (1, 0, …)
+    /// rather than 0·∞.
     pub fn gaussian(sigma: f64, radius: usize) -> Window {
         let r = radius as i64;
-        let full: Vec<f64> = (-r..=r).map(|x| (-0.5 / (sigma * sigma) * (x * x) as f64).exp()).collect();
+        let full: Vec<f64> = (-r..=r).map(|x| (-0.5 * (x as f64 / sigma).powi(2)).exp()).collect();
         let sum: f64 = full.iter().sum();
         Window { taps: full[radius..].iter().map(|w| w / sum).collect() }
     }
@@ -206,6 +207,8 @@ mod tests {
         assert!(w.taps.windows(2).all(|p| p[0] > p[1]));
         // exp(−1/(2·1.5²)) between neighbours at the centre
         assert!((w.taps[1] / w.taps[0] - (-1.0f64 / 4.5).exp()).abs() < 1e-15);
+        let point = Window::gaussian(1e-300, 3);
+        assert_eq!(point.taps, [1.0, 0.0, 0.0, 0.0]);
     }
 
     #[test]
