@@ -221,3 +221,14 @@ def test_missing_matplotlib_names_the_extra(monkeypatch):
         render_pair_html({"fidelity": 0.5})
     with pytest.raises(FidelityError, match=re.escape("pip install 'irfidelity[report]'")):
         render_sequence_html({})
+
+
+def test_docstring_examples():
+    import doctest
+
+    import irfidelity.report.pair
+    import irfidelity.report.sequence
+
+    for module in (irfidelity.report.pair, irfidelity.report.sequence):
+        result = doctest.testmod(module)
+        assert result.attempted >= 5 and result.failed == 0, module.__name__
