@@ -25,8 +25,9 @@ use crate::stats::two_sum;
 /// float64 moment images stays in L2 for frames up to ~1000 columns.
 const BAND_ROWS: usize = 32;
 
-/// Frames below this many pixels are computed on the calling thread alone.
-const PARALLEL_MIN_PIXELS: usize = 1 << 15;
+/// Frames below this many pixels (about 0.1 ms of work) are computed on the calling thread
+/// alone: a pool thread takes tens of microseconds to wake.
+const PARALLEL_MIN_PIXELS: usize = 1 << 13;
 
 /// A windowed SSIM map and its means.
 #[derive(Clone, Debug, PartialEq)]
