@@ -7,6 +7,7 @@ pub mod fingerprint;
 pub mod hist;
 pub mod io;
 pub mod kernel;
+pub mod maps;
 pub mod sequence;
 pub mod stats;
 

@@ -17,6 +17,7 @@ from .errors import FidelityError, FidelityWarning, FrameError, RangeError, Regi
 from .evaluation import evaluate
 from .frames import FrameSequence, load_frame
 from .fuzzy import Weights
+from .maps import SSIMMap, ms_ssim, ssim_map
 from .results import FidelityReport
 from .sequence import SequenceReport, score_sequence
 from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
@@ -42,6 +43,10 @@ __all__ = [
     "load_frame",
     "FrameSequence",
     "Curve",
+    # where frames differ
+    "ssim_map",
+    "SSIMMap",
+    "ms_ssim",
     # errors and warnings
     "FidelityError",
     "FrameError",

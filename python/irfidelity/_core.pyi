@@ -10,6 +10,7 @@ import numpy.typing as npt
 from irfidelity.stats import KernelRequest
 
 __all__ = [
+    "MS_SSIM_WEIGHTS",
     "PairStats",
     "SUPPORTED_DTYPES",
     "default_max_bytes",
@@ -17,12 +18,15 @@ __all__ = [
     "file_digests",
     "list_channels",
     "load_frame",
+    "max_scales",
     "merge_all",
+    "ms_ssim",
     "page_count",
     "pair_stats",
     "plain_moments",
     "plain_mse",
     "score_pairs",
+    "ssim_map",
 ]
 
 #: numpy names of the frame dtypes the kernel accepts.
@@ -53,6 +57,7 @@ class PairStats:
     def entropies(self) -> tuple[float, float, float] | None: ...
     def hist_spec(self) -> tuple[Any, ...] | None: ...
     def int_sums(self) -> dict[str, int] | None: ...
+    def joint_histogram(self, max_cells: int) -> tuple[npt.NDArray[np.int64], int, int] | None: ...
     def merge(self, other: PairStats) -> PairStats: ...
     def to_bytes(self) -> bytes: ...
     @staticmethod
@@ -106,3 +111,32 @@ def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats
 # ---- file fingerprints (rust/binding/fingerprint.rs) -------------------------------------
 
 def file_digests(paths: list[str | os.PathLike[str]]) -> list[int | None]: ...
+
+# ---- SSIM maps (rust/binding/maps.rs) -------------------------------------------------------
+
+MS_SSIM_WEIGHTS: list[float]
+
+def ssim_map(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    *,
+    peak: float,
+    sigma: float,
+    win_size: int,
+    k1: float,
+    k2: float,
+    valid: tuple[int, int] | None = None,
+) -> tuple[npt.NDArray[np.float64], float]: ...
+def ms_ssim(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    *,
+    peak: float,
+    sigma: float,
+    win_size: int,
+    k1: float,
+    k2: float,
+    valid: tuple[int, int] | None = None,
+    scales: int | None = None,
+) -> tuple[float, list[float], list[float], list[float]]: ...
+def max_scales(rows: int, cols: int, win_size: int) -> int: ...

@@ -94,8 +94,8 @@ def as_curve(x: Any, what: str, config: ScoringConfig, *, edge_ok: bool) -> Curv
     return Curve(cx, cy, name=what)
 
 
-def _compare(kind: str, inputs: CurveInputs, config: ScoringConfig) -> tuple[float, dict, dict]:
-    """One curve component: its value, raw metrics and input descriptions."""
+def _compare(kind: str, inputs: CurveInputs, config: ScoringConfig) -> tuple[float, dict, dict, dict]:
+    """One curve component: its value, raw metrics, input descriptions and the curves compared."""
     from .curves import CameraGeometry, mtf_similarity, sitf_similarity
 
     real_in, sim_in = getattr(inputs, f"real_{kind}"), getattr(inputs, f"sim_{kind}")
@@ -111,10 +111,12 @@ def _compare(kind: str, inputs: CurveInputs, config: ScoringConfig) -> tuple[flo
         unit = None if s.x_unit is None and s.y_unit is None else f"{s.y_unit or '?'}/{s.x_unit or '?'}"
         metrics = {"sitf_slope_real": s.a, "sitf_slope_sim": s.b, "sitf_slope_unit": unit}
     metrics.update({f"{kind}_mu": s.mu, f"{kind}_rho": s.rho, f"{kind}_ccc": s.ccc, f"{kind}_area": s.area})
-    return float(s.value), metrics, {f"real_{kind}": describe_input(real_in), f"sim_{kind}": describe_input(sim_in)}
+    described = {f"real_{kind}": describe_input(real_in), f"sim_{kind}": describe_input(sim_in)}
+    return float(s.value), metrics, described, {f"real_{kind}": real, f"sim_{kind}": sim}
 
 
-def curve_components(inputs: CurveInputs, weights: Weights, config: ScoringConfig) -> tuple[dict, dict, dict]:
+def curve_components(inputs: CurveInputs, weights: Weights, config: ScoringConfig
+                     ) -> tuple[dict, dict, dict, dict]:
     """Components f1 (MTF, eqs. 1–4) and f2 (SiTF) of the curves whose weight is positive.
 
     Curves with weight 0 are not read at all. Curves in different units are converted with
@@ -122,16 +124,18 @@ def curve_components(inputs: CurveInputs, weights: Weights, config: ScoringConfi
 
     Returns
     -------
-    (components, metrics, inputs)
-        ``{"mtf"|"sitf": f}``; the raw metrics (:data:`irfidelity.schema.METRICS`); and short
-        input descriptions.
+    (components, metrics, inputs, curves)
+        ``{"mtf"|"sitf": f}``; the raw metrics (:data:`irfidelity.schema.METRICS`); short input
+        descriptions; and the :class:`~irfidelity.Curve` objects compared (``real_mtf``, ...).
     """
     components: dict[str, float] = {}
     metrics: dict[str, Any] = {}
     described: dict[str, Any] = {}
+    curves: dict[str, Curve] = {}
     for kind in ("mtf", "sitf"):
         if weights[kind] > 0:
-            components[kind], kind_metrics, kind_inputs = _compare(kind, inputs, config)
+            components[kind], kind_metrics, kind_inputs, kind_curves = _compare(kind, inputs, config)
             metrics.update(kind_metrics)
             described.update(kind_inputs)
-    return components, metrics, described
+            curves.update(kind_curves)
+    return components, metrics, described, curves

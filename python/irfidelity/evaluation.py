@@ -53,9 +53,10 @@ def real_range(real: np.ndarray, mask: Any, nonfinite: str) -> float | None:
 
 
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any,
-                 inputs: dict) -> _stats.PairStats:
+                 inputs: dict, sources: dict) -> _stats.PairStats:
     r = _load(real, "real", config.real_channel)
     s = _load(sim, "sim", config.sim_channel)
+    sources.update(real=r, sim=s, mask=mask)
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
                   dtype=np.asarray(r).dtype.name)
     numeric_peak = config.peak if isinstance(config.peak, float) else None
@@ -135,9 +136,10 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     weights, image_plan, skipped = plan_components(cfg.weights, cfg.missing, have_images=real is not None,
                                                    have_mtf=curves.have_mtf, have_sitf=curves.have_sitf)
     with recorded_warnings() as notes:
-        components, metrics, inputs = curve_components(curves, weights, cfg)
+        components, metrics, inputs, compared = curve_components(curves, weights, cfg)
+        sources: dict[str, Any] = {"curves": compared}
         if image_plan:
-            st = _image_stats(real, sim, image_plan, cfg, mask, inputs)
+            st = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources)
             image, image_metrics = image_components(st, image_plan, cfg)
             components.update(image)
             metrics.update(image_metrics)
@@ -146,4 +148,4 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
                           weights=weights, metrics=score.metrics,
                           component_grades=dict(score.grading.component_grades),
                           membership=dict(score.grading.membership), skipped=skipped, config=cfg,
-                          grading=score.grading.to_dict(), notes=notes, inputs=inputs)
+                          grading=score.grading.to_dict(), notes=notes, inputs=inputs, sources=sources)

@@ -9,6 +9,7 @@ the same keys a sequence report uses for its pooled result and for each frame.
 from __future__ import annotations
 
 import contextlib
+import os
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -133,6 +134,29 @@ class FidelityReport:
     grading: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
     inputs: dict = field(default_factory=dict)
+    sources: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def to_html(self, path: str | os.PathLike | None = None) -> str:
+        """A self-contained HTML report (figures embedded, no network): the verdict, the frames
+        and their difference, the SSIM map, the joint histogram, the curves. Written to
+        ``path`` when given; returned either way. Needs matplotlib (``irfidelity[report]``).
+
+        The frames and curves are those this report was computed from; a report read back with
+        :meth:`from_dict` has only its numbers, and the page says which sections are missing.
+        """
+        from .report import render_pair_html, write_html
+
+        src = self.sources
+        html = render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
+                                curves=src.get("curves"))
+        return write_html(html, path)
+
+    def _repr_html_(self) -> str:
+        from .report import render_pair_html
+
+        src = self.sources
+        return render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
+                                curves=src.get("curves"), fragment=True)
 
     def to_dict(self) -> dict:
         """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""

@@ -115,14 +115,20 @@ class PairStats:
         dtype's range).
     bins : int, "levels" or None
         The histogram's binning, if one was computed.
+    level_origin : int or None
+        Integer frames: the grey level of the kernel's level key 0 (the dtype's minimum),
+        which places a ``"levels"`` histogram's edges; None when unknown.
     """
 
-    __slots__ = ("_raw", "peak", "bins")
+    __slots__ = ("_raw", "peak", "bins", "level_origin")
 
-    def __init__(self, raw: _core.PairStats, *, peak: float | None = None, bins: object = None):
+    def __init__(
+        self, raw: _core.PairStats, *, peak: float | None = None, bins: object = None, level_origin: int | None = None
+    ):
         self._raw = raw
         self.peak = peak
         self.bins = bins
+        self.level_origin = level_origin
 
     # -- counts -------------------------------------------------------------------
     @property
@@ -210,6 +216,57 @@ class PairStats:
         """
         return self._raw.int_sums()
 
+    def joint_histogram(self, *, max_cells: int = 1 << 24) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The joint grey-level histogram behind NMI: ``(counts, real_edges, sim_edges)``.
+
+        ``counts[i, j]`` (int64, ``counts.sum() == n``) counts the pixel pairs whose real value
+        lies in ``[real_edges[i], real_edges[i + 1])`` and simulated value in
+        ``[sim_edges[j], sim_edges[j + 1])``. The edges are those of :func:`pair_stats`'s
+        binning: ``bins=B`` gives ``B × B`` counts and the shared edges ``lo + i·width``
+        (integer frames: a bin is ``width`` whole grey levels; float frames: the last bin also
+        holds the top of the range; values outside an explicit ``hist_range`` are counted in
+        the edge bins). ``bins="levels"`` gives one row per real grey level and one column per
+        simulated level over the span each frame occupies, edges ``v, v + 1``.
+
+        A table of more than ``max_cells`` counts is a :class:`FidelityError` (use fewer bins).
+        The entropies of eqs. 7–8 are those of ``counts.sum(1)``, ``counts.sum(0)`` and ``counts``
+        (each divided by ``n``).
+
+        Examples
+        --------
+        >>> import numpy as np, irfidelity as irf
+        >>> real = np.array([[0, 1], [2, 3]], dtype=np.uint8)
+        >>> counts, real_edges, sim_edges = irf.pair_stats(real, 3 - real, bins="levels").joint_histogram()
+        >>> counts
+        array([[0, 0, 0, 1],
+               [0, 0, 1, 0],
+               [0, 1, 0, 0],
+               [1, 0, 0, 0]])
+        >>> real_edges
+        array([0., 1., 2., 3., 4.])
+
+        References
+        ----------
+        .. [1] Acta Photonica Sinica 41(5):547 (2012), doi:10.3788/gzxb20124105.0547, eqs. 7–10.
+        """
+        self._nonempty()
+        spec = self._raw.hist_spec()
+        if spec is None:
+            raise self._missing("a histogram", "nmi")
+        if isinstance(max_cells, bool) or not isinstance(max_cells, (int, np.integer)) or max_cells < 1:
+            raise FidelityError(f"max_cells must be a positive integer, got {max_cells!r}")
+        if spec[0] == "levels" and self.level_origin is None:
+            raise FidelityError("the grey level of these 'levels' statistics' first key is unknown (level_origin)")
+        counts, real_first, sim_first = self._raw.joint_histogram(int(max_cells))
+        if spec[0] == "levels":
+            real_edges = float(self.level_origin + real_first) + np.arange(counts.shape[0] + 1, dtype=np.float64)
+            sim_edges = float(self.level_origin + sim_first) + np.arange(counts.shape[1] + 1, dtype=np.float64)
+        else:
+            _, nbins, lo, width = spec
+            real_edges = lo + width * np.arange(nbins + 1, dtype=np.float64)
+            sim_edges = real_edges.copy()
+        return counts, real_edges, sim_edges
+
     def moments(self) -> dict:
         """Population means, variances and covariance."""
         self._nonempty()
@@ -237,7 +294,8 @@ class PairStats:
 
     def with_peak(self, peak: float | None) -> PairStats:
         """The same statistics with another PSNR peak (nothing is recomputed)."""
-        return PairStats(self._raw, peak=None if peak is None else float(peak), bins=self.bins)
+        return PairStats(self._raw, peak=None if peak is None else float(peak), bins=self.bins,
+                         level_origin=self.level_origin)
 
     # -- combining ----------------------------------------------------------------
     def to_bytes(self) -> bytes:
@@ -245,9 +303,10 @@ class PairStats:
         return self._raw.to_bytes()
 
     @classmethod
-    def from_bytes(cls, data: bytes, *, peak: float | None = None, bins: object = None) -> PairStats:
+    def from_bytes(cls, data: bytes, *, peak: float | None = None, bins: object = None,
+                   level_origin: int | None = None) -> PairStats:
         """Statistics from :meth:`to_bytes` (a FidelityError for damaged bytes)."""
-        return cls(_core.PairStats.from_bytes(data), peak=peak, bins=bins)
+        return cls(_core.PairStats.from_bytes(data), peak=peak, bins=bins, level_origin=level_origin)
 
     def merge(self, other: PairStats) -> PairStats:
         """Statistics of the union of both pixel sets (exact for integer frames)."""
@@ -255,10 +314,11 @@ class PairStats:
             raise TypeError(f"can only merge PairStats, not {type(other).__name__}")
         if self.peak != other.peak:
             raise FidelityError(f"cannot merge statistics with different peaks ({self.peak} vs {other.peak})")
-        return PairStats(self._raw.merge(other._raw), peak=self.peak, bins=self.bins)
+        origin = self.level_origin if self.level_origin == other.level_origin else None
+        return PairStats(self._raw.merge(other._raw), peak=self.peak, bins=self.bins, level_origin=origin)
 
     def __reduce__(self):
-        return (_restore, (self._raw.to_bytes(), self.peak, self.bins))
+        return (_restore, (self._raw.to_bytes(), self.peak, self.bins, self.level_origin))
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, PairStats):
@@ -280,12 +340,14 @@ def merge_all(stats: list[PairStats], *, histograms: bool = True) -> PairStats |
     edges, and left out otherwise."""
     if not stats:
         return None
-    merged, _ = _core.merge_all([s._raw for s in stats], keep_hist=histograms)
-    return PairStats(merged, peak=stats[0].peak, bins=stats[0].bins if merged.has_hist else None)
+    merged, _ = _core.merge_all([item._raw for item in stats], keep_hist=histograms)
+    first = stats[0]
+    return PairStats(merged, peak=first.peak, bins=first.bins if merged.has_hist else None,
+                     level_origin=first.level_origin)
 
 
-def _restore(data: bytes, peak, bins) -> PairStats:
-    return PairStats(_core.PairStats.from_bytes(data), peak=peak, bins=bins)
+def _restore(data: bytes, peak, bins, level_origin=None) -> PairStats:
+    return PairStats(_core.PairStats.from_bytes(data), peak=peak, bins=bins, level_origin=level_origin)
 
 
 def _as_frame(x, name: str) -> np.ndarray:
@@ -447,7 +509,12 @@ def pair_stats(
         mask_nonfinite=nonfinite == "mask",
     )
     raw = _core.pair_stats(r, s, request, m)
-    return PairStats(raw, peak=pk, bins=("levels" if levels else nbins) if "hist" in wanted else None)
+    return PairStats(
+        raw,
+        peak=pk,
+        bins=("levels" if levels else nbins) if "hist" in wanted else None,
+        level_origin=int(np.iinfo(r.dtype).min) if is_int else None,
+    )
 
 
 # Default PSNR peak per integer dtype (see peak_and_valid), for the single-metric fast path.

@@ -8,6 +8,7 @@ use pyo3::prelude::*;
 mod args;
 mod fingerprint;
 mod io;
+mod maps;
 mod sequence;
 mod stats;
 
@@ -36,5 +37,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     io::register(m)?;
     sequence::register(m)?;
     fingerprint::register(m)?;
+    maps::register(m)?;
     Ok(())
 }

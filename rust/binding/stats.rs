@@ -11,8 +11,11 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
 use super::args::{self, KernelRequest};
-use crate::hist::{Entropies, HistSpec};
+use crate::hist::{Entropies, HistSpec, JointTable};
 use crate::stats::{self, Request, Sample, Sums};
+
+/// A joint histogram for Python: the int64 table and the keys of its first row and column.
+type JointCounts<'py> = (Bound<'py, numpy::PyArray2<i64>>, u64, u64);
 
 /// Sufficient statistics of a frame pair (see `irfidelity.PairStats` for the public face).
 #[pyclass(module = "irfidelity._core", name = "PairStats", frozen)]
@@ -100,6 +103,17 @@ impl PyPairStats {
                 Some(("bins", *bins, *lo, *width).into_pyobject(py)?.into_any())
             }
         })
+    }
+    /// `(counts, real_first, sim_first)`: the joint histogram as a dense int64 table (see
+    /// `crate::hist::JointTable`), or None without a histogram.
+    fn joint_histogram<'py>(&self, py: Python<'py>, max_cells: usize) -> PyResult<Option<JointCounts<'py>>> {
+        let Some((spec, joint)) = &self.inner.hist else { return Ok(None) };
+        let table = py.detach(|| JointTable::of(spec, joint, max_cells))?;
+        // counts of pixels: far below 2^63
+        let counts: Vec<i64> = table.counts.into_iter().map(|c| c as i64).collect();
+        let counts = numpy::ndarray::Array2::from_shape_vec((table.rows, table.cols), counts)
+            .map_err(|e| crate::Error::Value(format!("internal: joint histogram shape: {e}")))?;
+        Ok(Some((numpy::PyArray2::from_owned_array(py, counts), table.real_first, table.sim_first)))
     }
     /// Exact integer sums as Python ints (integer frames), for exact references.
     fn int_sums<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {

@@ -37,6 +37,7 @@ class SequencePlan:
     curve_components: dict
     curve_metrics: dict
     inputs: dict
+    curves: dict  # the Curve objects compared (for reports)
     notes: tuple[str, ...]
     dtype: np.dtype | None  # of the first readable real frame; None when no frame is readable
     peak: float | None  # None with peak="range" (per frame) or when no frame is readable
@@ -100,7 +101,7 @@ def make_plan(real: FrameSequence, pairing: Pairing, curves: CurveInputs, config
         raise FidelityError("a sequence needs a positive weight on psnr, nmi or ssim (the per-frame components); "
                             "to compare curves alone, score a single pair without frames", option="weights")
     with recorded_warnings() as notes:
-        fixed, fixed_metrics, inputs = curve_components(curves, weights, config)
+        fixed, fixed_metrics, inputs, compared = curve_components(curves, weights, config)
         first = _first_readable(real, pairing)
         dtype = None if first is None else first.dtype
         default_peak = valid = None
@@ -115,6 +116,6 @@ def make_plan(real: FrameSequence, pairing: Pairing, curves: CurveInputs, config
                 bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype, config.bits, numeric,
                                                        numeric if numeric is not None else default_peak)
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, curve_components=fixed,
-                        curve_metrics=fixed_metrics, inputs=inputs, notes=tuple(notes), dtype=dtype,
+                        curve_metrics=fixed_metrics, inputs=inputs, curves=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
                         else None, bins=bins, levels=levels, hist_range=hist_range)

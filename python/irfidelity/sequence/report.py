@@ -69,6 +69,25 @@ class SequenceReport:
     notes: list = field(default_factory=list)
     inputs: dict = field(default_factory=dict)
     run: dict = field(default_factory=dict)
+    sources: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10) -> str:
+        """A self-contained HTML report (figures embedded, no network): the pooled verdict, the
+        components over time with failed frames marked, the spread of per-frame fidelity, the
+        ``worst`` frames (with thumbnails when the frames can still be read), the failures and
+        the curves. Written to ``path`` when given; returned either way. Needs matplotlib
+        (``irfidelity[report]``)."""
+        from ..report import render_sequence_html, write_html
+
+        html = render_sequence_html(self, worst=worst, frames=self.sources.get("frames"),
+                                    curves=self.sources.get("curves"))
+        return write_html(html, path)
+
+    def _repr_html_(self) -> str:
+        from ..report import render_sequence_html
+
+        return render_sequence_html(self, frames=self.sources.get("frames"), curves=self.sources.get("curves"),
+                                    fragment=True)
 
     @property
     def columns(self) -> list[str]:

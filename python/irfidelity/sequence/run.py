@@ -163,7 +163,18 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
         notes=notes, inputs=dict(plan.inputs),
         run={"pair_by": pairing.rule, "workers": options.workers,
              "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed},
-        **pooled)
+        sources={"frames": _loader(real, sim, pairing), "curves": plan.curves}, **pooled)
+
+
+def _loader(real: FrameSequence, sim: FrameSequence, pairing: Pairing) -> Callable[[int], tuple[Any, Any]]:
+    """``index -> (real frame, simulated frame)`` of a paired sequence (for report thumbnails)."""
+    def load(index: int) -> tuple[Any, Any]:
+        r, s = pairing.pairs[index]
+        if r is None or s is None:
+            raise FidelityError(f"frame {index} has no partner")
+        return real[r], sim[s]
+
+    return load
 
 
 def _unreadable(real: FrameSequence, index: int) -> str:
