@@ -375,7 +375,7 @@ def test_netd_is_the_temporal_random_part_over_the_sitf_slope():
     n3d = irf.noise3d(cube, sitf=-8.0, spectra=False)
     assert n3d.netd == pytest.approx(n3d.sigma["tvh"] / 8.0)
     assert n3d.netd_ci[0] < n3d.netd < n3d.netd_ci[1]
-    fit = irf.sitf_fit(irf.Curve(np.arange(10.0), 3.0 * np.arange(10.0) + 5))
+    fit = irf.curves.sitf_fit(irf.Curve(np.arange(10.0), 3.0 * np.arange(10.0) + 5))
     assert irf.noise3d(cube, sitf=fit, spectra=False).netd == pytest.approx(n3d.sigma["tvh"] / 3.0)
     assert irf.noise3d(cube, spectra=False).netd is None
     for bad in (0.0, math.nan, "steep"):

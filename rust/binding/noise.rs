@@ -9,7 +9,8 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
-use super::IntoPy;
+use super::args;
+use crate::io::{self, DecodeOptions};
 use crate::noise::{self, NoiseSums, PassOptions, Samples, Window, PARTS};
 
 /// Sufficient statistics of a recording for the 3-D noise decomposition (see
@@ -46,7 +47,7 @@ impl PyNoiseSums {
     }
     /// `{"mean", "ss": {part: float}, "ss_total"}`: sums of squares of the seven parts.
     fn decomposition<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = py.detach(|| self.inner.finish()).py_err()?;
+        let d = py.detach(|| self.inner.finish())?;
         let out = PyDict::new(py);
         out.set_item("mean", d.mean)?;
         let ss = PyDict::new(py);
@@ -60,7 +61,7 @@ impl PyNoiseSums {
     /// Integer frames: `{part: N²·SS, ..., "total": N²·SS_total}` as exact Python ints; None
     /// for float frames.
     fn exact_ss<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let d = py.detach(|| self.inner.finish()).py_err()?;
+        let d = py.detach(|| self.inner.finish())?;
         let Some(exact) = d.exact else { return Ok(None) };
         let from_bytes = py.import("builtins")?.getattr("int")?.getattr("from_bytes")?;
         let out = PyDict::new(py);
@@ -106,14 +107,14 @@ impl PyNoiseSums {
     /// The sums of `self`'s frames followed by `other`'s.
     fn merge(&self, py: Python<'_>, other: &PyNoiseSums) -> PyResult<PyNoiseSums> {
         let (a, b) = (&self.inner, &other.inner);
-        Ok(PyNoiseSums { inner: py.detach(|| a.merge(b)).py_err()? })
+        Ok(PyNoiseSums { inner: py.detach(|| a.merge(b))? })
     }
     fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
         PyBytes::new(py, &self.inner.to_bytes())
     }
     #[staticmethod]
     fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<PyNoiseSums> {
-        Ok(PyNoiseSums { inner: py.detach(|| NoiseSums::from_bytes(data)).py_err()? })
+        Ok(PyNoiseSums { inner: py.detach(|| NoiseSums::from_bytes(data))? })
     }
 }
 
@@ -135,7 +136,7 @@ fn noise_sums_array(
     cube: &Bound<'_, PyUntypedArray>,
     limits: Option<(i64, i64)>,
     window: Option<(usize, usize, usize, usize)>,
-    workers: usize,
+    #[pyo3(from_py_with = args::workers)] workers: usize,
 ) -> PyResult<PyNoiseSums> {
     if cube.ndim() != 3 || !cube.is_c_contiguous() {
         return Err(PyTypeError::new_err("internal: the cube must be a C-contiguous 3-D array"));
@@ -150,7 +151,7 @@ fn noise_sums_array(
                 let data = arr.as_slice().map_err(|_| PyTypeError::new_err("internal: the cube must be contiguous"))?;
                 let sums = py
                     .detach(|| noise::noise_sums_from_array(Samples::$v(data), frames, rows, cols, &opts))
-                    .py_err()?;
+                    ?;
                 return Ok(PyNoiseSums { inner: sums });
             }
         )*};
@@ -161,29 +162,36 @@ fn noise_sums_array(
     )))
 }
 
-/// `noise_sums_paths(paths, pages, *, channel=None, max_pixels=None, limits=None,
-/// window=None, workers=0)`: one pass over frames decoded from files (`pages[i]` of
-/// `paths[i]`), on `workers` threads with the GIL released.
+/// `noise_sums_paths(paths, pages, *, channel=None, max_pixels=None, max_bytes=None,
+/// limits=None, window=None, workers=0)`: one pass over frames decoded from files
+/// (`pages[i]` of `paths[i]`), on `workers` threads with the GIL released.
 #[pyfunction]
-#[pyo3(signature = (paths, pages, *, channel=None, max_pixels=None, limits=None, window=None, workers=0))]
+#[pyo3(signature = (paths, pages, *, channel=None, max_pixels=None, max_bytes=None, limits=None, window=None,
+                    workers=0))]
 #[allow(clippy::too_many_arguments)]
 fn noise_sums_paths(
     py: Python<'_>,
     paths: Vec<PathBuf>,
     pages: Vec<usize>,
     channel: Option<String>,
-    max_pixels: Option<u64>,
+    #[pyo3(from_py_with = args::max_pixels)] max_pixels: Option<u64>,
+    #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
     limits: Option<(i64, i64)>,
     window: Option<(usize, usize, usize, usize)>,
-    workers: usize,
+    #[pyo3(from_py_with = args::workers)] workers: usize,
 ) -> PyResult<PyNoiseSums> {
     if paths.len() != pages.len() {
         return Err(PyValueError::new_err(format!("{} paths but {} pages", paths.len(), pages.len())));
     }
     let frames: Vec<(PathBuf, usize)> = paths.into_iter().zip(pages).collect();
     let opts = pass_options(limits, window, workers);
-    let max_pixels = max_pixels.unwrap_or(crate::io::DEFAULT_MAX_PIXELS);
-    let sums = py.detach(|| noise::noise_sums_from_paths(frames, channel, max_pixels, &opts)).py_err()?;
+    let decode = DecodeOptions {
+        channel,
+        max_pixels: max_pixels.unwrap_or(io::DEFAULT_MAX_PIXELS),
+        max_bytes: max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES),
+        page: 0,
+    };
+    let sums = py.detach(|| noise::noise_sums_from_paths(frames, &decode, &opts))?;
     Ok(PyNoiseSums { inner: sums })
 }
 

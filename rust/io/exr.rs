@@ -4,7 +4,9 @@
 //! block is decompressed (shared between the calling thread and idle pool threads, see
 //! `kernel::map_units`) and only the selected channel's
 //! samples are copied out, in the file's own sample type (f16 / f32 / u32). The output is
-//! the data window (like OpenEXR's own readers), row-major.
+//! the data window (like OpenEXR's own readers), row-major. The decode's peak memory — the
+//! frame, the blocks of a round and the blocks in flight, each of *all* channels — is planned
+//! from the header against the decoding budget before any block is read (`plan`).
 
 use std::collections::HashSet;
 use std::io::{BufRead, Seek, SeekFrom};
@@ -16,12 +18,12 @@ use ::exr::compression::Compression;
 use ::exr::math::Vec2;
 use ::exr::meta::attribute::SampleType;
 use ::exr::meta::header::Header;
-use ::exr::meta::MetaData;
+use ::exr::meta::{BlockDescription, MetaData};
 use half::f16;
 
 use super::piz::{self, FromWords};
 use super::zip;
-use super::{check_size, DecodeOptions, Frame, FrameData, Reason};
+use super::{check_budget, check_size, product, DecodeOptions, Frame, FrameData, Reason};
 
 /// Map an `exr` crate error to a reason.
 fn exr_err(e: ::exr::error::Error) -> Reason {
@@ -237,9 +239,57 @@ fn decompress<T: Sample>(c: Chunk, meta: &MetaData, layout: &Layout) -> Result<P
     extract::<T>(&block, layout)
 }
 
+/// Decompressed copies of a block (all channels) one block in flight may hold at once: the
+/// decompressed block, and the decompressor's own intermediate buffers (the `exr` crate's
+/// PXR24, RLE and B44 paths hold one or two more; ours, the inflated or Huffman-decoded
+/// words). The extracted channel is counted apart.
+const WORK_COPIES: u64 = 3;
+
+/// Compressed blocks and their extracted channel held per round of sharing, in bytes (at
+/// least one block).
+const BATCH_BYTES: u64 = 32 << 20;
+
+/// How many blocks are decoded per round and whether in parallel, so that the decode's peak
+/// memory stays within the budget: the frame, plus a round's compressed blocks and extracted
+/// channel, plus the blocks in flight (one per thread) with their scratch.
+struct Plan {
+    batch: usize,
+    parallel: bool,
+}
+
+fn plan(h: &Header, layout: &Layout, sample: u64, o: &DecodeOptions) -> Result<Plan, Reason> {
+    let Vec2(cols, rows) = h.layer_size;
+    let (bw, bh) = match &h.blocks {
+        BlockDescription::Tiles(t) => (t.tile_size.0.min(cols), t.tile_size.1.min(rows)),
+        BlockDescription::ScanLines => (cols, h.compression.scan_lines_per_block().min(rows)),
+    };
+    let (bw, bh, bpp) = (bw as u64, bh as u64, layout.bytes_per_pixel as u64);
+    let block = product(&[bw, bh, bpp]); // all channels, uncompressed
+    let piece = product(&[bw, bh, sample]); // the selected channel
+    let frame = product(&[rows as u64, cols as u64, sample]);
+    let round = block.zip(piece).and_then(|(b, p)| b.checked_add(p));
+    let batch = round.map_or(1, |r| (BATCH_BYTES / r.max(1)).max(1));
+    let threads = rayon::current_num_threads().max(1) as u64;
+    let batch = batch.min((threads * 16).max(32));
+    let need = |in_flight: u64| -> Option<u64> {
+        let held = frame?.checked_add(round?.checked_mul(batch)?)?;
+        held.checked_add(block?.checked_mul(WORK_COPIES)?.checked_mul(in_flight)?)
+    };
+    let what = || {
+        format!(
+            "a {cols} x {rows} OpenEXR frame in blocks of {bw} x {bh} pixels of {} channels ({bpp} bytes per pixel)",
+            h.channels.list.len()
+        )
+    };
+    check_budget(need(1), what, o.max_bytes)?;
+    let parallel = threads > 1 && need(threads).is_some_and(|n| n <= o.max_bytes);
+    Ok(Plan { batch: batch as usize, parallel })
+}
+
 fn assemble<T: Sample, C: ChunksReader>(
     mut chunks: C,
     layout: &Layout,
+    plan: &Plan,
     rows: usize,
     cols: usize,
 ) -> Result<Vec<T>, Reason> {
@@ -247,8 +297,8 @@ fn assemble<T: Sample, C: ChunksReader>(
     let mut out: Vec<T> = vec![T::ZERO; rows * cols];
     let mut seen: HashSet<(usize, usize)> = HashSet::new();
     let mut covered: usize = 0;
-    // blocks per round of sharing: each round wakes a helper, and bounds the compressed bytes held
-    let batch = (rayon::current_num_threads().max(1) * 16).max(32);
+    // blocks per round of sharing: each round wakes a helper, and bounds the bytes held
+    let batch = plan.batch;
     loop {
         let mut compressed: Vec<Chunk> = Vec::with_capacity(batch);
         for _ in 0..batch {
@@ -263,7 +313,7 @@ fn assemble<T: Sample, C: ChunksReader>(
         // blocks shared with idle pool threads (unless the pool is busy with other frames)
         let slots: Vec<std::sync::Mutex<Option<Chunk>>> =
             compressed.into_iter().map(|c| std::sync::Mutex::new(Some(c))).collect();
-        let Ok(pieces) = crate::kernel::map_units::<_, std::convert::Infallible>(slots.len(), true, |i| {
+        let Ok(pieces) = crate::kernel::map_units::<_, std::convert::Infallible>(slots.len(), plan.parallel, |i| {
             // each unit is taken once (a shared counter), so its slot still holds the block
             let block = slots[i].lock().unwrap_or_else(|p| p.into_inner()).take();
             Ok(match block {
@@ -348,13 +398,15 @@ pub(super) fn decode<R: BufRead + Seek>(mut reader: R, o: &DecodeOptions) -> Res
         },
     };
 
+    let plan = plan(h, &layout, sample_type.bytes_per_sample() as u64, o)?;
+
     let chunks = r
         .filter_chunks(false, |_, tile, block| block.layer == part && tile.level_index == Vec2(0, 0))
         .map_err(exr_err)?;
     let data = match sample_type {
-        SampleType::F16 => FrameData::F16(assemble::<f16, _>(chunks, &layout, rows, cols)?),
-        SampleType::F32 => FrameData::F32(assemble::<f32, _>(chunks, &layout, rows, cols)?),
-        SampleType::U32 => FrameData::U32(assemble::<u32, _>(chunks, &layout, rows, cols)?),
+        SampleType::F16 => FrameData::F16(assemble::<f16, _>(chunks, &layout, &plan, rows, cols)?),
+        SampleType::F32 => FrameData::F32(assemble::<f32, _>(chunks, &layout, &plan, rows, cols)?),
+        SampleType::U32 => FrameData::U32(assemble::<u32, _>(chunks, &layout, &plan, rows, cols)?),
     };
     Ok(Frame { rows, cols, data })
 }

@@ -154,13 +154,87 @@ fn position(i: usize, shape: (usize, usize), fortran: bool) -> (usize, usize) {
     }
 }
 
+/// Integer bins, exact: the bin of `v` is `clamp(floor((v − lo) / width), 0, top)`, where
+/// `top` is the bin holding the range's upper end, so values below the range land in bin 0
+/// and values above it in the bin of `hi` (the edge bins), however few bins the range
+/// needs. `top < bins` by construction ([`IntEdges::new`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum IntEdges {
+    /// `|lo| ≤ 2^62` and `width ≤ 2^62`: `v − lo` fits i64 for every 32-bit value.
+    Small { lo: i64, width: i64, top: i64 },
+    /// Ranges beyond that (explicit `hist_range` up to ±2^100): i128 arithmetic.
+    Wide { lo: i128, width: i128, top: i128 },
+}
+
+/// Largest magnitude of an explicit integer `hist_range` end: every whole f64 up to it is an
+/// exact i128, and spans stay far from i128 overflow.
+pub(crate) const INT_RANGE_LIMIT: f64 = 1.2676506002282294e30; // 2^100
+
+impl IntEdges {
+    /// `bins` bins of whole grey levels covering `lo..=hi` (`lo <= hi`, both within ±2^100):
+    /// `width = ceil((hi − lo + 1) / bins)` levels each, starting at `lo`.
+    pub(crate) fn new(bins: usize, lo: i128, hi: i128) -> IntEdges {
+        assert!(bins >= 1 && lo <= hi && lo.abs() <= 1 << 100 && hi.abs() <= 1 << 100);
+        let span = hi - lo + 1;
+        let width = (span + bins as i128 - 1) / bins as i128;
+        // hi − lo = span − 1 < bins · width, so top ≤ bins − 1
+        let top = (hi - lo) / width;
+        debug_assert!(top < bins as i128);
+        let small = 1i128 << 62;
+        if lo.abs() <= small && width <= small {
+            IntEdges::Small { lo: lo as i64, width: width as i64, top: top as i64 }
+        } else {
+            IntEdges::Wide { lo, width, top }
+        }
+    }
+
+    /// Bins of exactly one level each from `lo` (`count` levels, `count ≥ 1`).
+    fn levels(lo: i64, count: usize) -> IntEdges {
+        IntEdges::new(count, lo as i128, lo as i128 + count as i128 - 1)
+    }
+
+    #[inline(always)]
+    fn bin(&self, v: i64) -> usize {
+        match *self {
+            IntEdges::Small { lo, width, top } => ((v - lo).max(0) / width).min(top) as usize,
+            IntEdges::Wide { lo, width, top } => ((v as i128 - lo).max(0) / width).min(top) as usize,
+        }
+    }
+
+    fn width(&self) -> f64 {
+        match *self {
+            IntEdges::Small { width, .. } => width as f64,
+            IntEdges::Wide { width, .. } => width as f64,
+        }
+    }
+
+    fn top(&self) -> usize {
+        match *self {
+            IntEdges::Small { top, .. } => top as usize,
+            IntEdges::Wide { top, .. } => top as usize,
+        }
+    }
+
+    /// The first level of bin `b`, clamped to i128's range.
+    fn start(&self, b: usize) -> i128 {
+        match *self {
+            IntEdges::Small { lo, width, .. } => lo as i128 + b as i128 * width as i128,
+            IntEdges::Wide { lo, width, .. } => lo.saturating_add((b as i128).saturating_mul(width)),
+        }
+    }
+}
+
 /// How a value becomes a bin index (shared edges for both frames).
 pub(crate) struct Binner {
     bins: usize,
+    /// float frames: bin = clamp(trunc((v − lo) · inv_width), 0, bins − 1)
     lo: f64,
     width: f64,
     inv_width: f64,
-    /// integer frames with ≤ 16-bit types: value − MIN → bin
+    /// integer frames
+    edges: Option<IntEdges>,
+    /// integer frames with ≤ 16-bit types: value − MIN → bin (every entry ≤ `edges.top()` <
+    /// `bins`), when the bins fit u16; empty otherwise
     lut: Vec<u16>,
 }
 
@@ -170,9 +244,10 @@ impl Binner {
         if !self.lut.is_empty() {
             return self.lut[(v - min) as usize] as usize;
         }
-        // 32-bit frames: exact integer division (lo and width are whole grey levels)
-        let b = (v - self.lo as i64).max(0) / self.width as i64;
-        (b as usize).min(self.bins - 1)
+        match &self.edges {
+            Some(e) => e.bin(v),
+            None => 0,
+        }
     }
 
     #[inline(always)]
@@ -365,7 +440,7 @@ fn plan_hist<T: Sample>(
             let (lo, hi) = data_range(r, s, req).unwrap_or((0.0, 0.0));
             let span = (hi - lo) as usize + 1;
             let dense = span <= DENSE_MAX_BINS;
-            let binner = dense.then(|| make_int_binner::<T>(span, lo as i64, 1));
+            let binner = dense.then(|| make_int_binner::<T>(span, IntEdges::levels(lo as i64, span)));
             Ok(HistPlan {
                 spec: HistSpec::Levels,
                 binner,
@@ -388,18 +463,23 @@ fn plan_hist<T: Sample>(
                             "hist_range for integer frames must be whole grey levels, got ({lo}, {hi})"
                         )));
                     }
+                    if T::IS_INT && (lo.abs() > INT_RANGE_LIMIT || hi.abs() > INT_RANGE_LIMIT) {
+                        return Err(Error::Value(format!(
+                            "hist_range for integer frames must lie within ±2^100, got ({lo}, {hi})"
+                        )));
+                    }
                     (*lo, *hi)
                 }
                 None => known.or_else(|| data_range(r, s, req)).unwrap_or((0.0, 0.0)),
             };
             let binner = if T::IS_INT {
-                // a bin is a whole number of grey levels: width = ceil(span / bins)
-                let span = (hi - lo) as u64 + 1;
-                let width = span.div_ceil(bins as u64).max(1);
-                make_int_binner::<T>(bins, lo as i64, width as i64)
+                // a bin is a whole number of grey levels: width = ceil(span / bins); whole f64
+                // values within ±2^100 (checked above, or data values) are exact in i128
+                make_int_binner::<T>(bins, IntEdges::new(bins, lo as i128, hi as i128))
             } else {
                 let width = (hi - lo) / bins as f64;
-                Binner { bins, lo, width, inv_width: if width > 0.0 { 1.0 / width } else { 0.0 }, lut: Vec::new() }
+                let inv_width = if width > 0.0 { 1.0 / width } else { 0.0 };
+                Binner { bins, lo, width, inv_width, edges: None, lut: Vec::new() }
             };
             let spec = HistSpec::Binned { bins, lo, width: binner.width };
             Ok(HistPlan { spec, binner: Some(binner), dense_bins: (bins <= DENSE_MAX_BINS).then_some(bins), offset: 0 })
@@ -407,18 +487,35 @@ fn plan_hist<T: Sample>(
     }
 }
 
-fn make_int_binner<T: Sample>(bins: usize, lo: i64, width: i64) -> Binner {
-    // value − MIN → bin, filled run by run (bins are `width` consecutive levels): no division
-    // per entry. Levels below `lo` land in bin 0, above the last edge in the last bin.
-    let mut lut = vec![0u16; T::LUT];
-    let mut k = (lo - T::MIN).clamp(0, T::LUT as i64) as usize; // first level at or above lo
-    while k < T::LUT {
-        let b = ((k as i64 + T::MIN - lo) / width).min(bins as i64 - 1);
-        let end = if b == bins as i64 - 1 { T::LUT } else { ((lo + (b + 1) * width - T::MIN) as usize).min(T::LUT) };
-        lut[k..end].fill(b as u16);
-        k = end;
-    }
-    Binner { bins, lo: lo as f64, width: width as f64, inv_width: 1.0 / width as f64, lut }
+fn make_int_binner<T: Sample>(bins: usize, edges: IntEdges) -> Binner {
+    let lo = match edges {
+        IntEdges::Small { lo, .. } => lo as f64,
+        IntEdges::Wide { lo, .. } => lo as f64,
+    };
+    let width = edges.width();
+    let inv_width = 1.0 / width;
+    // value − MIN → bin for ≤ 16-bit types, filled run by run (a bin is `width` consecutive
+    // levels): no division per entry. Bins above u16 (more than 65536 bins) use `IntEdges::bin`.
+    let top = edges.top();
+    let lut = if T::LUT > 0 && top <= u16::MAX as usize {
+        let mut lut = vec![0u16; T::LUT];
+        let mut k = 0usize;
+        while k < T::LUT {
+            let b = edges.bin(k as i64 + T::MIN);
+            // the entries up to the next bin's first level share bin b (the last bin: all)
+            let end = if b >= top {
+                T::LUT
+            } else {
+                (edges.start(b + 1) - T::MIN as i128).clamp(k as i128 + 1, T::LUT as i128) as usize
+            };
+            lut[k..end].fill(b as u16);
+            k = end;
+        }
+        lut
+    } else {
+        Vec::new()
+    };
+    Binner { bins, lo, width, inv_width, edges: Some(edges), lut }
 }
 
 /// What every chunk of one call shares, read-only.
@@ -452,8 +549,13 @@ fn run_chunk<T: Sample>(
 }
 
 /// AVX2 when the CPU has it, unless `IRFIDELITY_NO_SIMD` is set (to compare both copies).
+/// Every `unsafe` AVX2 call in the kernels is guarded by this being true.
 #[cfg(target_arch = "x86_64")]
 pub(crate) fn use_avx2() -> bool {
+    #[cfg(test)]
+    if tests::PORTABLE.with(|p| p.get()) {
+        return false;
+    }
     static USE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *USE.get_or_init(|| std::arch::is_x86_feature_detected!("avx2") && std::env::var_os("IRFIDELITY_NO_SIMD").is_none())
 }
@@ -626,7 +728,7 @@ fn describe<T: Sample>(bad: Bad, r: &[T], s: &[T], req: &Request) -> Error {
             let (lo, hi) = req.valid.unwrap_or((0, 0));
             Error::Range(format!(
                 "{frame} frame: value {value} at (row {row}, col {col}) is outside the valid range [{lo}, {hi}] \
-                 (check `bits`/`peak`)"
+                 of the declared bit depth"
             ))
         }
         Bad::NonFinite { index } => {
@@ -643,9 +745,115 @@ fn describe<T: Sample>(bad: Bad, r: &[T], s: &[T], req: &Request) -> Error {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::stats::det_f64;
+
+    thread_local! {
+        /// Set: this thread's passes take the portable loops even on an AVX2 CPU.
+        pub(crate) static PORTABLE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    }
+
+    /// `f` with the AVX2 copies (where the CPU has them) and with the portable loops, on
+    /// this thread alone (no pool helpers, which would not see the switch).
+    pub(crate) fn both_paths<R>(f: impl Fn() -> R) -> [R; 2] {
+        with_pool_busy(true, || {
+            let simd = f();
+            PORTABLE.with(|p| p.set(true));
+            let portable = f();
+            PORTABLE.with(|p| p.set(false));
+            [simd, portable]
+        })
+    }
+
+    /// Run lengths around every step of the explicit loops (4, 8 and 16 lanes, blocks of
+    /// 128 and 256, a chunk), smaller under Miri.
+    pub(crate) fn boundary_lengths() -> Vec<usize> {
+        let mut n: Vec<usize> = (0..=20).chain([31, 32, 33, 127, 128, 129, 255, 256, 257, 511, 513]).collect();
+        if !cfg!(miri) {
+            n.extend([CHUNK - 1, CHUNK, CHUNK + 1, 2 * CHUNK + 3]);
+        }
+        n
+    }
+
+    /// Float frames: the AVX2 loops (squared error, scan, centred sums, dense histogram)
+    /// give bit-identical statistics to the portable ones at every boundary length, with
+    /// values beyond the histogram range on both sides (the clamps before the unchecked
+    /// table writes), and NaN/Inf masked.
+    #[test]
+    fn float_simd_equals_portable_at_the_boundaries() {
+        let mut seed = 3u64;
+        let mut next = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for n in boundary_lengths() {
+            let r: Vec<f64> = (0..n).map(|i| if i % 97 == 5 { 1e300 } else { next() * 300.0 - 100.0 }).collect();
+            let s: Vec<f64> =
+                r.iter().enumerate().map(|(i, v)| if i % 89 == 3 { -1e300 } else { v + next() }).collect();
+            let r32: Vec<f32> = r.iter().map(|&v| v.clamp(-3e38, 3e38) as f32).collect();
+            let s32: Vec<f32> = s.iter().map(|&v| v.clamp(-3e38, 3e38) as f32).collect();
+            let mut rn = r.clone();
+            if n > 2 {
+                rn[n / 2] = f64::NAN;
+                rn[1] = f64::INFINITY;
+            }
+            for hist in [
+                None,
+                Some(HistRequest::Bins { bins: 64, range: Some((0.0, 100.0)) }),
+                Some(HistRequest::Bins { bins: 512, range: None }),
+                Some(HistRequest::Bins { bins: 700, range: Some((-50.0, 50.0)) }),
+            ] {
+                for (sse, moments) in [(true, false), (true, true), (false, true)] {
+                    let req = Request { sse, moments, hist: hist.clone(), ..all() };
+                    let [a, b] = both_paths(|| pair_stats(&r, &s, &req));
+                    assert_eq!(a, b, "f64 n {n} {req:?}");
+                    let [a, b] = both_paths(|| pair_stats(&r32, &s32, &req));
+                    assert_eq!(a, b, "f32 n {n} {req:?}");
+                    let req = Request { mask_nonfinite: true, ..req };
+                    let [a, b] = both_paths(|| pair_stats(&rn, &s, &req));
+                    assert_eq!(a, b, "f64 with NaN/Inf n {n} {req:?}");
+                }
+            }
+        }
+    }
+
+    /// Integer frames: the AVX2 squared error and the unchecked dense-table counts equal
+    /// the portable loops and a naive count at every boundary length, levels at both ends
+    /// of each type.
+    #[test]
+    fn int_simd_equals_portable_at_the_boundaries() {
+        for n in boundary_lengths() {
+            let r16: Vec<u16> = (0..n).map(|i| [0u16, 65535, 1, 65534, 30000][i % 5] ^ (i as u16 & 7)).collect();
+            let s16: Vec<u16> = r16.iter().rev().copied().collect();
+            let r8: Vec<u8> = r16.iter().map(|&v| (v >> 8) as u8).collect();
+            let s8: Vec<u8> = s16.iter().map(|&v| v as u8).collect();
+            let ri: Vec<i16> = r16.iter().map(|&v| v as i16).collect();
+            let si: Vec<i16> = s16.iter().map(|&v| v as i16).collect();
+            for hist in [
+                None,
+                Some(HistRequest::Bins { bins: 256, range: None }),
+                Some(HistRequest::Bins { bins: 512, range: Some((-5.0, 40000.0)) }),
+                Some(HistRequest::Bins { bins: 3, range: Some((100.0, 101.0)) }),
+                Some(HistRequest::Levels),
+            ] {
+                for (sse, moments) in [(true, false), (true, true)] {
+                    let req = Request { sse, moments, hist: hist.clone(), ..all() };
+                    let [a, b] = both_paths(|| pair_stats(&r16, &s16, &req).unwrap());
+                    assert_eq!(a, b, "u16 n {n} {req:?}");
+                    let want: u128 = r16.iter().zip(&s16).map(|(&x, &y)| (x.abs_diff(y) as u128).pow(2)).sum();
+                    assert!(matches!(a.sums, Sums::Int(IntSums { sse, .. }) if sse == want));
+                    if let Some((_, joint)) = &a.hist {
+                        assert_eq!(joint.total(), n as u64);
+                    }
+                    let [a, b] = both_paths(|| pair_stats(&r8, &s8, &req).unwrap());
+                    assert_eq!(a, b, "u8 n {n} {req:?}");
+                    let [a, b] = both_paths(|| pair_stats(&ri, &si, &req).unwrap());
+                    assert_eq!(a, b, "i16 n {n} {req:?}");
+                }
+            }
+        }
+    }
 
     fn all() -> Request<'static> {
         Request { hist: Some(HistRequest::Bins { bins: 256, range: None }), ..Request::default() }
@@ -715,18 +923,78 @@ mod tests {
 
     #[test]
     fn lut_matches_the_binning_rule() {
-        for (bins, lo, width) in [(256usize, 2000i64, 47i64), (10, -100, 7), (3, 65000, 200), (512, 0, 1)] {
-            let bn = make_int_binner::<u16>(bins, lo, width);
+        for (bins, lo, hi) in [(256usize, 2000i128, 14000i128), (10, -100, -31), (3, 65000, 65599), (512, 0, 511)] {
+            let edges = IntEdges::new(bins, lo, hi);
+            let bn = make_int_binner::<u16>(bins, edges);
+            let width = (hi - lo + 1 + bins as i128 - 1) / bins as i128;
+            let top = (hi - lo) / width;
             for v in [0i64, 1, 1999, 2000, 2046, 2047, 14000, 65000, 65535] {
-                let want = ((v - lo).max(0) / width).min(bins as i64 - 1) as usize;
-                assert_eq!(bn.int_bin(v, 0), want, "bins {bins} lo {lo} width {width} v {v}");
+                let want = ((v as i128 - lo).max(0) / width).min(top) as usize;
+                assert_eq!(bn.int_bin(v, 0), want, "bins {bins} lo {lo} hi {hi} v {v}");
+                assert_eq!(edges.bin(v), want);
             }
         }
-        let bn = make_int_binner::<i16>(4, -10, 5);
+        let bn = make_int_binner::<i16>(4, IntEdges::new(4, -10, 9));
         assert_eq!(
             (bn.int_bin(-32768, i16::MIN as i64), bn.int_bin(-6, i16::MIN as i64), bn.int_bin(9, i16::MIN as i64)),
             (0, 0, 3)
         );
+    }
+
+    /// Every table entry is below `bins` (the bound the unchecked dense-table writes rely
+    /// on), for ranges narrower than `bins`, wider than every type, and at the ±2^100 limit.
+    #[test]
+    fn int_bins_stay_below_bins_at_the_edges() {
+        let limit = 1i128 << 100;
+        let ranges = [
+            (0, 0),
+            (5, 5),
+            (2, 5),
+            (-3, 3),
+            (250, 255),
+            (-10_000_000_000_000_000_000, 1000),
+            (-10_000_000_000_000_000_000, 10_000_000_000_000_000_000),
+            (0, 10_000_000_000_000_000_000),
+            (-9_300_000_000_000_000_000, -9_200_000_000_000_000_000),
+            (-limit, limit),
+            (limit - 7, limit),
+            (-limit, -limit + 3),
+            (i64::MIN as i128, i64::MAX as i128),
+        ];
+        for bins in [1usize, 2, 3, 255, 256, 512, 65536, 65537, 1 << 20] {
+            for &(lo, hi) in &ranges {
+                let edges = IntEdges::new(bins, lo, hi);
+                assert!(edges.top() < bins, "bins {bins} ({lo}, {hi})");
+                for bn in [make_int_binner::<u8>(bins, edges), make_int_binner::<i16>(bins, edges)] {
+                    assert!(bn.lut.iter().all(|&b| (b as usize) < bins), "bins {bins} ({lo}, {hi})");
+                }
+                for v in [i32::MIN as i64, -32768, -1, 0, 1, 255, 65535, u32::MAX as i64] {
+                    let b = edges.bin(v);
+                    assert!(b <= edges.top(), "bins {bins} ({lo}, {hi}) v {v}");
+                    // the exact rule, in i128
+                    let width = (hi - lo + 1 + bins as i128 - 1) / bins as i128;
+                    assert_eq!(b as i128, ((v as i128 - lo).max(0) / width).min((hi - lo) / width));
+                }
+            }
+        }
+    }
+
+    /// Integer frames at the extremes of their type through the whole pass, with the dense
+    /// table (the unchecked writes), and explicit ranges beyond i64.
+    #[test]
+    fn extreme_levels_and_ranges_through_the_pass() {
+        let r: Vec<u16> = vec![0, 65535, 1, 65534, 30000, 0, 65535, 7];
+        let s: Vec<u16> = vec![65535, 0, 65534, 1, 30001, 0, 65535, 7];
+        for range in [(0.0, 0.0), (-1e19, 1e3), (-1e19, 1e19), (65535.0, 65535.0), (-1.2676506002282294e30, 1e30)] {
+            for bins in [1usize, 7, 256, 512, 513, 70_000] {
+                let req = Request { hist: Some(HistRequest::Bins { bins, range: Some(range) }), ..all() };
+                let st = pair_stats(&r, &s, &req).unwrap();
+                let (_, joint) = st.hist.as_ref().unwrap();
+                assert_eq!(joint.total(), r.len() as u64, "{range:?} bins {bins}");
+            }
+        }
+        let req = Request { hist: Some(HistRequest::Bins { bins: 8, range: Some((-1e31, 0.0)) }), ..all() };
+        assert!(matches!(pair_stats(&r, &s, &req), Err(Error::Value(m)) if m.contains("2^100")));
     }
 
     #[test]

@@ -91,6 +91,8 @@ pub struct PathSource {
     pub frames: Vec<(PathBuf, usize)>,
     pub channel: Option<String>,
     pub max_pixels: u64,
+    /// The decoding budget of one frame ([`DecodeOptions::max_bytes`]).
+    pub max_bytes: u64,
 }
 
 impl FrameSource for PathSource {
@@ -109,7 +111,12 @@ impl FrameSource for PathSource {
         let decoded: Vec<io::Frame> = range
             .map(|i| {
                 let (path, page) = &self.frames[i];
-                let opts = DecodeOptions { channel: self.channel.clone(), max_pixels: self.max_pixels, page: *page };
+                let opts = DecodeOptions {
+                    channel: self.channel.clone(),
+                    max_pixels: self.max_pixels,
+                    max_bytes: self.max_bytes,
+                    page: *page,
+                };
                 io::decode_frame(path, &opts)
             })
             .collect::<Result<_>>()?;
@@ -179,14 +186,20 @@ pub fn noise_sums_from_array(
     run_pass(&ArraySource { data, frames, rows, cols }, opts)
 }
 
-/// Sums of frames read from files: `(path, page)` each, decoded with `channel`.
+/// Sums of frames read from files: `(path, page)` each, decoded as `decode` says (its
+/// `page` is ignored).
 pub fn noise_sums_from_paths(
     frames: Vec<(PathBuf, usize)>,
-    channel: Option<String>,
-    max_pixels: u64,
+    decode: &DecodeOptions,
     opts: &PassOptions,
 ) -> Result<NoiseSums> {
-    run_pass(&PathSource { frames, channel, max_pixels }, opts)
+    let source = PathSource {
+        frames,
+        channel: decode.channel.clone(),
+        max_pixels: decode.max_pixels,
+        max_bytes: decode.max_bytes,
+    };
+    run_pass(&source, opts)
 }
 
 /// What every frame must match: the first frame's shape and type, and the window.

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FidelityError, ShapeError
-from ..sitf import SiTFFit, netd as netd_of
+from ..curves.sitf import SiTFFit, netd as netd_of
 from .anova import PARTS, anova
 from .checks import check_clipped, plane_fit, uniformity, warn_if_not_uniform
 from .spectra import NoiseSpectra, pattern_spectra

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ..curves import similarity_mu
+from ..curves.similarity import similarity_mu
 from ..errors import FidelityError
 
 __all__ = ["NoiseSimilarity", "noise_similarity"]

@@ -200,7 +200,8 @@ def _from_sequence(seq: FrameSequence, bits: int | None, roi: Region | None, wor
     if any(str(path).lower().endswith(".npy") for path, _ in sources):
         return _chunked(seq, bits, roi, workers)
     raw = _core.noise_sums_paths([p for p, _ in sources], [g for _, g in sources], channel=seq.channel,
-                                 max_pixels=seq.max_pixels, limits=limits, window=window, workers=workers)
+                                 max_pixels=seq.max_pixels, max_bytes=seq.max_bytes, limits=limits, window=window,
+                                 workers=workers)
     return NoiseSums(raw, bits=bits)
 
 
