@@ -30,6 +30,7 @@ from irfidelity.errors import FidelityError, FrameError, RangeError, ShapeError
 from irfidelity.noise import NoiseSums, NoiseWarning, noise_sums
 from irfidelity.noise.anova import PARTS, anova, variance_interval
 from irfidelity.noise.quantiles import chi2_ppf, f_ppf
+from irfidelity.noise.similarity import NOISE_METRICS
 
 DATA = pathlib.Path(__file__).parent / "data" / "thermal"
 LWIR = DATA / "ptw_lwir_all100frames_uint16.tif"
@@ -449,6 +450,7 @@ def test_noise_similarity_levels_and_shapes():
         irf.noise_similarity(real, irf.noise3d(300 + random_effects(rng, base, shape), corrected=False))
     assert json.dumps(same.to_dict())
     metrics = same.metrics()
+    assert list(metrics) == [key for key, _, _ in NOISE_METRICS]
     assert metrics["noise_sigma_tvh_real"] == real.sigma["tvh"] and metrics["noise_sigma_vh_sim"] == twin.sigma["vh"]
     assert metrics["noise_mu"] == same.mu and metrics["noise_netd_real"] is None
     assert json.dumps(metrics)

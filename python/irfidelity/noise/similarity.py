@@ -29,7 +29,7 @@ import numpy as np
 from ..curves.similarity import similarity_mu
 from ..errors import FidelityError
 
-__all__ = ["NoiseSimilarity", "noise_similarity"]
+__all__ = ["NoiseSimilarity", "noise_similarity", "NOISE_METRICS"]
 
 PARTS = ("t", "v", "h", "tv", "th", "vh", "tvh")
 FIXED = ("v", "h", "vh")
@@ -83,24 +83,42 @@ class NoiseSimilarity:
         """JSON-ready (without the two Noise3D results; see :meth:`metrics`)."""
         return {k: v for k, v in self.__dict__.items() if k not in ("real", "sim")}
 
-    def metrics(self) -> dict[str, float | int | None]:
-        """Flat raw metrics for a fidelity report: ``noise_mu``, ``noise_rho``,
-        ``noise_total_mu``, ``noise_sigma_<part>_real`` / ``_sim`` (frame units),
-        ``noise_total_real`` / ``_sim``, ``noise_mean_real`` / ``_sim``, ``noise_frames_real``
-        / ``_sim``, ``noise_netd_real`` / ``_sim`` (None without a SiTF) and
-        ``noise_overlap_<spectrum>``."""
-        out: dict[str, float | int | None] = {"noise_mu": self.mu, "noise_rho": self.rho,
-                                              "noise_total_mu": self.total_mu}
+    def metrics(self) -> dict[str, Any]:
+        """Flat raw metrics for a fidelity report, keyed and ordered as :data:`NOISE_METRICS`."""
+        values: dict[str, Any] = {"noise_mu": self.mu, "noise_rho": self.rho, "noise_total_mu": self.total_mu,
+                                  "noise_units": self.units}
         for who, n in (("real", self.real), ("sim", self.sim)):
             for part in PARTS:
-                out[f"noise_sigma_{part}_{who}"] = n.sigma[part]
-            out[f"noise_total_{who}"] = n.total
-            out[f"noise_mean_{who}"] = n.mean
-            out[f"noise_frames_{who}"] = n.frames
-            out[f"noise_netd_{who}"] = n.netd
+                values[f"noise_sigma_{part}_{who}"] = n.sigma[part]
+            values[f"noise_total_{who}"] = n.total
+            values[f"noise_netd_{who}"] = n.netd
+            values[f"noise_mean_{who}"] = n.mean
+            values[f"noise_frames_{who}"] = n.frames
         for name in SPECTRA:
-            out[f"noise_overlap_{name}"] = self.overlap[name]
-        return out
+            values[f"noise_overlap_{name}"] = self.overlap[name]
+        return {key: values[key] for key, _, _ in NOISE_METRICS}
+
+
+def _noise_metrics() -> tuple[tuple[str, str, str], ...]:
+    rows = [("noise_mu", "1", "mu of the seven component σ (eq. 4 for a vector of levels)"),
+            ("noise_rho", "1", "weighted Bhattacharyya overlap of the noise spectra's shapes"),
+            ("noise_total_mu", "1", "eq. 4 on the total noise σ alone (not in the component)"),
+            ("noise_units", "", "'frame' (levels in frame units) or 'temperature' (divided by the SiTF slopes)")]
+    for who, camera in (("real", "real"), ("sim", "simulated")):
+        rows += [(f"noise_sigma_{part}_{who}", "frame units", f"σ_{part} of the {camera} camera's 3-D noise")
+                 for part in PARTS]
+        rows += [(f"noise_total_{who}", "frame units", f"total noise σ of the {camera} camera"),
+                 (f"noise_netd_{who}", "SiTF x unit", f"σ_tvh / |SiTF slope| of the {camera} camera (empty without a SiTF)"),
+                 (f"noise_mean_{who}", "frame units", f"mean level of the {camera} noise recording"),
+                 (f"noise_frames_{who}", "frames", f"frames in the {camera} noise recording")]
+    rows += [(f"noise_overlap_{name}", "1", f"Bhattacharyya coefficient of the {name.replace('_', ' ')} spectra")
+             for name in SPECTRA]
+    return tuple(rows)
+
+
+#: The ``noise`` component's raw metrics: (key, unit, meaning), in report order (the layout
+#: of :data:`irfidelity.schema.METRICS`).
+NOISE_METRICS: tuple[tuple[str, str, str], ...] = _noise_metrics()
 
 
 def _levels(noise: Any, who: str, units: str) -> dict[str, float]:
