@@ -322,8 +322,12 @@ impl IntAcc {
         let ss_th = sum_squares(self.col_sums.chunks_exact(cols).zip(&frame_totals).flat_map(|(frame, &f)| {
             frame.iter().zip(&col_totals).map(move |(&c, &ch)| t * h * c as i128 - t * f - h * ch + g)
         }))?;
+        // (the largest part: its per-row and per-column terms are formed once)
+        let col_terms: Vec<i128> = col_totals.iter().map(|&ch| h * ch).collect();
+        let vh = (v * h) as i64 as i128;
         let ss_vh = sum_squares(self.pixel_sum.chunks_exact(cols).zip(&row_totals).flat_map(|(row, &rv)| {
-            row.iter().zip(&col_totals).map(move |(&p, &ch)| v * h * p as i128 - v * rv - h * ch + g)
+            let row_term = g - v * rv;
+            row.iter().zip(&col_terms).map(move |(&p, &ct)| vh * p as i128 - ct + row_term)
         }))?;
 
         // N²·SS_x = w_x · Σ e_x²
@@ -353,27 +357,22 @@ impl IntAcc {
     }
 }
 
-/// Σ e² of exact integers, in 256 bits.
+/// Σ e² of exact integers, in 256 bits: squares below 2^128 (|e| < 2^64, the common case)
+/// are added to a u128 whose carries are counted; larger ones go through [`U256::square`].
 fn sum_squares(values: impl Iterator<Item = i128>) -> Result<U256> {
-    let mut acc = U256::ZERO;
-    // squares below 2^64 are gathered in u128 first (the common case: small residuals)
-    let mut small: u128 = 0;
+    let (mut low, mut carries) = (0u128, 0u128);
+    let mut wide = U256::ZERO;
     for e in values {
         let m = e.unsigned_abs();
-        if m < (1 << 62) {
-            let sq = m * m;
-            match small.checked_add(sq) {
-                Some(s) => small = s,
-                None => {
-                    acc = acc.checked_add(U256::from_u128(small))?;
-                    small = sq;
-                }
-            }
+        if m >> 64 == 0 {
+            let (sum, carry) = low.overflowing_add(m * m);
+            low = sum;
+            carries += carry as u128;
         } else {
-            acc = acc.checked_add(U256::square(e))?;
+            wide = wide.checked_add(U256::square(e))?;
         }
     }
-    acc.checked_add(U256::from_u128(small))
+    wide.checked_add(U256 { hi: carries, lo: low })
 }
 
 /// `a / b` rounded to f64 with a single rounding in the common case.
@@ -417,4 +416,19 @@ fn scan_general<S: FrameSample>(row: &[S], sums: &mut [i64], sq: &mut [u128], co
         total += x;
     }
     total
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sum_squares_counts_carries_and_takes_wide_values() {
+        let big = 1i128 << 63;
+        // four squares of 2^126 carry once out of the low 128 bits
+        assert_eq!(sum_squares([big, -big, big, -big].into_iter()).unwrap(), U256 { hi: 1, lo: 0 });
+        // 2^70 squared is 2^140 = 2^12 · 2^128 (the wide path), plus 3² in the low half
+        assert_eq!(sum_squares([1i128 << 70, 3].into_iter()).unwrap(), U256 { hi: 1 << 12, lo: 9 });
+        assert_eq!(sum_squares(std::iter::empty()).unwrap(), U256::ZERO);
+    }
 }
