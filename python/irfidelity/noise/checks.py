@@ -109,7 +109,8 @@ def uniformity(mean_map: np.ndarray, total_variance: float) -> dict[str, Any]:
     # the pattern less its plane: row offsets, column offsets and the rest (pixels)
     row_offsets = row_means - slope_v * v
     col_offsets = col_means - slope_h * h
-    pixels_ss = (float(np.vdot(fixed, fixed)) - plane_ss - cols * float(row_offsets @ row_offsets)
+    # (einsum, not a BLAS dot: OpenBLAS threads stall when the cores are busy)
+    pixels_ss = (float(np.einsum("ij,ij->", fixed, fixed)) - plane_ss - cols * float(row_offsets @ row_offsets)
                  - rows * float(col_offsets @ col_offsets))
     w = max(3, min(rows, cols) // 8)
     observed = expected = 0.0
