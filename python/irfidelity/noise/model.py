@@ -150,7 +150,7 @@ def _slope(sitf: Any) -> float | None:
     try:
         slope = float(sitf)
     except (TypeError, ValueError):
-        raise FidelityError(f"sitf must be a SiTFFit (irfidelity.sitf_fit) or a slope, got {type(sitf).__name__}") from None
+        raise FidelityError(f"sitf must be a SiTFFit (irfidelity.curves.sitf_fit) or a slope, got {type(sitf).__name__}") from None
     if not math.isfinite(slope) or slope == 0:
         raise FidelityError(f"the SiTF slope must be finite and non-zero, got {sitf!r}")
     return slope
@@ -219,7 +219,7 @@ def noise3d(frames: Any, *, bits: int | None = None, corrected: bool = True, con
         Analyse this region of every frame.
     sitf : SiTFFit or float, optional
         The camera's SiTF (or its slope, signal units per kelvin): reports
-        ``netd = σ_tvh / |slope|`` (:func:`irfidelity.netd`) and lets
+        ``netd = σ_tvh / |slope|`` (:func:`irfidelity.curves.netd`) and lets
         :func:`~irfidelity.noise_similarity` compare levels in temperature units.
     spectra : bool, default True
         Compute the noise spectra (:class:`~irfidelity.noise.NoiseSpectra`).
