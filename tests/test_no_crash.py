@@ -33,7 +33,7 @@ TIMEOUT = 120  # seconds per child
 
 CHILD = textwrap.dedent(
     """
-    import json, resource, sys
+    import json, sys
     job = json.loads(sys.argv[1])
     import numpy as np
     from irfidelity import _core
@@ -60,7 +60,10 @@ CHILD = textwrap.dedent(
         rec.update(kind="frame_error", message=str(e))
     except BaseException as e:  # anything else is a bug
         rec.update(kind="other", message=f"{type(e).__name__}: {e}")
-    rec["maxrss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    # peak RSS of this process's own memory: VmHWM (ru_maxrss keeps the parent's peak across exec)
+    with open("/proc/self/status") as status:
+        hwm = next(line for line in status if line.startswith("VmHWM:"))
+    rec["maxrss"] = int(hwm.split()[1]) * 1024
     print(json.dumps(rec))
     """
 )

@@ -148,7 +148,8 @@ class PairStats:
             raise FidelityError("no pixel pairs were counted (everything masked or non-finite)")
 
     def _missing(self, what: str, metric: str) -> FidelityError:
-        return FidelityError(f"these statistics were computed without {what}; include {metric!r} in `need`")
+        return FidelityError(f"these statistics were computed without {what}; ask for {metric!r} in need",
+                             option="need")
 
     # -- metrics ------------------------------------------------------------------
     def mse(self) -> float:
@@ -163,7 +164,7 @@ class PairStats:
         """PSNR in dB (eq. 5), ``+inf`` when MSE == 0. ``peak`` overrides the stored peak."""
         peak = self.peak if peak is None else float(peak)
         if peak is None:
-            raise FidelityError("PSNR of float frames needs an explicit `peak` (the maximum possible value)")
+            raise FidelityError("PSNR of float frames needs a peak (the largest possible value)", option="peak")
         return psnr_from_mse(self.mse(), peak)
 
     def ssim(
@@ -368,11 +369,11 @@ def _as_frame(x, name: str) -> np.ndarray:
 def peak_and_valid(dtype: np.dtype, bits, peak):
     """The PSNR peak and (for integer frames) the allowed value range."""
     if bits is not None and peak is not None:
-        raise FidelityError("give either `bits` or `peak`, not both")
+        raise FidelityError("bits and a peak both set the PSNR peak; give one of them", option="peak")
     is_int = dtype.kind in "ui"
     if bits is not None:
         if not is_int:
-            raise FidelityError("`bits` applies to integer frames; give `peak` for float frames")
+            raise FidelityError("a bit depth applies to integer frames; give a peak for float frames", option="bits")
         width = dtype.itemsize * 8
         if not (isinstance(bits, (int, np.integer)) and 1 <= bits <= width):
             raise FidelityError(f"bits must be an integer in 1..{width} for {dtype} frames, got {bits!r}")
@@ -390,42 +391,46 @@ def peak_and_valid(dtype: np.dtype, bits, peak):
     return None, None
 
 
-def hist_params(bins, hist_range, dtype: np.dtype, bits, peak, pk):
-    """``(nbins, levels, range)`` for the kernel from ``bins``/``hist_range`` (see :func:`pair_stats`).
+def full_range(dtype: np.dtype, bits: int | None, peak: float | None) -> tuple[float, float] | None:
+    """The edges of ``hist_range="full"``: ``0..2**bits - 1`` or ``0..peak``; a signed integer
+    dtype's whole range when neither is given; None for float frames without a peak."""
+    if bits is None and peak is None and dtype.kind == "i":
+        info = np.iinfo(dtype)
+        return float(info.min), float(info.max)
+    top, _ = peak_and_valid(dtype, bits, peak)
+    return None if top is None else (0.0, float(top))
 
-    ``pk`` is the resolved peak (:func:`peak_and_valid`); shared with the sequence engine so both
-    bin frames by the same rules.
-    """
-    is_int = dtype.kind in "ui"
+
+def hist_params(bins, hist_range, dtype: np.dtype, full: tuple[float, float] | None):
+    """``(nbins, levels, range)`` for the kernel from ``bins``/``hist_range`` (see :func:`pair_stats`);
+    ``full`` is :func:`full_range`. Shared with the sequence engine, so both bin frames alike."""
     levels = isinstance(bins, str) and bins == "levels"
     nbins = None
     if levels:
-        if not is_int:
-            raise FidelityError("bins='levels' needs integer frames; give an integer bin count for float frames")
+        if dtype.kind not in "ui":
+            raise FidelityError("the 'levels' binning needs integer frames; give a number of bins for float frames",
+                                option="bins")
     elif isinstance(bins, (int, np.integer)) and not isinstance(bins, bool) and 1 <= bins <= (1 << 20):
         nbins = int(bins)
     else:
-        raise FidelityError(f"bins must be an integer in 1..1048576 or 'levels', got {bins!r}")
+        raise FidelityError(f"bins must be an integer in 1..1048576 or 'levels', got {bins!r}", option="bins")
     rng = None
     if isinstance(hist_range, str) and hist_range == "full":
-        if pk is None:
-            raise FidelityError("hist_range='full' on float frames needs `peak`")
-        if dtype.kind == "i" and bits is None and peak is None:
-            info = np.iinfo(dtype)
-            rng = (float(info.min), float(info.max))
-        else:
-            rng = (0.0, float(pk))
+        if full is None:
+            raise FidelityError("the 'full' histogram range of float frames needs a peak", option="hist_range")
+        rng = full
     elif isinstance(hist_range, str):
         if hist_range != "data":
-            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}")
+            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}",
+                                option="hist_range")
     else:
         try:
             lo, hi = (float(v) for v in hist_range)
         except (TypeError, ValueError) as exc:
-            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}") from exc
+            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}",
+                                option="hist_range") from exc
         rng = (lo, hi)
     return nbins, levels, rng
-
 
 
 def pair_stats(
@@ -488,7 +493,7 @@ def pair_stats(
 
     nbins, levels, rng = None, False, None
     if "hist" in wanted:
-        nbins, levels, rng = hist_params(bins, hist_range, r.dtype, bits, peak, pk)
+        nbins, levels, rng = hist_params(bins, hist_range, r.dtype, full_range(r.dtype, bits, peak))
 
     m = None
     if mask is not None:

@@ -5,7 +5,12 @@
 //! are merged with Chan's update, in chunk order. Either way the result does not depend on
 //! how the chunks were shared out between threads.
 
-use super::{cost, map_chunks, Acc, Bad, Binner, HistPlan, Pass, Request, Sample};
+use super::acc::{Acc, Bad};
+use super::binning::{Binner, HistPlan};
+use super::dispatch::Pass;
+use super::parallel::{cost, map_chunks};
+use super::request::Request;
+use super::sample::Sample;
 use crate::stats::{merge_float, two_sum, FloatSums};
 
 /// Neumaier-compensated running sum: totals of per-block lane sums.
@@ -38,7 +43,7 @@ impl Neumaier {
 macro_rules! avx2_floats {
     ($rr:expr, $sb:expr, |$r:ident, $s:ident| $call:expr) => {
         #[cfg(target_arch = "x86_64")]
-        if super::use_avx2() {
+        if super::dispatch::use_avx2() {
             // SAFETY (both): the CPU has AVX2 (`use_avx2`), the only requirement of the `avx2`
             // functions (their loads stay within the slices for any lengths).
             if let (Some($r), Some($s)) = (T::as_f32($rr), T::as_f32($sb)) {

@@ -53,9 +53,9 @@ pub(crate) fn reflect(i: isize, n: usize) -> usize {
 }
 
 /// Columns of a strip filtered along columns for every output row of a band before the next
-/// strip: the strip's 2·radius + 1 input rows of the four images stay in L1 from one output
-/// row to the next.
-const STRIP: usize = 64;
+/// strip: the strip's 2·radius + 1 input rows of one image stay in L1 from one output row to
+/// the next.
+const STRIP: usize = 256;
 
 /// Per-thread buffers for one band.
 #[derive(Default)]
@@ -98,9 +98,9 @@ impl<T: Sample> Band<'_, T> {
         let (in_plane, out_plane) = (in_rows * cols, out_rows * cols);
         for s0 in (0..cols).step_by(STRIP) {
             let width = STRIP.min(cols - s0);
-            for i in 0..out_rows {
-                for m in 0..MOMENTS {
-                    let image = &scratch.products[m * in_plane..(m + 1) * in_plane];
+            for m in 0..MOMENTS {
+                let image = &scratch.products[m * in_plane..(m + 1) * in_plane];
+                for i in 0..out_rows {
                     let at = m * out_plane + i * cols + s0;
                     // input rows i..=i + 2r, centre i + r
                     symmetric_filter(
@@ -162,33 +162,56 @@ impl<T: Sample> Band<'_, T> {
 }
 
 /// `out[c] = taps[0]·line(0)[c] + Σ_k taps[k]·(line(−k)[c] + line(k)[c])`, k from the window's
-/// edge inwards (scipy.ndimage's order), with `line(d) = src[centre + d·stride..]`: rows of an
-/// image (`stride` = its width) or shifts of one padded row (`stride` = 1). Sixteen columns at a
-/// time, accumulated in registers.
+/// edge inwards (scipy.ndimage's order), with `line(d) = src[centre + d·stride..][..out.len()]`:
+/// rows of an image (`stride` = its width) or shifts of one padded row (`stride` = 1).
+///
+/// Panics if a line falls outside `src` (callers lay the lines out inside it).
 #[inline(always)]
 fn symmetric_filter(taps: &[f64], src: &[f64], centre: usize, stride: usize, out: &mut [f64]) {
     let (r, n) = (taps.len() - 1, out.len());
-    let line = |d: isize| &src[(centre as isize + d * stride as isize) as usize..][..n];
+    assert!(r * stride <= centre && centre + r * stride + n <= src.len(), "filter lines outside their source");
+    // the paper's 11 × 11 window and its neighbours with the taps unrolled
+    match r {
+        1 => filter_lines::<1>(taps, src, centre, stride, out),
+        2 => filter_lines::<2>(taps, src, centre, stride, out),
+        3 => filter_lines::<3>(taps, src, centre, stride, out),
+        4 => filter_lines::<4>(taps, src, centre, stride, out),
+        5 => filter_lines::<5>(taps, src, centre, stride, out),
+        6 => filter_lines::<6>(taps, src, centre, stride, out),
+        7 => filter_lines::<7>(taps, src, centre, stride, out),
+        _ => filter_lines::<0>(taps, src, centre, stride, out),
+    }
+}
+
+/// [`symmetric_filter`] with radius `R` (0: any radius, `taps.len() − 1`), sixteen columns at a
+/// time accumulated in registers. The caller has checked that every line lies inside `src`.
+#[inline(always)]
+fn filter_lines<const R: usize>(taps: &[f64], src: &[f64], centre: usize, stride: usize, out: &mut [f64]) {
+    let r = if R > 0 { R } else { taps.len() - 1 };
+    let n = out.len();
     let full = n - n % LANES;
     for c0 in (0..full).step_by(LANES) {
+        let at = centre + c0;
         let mut acc = [0.0f64; LANES];
-        let mid = &line(0)[c0..c0 + LANES];
-        for j in 0..LANES {
-            acc[j] = taps[0] * mid[j];
+        for (j, a) in acc.iter_mut().enumerate() {
+            // SAFETY: at + j < centre + n <= src.len() (checked by `symmetric_filter`)
+            *a = taps[0] * unsafe { *src.get_unchecked(at + j) };
         }
         for k in (1..=r).rev() {
-            let (lo, hi) = (&line(-(k as isize))[c0..c0 + LANES], &line(k as isize)[c0..c0 + LANES]);
-            let w = taps[k];
-            for j in 0..LANES {
-                acc[j] += (lo[j] + hi[j]) * w;
+            let (lo, hi, w) = (at - k * stride, at + k * stride, taps[k]);
+            for (j, a) in acc.iter_mut().enumerate() {
+                // SAFETY: k <= r, r·stride <= centre and centre + r·stride + n <= src.len()
+                // (checked by `symmetric_filter`), c0 + j < n: both indices lie inside `src`
+                let pair = unsafe { *src.get_unchecked(lo + j) + *src.get_unchecked(hi + j) };
+                *a += pair * w;
             }
         }
         out[c0..c0 + LANES].copy_from_slice(&acc);
     }
     for (c, o) in out.iter_mut().enumerate().skip(full) {
-        let mut acc = taps[0] * line(0)[c];
+        let mut acc = taps[0] * src[centre + c];
         for k in (1..=r).rev() {
-            acc += (line(-(k as isize))[c] + line(k as isize)[c]) * taps[k];
+            acc += (src[centre + c - k * stride] + src[centre + c + k * stride]) * taps[k];
         }
         *o = acc;
     }
@@ -209,6 +232,37 @@ mod tests {
         assert!((w.taps[1] / w.taps[0] - (-1.0f64 / 4.5).exp()).abs() < 1e-15);
         let point = Window::gaussian(1e-300, 3);
         assert_eq!(point.taps, [1.0, 0.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn filters_equal_the_direct_sum_for_every_radius() {
+        for radius in 1..=9 {
+            let w = Window::gaussian(1.3, radius);
+            let (cols, rows) = (37, 2 * radius + 1);
+            let src: Vec<f64> = (0..rows * cols).map(|i| ((i * 37 % 101) as f64).sqrt() - 4.0).collect();
+            // along columns (a full image row) and along a padded row (full and tail lanes)
+            for (centre, stride, n) in [(radius * cols, cols, cols), (radius, 1, cols - 2 * radius)] {
+                let mut got = vec![0.0; n];
+                symmetric_filter(&w.taps, &src, centre, stride, &mut got);
+                let mut general = vec![0.0; n];
+                filter_lines::<0>(&w.taps, &src, centre, stride, &mut general);
+                assert_eq!(got, general, "radius {radius}, stride {stride}");
+                for (c, v) in got.iter().enumerate() {
+                    let mut want = w.taps[0] * src[centre + c];
+                    for k in (1..=radius).rev() {
+                        want += (src[centre + c - k * stride] + src[centre + c + k * stride]) * w.taps[k];
+                    }
+                    assert_eq!(*v, want, "the direct sum in scipy's order");
+                }
+            }
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "outside their source")]
+    fn filter_lines_outside_the_source_panic() {
+        let w = Window::gaussian(1.5, 5);
+        symmetric_filter(&w.taps, &[0.0; 20], 4, 1, &mut [0.0; 4]); // centre − 5 < 0
     }
 
     #[test]

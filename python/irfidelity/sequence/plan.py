@@ -20,7 +20,7 @@ from ..frames import FrameSequence
 from ..fuzzy import Weights
 from ..results import recorded_warnings
 from ..scoring import plan_components, psnr_peak
-from ..stats import KernelRequest, hist_params, peak_and_valid
+from ..stats import KernelRequest, full_range, hist_params, peak_and_valid
 from .pairing import Pairing
 
 __all__ = ["SequencePlan", "make_plan"]
@@ -113,8 +113,8 @@ def make_plan(real: FrameSequence, pairing: Pairing, curves: CurveInputs, config
                 peak = psnr_peak(config, default_peak, _scene_range(first), where="the first real frame")
             if "nmi" in image:
                 numeric = config.peak if isinstance(config.peak, float) else None
-                bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype, config.bits, numeric,
-                                                       numeric if numeric is not None else default_peak)
+                bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
+                                                       full_range(dtype, config.bits, numeric))
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, curve_components=fixed,
                         curve_metrics=fixed_metrics, inputs=inputs, curves=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
