@@ -203,7 +203,7 @@ def test_sequence_usage_errors(fake_sequence, tmp_path, capsys):
     assert fake_sequence == []
 
 
-def test_sequence_takes_the_camera_curves(fake_sequence, tmp_path, capsys):
+def test_sequence_takes_the_camera(fake_sequence, tmp_path, capsys):
     # curves and edges go to score_sequence (they count for every frame), in any mix
     rc = main(["score", str(tmp_path), str(tmp_path), "--real-sitf", "a.csv", "--sim-sitf", "b.csv",
                "--real-mtf", "r.csv", "--sim-edge", EDGE_S, "--edge-channel", "R", "--no-progress"])

@@ -20,7 +20,7 @@ from irfidelity.evaluation import evaluate
 from irfidelity.results import FidelityReport
 from irfidelity.scoring import image_components, plan_components
 from irfidelity.frames import load_frame
-from irfidelity.fuzzy import COMPONENTS, Weights, fidelity_sum
+from irfidelity.fuzzy import COMPONENTS, PAPER_COMPONENTS, Weights, fidelity_sum
 from irfidelity.metrics import SSIM, nmi_from_entropies
 from irfidelity.normalize import normalize_psnr
 from irfidelity.stats import nmi, pair_stats, psnr, ssim
@@ -111,7 +111,7 @@ def test_components_equal_standalone(frames, edges, sitf_curves):
         rep = evaluate(r, s, real_mtf=edges[0], sim_mtf=edges[1], real_sitf=sitf_curves[0],
                        sim_sitf=sitf_curves[1], bits=14)
         m_r, m_s = mtf_from_edge(edges[0]), mtf_from_edge(edges[1])
-    assert list(rep.components) == list(COMPONENTS)
+    assert list(rep.components) == list(PAPER_COMPONENTS)
     assert rep.components["psnr"] == normalize_psnr(psnr(r, s, bits=14))
     assert rep.metrics["psnr_db"] == psnr(r, s, bits=14)
     assert rep.components["nmi"] == nmi(r, s).value
@@ -120,7 +120,7 @@ def test_components_equal_standalone(frames, edges, sitf_curves):
     assert rep.components["sitf"] == sitf_similarity(*sitf_curves).value
     assert rep.metrics["mtf50_sim"] < rep.metrics["mtf50_real"]  # the blur shows
     # eq. (15), exactly
-    assert rep.fidelity == math.fsum(rep.weights[k] * rep.components[k] for k in COMPONENTS)
+    assert rep.fidelity == math.fsum(rep.weights[k] * rep.components[k] for k in PAPER_COMPONENTS)
     assert rep.fidelity == fidelity_sum(rep.weights, rep.components)
     assert 0 < rep.fidelity < 1 and rep.skipped == {}
     assert rep.grade in rep.membership and sum(rep.membership.values()) == pytest.approx(1)

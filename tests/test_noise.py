@@ -614,3 +614,44 @@ def test_blackbody_frames_warn_about_the_object_and_its_aperture_is_uniform():
     assert aperture.df["t"] == 1 and aperture.df["tvh"] == 29 * 29
     lo, hi = aperture.ci["tvh"]
     assert (hi - lo) / aperture.sigma["tvh"] < 0.15
+
+
+# --------------------------------------------------------------------------- the noise component in scores
+def test_noise_component_in_evaluate_sequences_and_cli(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    stack = DATA / "ptw_lwir_all100frames_uint16.tif"
+    frames = irf.FrameSequence(stack)
+    real_noise, sim_noise = np.stack([frames[i] for i in range(0, 40)]), np.stack([frames[i] for i in range(40, 80)])
+    lepton = DATA / "cptv_v2_frame000.png", DATA / "cptv_v2_frame001.png"
+    weights = "psnr=0.3,nmi=0.2,ssim=0.3,noise=0.2"
+    rep = irf.evaluate(*lepton, real_noise=real_noise, sim_noise=sim_noise, weights=weights, bits=14)
+    expected = irf.noise.noise_similarity(irf.noise.noise3d(real_noise, bits=14), irf.noise.noise3d(sim_noise, bits=14))
+    assert rep.components["noise"] == expected.value and 0 < expected.value <= 1
+    assert rep.metrics["noise_sigma_tvh_real"] == expected.metrics()["noise_sigma_tvh_real"]
+    assert rep.fidelity == pytest.approx(sum(rep.weights[k] * v for k, v in rep.components.items()), rel=1e-15)
+    assert "noise" in rep.summary_text()
+    # weight 0 (the default): the recordings are not read at all, and the paper's five are scored
+    plain = irf.evaluate(*lepton, real_noise="does/not/exist", sim_noise="nor/this", bits=14)
+    assert "noise" not in plain.components and "noise" not in plain.skipped
+    # a weighted noise component without recordings is dropped like any other
+    dropped = irf.evaluate(*lepton, weights=weights, bits=14)
+    assert "real_noise/sim_noise" in dropped.skipped["noise"]
+    # sequences: computed once, in every frame and the pooled fidelity
+    seq = irf.score_sequence(DATA / "cptv_v2_all100frames_uint16.tif",
+                             DATA / "cptv_v2_all100frames_uint16.tif", bits=14, weights=weights,
+                             real_noise=real_noise, sim_noise=sim_noise, progress=False, pair_by="order")
+    assert {f["components"]["noise"] for f in seq.frames} == {expected.value} == {seq.components["noise"]}
+    # the command line: directories of frames
+    for name, arr in (("real", real_noise), ("sim", sim_noise)):
+        d = tmp_path / name
+        d.mkdir()
+        for i, frame in enumerate(arr):
+            np.save(d / f"f{i:03d}.npy", frame)
+    p = subprocess.run([sys.executable, "-m", "irfidelity.cli", "score", *map(str, lepton), "--bits", "14",
+                        "--weights", weights, "--real-noise", str(tmp_path / "real"), "--sim-noise",
+                        str(tmp_path / "sim"), "--json", "-"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout)["components"]["noise"] == pytest.approx(expected.value, rel=1e-12)

@@ -452,7 +452,7 @@ def _mtf_pair():
     return (f, np.exp(-((f / 0.3) ** 2))), (f, np.exp(-((f / 0.25) ** 2)))
 
 
-def test_curve_components_enter_every_frame_and_the_pool(png_dirs, tmp_path):
+def test_camera_components_enter_every_frame_and_the_pool(png_dirs, tmp_path):
     rdir, sdir, real, sim = png_dirs
     (rm, sm), (rs, ss) = _mtf_pair(), _sitf_pair()
     curves = dict(real_mtf=rm, sim_mtf=sm, real_sitf=rs, sim_sitf=ss)

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from . import stats as _stats
-from .camera_curves import CurveInputs, curve_components, describe_input
+from .camera import CameraInputs, camera_components, describe_input
 from .config import ScoringConfig
 from .errors import FidelityError, RangeError, ShapeError
 from .results import FidelityReport, recorded_warnings
@@ -79,8 +79,8 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
 
 
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
-             real_sitf: Any = None, sim_sitf: Any = None, mask: Any = None,
-             config: ScoringConfig | None = None, **options: Any) -> FidelityReport:
+             real_sitf: Any = None, sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
+             mask: Any = None, config: ScoringConfig | None = None, **options: Any) -> FidelityReport:
     """Fidelity of a simulator on one scene (paper eq. 15) with its five components.
 
     Parameters
@@ -94,6 +94,10 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         :func:`irfidelity.curves.mtf_from_edge`. Component f1.
     real_sitf, sim_sitf : Curve, (x, y) or CSV path
         SiTF curves. Component f2.
+    real_noise, sim_noise : Noise3D, or a recording of a uniform source (3-D array, directory,
+        glob, multi-page TIFF), optional
+        The opt-in ``noise`` component (weight 0 by default: give it a weight, e.g.
+        ``weights="psnr=0.3,nmi=0.2,ssim=0.3,noise=0.2"``); :func:`irfidelity.noise.noise3d`.
     mask : 2-D bool array, optional
         ``False`` excludes a pixel pair from the image components.
     config : ScoringConfig, mapping or TOML/JSON path, optional
@@ -132,11 +136,13 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     if (real is None) != (sim is None):
         given, absent = ("real", "sim") if sim is None else ("sim", "real")
         raise FidelityError(f"{given} was given without {absent}: give both frames or neither", option=absent)
-    curves = CurveInputs(real_mtf, sim_mtf, real_sitf, sim_sitf)
+    camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise)
+    given = camera.given()
     weights, image_plan, skipped = plan_components(cfg.weights, cfg.missing, have_images=real is not None,
-                                                   have_mtf=curves.have_mtf, have_sitf=curves.have_sitf)
+                                                   have_mtf=given["mtf"], have_sitf=given["sitf"],
+                                                   have_noise=given["noise"])
     with recorded_warnings() as notes:
-        components, metrics, inputs, compared = curve_components(curves, weights, cfg)
+        components, metrics, inputs, compared = camera_components(camera, weights, cfg)
         sources: dict[str, Any] = {"curves": compared}
         if image_plan:
             st = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources)

@@ -28,6 +28,7 @@ from .errors import FidelityError
 
 __all__ = [
     "COMPONENTS",
+    "PAPER_COMPONENTS",
     "ordered_components",
     "Weights",
     "AHPResult",
@@ -40,12 +41,15 @@ __all__ = [
     "compare",
 ]
 
-#: Component names in the paper's order f1..f5.
-COMPONENTS = ("mtf", "sitf", "psnr", "nmi", "ssim")
+#: The paper's components, in its order f1..f5.
+PAPER_COMPONENTS = ("mtf", "sitf", "psnr", "nmi", "ssim")
+
+#: Every component: the paper's five, then ``noise`` (opt-in, weight 0 by default).
+COMPONENTS = PAPER_COMPONENTS + ("noise",)
 
 
 def ordered_components(components: Mapping[str, float]) -> dict:
-    """The given components in the paper's order (mtf, sitf, psnr, nmi, ssim)."""
+    """The given components in the paper's order (mtf, sitf, psnr, nmi, ssim), then noise."""
     return {k: components[k] for k in COMPONENTS if k in components}
 
 _TOL = 1e-9
@@ -75,7 +79,8 @@ class Weights:
     weights sum to 1 within 1e-9. A weight of 0 means the component is not computed at
     all by :func:`irfidelity.evaluate`.
 
-    The default (``Weights()``) is the paper's: 1/5 each.
+    The default (``Weights()``) is the paper's: 1/5 each of its five components, and 0 for the
+    opt-in sixth, ``noise`` (the camera's 3-D noise, :mod:`irfidelity.noise`).
 
     Examples
     --------
@@ -90,13 +95,14 @@ class Weights:
     psnr: float = 0.2
     nmi: float = 0.2
     ssim: float = 0.2
+    noise: float = 0.0
 
     def __init__(self, mtf: float = 0.2, sitf: float = 0.2, psnr: float = 0.2, nmi: float = 0.2,
-                 ssim: float = 0.2, **unknown: Any) -> None:
+                 ssim: float = 0.2, noise: float = 0.0, **unknown: Any) -> None:
         if unknown:
             raise FidelityError(f"unknown weight name(s) {sorted(unknown)}; expected some of {list(COMPONENTS)}",
                                 option="weights")
-        vals = {name: _number(value, name) for name, value in zip(COMPONENTS, (mtf, sitf, psnr, nmi, ssim))}
+        vals = {name: _number(value, name) for name, value in zip(COMPONENTS, (mtf, sitf, psnr, nmi, ssim, noise))}
         for name, value in vals.items():
             object.__setattr__(self, name, value)
         try:
@@ -211,7 +217,7 @@ class Weights:
                             f"got {type(w).__name__}")
 
     @classmethod
-    def from_ahp(cls, matrix: Any, *, names: Iterable[str] = COMPONENTS, on_inconsistent: str = "warn",
+    def from_ahp(cls, matrix: Any, *, names: Iterable[str] = PAPER_COMPONENTS, on_inconsistent: str = "warn",
                  threshold: float = 0.1) -> Weights:
         """Weights from an AHP pairwise-comparison matrix (see :func:`ahp`).
 
@@ -294,7 +300,7 @@ class AHPResult:
                 "lambda_max": self.lambda_max, "ci": self.ci, "cr": self.cr, "consistent": self.consistent}
 
 
-def ahp(matrix: Any, *, names: Iterable[str] = COMPONENTS, on_inconsistent: str = "warn",
+def ahp(matrix: Any, *, names: Iterable[str] = PAPER_COMPONENTS, on_inconsistent: str = "warn",
         threshold: float = 0.1, rtol: float = 0.02) -> AHPResult:
     """Analytic hierarchy process: weights from a pairwise-comparison matrix.
 
@@ -367,19 +373,20 @@ def ahp(matrix: Any, *, names: Iterable[str] = COMPONENTS, on_inconsistent: str 
 #: psnr: the paper's dB scale, f3 = 0.6 / 0.8 / 0.9 at 17.2 / 23.4 / 30 dB (30 dB: the paper's
 #: "indistinguishable"). nmi, ssim: the values they take for the same degradation, white noise
 #: at those PSNRs relative to the scene's range, median over the real thermal frames of
-#: tests/data (benches/calibrate_grades.py). mtf, sitf: judgement (a curve comparison has no
-#: noise scale), documented in docs/interpretation.md.
+#: tests/data (benches/calibrate_grades.py). mtf, sitf, noise: judgement (a comparison of
+#: camera properties has no noise scale to calibrate against), docs/interpretation.md.
 DEFAULT_CUTS = {
     "mtf": (0.70, 0.85, 0.95),
     "sitf": (0.70, 0.85, 0.95),
     "psnr": (0.60, 0.80, 0.90),
     "nmi": (0.05, 0.07, 0.145),
     "ssim": (0.20, 0.50, 0.82),
+    "noise": (0.70, 0.85, 0.95),
 }
 
 #: Half-width of the fuzzy transition around each boundary, per component (at most half the
 #: smallest gap between boundaries, so every value's memberships still sum to 1).
-DEFAULT_WIDTHS = {"mtf": 0.04, "sitf": 0.04, "psnr": 0.04, "nmi": 0.01, "ssim": 0.04}
+DEFAULT_WIDTHS = {"mtf": 0.04, "sitf": 0.04, "psnr": 0.04, "nmi": 0.01, "ssim": 0.04, "noise": 0.04}
 
 
 def _ramp_up(x: float, c: float, w: float) -> float:
@@ -470,7 +477,8 @@ class GradeScale:
         widths = {}
         for name in COMPONENTS:
             try:
-                w = float(self.width[name] if isinstance(self.width, Mapping) else self.width)
+                w = float(self.width.get(name, DEFAULT_WIDTHS[name]) if isinstance(self.width, Mapping)
+                          else self.width)
             except (KeyError, TypeError, ValueError):
                 raise FidelityError(f"grade width must be a number or one per component, got {self.width!r}") from None
             if not (math.isfinite(w) and w >= 0):
@@ -480,9 +488,12 @@ class GradeScale:
         cuts = {}
         for name in COMPONENTS:
             w = widths[name]
-            if name not in self.cuts:
+            given = self.cuts.get(name)
+            if given is None and len(g) == len(DEFAULT_CUTS[name]) + 1:
+                given = DEFAULT_CUTS[name]  # e.g. scales written before the noise component existed
+            if given is None:
                 raise FidelityError(f"grade cuts missing for component {name!r}")
-            c = tuple(float(v) for v in self.cuts[name])
+            c = tuple(float(v) for v in given)
             if len(c) != len(g) - 1:
                 raise FidelityError(f"grade cuts for {name}: need {len(g) - 1} boundaries for grades {g}, got {len(c)}")
             if not all(0 < v < 1 for v in c) or any(b - a < 2 * w - 1e-12 for a, b in zip(c, c[1:])):

@@ -17,7 +17,7 @@ from typing import Any, Mapping
 
 from .config import ScoringConfig
 from .errors import FidelityError
-from .fuzzy import COMPONENTS, Weights
+from .fuzzy import COMPONENTS, PAPER_COMPONENTS, Weights
 from .schema import from_json, to_json
 
 __all__ = ["FidelityReport", "component_lines", "recorded_warnings", "reading_report"]
@@ -65,6 +65,8 @@ _RAW = {
                       f"{m.get('sitf_slope_unit') or ''}; mu {m['sitf_mu']:.4f}, rho {m['sitf_rho']:.4f}",
     "psnr": lambda m: f"PSNR {m['psnr_db']:.3f} dB (peak {m['psnr_peak']:g}), MSE {m['mse']:.6g}",
     "nmi": lambda m: f"MI {m['mi']:.4f}, H(R) {m['h_real']:.4f}, H(S) {m['h_sim']:.4f}, H(R,S) {m['h_joint']:.4f}",
+    "noise": lambda m: f"σ_tvh real {m['noise_sigma_tvh_real']:.4g}, sim {m['noise_sigma_tvh_sim']:.4g}; "
+                       f"mu {m['noise_mu']:.4f}, rho {m['noise_rho']:.4f}",
     "ssim": lambda m: f"SSIM {m['ssim']:.4f} = l {m['ssim_luminance']:.4f} · c {m['ssim_contrast']:.4f} · "
                       f"s {m['ssim_structure']:.4f}",
 }
@@ -75,6 +77,8 @@ def component_lines(components: Mapping[str, float], component_grades: Mapping[s
     """The component table of a text summary: weight, value, own grade, raw metrics."""
     lines = [f"{'component':<10} {'weight':>7} {'value':>8}  {'grade':<9} raw"]
     for k in COMPONENTS:
+        if k not in components and k not in skipped and k not in PAPER_COMPONENTS:
+            continue  # an opt-in component nobody asked for
         if k in components:
             try:
                 raw = _RAW[k](metrics)

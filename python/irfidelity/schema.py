@@ -59,6 +59,30 @@ METRICS: dict[str, tuple[tuple[str, str, str], ...]] = {
     ),
 }
 
+#: The seven parts of the 3-D noise model (frames × rows × columns), and the noise spectra compared.
+NOISE_PARTS = ("t", "v", "h", "tv", "th", "vh", "tvh")
+NOISE_SPECTRA = ("fixed_row", "fixed_col", "temporal_row", "temporal_col")
+
+
+def _noise_metrics() -> tuple[tuple[str, str, str], ...]:
+    rows = [("noise_mu", "1", "mu of the seven component σ (eq. 4 for a vector of levels)"),
+            ("noise_rho", "1", "weighted Bhattacharyya overlap of the noise spectra's shapes"),
+            ("noise_total_mu", "1", "eq. 4 on the total noise σ alone (not in the component)"),
+            ("noise_units", "", "'frame' (levels in frame units) or 'temperature' (divided by the SiTF slopes)")]
+    for who, camera in (("real", "real"), ("sim", "simulated")):
+        rows += [(f"noise_sigma_{part}_{who}", "frame units", f"σ_{part} of the {camera} camera's 3-D noise")
+                 for part in NOISE_PARTS]
+        rows += [(f"noise_total_{who}", "frame units", f"total noise σ of the {camera} camera"),
+                 (f"noise_netd_{who}", "SiTF x unit", f"σ_tvh / |SiTF slope| of the {camera} camera (empty without a SiTF)"),
+                 (f"noise_mean_{who}", "frame units", f"mean level of the {camera} noise recording"),
+                 (f"noise_frames_{who}", "frames", f"frames in the {camera} noise recording")]
+    rows += [(f"noise_overlap_{name}", "1", f"Bhattacharyya coefficient of the {name.replace('_', ' ')} spectra")
+             for name in NOISE_SPECTRA]
+    return tuple(rows)
+
+
+METRICS["noise"] = _noise_metrics()
+
 #: Per-frame columns before the metrics: (key, unit, meaning).
 FRAME_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("index", "", "position of the pair in the (paired) sequence, 0 for a single pair"),

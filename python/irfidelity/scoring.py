@@ -19,7 +19,7 @@ from typing import Any, Mapping
 
 from .config import ScoringConfig
 from .errors import FidelityError, PeakWarning
-from .fuzzy import COMPONENTS, Grading, Weights, fidelity_sum, ordered_components
+from .fuzzy import COMPONENTS, PAPER_COMPONENTS, Grading, Weights, fidelity_sum, ordered_components
 from .normalize import normalize_psnr
 from .schema import CURVE_COMPONENTS, IMAGE_COMPONENTS
 
@@ -27,12 +27,12 @@ __all__ = ["plan_components", "image_components", "score_components", "Score", "
            "pinned_psnr_floor", "IMAGE_COMPONENTS", "CURVE_COMPONENTS"]
 
 _INPUTS = {"mtf": "real_mtf/sim_mtf", "sitf": "real_sitf/sim_sitf", "psnr": "real/sim", "nmi": "real/sim",
-           "ssim": "real/sim"}
+           "ssim": "real/sim", "noise": "real_noise/sim_noise"}
 
 
 # --------------------------------------------------------------------------- plan
 def plan_components(weights: Weights, missing: str, *, have_images: bool, have_mtf: bool,
-                    have_sitf: bool) -> tuple[Weights, tuple[str, ...], dict]:
+                    have_sitf: bool, have_noise: bool = False) -> tuple[Weights, tuple[str, ...], dict]:
     """Decide what to compute, before computing anything.
 
     Parameters
@@ -41,23 +41,26 @@ def plan_components(weights: Weights, missing: str, *, have_images: bool, have_m
     missing : "raise" | "renormalize"
         A component with positive weight but no inputs: raise FidelityError naming the
         missing inputs, or drop it and rescale the remaining weights to sum 1.
-    have_images, have_mtf, have_sitf : bool
-        Whether frames, MTF inputs and SiTF inputs were given.
+    have_images, have_mtf, have_sitf, have_noise : bool
+        Whether frames, MTF inputs, SiTF inputs and noise recordings were given.
 
     Returns
     -------
     (weights, image_components, skipped)
         The weights eq. (15) uses (dropped components 0); the image components to compute
         (subset of ``("psnr", "nmi", "ssim")``, empty: no image pass at all); and
-        ``{component: reason}`` for every component not computed.
+        ``{component: reason}`` for every component not computed (the opt-in ``noise`` only when
+        it was weighted).
     """
-    have = {"mtf": have_mtf, "sitf": have_sitf, "psnr": have_images, "nmi": have_images, "ssim": have_images}
+    have = {"mtf": have_mtf, "sitf": have_sitf, "psnr": have_images, "nmi": have_images, "ssim": have_images,
+            "noise": have_noise}
     skipped: dict[str, str] = {}
     kept: dict[str, float] = {}
     absent = []
     for k in COMPONENTS:
         if weights[k] == 0:
-            skipped[k] = "weight 0"
+            if k in PAPER_COMPONENTS:
+                skipped[k] = "weight 0"
         elif not have[k]:
             absent.append(k)
         else:

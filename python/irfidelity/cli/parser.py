@@ -113,7 +113,7 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                    help="PSNR peak: a number (needed for float frames), or 'range' (the real frame's max - min)")
     g.add_argument("--weights", metavar="SPEC",
                    help="balanced (default, 1/5 each) | performance | image_quality | "
-                        "'mtf=..,sitf=..,psnr=..,nmi=..,ssim=..' (unnamed components 0; sum 1)")
+                        "'mtf=..,sitf=..,psnr=..,nmi=..,ssim=..,noise=..' (unnamed components 0; sum 1)")
     g.add_argument("--bins", type=_bins, metavar="N|levels",
                    help="histogram bins for NMI (default 256), or 'levels' (one bin per grey level)")
     g.add_argument("--hist-range", type=_hist_range, metavar="data|full|LO,HI",
@@ -149,6 +149,10 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                    help="detector pixel pitch, to convert cycles/pixel <-> line pairs/mm")
     k.add_argument("--focal-length", type=_positive_float, metavar="MM", dest="focal_length_mm",
                    help="focal length, to convert cycles/mrad <-> line pairs/mm")
+    n = s.add_argument_group("sensor noise (the opt-in 'noise' component: give it a weight in --weights)")
+    n.add_argument("--real-noise", metavar="DIR|TIF", help="frames of a uniform source (blackbody) from the real "
+                                                          "camera: a directory, glob or multi-page TIFF")
+    n.add_argument("--sim-noise", metavar="DIR|TIF", help="the same from the simulator")
     r = s.add_argument_group("registration and sequences")
     r.add_argument("--register", choices=REGISTRATION_MODELS, metavar="MODEL",
                    help="align the simulated frames to the real ones first: translation, rigid or similarity")

@@ -86,7 +86,8 @@ def _sequence(a: argparse.Namespace, config: ScoringConfig, curves: dict) -> Any
 
 def _curves(a: argparse.Namespace) -> dict:
     curves = {f"{side}_{kind}": _curve(a, side, kind) for side in ("real", "sim") for kind in ("mtf", "sitf")}
-    for kind in ("mtf", "sitf"):
+    curves.update(real_noise=a.real_noise, sim_noise=a.sim_noise)
+    for kind in ("mtf", "sitf", "noise"):
         real, sim = curves[f"real_{kind}"], curves[f"sim_{kind}"]
         if (real is None) != (sim is None):
             given, absent = ("real", "sim") if sim is None else ("sim", "real")

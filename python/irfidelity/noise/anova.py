@@ -28,11 +28,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ..schema import NOISE_PARTS
 from .quantiles import chi2_ppf, f_ppf
 
 __all__ = ["Anova", "anova", "PARTS"]
 
-PARTS = ("t", "v", "h", "tv", "th", "vh", "tvh")
+PARTS = NOISE_PARTS
 
 #: Corrected variance of part x: Σ coefficient·MS_k, divided by its replication.
 _CORRECTED = {

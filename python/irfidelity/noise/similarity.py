@@ -28,12 +28,11 @@ import numpy as np
 
 from ..curves.similarity import similarity_mu
 from ..errors import FidelityError
+from ..schema import METRICS, NOISE_PARTS, NOISE_SPECTRA
 
 __all__ = ["NoiseSimilarity", "noise_similarity", "NOISE_METRICS"]
 
-PARTS = ("t", "v", "h", "tv", "th", "vh", "tvh")
 FIXED = ("v", "h", "vh")
-SPECTRA = ("fixed_row", "fixed_col", "temporal_row", "temporal_col")
 
 
 @dataclass(frozen=True)
@@ -88,45 +87,27 @@ class NoiseSimilarity:
         values: dict[str, Any] = {"noise_mu": self.mu, "noise_rho": self.rho, "noise_total_mu": self.total_mu,
                                   "noise_units": self.units}
         for who, n in (("real", self.real), ("sim", self.sim)):
-            for part in PARTS:
+            for part in NOISE_PARTS:
                 values[f"noise_sigma_{part}_{who}"] = n.sigma[part]
             values[f"noise_total_{who}"] = n.total
             values[f"noise_netd_{who}"] = n.netd
             values[f"noise_mean_{who}"] = n.mean
             values[f"noise_frames_{who}"] = n.frames
-        for name in SPECTRA:
+        for name in NOISE_SPECTRA:
             values[f"noise_overlap_{name}"] = self.overlap[name]
         return {key: values[key] for key, _, _ in NOISE_METRICS}
 
 
-def _noise_metrics() -> tuple[tuple[str, str, str], ...]:
-    rows = [("noise_mu", "1", "mu of the seven component σ (eq. 4 for a vector of levels)"),
-            ("noise_rho", "1", "weighted Bhattacharyya overlap of the noise spectra's shapes"),
-            ("noise_total_mu", "1", "eq. 4 on the total noise σ alone (not in the component)"),
-            ("noise_units", "", "'frame' (levels in frame units) or 'temperature' (divided by the SiTF slopes)")]
-    for who, camera in (("real", "real"), ("sim", "simulated")):
-        rows += [(f"noise_sigma_{part}_{who}", "frame units", f"σ_{part} of the {camera} camera's 3-D noise")
-                 for part in PARTS]
-        rows += [(f"noise_total_{who}", "frame units", f"total noise σ of the {camera} camera"),
-                 (f"noise_netd_{who}", "SiTF x unit", f"σ_tvh / |SiTF slope| of the {camera} camera (empty without a SiTF)"),
-                 (f"noise_mean_{who}", "frame units", f"mean level of the {camera} noise recording"),
-                 (f"noise_frames_{who}", "frames", f"frames in the {camera} noise recording")]
-    rows += [(f"noise_overlap_{name}", "1", f"Bhattacharyya coefficient of the {name.replace('_', ' ')} spectra")
-             for name in SPECTRA]
-    return tuple(rows)
-
-
-#: The ``noise`` component's raw metrics: (key, unit, meaning), in report order (the layout
-#: of :data:`irfidelity.schema.METRICS`).
-NOISE_METRICS: tuple[tuple[str, str, str], ...] = _noise_metrics()
+#: The ``noise`` component's raw metrics: (key, unit, meaning), in report order.
+NOISE_METRICS = METRICS["noise"]
 
 
 def _levels(noise: Any, who: str, units: str) -> dict[str, float]:
     sigma = getattr(noise, "sigma", None)
-    if not isinstance(sigma, dict) or set(sigma) != set(PARTS):
+    if not isinstance(sigma, dict) or set(sigma) != set(NOISE_PARTS):
         raise FidelityError(f"{who} noise must be a Noise3D (irfidelity.noise3d), got {type(noise).__name__}")
     scale = 1.0 if units == "frame" else abs(noise.sitf_slope)
-    return {k: float(sigma[k]) / scale for k in PARTS}
+    return {k: float(sigma[k]) / scale for k in NOISE_PARTS}
 
 
 def _spectrum_length(freq: np.ndarray) -> int:
@@ -234,7 +215,7 @@ def noise_similarity(real_noise: Any, sim_noise: Any, *, alpha: float = 1.0, bet
     if isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 2:
         raise FidelityError(f"bins must be an integer >= 2, got {bins!r}")
     a, b = _levels(real_noise, "real", units), _levels(sim_noise, "simulated", units)
-    va, vb = np.array([a[k] for k in PARTS]), np.array([b[k] for k in PARTS])
+    va, vb = np.array([a[k] for k in NOISE_PARTS]), np.array([b[k] for k in NOISE_PARTS])
     scale = max(float(va.max()), float(vb.max()))
     if scale == 0:
         mu = 1.0
@@ -245,8 +226,8 @@ def noise_similarity(real_noise: Any, sim_noise: Any, *, alpha: float = 1.0, bet
     weights = {"fixed_row": fixed / 2, "fixed_col": fixed / 2,
                "temporal_row": (1 - fixed) / 2, "temporal_col": (1 - fixed) / 2}
     overlap = {k: _bhattacharyya(_bands_of(real_noise, k, int(bins)), _bands_of(sim_noise, k, int(bins)))
-               for k in SPECTRA}
-    rho = float(min(1.0, sum(weights[k] * overlap[k] for k in SPECTRA)))
+               for k in NOISE_SPECTRA}
+    rho = float(min(1.0, sum(weights[k] * overlap[k] for k in NOISE_SPECTRA)))
     value = float(min(1.0, mu ** al * rho ** be))
     total_mu = similarity_mu(math.sqrt(float(va @ va)), math.sqrt(float(vb @ vb))) if scale else 1.0
     return NoiseSimilarity(value=value, mu=mu, rho=rho, levels_real=a, levels_sim=b, units=units,

@@ -18,7 +18,7 @@ from __future__ import annotations
 import os
 from typing import Any, Callable
 
-from ..camera_curves import CurveInputs
+from ..camera import CameraInputs
 from ..config import ScoringConfig
 from ..errors import FidelityError
 from .pairing import pair_frames
@@ -43,7 +43,8 @@ def _positive(name: str, value: Any, allow_none: bool = False) -> Any:
 
 
 def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
-                   sim_sitf: Any = None, config: ScoringConfig | None = None, workers: int | None = None,
+                   sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
+                   config: ScoringConfig | None = None, workers: int | None = None,
                    progress: bool | Callable[[int, int], Any] = True, client: Any = None,
                    csv: str | os.PathLike | None = None, resume: bool = False, chunk_size: int = 16,
                    max_pixels: int | None = None, max_bytes: int | None = None, **options: Any) -> SequenceReport:
@@ -55,9 +56,9 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         arrays, or :class:`~irfidelity.FrameSequence`
         Frames are paired by file name when both are files (``pair_by``; a frame without a
         partner is reported as a failed frame, never dropped), else by position.
-    real_mtf, sim_mtf, real_sitf, sim_sitf :
-        The camera curves, as in :func:`irfidelity.evaluate`: compared once, before any
-        frame; their components enter every frame's and the pooled fidelity.
+    real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise :
+        The camera curves and noise recordings, as in :func:`irfidelity.evaluate`: compared
+        once, before any frame; their components enter every frame's and the pooled fidelity.
     config : ScoringConfig, mapping or TOML/JSON path, optional
         What decides the score; ``**options`` (any ScoringConfig field) override it.
     workers : threads over frame pairs (default: all cores); with ``client``, threads per
@@ -100,5 +101,5 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError("empty sequences: nothing to score")
     pairing = pair_frames(real_seq, sim_seq, cfg.pair_by)
-    plan = make_plan(real_seq, pairing, CurveInputs(real_mtf, sim_mtf, real_sitf, sim_sitf), cfg)
+    plan = make_plan(real_seq, pairing, CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise), cfg)
     return execute(real_seq, sim_seq, pairing, plan, run)

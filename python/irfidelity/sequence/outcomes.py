@@ -77,7 +77,7 @@ def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str
     try:
         stats = outcome.stats.with_peak(_frame_peak(plan, outcome, str(real)))
         comps, metrics = image_components(stats, plan.image, plan.config)
-        score = score_components(comps | plan.curve_components, metrics | plan.curve_metrics, plan.weights,
+        score = score_components(comps | plan.camera_components, metrics | plan.camera_metrics, plan.weights,
                                  plan.config)
     except FidelityError as exc:
         return error_entry(outcome.index, real, sim, str(exc)), None

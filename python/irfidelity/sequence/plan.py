@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from ..camera_curves import CurveInputs, curve_components
+from ..camera import CameraInputs, camera_components
 from ..config import ScoringConfig
 from ..errors import FidelityError
 from ..frames import FrameSequence
@@ -34,10 +34,10 @@ class SequencePlan:
     weights: Weights
     image: tuple[str, ...]
     skipped: dict
-    curve_components: dict
-    curve_metrics: dict
+    camera_components: dict
+    camera_metrics: dict
     inputs: dict
-    curves: dict  # the Curve objects compared (for reports)
+    camera_objects: dict  # the curves and noise measurements compared (for reports)
     notes: tuple[str, ...]
     dtype: np.dtype | None  # of the first readable real frame; None when no frame is readable
     peak: float | None  # None with peak="range" (per frame) or when no frame is readable
@@ -73,7 +73,7 @@ class SequencePlan:
         """What a resumed run must share with the one it continues (beyond the config)."""
         return {"dtype": None if self.dtype is None else self.dtype.name, "peak": self.peak,
                 "bins": self.bin_label, "hist_range": None if self.hist_range is None else list(self.hist_range),
-                "curves": {k: float(v) for k, v in self.curve_components.items()}}
+                "curves": {k: float(v) for k, v in self.camera_components.items()}}
 
 
 def _first_readable(real: FrameSequence, pairing: Pairing) -> np.ndarray | None:
@@ -93,15 +93,17 @@ def _scene_range(frame: np.ndarray) -> float | None:
     return float(values.max()) - float(values.min()) if values.size else None
 
 
-def make_plan(real: FrameSequence, pairing: Pairing, curves: CurveInputs, config: ScoringConfig) -> SequencePlan:
+def make_plan(real: FrameSequence, pairing: Pairing, camera: CameraInputs, config: ScoringConfig) -> SequencePlan:
     """Plan a sequence run (raises before any pair is scored when the plan cannot work)."""
+    given = camera.given()
     weights, image, skipped = plan_components(config.weights, config.missing, have_images=True,
-                                              have_mtf=curves.have_mtf, have_sitf=curves.have_sitf)
+                                              have_mtf=given["mtf"], have_sitf=given["sitf"],
+                                              have_noise=given["noise"])
     if not image:
         raise FidelityError("a sequence needs a positive weight on psnr, nmi or ssim (the per-frame components); "
                             "to compare curves alone, score a single pair without frames", option="weights")
     with recorded_warnings() as notes:
-        fixed, fixed_metrics, inputs, compared = curve_components(curves, weights, config)
+        fixed, fixed_metrics, inputs, compared = camera_components(camera, weights, config)
         first = _first_readable(real, pairing)
         dtype = None if first is None else first.dtype
         default_peak = valid = None
@@ -115,7 +117,7 @@ def make_plan(real: FrameSequence, pairing: Pairing, curves: CurveInputs, config
                 numeric = config.peak if isinstance(config.peak, float) else None
                 bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
                                                        full_range(dtype, config.bits, numeric))
-    return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, curve_components=fixed,
-                        curve_metrics=fixed_metrics, inputs=inputs, curves=compared, notes=tuple(notes), dtype=dtype,
+    return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,
+                        camera_metrics=fixed_metrics, inputs=inputs, camera_objects=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
                         else None, bins=bins, levels=levels, hist_range=hist_range)

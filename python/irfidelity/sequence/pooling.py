@@ -76,7 +76,7 @@ class Pool:
                 for key in ("nmi", "mi", "h_real", "h_sim", "h_joint"):
                     metrics[key] = math.fsum(f["metrics"][key] for f in scored) / len(scored)
                 comps["nmi"] = metrics["nmi"]
-        score = score_components(comps | plan.curve_components, metrics | plan.curve_metrics, plan.weights,
+        score = score_components(comps | plan.camera_components, metrics | plan.camera_metrics, plan.weights,
                                  plan.config)
         return score, pooling
 

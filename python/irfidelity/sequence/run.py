@@ -163,7 +163,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
         notes=notes, inputs=dict(plan.inputs),
         run={"pair_by": pairing.rule, "workers": options.workers,
              "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed},
-        sources={"frames": _loader(real, sim, pairing), "curves": plan.curves}, **pooled)
+        sources={"frames": _loader(real, sim, pairing), "curves": plan.camera_objects}, **pooled)
 
 
 def _loader(real: FrameSequence, sim: FrameSequence, pairing: Pairing) -> Callable[[int], tuple[Any, Any]]:

@@ -1,9 +1,12 @@
-"""The camera-curve components f1 (MTF) and f2 (SiTF) from whatever the user gives.
+"""The camera-property components from whatever the user gives: f1 (MTF), f2 (SiTF) and the
+opt-in ``noise`` component.
 
 A curve input is a :class:`~irfidelity.Curve`, an ``(x, y)`` pair, a CSV path, or — for the
 MTF — a slanted-edge image (array or path) measured with
-:func:`irfidelity.curves.mtf_from_edge`. Curves are camera properties: a sequence compares
-them once, before any frame, and every frame's fidelity includes them.
+:func:`irfidelity.curves.mtf_from_edge`. A noise input is a :class:`~irfidelity.noise.Noise3D`
+or a recording of a uniform source (3-D array, directory, glob, multi-page TIFF) measured with
+:func:`irfidelity.noise.noise3d`. These are camera properties: a sequence compares them once,
+before any frame, and every frame's fidelity includes them.
 """
 
 from __future__ import annotations
@@ -19,34 +22,35 @@ from .curves import Curve
 from .errors import FidelityError
 from .fuzzy import Weights
 
-__all__ = ["CurveInputs", "curve_components", "describe_input"]
+__all__ = ["CameraInputs", "camera_components", "describe_input"]
 
 _CURVE_EXTENSIONS = (".csv", ".txt", ".tsv", ".dat")
 
+#: The camera-property components, in report order.
+KINDS = ("mtf", "sitf", "noise")
+
 
 @dataclass(frozen=True)
-class CurveInputs:
-    """The four curve inputs of a scene (any of them None; given in pairs)."""
+class CameraInputs:
+    """The camera-property inputs of a scene (any of them None; given in pairs)."""
 
     real_mtf: Any = None
     sim_mtf: Any = None
     real_sitf: Any = None
     sim_sitf: Any = None
+    real_noise: Any = None
+    sim_noise: Any = None
 
     def __post_init__(self) -> None:
-        for kind in ("mtf", "sitf"):
+        for kind in KINDS:
             real, sim = getattr(self, f"real_{kind}"), getattr(self, f"sim_{kind}")
             if (real is None) != (sim is None):
                 given, absent = (f"real_{kind}", f"sim_{kind}") if sim is None else (f"sim_{kind}", f"real_{kind}")
                 raise FidelityError(f"{given} was given without {absent}: give both or neither", option=absent)
 
-    @property
-    def have_mtf(self) -> bool:
-        return self.real_mtf is not None
-
-    @property
-    def have_sitf(self) -> bool:
-        return self.real_sitf is not None
+    def given(self) -> dict[str, bool]:
+        """``{kind: whether both inputs were given}`` for mtf, sitf and noise."""
+        return {kind: getattr(self, f"real_{kind}") is not None for kind in KINDS}
 
 
 def describe_input(x: Any) -> Any:
@@ -94,10 +98,36 @@ def as_curve(x: Any, what: str, config: ScoringConfig, *, edge_ok: bool) -> Curv
     return Curve(cx, cy, name=what)
 
 
-def _compare(kind: str, inputs: CurveInputs, config: ScoringConfig) -> tuple[float, dict, dict, dict]:
-    """One curve component: its value, raw metrics, input descriptions and the curves compared."""
+def as_noise(x: Any, side: str, config: ScoringConfig) -> Any:
+    """A :class:`~irfidelity.noise.Noise3D` from one, or from a recording of a uniform source
+    (``side``: "real" or "sim")."""
+    from .noise import Noise3D, noise3d
+
+    if isinstance(x, Noise3D):
+        return x
+    channel = config.real_channel if side == "real" else config.sim_channel
+    try:
+        return noise3d(x, bits=config.bits, channel=channel)
+    except FidelityError as exc:
+        raise FidelityError(f"{side} noise recording: {exc}", option=f"{side}_noise") from None
+
+
+def _compare_noise(inputs: CameraInputs, config: ScoringConfig) -> tuple[float, dict, dict, dict]:
+    from .noise import noise_similarity
+
+    real = as_noise(inputs.real_noise, "real", config)
+    sim = as_noise(inputs.sim_noise, "sim", config)
+    s = noise_similarity(real, sim)
+    described = {"real_noise": describe_input(inputs.real_noise), "sim_noise": describe_input(inputs.sim_noise)}
+    return float(s.value), s.metrics(), described, {"real_noise": real, "sim_noise": sim}
+
+
+def _compare(kind: str, inputs: CameraInputs, config: ScoringConfig) -> tuple[float, dict, dict, dict]:
+    """One camera component: its value, raw metrics, input descriptions and what was compared."""
     from .curves import CameraGeometry, mtf_similarity, sitf_similarity
 
+    if kind == "noise":
+        return _compare_noise(inputs, config)
     real_in, sim_in = getattr(inputs, f"real_{kind}"), getattr(inputs, f"sim_{kind}")
     real = as_curve(real_in, f"real {kind.upper()}", config, edge_ok=kind == "mtf")
     sim = as_curve(sim_in, f"simulated {kind.upper()}", config, edge_ok=kind == "mtf")
@@ -115,24 +145,25 @@ def _compare(kind: str, inputs: CurveInputs, config: ScoringConfig) -> tuple[flo
     return float(s.value), metrics, described, {f"real_{kind}": real, f"sim_{kind}": sim}
 
 
-def curve_components(inputs: CurveInputs, weights: Weights, config: ScoringConfig
+def camera_components(inputs: CameraInputs, weights: Weights, config: ScoringConfig
                      ) -> tuple[dict, dict, dict, dict]:
-    """Components f1 (MTF, eqs. 1–4) and f2 (SiTF) of the curves whose weight is positive.
+    """Components f1 (MTF, eqs. 1–4), f2 (SiTF) and ``noise`` whose weight is positive.
 
-    Curves with weight 0 are not read at all. Curves in different units are converted with
+    Inputs with weight 0 are not read at all. Curves in different units are converted with
     the configuration's camera geometry, or refused (:mod:`irfidelity.curves.units`).
 
     Returns
     -------
     (components, metrics, inputs, curves)
         ``{"mtf"|"sitf": f}``; the raw metrics (:data:`irfidelity.schema.METRICS`); short input
-        descriptions; and the :class:`~irfidelity.Curve` objects compared (``real_mtf``, ...).
+        descriptions; and the :class:`~irfidelity.Curve` and noise objects compared
+        (``real_mtf``, ..., ``real_noise``, ``sim_noise``).
     """
     components: dict[str, float] = {}
     metrics: dict[str, Any] = {}
     described: dict[str, Any] = {}
-    curves: dict[str, Curve] = {}
-    for kind in ("mtf", "sitf"):
+    curves: dict[str, Any] = {}
+    for kind in KINDS:
         if weights[kind] > 0:
             components[kind], kind_metrics, kind_inputs, kind_curves = _compare(kind, inputs, config)
             metrics.update(kind_metrics)
