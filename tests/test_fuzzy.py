@@ -169,10 +169,11 @@ class TestGrades:
                 assert all(0 <= v <= 1 for v in row.values())
         # well inside a class: crisp
         assert gs.memberships("ssim", 0.99)["excellent"] == 1
-        assert gs.memberships("ssim", 0.2)["poor"] == 1
-        assert gs.memberships("ssim", 0.9)["good"] == 1
+        assert gs.memberships("ssim", 0.1)["poor"] == 1
+        assert gs.memberships("ssim", 0.65)["good"] == 1
+        assert gs.memberships("nmi", 0.06)["fair"] == pytest.approx(1, abs=1e-12)
         # on a boundary: half and half
-        row = gs.memberships("ssim", 0.95)
+        row = gs.memberships("ssim", 0.82)
         assert row["excellent"] == pytest.approx(0.5) and row["good"] == pytest.approx(0.5)
 
     def test_b_is_k_times_r(self):
@@ -183,8 +184,11 @@ class TestGrades:
         R = np.array([[gs.memberships(k, f[k])[gr] for gr in gs.grades] for k in COMPONENTS])
         K = np.array([w[k] for k in COMPONENTS])
         assert np.allclose([g.membership[gr] for gr in gs.grades], K @ R, atol=1e-15)
-        assert g.grade == max(g.membership, key=g.membership.get)
         assert sum(g.membership.values()) == pytest.approx(1)
+        # the overall grade: the weighted average of B, capped one above the worst component
+        score = sum(g.membership[gr] * (3 - i) for i, gr in enumerate(gs.grades))
+        worst = max(gs.grades.index(v) for v in g.component_grades.values())
+        assert g.grade == gs.grades[max(3 - math.floor(score + 0.5), worst - 1, 0)]
 
     def test_custom_and_errors(self):
         cuts = {k: (0.5,) for k in COMPONENTS}

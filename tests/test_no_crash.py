@@ -24,6 +24,7 @@ import pytest
 
 import irfidelity as irf
 from irfidelity import _core
+from irfidelity.stats import KernelRequest
 from irfidelity.errors import FrameError
 
 # Peak resident memory allowed for a child that decodes one (possibly 16384 x 16384) frame.
@@ -32,7 +33,7 @@ TIMEOUT = 120  # seconds per child
 
 CHILD = textwrap.dedent(
     """
-    import json, resource, sys
+    import json, sys
     job = json.loads(sys.argv[1])
     import numpy as np
     from irfidelity import _core
@@ -59,13 +60,10 @@ CHILD = textwrap.dedent(
         rec.update(kind="frame_error", message=str(e))
     except BaseException as e:  # anything else is a bug
         rec.update(kind="other", message=f"{type(e).__name__}: {e}")
-    # this process's own peak: ru_maxrss would include the parent's memory at fork time
-    try:
-        with open("/proc/self/status") as f:
-            hwm = next(int(line.split()[1]) for line in f if line.startswith("VmHWM:"))
-    except (OSError, StopIteration):
-        hwm = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    rec["maxrss"] = hwm * 1024
+    # peak RSS of this process's own memory: VmHWM (ru_maxrss keeps the parent's peak across exec)
+    with open("/proc/self/status") as status:
+        hwm = next(line for line in status if line.startswith("VmHWM:"))
+    rec["maxrss"] = int(hwm.split()[1]) * 1024
     print(json.dumps(rec))
     """
 )
@@ -354,7 +352,8 @@ def test_sequence_row_for_a_hostile_frame(tmp_path: Path) -> None:
     bad.write_bytes(exr_file(channels, ZIP, (16384, 16384), (16384, 16384), [zlib.compress(b"\0" * 64)]))
     good = tmp_path / "good.png"
     good.write_bytes(png_file(8, 8, 8, 0, zlib.compress(b"\0" * 72)))
-    rows = _core.score_pairs([str(good), str(bad)], [str(good), str(good)], channel=None, workers=1, max_bytes=64 << 20)
+    rows = _core.score_pairs([str(good), str(bad)], [str(good), str(good)], workers=1,
+                             request=KernelRequest(max_bytes=64 << 20))
     assert rows[0][2] is None and rows[0][1] is not None
     assert rows[1][1] is None and BUDGET in rows[1][2] and "67108864 bytes" in rows[1][2]
 

@@ -8,7 +8,7 @@ use numpy::ndarray::Array2;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 
-use super::IntoPy;
+use super::args;
 use crate::io::{self, DecodeOptions, Frame, FrameData};
 
 fn to_array<'py>(py: Python<'py>, f: Frame, name: &str) -> PyResult<Bound<'py, PyAny>> {
@@ -16,8 +16,7 @@ fn to_array<'py>(py: Python<'py>, f: Frame, name: &str) -> PyResult<Bound<'py, P
     macro_rules! arr {
         ($v:expr) => {
             Array2::from_shape_vec(shape, $v)
-                .map_err(|e| crate::Error::Frame(format!("{name}: decoder returned a bad shape: {e}")))
-                .py_err()?
+                .map_err(|e| crate::Error::Frame(format!("{name}: decoder returned a bad shape: {e}")))?
                 .into_pyarray(py)
                 .into_any()
         };
@@ -42,9 +41,9 @@ fn load_frame<'py>(
     py: Python<'py>,
     path: PathBuf,
     channel: Option<String>,
-    page: usize,
-    max_pixels: Option<u64>,
-    max_bytes: Option<u64>,
+    #[pyo3(from_py_with = args::page)] page: usize,
+    #[pyo3(from_py_with = args::max_pixels)] max_pixels: Option<u64>,
+    #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let opts = DecodeOptions {
         channel,
@@ -52,20 +51,20 @@ fn load_frame<'py>(
         max_pixels: max_pixels.unwrap_or(io::DEFAULT_MAX_PIXELS),
         max_bytes: max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES),
     };
-    let frame = py.detach(|| io::decode_frame(&path, &opts)).py_err()?;
+    let frame = py.detach(|| io::decode_frame(&path, &opts))?;
     to_array(py, frame, &path.display().to_string())
 }
 
 /// Number of pages of a (multi-page) TIFF; 1 for EXR and PNG.
 #[pyfunction]
 fn page_count(py: Python<'_>, path: PathBuf) -> PyResult<usize> {
-    py.detach(|| io::page_count(&path)).py_err()
+    Ok(py.detach(|| io::page_count(&path))?)
 }
 
 /// Selectable channel names of a frame file.
 #[pyfunction]
 fn list_channels(py: Python<'_>, path: PathBuf) -> PyResult<Vec<String>> {
-    py.detach(|| io::list_channels(&path)).py_err()
+    Ok(py.detach(|| io::list_channels(&path))?)
 }
 
 /// The default pixel limit (16384 x 16384).

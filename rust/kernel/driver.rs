@@ -190,7 +190,7 @@ fn describe<T: Sample>(bad: Bad, r: &[T], s: &[T], req: &Request) -> Error {
             let (lo, hi) = req.valid.unwrap_or((0, 0));
             Error::Range(format!(
                 "{frame} frame: value {value} at (row {row}, col {col}) is outside the valid range [{lo}, {hi}] \
-                 (check `bits`/`peak`)"
+                 of the declared bit depth"
             ))
         }
         Bad::NonFinite { index } => {

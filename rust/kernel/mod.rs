@@ -23,6 +23,7 @@ mod range;
 mod request;
 mod sample;
 
+pub(crate) use dispatch::use_avx2;
 pub use driver::pair_stats;
 pub use parallel::{map_units, pool_busy, with_pool_busy};
 pub use request::{HistRequest, Request};
