@@ -2,7 +2,7 @@
 gigabytes of memory, and the integer binning rules at their edges.
 
 Every hostile file is written here, by the test (a few hundred bytes to a few MB). Each decode
-runs in its own child process, which reports its peak resident memory (``ru_maxrss``): an
+runs in its own child process, which reports its peak resident memory (``VmHWM``): an
 abort, a segfault or a hang then fails the test instead of killing pytest, and a decode that
 allocates far beyond one frame fails the memory assertion.
 """
@@ -247,6 +247,18 @@ def test_exr_block_beyond_the_budget_is_refused(tmp_path: Path, name: str) -> No
     assert rec["kind"] == "frame_error", rec
     assert str(path) in rec["message"] and BUDGET in rec["message"] and "(max_bytes)" in rec["message"], rec
     assert rec["maxrss"] < 300 << 20, rec  # refused before allocating anything large
+
+
+def test_exr_chunk_claims_are_budgeted_by_the_declared_tile(tmp_path: Path) -> None:
+    # fuzzing finding: 64 x 838860800 tiles on a 512 x 512 image (the decoded tiles are
+    # clamped to the image, small), and a chunk claiming 2 GB: the exr crate sized its read
+    # buffer from the declared tile (a 1.9 GB allocation before failing to read)
+    head = exr_file([("A", HALF), ("B", HALF), ("G", HALF), ("R", HALF)], PXR24, (512, 512), (64, 838860800), [])
+    chunk = struct.pack("<5i", 0, 0, 0, 0, 2**31 - 1)  # tile (0, 0), level (0, 0), size, no data
+    path = tmp_path / "tall_tiles.exr"
+    path.write_bytes(head + struct.pack("<Q", len(head) + 64) * 8 + chunk)
+    rec = run_child(op="load", path=str(path), channel="R")
+    assert rec["kind"] == "frame_error" and BUDGET in rec["message"], rec
 
 
 def test_exr_scanline_blocks_are_budgeted_too(tmp_path: Path) -> None:

@@ -245,19 +245,37 @@ fn decompress<T: Sample>(c: Chunk, meta: &MetaData, layout: &Layout) -> Result<P
 /// words). The extracted channel is counted apart.
 const WORK_COPIES: u64 = 3;
 
-/// Compressed blocks and their extracted channel held per round of sharing, in bytes (at
-/// least one block).
+/// Compressed bytes, and separately the extracted channel's bytes, held per round of
+/// sharing (a round holds at least one block).
 const BATCH_BYTES: u64 = 32 << 20;
 
 /// How many blocks are decoded per round and whether in parallel, so that the decode's peak
-/// memory stays within the budget: the frame, plus a round's compressed blocks and extracted
-/// channel, plus the blocks in flight (one per thread) with their scratch.
+/// memory stays within the budget: the frame; a round's extracted channel and compressed
+/// bytes, plus the chunk being read (the `exr` crate allocates up to its header's largest
+/// block, unclamped, for a chunk before reading it); the blocks in flight (one per thread)
+/// with their scratch.
 struct Plan {
+    /// blocks per round
     batch: usize,
     parallel: bool,
 }
 
-fn plan(h: &Header, layout: &Layout, sample: u64, o: &DecodeOptions) -> Result<Plan, Reason> {
+/// The most a chunk of any part may claim to hold, as the `exr` crate bounds its read: the
+/// header's bytes per pixel times the block's area (the tile as declared, or the lines per
+/// block across the layer).
+fn read_bound(headers: &[Header]) -> Option<u64> {
+    headers.iter().try_fold(0u64, |most, h| {
+        let area = match &h.blocks {
+            BlockDescription::Tiles(t) => product(&[t.tile_size.0 as u64, t.tile_size.1 as u64]),
+            BlockDescription::ScanLines => {
+                product(&[h.compression.scan_lines_per_block() as u64, h.layer_size.0 as u64])
+            }
+        };
+        Some(most.max(area?.checked_mul(h.channels.bytes_per_pixel as u64)?))
+    })
+}
+
+fn plan(headers: &[Header], h: &Header, layout: &Layout, sample: u64, o: &DecodeOptions) -> Result<Plan, Reason> {
     let Vec2(cols, rows) = h.layer_size;
     let (bw, bh) = match &h.blocks {
         BlockDescription::Tiles(t) => (t.tile_size.0.min(cols), t.tile_size.1.min(rows)),
@@ -267,13 +285,12 @@ fn plan(h: &Header, layout: &Layout, sample: u64, o: &DecodeOptions) -> Result<P
     let block = product(&[bw, bh, bpp]); // all channels, uncompressed
     let piece = product(&[bw, bh, sample]); // the selected channel
     let frame = product(&[rows as u64, cols as u64, sample]);
-    let round = block.zip(piece).and_then(|(b, p)| b.checked_add(p));
-    let batch = round.map_or(1, |r| (BATCH_BYTES / r.max(1)).max(1));
     let threads = rayon::current_num_threads().max(1) as u64;
-    let batch = batch.min((threads * 16).max(32));
+    let batch = piece.map_or(1, |p| (BATCH_BYTES / p.max(1)).clamp(1, (threads * 16).max(32)));
     let need = |in_flight: u64| -> Option<u64> {
-        let held = frame?.checked_add(round?.checked_mul(batch)?)?;
-        held.checked_add(block?.checked_mul(WORK_COPIES)?.checked_mul(in_flight)?)
+        let held = frame?.checked_add(piece?.checked_mul(batch)?)?.checked_add(BATCH_BYTES)?;
+        let reading = held.checked_add(read_bound(headers)?)?;
+        reading.checked_add(block?.checked_mul(WORK_COPIES)?.checked_mul(in_flight)?)
     };
     let what = || {
         format!(
@@ -284,6 +301,16 @@ fn plan(h: &Header, layout: &Layout, sample: u64, o: &DecodeOptions) -> Result<P
     check_budget(need(1), what, o.max_bytes)?;
     let parallel = threads > 1 && need(threads).is_some_and(|n| n <= o.max_bytes);
     Ok(Plan { batch: batch as usize, parallel })
+}
+
+/// Bytes of a chunk's compressed data.
+fn compressed_len(c: &Chunk) -> usize {
+    match &c.compressed_block {
+        CompressedBlock::ScanLine(b) => b.compressed_pixels_le.len(),
+        CompressedBlock::Tile(b) => b.compressed_pixels_le.len(),
+        CompressedBlock::DeepScanLine(b) => b.compressed_sample_data_le.len(),
+        CompressedBlock::DeepTile(b) => b.compressed_sample_data_le.len(),
+    }
 }
 
 fn assemble<T: Sample, C: ChunksReader>(
@@ -301,9 +328,14 @@ fn assemble<T: Sample, C: ChunksReader>(
     let batch = plan.batch;
     loop {
         let mut compressed: Vec<Chunk> = Vec::with_capacity(batch);
-        for _ in 0..batch {
+        let mut bytes = 0u64;
+        while compressed.len() < batch && bytes < BATCH_BYTES {
             match chunks.next() {
-                Some(c) => compressed.push(c.map_err(exr_err)?),
+                Some(c) => {
+                    let c = c.map_err(exr_err)?;
+                    bytes += compressed_len(&c) as u64;
+                    compressed.push(c);
+                }
                 None => break,
             }
         }
@@ -398,7 +430,7 @@ pub(super) fn decode<R: BufRead + Seek>(mut reader: R, o: &DecodeOptions) -> Res
         },
     };
 
-    let plan = plan(h, &layout, sample_type.bytes_per_sample() as u64, o)?;
+    let plan = plan(headers, h, &layout, sample_type.bytes_per_sample() as u64, o)?;
 
     let chunks = r
         .filter_chunks(false, |_, tile, block| block.layer == part && tile.level_index == Vec2(0, 0))
