@@ -63,6 +63,7 @@ def assert_self_contained(page: str) -> Scan:
         if name in ("src", "href", "srcset", "poster", "data", "action", "formaction", "background", "xlink:href"):
             assert tag == "img" and name == "src" and value.startswith("data:image/png;base64,"), (tag, name, value[:60])
     assert "url(" not in s.style and "@import" not in s.style
+    assert not any(k == "style" and ("url(" in v or "@import" in v) for _, k, v in s.attrs)
     csp = [v for t, k, v in s.attrs if t == "meta" and k == "content" and "default-src" in v]
     assert csp and "default-src 'none'" in csp[0] and "img-src data:" in csp[0]
     page.encode("utf-8")  # valid UTF-8, no lone surrogates
@@ -83,7 +84,7 @@ def test_pair_report_has_every_section_and_is_self_contained(tmp_path):
                 "settings"):
         assert shown.get(sid) is True, sid
     assert shown.get("registration") is False  # no registration in this report: a note
-    assert sum(1 for t, k, v in s.attrs if t == "img" and k == "src") == 6
+    assert sum(1 for t, k, v in s.attrs if t == "img" and k == "src") == 8  # 2 frames, 6 figures
     text = " ".join(s.text)
     assert f"{p['report']['fidelity']:.4g}" in text and p["report"]["grade"] in text
     for metric in ("psnr_db", "mtf50_real", "sitf_slope_sim", "h_joint", "ssim_structure"):

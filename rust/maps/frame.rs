@@ -108,6 +108,7 @@ pub(crate) struct BandCheck {
 
 impl BandCheck {
     /// Check rows `y0..y1` of both frames; `valid` = the allowed integer range.
+    #[inline(always)]
     pub fn rows<T: Sample>(
         real: &[T],
         sim: &[T],
@@ -126,6 +127,7 @@ impl BandCheck {
         out
     }
 
+    #[inline(always)]
     fn row<T: Sample>(&mut self, frame: &'static str, row: &[T], start: usize, valid: Option<(i64, i64)>) {
         if T::IS_INT {
             // integer values are far below MAX_ABS: only the declared range needs a look

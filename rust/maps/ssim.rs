@@ -119,14 +119,13 @@ fn run<T: Sample, const CS: bool>(
     let parallel = rows * cols >= PARALLEL_MIN_PIXELS;
     let bands = map_units(units, parallel, |b| -> std::result::Result<BandResult, std::convert::Infallible> {
         let (y0, y1) = (b * BAND_ROWS, ((b + 1) * BAND_ROWS).min(rows));
-        let check = BandCheck::rows(real, sim, cols, y0, y1, valid);
         let pivots = (pivot(&real[y0 * cols..(y0 + 1) * cols]), pivot(&sim[y0 * cols..(y0 + 1) * cols]));
         let band = Band { real, sim, rows, cols, y0, y1, pivots };
         let mut out = slots.as_ref().map(|s| s[b].lock().unwrap_or_else(|e| e.into_inner()));
-        let (ssim, cs) = SCRATCH.with(|scratch| {
+        let (check, ssim, cs) = SCRATCH.with(|scratch| {
             let mut scratch = scratch.borrow_mut();
             let rows_out = out.as_deref_mut().map(|o| &mut **o);
-            band_sums::<T, CS>(&band, &window, params, rows_out, &mut scratch)
+            band_sums::<T, CS>(&band, &window, params, valid, rows_out, &mut scratch)
         });
         Ok(BandResult { check, ssim, cs })
     });
@@ -157,21 +156,22 @@ fn pivot<T: Sample>(row: &[T]) -> f64 {
     samples[samples.len() / 2]
 }
 
-/// SSIM of the band's rows, written to `out` (the band's rows of the map) when given, and the
-/// band's sums of SSIM and (with `CS`) cs over the cropped region.
+/// The checks of the band's own rows, SSIM of its rows written to `out` (the band's rows of
+/// the map) when given, and its sums of SSIM and (with `CS`) cs over the cropped region.
 fn band_sums<T: Sample, const CS: bool>(
     band: &Band<'_, T>,
     window: &Window,
     params: &SsimParams,
+    valid: Option<(i64, i64)>,
     out: Option<&mut [f64]>,
     scratch: &mut Scratch,
-) -> (Total, Total) {
+) -> (BandCheck, Total, Total) {
     #[cfg(target_arch = "x86_64")]
     if crate::kernel::use_avx2() {
         // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
-        return unsafe { band_sums_avx2::<T, CS>(band, window, params, out, scratch) };
+        return unsafe { band_sums_avx2::<T, CS>(band, window, params, valid, out, scratch) };
     }
-    band_sums_impl::<T, CS>(band, window, params, out, scratch)
+    band_sums_impl::<T, CS>(band, window, params, valid, out, scratch)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -180,10 +180,11 @@ fn band_sums_avx2<T: Sample, const CS: bool>(
     band: &Band<'_, T>,
     window: &Window,
     params: &SsimParams,
+    valid: Option<(i64, i64)>,
     out: Option<&mut [f64]>,
     scratch: &mut Scratch,
-) -> (Total, Total) {
-    band_sums_impl::<T, CS>(band, window, params, out, scratch)
+) -> (BandCheck, Total, Total) {
+    band_sums_impl::<T, CS>(band, window, params, valid, out, scratch)
 }
 
 #[inline(always)]
@@ -191,10 +192,12 @@ fn band_sums_impl<T: Sample, const CS: bool>(
     band: &Band<'_, T>,
     window: &Window,
     params: &SsimParams,
+    valid: Option<(i64, i64)>,
     mut out: Option<&mut [f64]>,
     scratch: &mut Scratch,
-) -> (Total, Total) {
+) -> (BandCheck, Total, Total) {
     let (rows, cols, pad) = (band.rows, band.cols, window.radius());
+    let check = BandCheck::rows(band.real, band.sim, cols, band.y0, band.y1, valid);
     let constants = (params.c1(), params.c2());
     let (mut ssim, mut cs) = (Total::default(), Total::default());
     let mut row_buf = vec![0.0; if out.is_some() { 0 } else { cols }];
@@ -214,7 +217,7 @@ fn band_sums_impl<T: Sample, const CS: bool>(
             }
         }
     }
-    (ssim, cs)
+    (check, ssim, cs)
 }
 
 /// SSIM (and with `CS` the contrast-structure term) of one row from its local moments
@@ -323,10 +326,10 @@ mod tests {
         let band = Band { real: &real, sim: &sim, rows, cols, y0: 0, y1: 32, pivots: (500.0, 300.0) };
         let mut a = vec![0.0; 32 * cols];
         let mut b = vec![0.0; 32 * cols];
-        let sa = band_sums_impl::<u16, true>(&band, &window, &p, Some(&mut a), &mut Scratch::default());
-        let sb = band_sums::<u16, true>(&band, &window, &p, Some(&mut b), &mut Scratch::default());
+        let sa = band_sums_impl::<u16, true>(&band, &window, &p, None, Some(&mut a), &mut Scratch::default());
+        let sb = band_sums::<u16, true>(&band, &window, &p, None, Some(&mut b), &mut Scratch::default());
         assert_eq!(a, b);
-        assert_eq!((sa.0.value(), sa.1.value()), (sb.0.value(), sb.1.value()));
+        assert_eq!((sa.1.value(), sa.2.value()), (sb.1.value(), sb.2.value()));
     }
 
     #[test]

@@ -1,5 +1,7 @@
-"""The report's figures, drawn with matplotlib's object-oriented API on the Agg canvas (no
-pyplot, no global backend change: safe inside notebooks) and returned as PNG bytes.
+"""The report's figures, returned as PNG bytes: plots drawn with matplotlib's object-oriented
+API on the Agg canvas (no pyplot, no global backend change: safe inside notebooks), and frame-
+sized maps written directly through a colour map (one pixel per displayed value, no axes; the
+page draws their colour bars), which costs a fraction of a figure.
 
 Colour-blind-safe choices throughout: viridis for frames and counts, cividis for the SSIM
 map, ColorBrewer's diverging RdBu for signed differences, and the Okabe–Ito palette with
@@ -18,8 +20,9 @@ import numpy as np
 
 from ..errors import FidelityError
 
-__all__ = ["require_matplotlib", "frames_figure", "difference_figure", "ssim_map_figure", "joint_histogram_figure",
-           "curves_figure", "timeline_figure", "distribution_figure", "thumbnails_figure", "MAX_SIDE"]
+__all__ = ["require_matplotlib", "raster", "colour_stops", "frame_range", "histograms_figure", "difference_limit",
+           "ssim_range", "joint_histogram_figure", "curves_figure", "timeline_figure", "distribution_figure",
+           "thumbnails_figure", "MAX_SIDE"]
 
 #: Longest side, in pixels, of a frame as displayed.
 MAX_SIDE = 480
@@ -78,78 +81,81 @@ def _colour_range(*frames: np.ndarray) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def frames_figure(real: np.ndarray, sim: np.ndarray, histograms: tuple[np.ndarray, ...]) -> bytes:
-    """Both frames on one colour scale, each over its normalised histogram.
+def colour_stops(cmap: str, n: int = 9) -> list[str]:
+    """``n`` evenly spaced colours of a colour map, as ``#rrggbb`` (for an HTML colour bar)."""
+    from matplotlib import colormaps
 
-    ``histograms``: ``(real_counts, real_edges, sim_counts, sim_edges)``.
-    """
-    shown_r, _ = display(real)
-    shown_s, _ = display(sim)
-    lo, hi = _colour_range(shown_r, shown_s)
-    aspect = real.shape[0] / real.shape[1]
-    fig = _figure(9.0, 2.4 + 4.2 * aspect, left=0.08, right=0.97, bottom=0.1, top=0.95)
-    grid = fig.add_gridspec(2, 2, height_ratios=[4.2 * aspect, 2.0], hspace=0.3, wspace=0.3)
+    rgba = colormaps[cmap](np.linspace(0.0, 1.0, n), bytes=True)
+    return [f"#{r:02x}{g:02x}{b:02x}" for r, g, b, _ in rgba]
+
+
+def raster(values: np.ndarray, cmap: str, lo: float, hi: float, *, outline: int | None = None) -> bytes:
+    """``values`` (subsampled for display) through a colour map as a PNG, one pixel per
+    displayed value: no axes, so the page can scale it (pixelated) and draw the colour bar.
+    NaN is grey; values beyond ``lo``/``hi`` take the end colours. ``outline``: a dotted white
+    rectangle ``outline`` frame pixels inside the border (the region an SSIM mean covers)."""
+    require_matplotlib()
+    from matplotlib import colormaps
+    from PIL import Image
+
+    shown, step = display(np.asarray(values, dtype=np.float64))
+    scaled = (shown - lo) / (hi - lo if hi > lo else 1.0)
+    rgb = colormaps[cmap].with_extremes(bad="#bbbbbb")(np.ma.masked_invalid(scaled), bytes=True)[..., :3]
+    if outline is not None:
+        rgb = np.ascontiguousarray(rgb)
+        top, left = (outline + step - 1) // step, (outline + step - 1) // step
+        bottom, right = (values.shape[0] - outline - 1) // step, (values.shape[1] - outline - 1) // step
+        if bottom > top and right > left:
+            for r in (top, bottom):
+                rgb[r, left : right + 1 : 2] = 255
+            for c in (left, right):
+                rgb[top : bottom + 1 : 2, c] = 255
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(rgb)).save(buf, format="PNG", compress_level=1)
+    return buf.getvalue()
+
+
+def frame_range(*frames: np.ndarray) -> tuple[float, float]:
+    """One colour scale for all frames: the 0.5–99.5th percentiles of their displayed pixels
+    together (a few hot or dead pixels do not wash out the scene), widened when flat."""
+    return _colour_range(*(display(np.asarray(f))[0] for f in frames))
+
+
+def histograms_figure(histograms: tuple[np.ndarray, ...], shaded: tuple[float, float]) -> bytes:
+    """Each frame's normalised histogram, side by side on one grey-level axis, with the span of
+    the frames' colour scale shaded. ``histograms``: ``(real_counts, real_edges, sim_counts,
+    sim_edges)``."""
     real_counts, real_edges, sim_counts, sim_edges = histograms
     span = (min(real_edges[0], sim_edges[0]), max(real_edges[-1], sim_edges[-1]))
-    image = None
-    for col, (name, shown, counts, edges, style) in enumerate(
-        [("real", shown_r, real_counts, real_edges, REAL_STYLE), ("simulated", shown_s, sim_counts, sim_edges, SIM_STYLE)]
+    fig = _figure(9.0, 2.4, left=0.08, right=0.98, bottom=0.2, top=0.88)
+    for col, (name, counts, edges, style) in enumerate(
+        [("real", real_counts, real_edges, REAL_STYLE), ("simulated", sim_counts, sim_edges, SIM_STYLE)]
     ):
-        ax = fig.add_subplot(grid[0, col])
-        image = ax.imshow(shown, cmap="viridis", vmin=lo, vmax=hi, interpolation="nearest")
-        ax.set_title(f"{name} frame")
-        ax.set_xticks([])
-        ax.set_yticks([])
-        hx = fig.add_subplot(grid[1, col])
+        ax = fig.add_subplot(1, 2, col + 1)
         total = max(int(np.sum(counts)), 1)
-        hx.stairs(np.asarray(counts) / total, edges, color=style["color"], fill=True, alpha=0.8)
-        hx.set_xlabel("grey level")
-        hx.set_ylabel("fraction of pixels")
-        hx.axvspan(lo, hi, color="#999999", alpha=0.12, lw=0)
+        ax.stairs(np.asarray(counts) / total, edges, color=style["color"], fill=True, alpha=0.8)
+        ax.set_title(f"{name} frame", fontsize="medium")
+        ax.set_xlabel("grey level")
+        ax.set_ylabel("fraction of pixels")
+        ax.axvspan(*shaded, color="#999999", alpha=0.15, lw=0)
         if span[1] > span[0]:
-            hx.set_xlim(*span)
-    fig.colorbar(image, ax=fig.axes[0::2], location="right", shrink=0.9, label="grey level (shared scale)")
+            ax.set_xlim(*span)
     return _png(fig)
 
 
-def difference_figure(diff: np.ndarray) -> tuple[bytes, float]:
-    """The signed difference ``sim − real`` on a symmetric diverging scale (±99.5th percentile
-    of |difference|); returns the PNG and that limit. NaN (masked) pixels are grey."""
+def difference_limit(diff: np.ndarray) -> float:
+    """The symmetric scale of a signed difference: the 99.5th percentile of |difference|."""
     shown, _ = display(diff)
     finite = np.abs(shown[np.isfinite(shown)])
     limit = float(np.percentile(finite, 99.5)) if finite.size else 1.0
-    limit = limit if limit > 0 else 1.0
-    aspect = diff.shape[0] / diff.shape[1]
-    fig = _figure(6.5, 0.4 + 5.2 * aspect, left=0.02, right=0.98, bottom=0.02, top=0.98)
-    ax = fig.add_subplot()
-    from matplotlib import colormaps
-
-    cmap = colormaps["RdBu_r"].with_extremes(bad="#bbbbbb")
-    image = ax.imshow(np.ma.masked_invalid(shown), cmap=cmap, vmin=-limit, vmax=limit, interpolation="nearest")
-    ax.set_xticks([])
-    ax.set_yticks([])
-    fig.colorbar(image, ax=ax, label="simulated − real (grey levels)", extend="both")
-    return _png(fig), limit
+    return limit if limit > 0 else 1.0
 
 
-def ssim_map_figure(ssim: np.ndarray, border: int) -> bytes:
-    """The SSIM map (cividis from its lowest value to 1 = identical), with the region its mean
-    covers outlined."""
-    shown, step = display(ssim)
-    fig = _figure(6.5, 0.4 + 5.2 * ssim.shape[0] / ssim.shape[1], left=0.02, right=0.98, bottom=0.02, top=0.98)
-    ax = fig.add_subplot()
+def ssim_range(ssim: np.ndarray) -> float:
+    """The low end of the SSIM map's scale: its lowest displayed value (the top is 1)."""
+    shown, _ = display(ssim)
     lo = float(np.nanmin(shown)) if np.isfinite(shown).any() else 0.0
-    lo = max(lo, -1.0) if lo < 1.0 else 0.0
-    image = ax.imshow(shown, cmap="cividis", vmin=lo, vmax=1.0, interpolation="nearest")
-    rows, cols = ssim.shape
-    from matplotlib.patches import Rectangle
-
-    ax.add_patch(Rectangle(((border - 0.5) / step, (border - 0.5) / step), (cols - 2 * border) / step,
-                           (rows - 2 * border) / step, fill=False, ec="white", ls=":", lw=1))
-    ax.set_xticks([])
-    ax.set_yticks([])
-    fig.colorbar(image, ax=ax, label="local SSIM")
-    return _png(fig)
+    return max(lo, -1.0) if lo < 1.0 else 0.0
 
 
 def coarsen(counts: np.ndarray, real_edges: np.ndarray, sim_edges: np.ndarray, max_bins: int = 256):

@@ -16,7 +16,8 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-__all__ = ["text", "number", "table", "key_values", "section", "missing", "image", "page", "Raw", "Missing"]
+__all__ = ["text", "number", "table", "key_values", "section", "missing", "image", "panels", "colour_bar", "page",
+           "Raw", "Missing"]
 
 
 class Raw(str):
@@ -131,6 +132,25 @@ def image(png: bytes, alt: str, *, caption: str | None = None) -> Raw:
     return Raw(f'<figure><img src="data:image/png;base64,{data}" alt="{text(alt)}">{cap}</figure>')
 
 
+def panels(items: list[tuple[bytes, str, str]], *, single: bool = False) -> Raw:
+    """Images side by side (``(png, alt, title)`` each), scaled by the page with square pixels."""
+    figs = "".join(
+        f'<figure><div class="title">{text(title)}</div>'
+        f'<img src="data:image/png;base64,{base64.b64encode(png).decode("ascii")}" alt="{text(alt)}"></figure>'
+        for png, alt, title in items
+    )
+    return Raw(f'<div class="panels{" single" if single else ""}">{figs}</div>')
+
+
+def colour_bar(stops: list[str], ticks: list[tuple[float, str]], label: str) -> Raw:
+    """A horizontal colour bar: the colour map's ``stops`` (``#rrggbb``) as a CSS gradient, and
+    ``ticks`` as ``(position in [0, 1], label)``."""
+    gradient = ", ".join(text(c) for c in stops)
+    marks = "".join(f'<span style="left:{100.0 * min(max(p, 0.0), 1.0):.2f}%">{text(t)}</span>' for p, t in ticks)
+    return Raw(f'<div class="cbar"><div class="grad" style="background:linear-gradient(to right, {gradient})">'
+               f'</div><div class="ticks">{marks}</div><div class="label">{text(label)}</div></div>')
+
+
 def paragraph(content: Any, *, cls: str = "") -> Raw:
     klass = f' class="{text(cls)}"' if cls else ""
     return Raw(f"<p{klass}>{text(content)}</p>")
@@ -154,7 +174,19 @@ _CSS = """
 .irf-report .grade{font-size:1.3em;padding:2px 12px;border-radius:4px;background:#e8eef7;border:1px solid #9db3d6}
 .irf-report figure{margin:10px 0}
 .irf-report img{max-width:100%;height:auto;border:1px solid #e4e4e4}
-.irf-report figcaption{color:#444;font-size:0.9em;margin-top:4px}
+.irf-report figcaption,.irf-report p.caption{color:#444;font-size:0.9em;margin-top:4px}
+.irf-report .panels{display:flex;gap:16px;flex-wrap:wrap;max-width:980px}
+.irf-report .panels figure{flex:1 1 280px;margin:6px 0}
+.irf-report .panels.single figure{flex:0 1 560px}
+.irf-report .panels img{width:100%;image-rendering:pixelated;border:1px solid #888}
+.irf-report .panels .title{font-size:0.95em;text-align:center;margin-bottom:2px}
+.irf-report .cbar{max-width:560px;margin:4px 0 10px}
+.irf-report .cbar .grad{height:14px;border:1px solid #888}
+.irf-report .cbar .ticks{position:relative;height:1.3em;font-size:0.85em}
+.irf-report .cbar .ticks span{position:absolute;transform:translateX(-50%);white-space:nowrap}
+.irf-report .cbar .ticks span:first-child{transform:none}
+.irf-report .cbar .ticks span:last-child{transform:translateX(-100%)}
+.irf-report .cbar .label{font-size:0.85em;color:#444}
 .irf-report .note{color:#6a4c00;background:#fff8e1;border-left:4px solid #e0b000;padding:4px 10px}
 .irf-report section.missing h2{color:#777}
 .irf-report footer{margin-top:32px;color:#666;font-size:0.85em;border-top:1px solid #ddd;padding-top:6px}

@@ -11,7 +11,7 @@ from ..errors import FidelityError
 from ..maps import SSIMMap, ms_ssim, ssim_map
 from ..stats import _as_frame, pair_stats
 from . import figures, sections
-from .html import Missing, Raw, image, missing, page, paragraph, section, text
+from .html import Missing, Raw, colour_bar, image, missing, page, panels, paragraph, section
 
 __all__ = ["render_pair_html"]
 
@@ -191,6 +191,17 @@ def _joint_histogram(d, real, sim, mask, given):
         return f"no joint histogram: {exc}"
 
 
+def _ticks(lo: float, hi: float, mid: float | None = None) -> list[tuple[float, str]]:
+    mid = (lo + hi) / 2 if mid is None else mid
+    span = hi - lo if hi > lo else 1.0
+    return [(0.0, f"{lo:.4g}"), ((mid - lo) / span, f"{mid:.4g}"), (1.0, f"{hi:.4g}")]
+
+
+def _display_note(real: np.ndarray) -> str:
+    step = figures.display(real)[1]
+    return f" Displayed at every {step}th pixel." if step > 1 else ""
+
+
 def _frames_section(real, sim, hist) -> Raw:
     title = "Frames"
     if isinstance(hist, str):
@@ -199,15 +210,16 @@ def _frames_section(real, sim, hist) -> Raw:
     else:
         counts, edges_r, edges_s = hist
         counts_r, counts_s = counts.sum(axis=1), counts.sum(axis=0)
-    png = figures.frames_figure(real, sim, (counts_r, edges_r, counts_s, edges_s))
-    caption = (f"{real.shape[1]}×{real.shape[0]} pixels, {real.dtype}. One colour scale for both frames "
-               "(0.5–99.5th percentile of their pixels together, shaded on the histograms); "
-               "histograms normalised to the pixel count, on the edges NMI was computed with.")
-    step = figures.display(real)[1]
-    if step > 1:
-        caption += f" Displayed at every {step}th pixel."
-    return section(title, image(png, "real and simulated frames with their histograms", caption=caption),
-                   anchor="frames")
+    lo, hi = figures.frame_range(real, sim)
+    images = panels([(figures.raster(real, "viridis", lo, hi), "real frame", "real frame"),
+                     (figures.raster(sim, "viridis", lo, hi), "simulated frame", "simulated frame")])
+    bar = colour_bar(figures.colour_stops("viridis"), _ticks(lo, hi), "grey level (one scale for both frames)")
+    hist_png = figures.histograms_figure((counts_r, edges_r, counts_s, edges_s), (lo, hi))
+    caption = (f"{real.shape[1]}×{real.shape[0]} pixels, {real.dtype}. Colour scale: the 0.5–99.5th percentiles of "
+               "both frames' pixels together (shaded on the histograms); histograms normalised to the pixel count, "
+               "on the edges NMI was computed with." + _display_note(real))
+    body = images + bar + image(hist_png, "normalised histograms of the real and simulated frames", caption=caption)
+    return section(title, body, anchor="frames")
 
 
 def _difference_section(real, sim, mask) -> Raw:
@@ -217,14 +229,16 @@ def _difference_section(real, sim, mask) -> Raw:
     valid = diff[np.isfinite(diff)]
     if valid.size == 0:
         return missing("Difference", "no valid pixel pair", anchor="difference")
-    png, limit = figures.difference_figure(diff)
-    caption = (f"Signed difference simulated − real (red: simulator brighter, blue: darker), scale ±{limit:.4g} "
-               f"(99.5th percentile of |difference|). Mean (bias) {valid.mean():.4g}, RMS "
-               f"{np.sqrt(np.mean(valid**2)):.4g}, largest |difference| {np.abs(valid).max():.4g}.")
+    limit = figures.difference_limit(diff)
+    body = panels([(figures.raster(diff, "RdBu_r", -limit, limit), "signed difference simulated minus real",
+                    "simulated − real")], single=True)
+    body += colour_bar(figures.colour_stops("RdBu_r"), _ticks(-limit, limit, 0.0), "simulated − real (grey levels)")
+    caption = (f"Red: simulator brighter, blue: darker; scale ±{limit:.4g} (99.5th percentile of |difference|, "
+               f"beyond it the end colours). Mean (bias) {valid.mean():.4g}, RMS {np.sqrt(np.mean(valid**2)):.4g}, "
+               f"largest |difference| {np.abs(valid).max():.4g}." + _display_note(real))
     if valid.size < diff.size:
         caption += f" Grey: {diff.size - valid.size} pixels excluded (mask or non-finite)."
-    return section("Difference", image(png, "signed difference simulated minus real", caption=caption),
-                   anchor="difference")
+    return section("Difference", body + paragraph(caption, cls="caption"), anchor="difference")
 
 
 def _ssim_section(d, real, sim, given, peak) -> Raw:
@@ -250,10 +264,13 @@ def _ssim_section(d, real, sim, given, peak) -> Raw:
             extra += f"; MS-SSIM {ms_ssim(real, sim, peak=m.peak):.6g}. "
         except FidelityError:
             extra += ". "
-    png = figures.ssim_map_figure(values, border)
+    lo = figures.ssim_range(values)
+    body = panels([(figures.raster(values, "cividis", lo, 1.0, outline=border), "windowed SSIM map", "local SSIM")],
+                  single=True)
+    body += colour_bar(figures.colour_stops("cividis"), _ticks(lo, 1.0), "local SSIM (1 = locally identical)")
     caption = (extra + "The paper's component f5 is the global SSIM of the whole frame; this windowed map shows "
-               "where the frames differ (1 = locally identical; dotted: the region the mean covers).")
-    return section(title, image(png, "windowed SSIM map", caption=caption), anchor="ssim-map")
+               "where the frames differ (dotted: the region the mean covers)." + _display_note(real))
+    return section(title, body + paragraph(caption, cls="caption"), anchor="ssim-map")
 
 
 def _joint_section(hist) -> Raw:
