@@ -264,3 +264,29 @@ def test_reports_render_themselves_and_the_cli_writes_them(tmp_path):
                             "--report", str(tmp_path / name)], capture_output=True, text=True, timeout=300)
         assert p.returncode == 0, p.stderr
         assert "Verdict" in (tmp_path / name).read_text(encoding="utf-8")
+
+
+def test_noise_section_shows_both_cameras_parts_and_spectra():
+    rng = np.random.default_rng(5)
+    base = rng.integers(1000, 1100, size=(1, 40, 48)) + rng.integers(0, 30, size=(1, 40, 1))  # fixed v pattern
+    real = (base + rng.normal(0, 2.0, size=(24, 40, 48))).round().astype(np.uint16)
+    sim = (base + rng.normal(0, 5.0, size=(24, 40, 48))).round().astype(np.uint16)
+    weights = irf.Weights(mtf=0, sitf=0, psnr=0.3, nmi=0.2, ssim=0.3, noise=0.2)
+    real_noise, sim_noise = irf.noise3d(real, bits=16, spectra=True), irf.noise3d(sim, bits=16, spectra=True)
+    report = irf.evaluate(real[0], sim[0], bits=16, weights=weights, real_noise=real_noise, sim_noise=sim_noise)
+    page = report.to_html()
+    assert section_ids(page).get("noise") is True
+    s = assert_self_contained(page)
+    section = page[page.index('<section id="noise"'):]
+    section = section[:section.index("</section>")]
+    ratio = report.metrics["noise_sigma_tvh_sim"] / report.metrics["noise_sigma_tvh_real"]
+    assert 2.0 < ratio < 3.0  # σ 5 against σ 2
+    assert f"{ratio:.4g}" in section and "σ_tvh" in section and "noise_rho" in section
+    assert section.count("<img") == 1  # the spectra figure (Noise3D objects at hand)
+    # read back from JSON: the numbers, no spectra
+    again = render_pair_html(report.to_dict())
+    assert section_ids(again).get("noise") is True and "Noise spectra" not in again
+    # a report without noise inputs: the section is a note naming the CLI flags
+    plain = render_pair_html(irf.evaluate(real[0], sim[0], bits=16).to_dict())
+    assert section_ids(plain).get("noise") is False and "--real-noise" in plain
+    assert s is not None

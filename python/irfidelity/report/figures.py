@@ -222,6 +222,8 @@ def curves_figure(kind: str, curves: list[dict[str, Any]], *, x_label: str, y_la
                     label=f"linear fit {c['name']}: slope {slope:.4g}")
     if kind == "mtf":
         ax.axhline(0.5, color="#777777", lw=0.8, ls="-.")
+    if kind == "noise":  # power spectra span decades; zero-power bins are left out
+        ax.set_yscale("log", nonpositive="mask")
     ax.set_xlabel(x_label)
     ax.set_ylabel(y_label)
     ax.grid(True, alpha=0.3)

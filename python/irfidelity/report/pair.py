@@ -11,6 +11,7 @@ from ..errors import FidelityError
 from ..maps import SSIMMap, ms_ssim, ssim_map
 from ..stats import _as_frame, pair_stats
 from . import figures, sections
+from .noise import noise as noise_section
 from .html import Missing, Raw, colour_bar, image, missing, page, panels, paragraph, section
 
 __all__ = ["render_pair_html"]
@@ -98,6 +99,7 @@ def render_pair_html(
           [missing(t, frames, anchor=a) for t, a in _FRAME_SECTIONS]),
         sections.mtf(curves, metrics),
         sections.sitf(curves, metrics),
+        noise_section(curves, metrics),
         sections.registration(d, registration),
         sections.settings(d),
     ]

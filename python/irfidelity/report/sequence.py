@@ -10,6 +10,7 @@ import numpy as np
 
 from ..errors import FidelityError
 from . import figures, sections
+from .noise import noise as noise_section
 from .html import Missing, Raw, image, key_values, missing, number, page, paragraph, section, table, text
 
 __all__ = ["render_sequence_html"]
@@ -94,6 +95,7 @@ def render_sequence_html(
         _frame_stats(d),
         sections.mtf(curves, curve_metrics),
         sections.sitf(curves, curve_metrics),
+        noise_section(curves, curve_metrics),
         sections.settings(d),
     ]
     body.append(sections.footer([b.title for b in body if isinstance(b, Missing)]))
