@@ -229,3 +229,23 @@ def test_lying_headers_refused_before_allocating(tmp_path: Path) -> None:
     assert "exceeds the limit of 1000000 pixels" in recs[1]["message"]
     assert "exceeds the limit" in recs[2]["message"]
     assert "exceeds the limit of 10000 pixels" in recs[4]["message"]
+
+
+def test_partial_palette_entry_is_a_clean_frame_error(tmp_path: Path) -> None:
+    # a fuzzing finding: the png crate panics on a PLTE chunk that is not whole RGB entries;
+    # the file must give one FrameError naming it, and nothing on stderr
+    rows = b"".join(b"\0\0\1\0\1" for _ in range(4))
+    jobs = []
+    for n in (4, 5, 8):
+        path = tmp_path / f"palette_{n}.png"
+        path.write_bytes(b"\x89PNG\r\n\x1a\n" + _png_chunk(b"IHDR", struct.pack(">IIBBBBB", 4, 4, 8, 3, 0, 0, 0))
+                         + _png_chunk(b"PLTE", bytes(range(n))) + _png_chunk(b"IDAT", zlib.compress(rows))
+                         + _png_chunk(b"IEND", b""))
+        jobs.append({"path": str(path), "channel": "R"})
+    env = dict(os.environ, RUST_BACKTRACE="1")
+    proc = subprocess.run([sys.executable, "-c", CHILD, "0"], input=json.dumps(jobs), capture_output=True, text=True,
+                          timeout=TIMEOUT, env=env)
+    assert proc.returncode == 0 and "panicked" not in proc.stderr, proc.stderr[-2000:]
+    for job, rec in zip(jobs, json.loads(proc.stdout.strip().splitlines()[-1])):
+        assert rec["kind"] == "frame_error", rec
+        assert rec["message"].startswith(f"{job['path']}: corrupt PNG file: the PLTE chunk holds"), rec

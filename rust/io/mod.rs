@@ -161,12 +161,56 @@ fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     }
 }
 
+thread_local! {
+    /// While this thread runs a guarded decode: the location of a panic raised in it, which
+    /// the panic hook records instead of printing (the panic becomes the decode's FrameError).
+    static GUARDED_PANIC: std::cell::RefCell<Option<Option<String>>> = const { std::cell::RefCell::new(None) };
+}
+
+/// Wrap the process's panic hook, once: a panic inside a guarded decode on this thread is
+/// recorded (file name and line) instead of printed, so a third-party decoder's bug reaches
+/// the user once, as the FrameError naming the file. Every other panic goes to the previous
+/// hook unchanged. Not under fuzzing, whose own hook must see every panic.
+fn quiet_guarded_panics() {
+    #[cfg(not(feature = "fuzzing"))]
+    {
+        static ONCE: std::sync::Once = std::sync::Once::new();
+        ONCE.call_once(|| {
+            let previous = std::panic::take_hook();
+            std::panic::set_hook(Box::new(move |info| {
+                let place = info.location().map(|l| {
+                    let file = Path::new(l.file()).file_name().and_then(|f| f.to_str()).unwrap_or("?");
+                    let krate = l.file().split("/src/").next().and_then(|d| d.rsplit('/').next()).unwrap_or("");
+                    format!("{krate} {file}:{}", l.line())
+                });
+                let recorded = GUARDED_PANIC.with(|g| match &mut *g.borrow_mut() {
+                    Some(slot) => {
+                        *slot = place.clone();
+                        true
+                    }
+                    None => false,
+                });
+                if !recorded {
+                    previous(info);
+                }
+            }));
+        });
+    }
+}
+
 /// Run `f`, turning a panic into a FrameError (last line of defence against decoder bugs).
 fn guarded<T>(name: &str, f: impl FnOnce() -> std::result::Result<T, Reason>) -> Result<T> {
-    match catch_unwind(AssertUnwindSafe(f)) {
+    quiet_guarded_panics();
+    let outer = GUARDED_PANIC.with(|g| g.replace(Some(None)));
+    let result = catch_unwind(AssertUnwindSafe(f));
+    let place = GUARDED_PANIC.with(|g| g.replace(outer)).flatten();
+    match result {
         Ok(Ok(v)) => Ok(v),
         Ok(Err(reason)) => Err(frame_err(name, reason)),
-        Err(payload) => Err(frame_err(name, format!("decoder failed: {}", panic_message(&*payload)))),
+        Err(payload) => {
+            let at = place.map(|p| format!(" (a decoder bug at {p})")).unwrap_or_default();
+            Err(frame_err(name, format!("decoder failed{at}: {}", panic_message(&*payload))))
+        }
     }
 }
 

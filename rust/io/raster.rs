@@ -110,6 +110,16 @@ fn png_open<R: BufRead + Seek>(reader: R, o: &DecodeOptions) -> Result<PngOpen<R
     let working = rows + PNG_METADATA_BYTES.min(o.max_bytes - need);
     dec.set_limits(png::Limits { bytes: usize::try_from(working).unwrap_or(usize::MAX) });
     let reader = dec.read_info().map_err(png_err)?;
+    if let Some(palette) = &reader.info().palette {
+        // the png crate indexes a palette in whole entries (it panics on a partial one)
+        if palette.len() % 3 != 0 || palette.len() > 3 * 256 {
+            return Err(format!(
+                "corrupt PNG file: the PLTE chunk holds {} bytes (the PNG specification requires 3 per entry, at \
+                 most 256 entries)",
+                palette.len()
+            ));
+        }
+    }
     let (colour, depth) = reader.output_color_type();
     let names = png_names(colour)?;
     Ok(PngOpen { reader, names, sixteen: depth == png::BitDepth::Sixteen, low_grey_scale })

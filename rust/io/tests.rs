@@ -312,3 +312,56 @@ fn piz_and_zip_decoders_return_what_the_exr_crate_wrote() {
     }
     assert_eq!(cases, 120);
 }
+
+/// A 4×4 palette PNG whose PLTE chunk holds `palette_bytes` bytes.
+fn palette_png(palette_bytes: usize) -> Vec<u8> {
+    fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], body: &[u8]) {
+        out.extend((body.len() as u32).to_be_bytes());
+        let start = out.len();
+        out.extend(kind);
+        out.extend(body);
+        let mut crc = flate2::Crc::new();
+        crc.update(&out[start..]);
+        let crc = crc.sum();
+        out.extend(crc.to_be_bytes());
+    }
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    chunk(&mut png, b"IHDR", &[0, 0, 0, 4, 0, 0, 0, 4, 8, 3, 0, 0, 0]);
+    chunk(&mut png, b"PLTE", &(0..palette_bytes).map(|i| i as u8).collect::<Vec<_>>());
+    let rows: Vec<u8> = (0..4).flat_map(|_| [0u8, 0, 1, 0, 1]).collect();
+    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+    std::io::Write::write_all(&mut z, &rows).unwrap();
+    chunk(&mut png, b"IDAT", &z.finish().unwrap());
+    chunk(&mut png, b"IEND", &[]);
+    png
+}
+
+#[test]
+fn png_partial_palette_entry_is_a_frame_error() {
+    // the png crate panics on a PLTE whose length is not a multiple of 3 (a fuzzing finding)
+    let opts = DecodeOptions { channel: Some("R".into()), ..Default::default() };
+    for bytes in [4, 5, 8] {
+        let m = frame_msg(decode_bytes(&palette_png(bytes), "pal.png", &opts));
+        assert!(m.starts_with(&format!("pal.png: corrupt PNG file: the PLTE chunk holds {bytes} bytes")), "{m}");
+    }
+    let m = frame_msg(decode_bytes(&palette_png(3 * 256 + 3), "pal.png", &opts));
+    assert!(m.starts_with("pal.png: corrupt") && m.contains("PLTE"), "{m}");
+    let f = decode_bytes(&palette_png(6), "pal.png", &opts).unwrap();
+    assert_eq!((f.rows, f.cols), (4, 4));
+}
+
+#[test]
+fn a_panic_in_a_guarded_decode_is_a_frame_error_naming_where() {
+    let err = guarded::<()>("f.png", || panic!("boom")).unwrap_err();
+    let Error::Frame(m) = err else { panic!("not a FrameError: {err:?}") };
+    assert!(
+        m.starts_with("f.png: decoder failed (a decoder bug at ") && m.contains("tests.rs:") && m.ends_with(": boom"),
+        "{m}"
+    );
+    // nested guards restore the outer one's state
+    let outer = guarded::<()>("outer", || {
+        let _ = guarded::<()>("inner", || panic!("inner"));
+        panic!("outer")
+    });
+    assert!(matches!(outer, Err(Error::Frame(m)) if m.starts_with("outer: decoder failed (a decoder bug at ")));
+}
