@@ -40,7 +40,7 @@ import time
 import numpy as np
 
 import irfidelity  # noqa: F401  (import check before the slow part)
-from irfidelity.scoring import PeakWarning
+from irfidelity.errors import PeakWarning
 from irfidelity.sequence import score_sequence
 
 HERE = pathlib.Path(__file__).resolve().parent
