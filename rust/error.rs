@@ -13,12 +13,16 @@ pub enum Error {
     Frame(String),
     /// Any other bad argument (Python: `FidelityError`, a `ValueError`).
     Value(String),
+    /// A frame pair that cannot be registered (Python: `RegistrationError`).
+    Registration(String),
 }
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Error::Shape(m) | Error::Range(m) | Error::Frame(m) | Error::Value(m) => f.write_str(m),
+            Error::Shape(m) | Error::Range(m) | Error::Frame(m) | Error::Value(m) | Error::Registration(m) => {
+                f.write_str(m)
+            }
         }
     }
 }

@@ -6,6 +6,7 @@ pub mod error;
 pub mod hist;
 pub mod io;
 pub mod kernel;
+pub mod register;
 pub mod sequence;
 pub mod stats;
 

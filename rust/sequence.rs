@@ -115,6 +115,7 @@ fn prefix(err: Error, what: &str) -> Error {
         Error::Shape(m) => Error::Shape(format!("{what}: {m}")),
         Error::Range(m) => Error::Range(format!("{what}: {m}")),
         Error::Value(m) => Error::Value(format!("{what}: {m}")),
+        Error::Registration(m) => Error::Registration(format!("{what}: {m}")),
         // decode errors already start with the path
         Error::Frame(m) => Error::Frame(m),
     }

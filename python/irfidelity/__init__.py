@@ -14,6 +14,7 @@ from .fuzzy import AHPConsistencyWarning, Comparison, GradeScale, Weights, ahp, 
 from .metrics import NMI, SSIM
 from .mtf import mtf50, mtf_from_esf, mtf_from_lsf, mtf_similarity
 from .normalize import normalize_psnr
+from .registration import Registration, RegistrationWarning, register
 from .sequence import SequenceReport, score_sequence
 from .sitf import SiTFFit, netd, sitf_fit, sitf_similarity
 from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
@@ -65,4 +66,8 @@ __all__ = [
     "page_count",
     "score_sequence",
     "SequenceReport",
+    # registration (docs/registration.md)
+    "register",
+    "Registration",
+    "RegistrationWarning",
 ]

@@ -93,3 +93,25 @@ def score_pairs(
     on_result: Callable[[list[Any]], Any] | None = None,
 ) -> list[tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None]] | None: ...
 def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats | None, bool]: ...
+
+# ---- registration (rust/binding/register.rs) ------------------------------------------------
+
+REGISTRATION_LOW_CONFIDENCE: float
+REGISTRATION_AMBIGUOUS: float
+REGISTRATION_MIN_OVERLAP: float
+
+def register_frames(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    model: str,
+    method: str,
+    max_shift: float | None = None,
+    mask: npt.NDArray[np.bool_] | None = None,
+) -> tuple[tuple[float, float, float, float, float, float], str, float, float, bool]: ...
+def warp_frame(
+    frame: npt.NDArray[Any],
+    matrix: tuple[float, float, float, float, float, float],
+    order: int,
+    shape: tuple[int, int],
+    mask: npt.NDArray[np.bool_] | None = None,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]: ...

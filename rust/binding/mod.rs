@@ -5,6 +5,7 @@
 use pyo3::prelude::*;
 
 mod io;
+mod register;
 mod sequence;
 mod stats;
 
@@ -15,6 +16,7 @@ pub(crate) fn to_pyerr(err: crate::Error) -> PyErr {
         crate::Error::Range(m) => ("RangeError", m),
         crate::Error::Frame(m) => ("FrameError", m),
         crate::Error::Value(m) => ("FidelityError", m),
+        crate::Error::Registration(m) => ("RegistrationError", m),
     };
     Python::attach(|py| match py.import("irfidelity.errors").and_then(|m| m.getattr(class)) {
         Ok(cls) => match cls.call1((msg.clone(),)) {
@@ -41,5 +43,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     stats::register(m)?;
     io::register(m)?;
     sequence::register(m)?;
+    register::register(m)?;
     Ok(())
 }

@@ -1,0 +1,135 @@
+//! Rotation and scale from log-polar magnitude spectra (Reddy & Chatterji 1996).
+//!
+//! The magnitude of a frame's spectrum ignores translation; rotating the frame rotates it
+//! and scaling by `s` scales it by `1/s`. Resampled on a grid of angle × log-radius, both
+//! become shifts, found by phase correlation ([`super::phase`]). The angle axis covers
+//! [0°, 180°) (a magnitude spectrum is point-symmetric), so it is periodic and needs no
+//! window, and a rotation is known modulo 180° — the caller tries both.
+
+use super::fft;
+use super::image::Plane;
+use super::phase::{correlate_tapered, Polarity};
+use super::window::{tapered, tukey};
+use crate::error::Result;
+
+/// Samples of the angle axis over 180°: 0.35° per sample before subpixel refinement.
+const ANGLES: usize = 512;
+/// Samples of the log-radius axis.
+const RADII: usize = 256;
+/// Highest radius sampled, in cycles per pixel (below Nyquist, where aliasing lives).
+const R_MAX: f64 = 0.45;
+/// Lowest radius, in cycles per frame (the shorter side): the window dominates below it.
+const R_MIN_CYCLES: f64 = 4.0;
+/// Largest scale change searched (and its inverse).
+const MAX_SCALE: f64 = 2.0;
+
+/// Rotation and scale of the map from simulated to real coordinates.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RotationScale {
+    /// Degrees, OpenCV sense, in [−90, 90).
+    pub angle_deg: f64,
+    pub scale: f64,
+    /// Distinctness of the log-polar correlation peak (see [`super::phase::Peak`]).
+    pub confidence: f64,
+}
+
+/// Estimate the rotation (and, if `with_scale`, the scale) taking `sim` onto `real`.
+pub fn rotation_scale(real: &Plane, sim: &Plane, with_scale: bool) -> Result<RotationScale> {
+    let r_min = R_MIN_CYCLES / real.rows.min(real.cols) as f64;
+    let step = (R_MAX / r_min).ln() / (RADII - 1) as f64;
+    let a = log_polar(real, r_min, step)?;
+    let b = log_polar(sim, r_min, step)?;
+    // log-radius is not periodic: Hann window along it; angle is periodic: no window
+    let (w_angle, w_radius) = (vec![1.0; ANGLES], tukey(RADII, 1.0));
+    let ta = tapered(&a, &w_angle, &w_radius);
+    let tb = tapered(&b, &w_angle, &w_radius);
+    let radius_limit = if with_scale { (MAX_SCALE.ln() / step).floor() as usize } else { 0 };
+    let (peak, _) = correlate_tapered(&ta, &tb, ANGLES, RADII, (ANGLES / 2, radius_limit), Polarity::Positive)?;
+    // real's spectrum at angle φ equals sim's at φ − dy samples: the real frame is the
+    // simulated one turned by −dy samples; likewise its radii are scaled by e^{dx·step}.
+    let angle_deg = -peak.dy * 180.0 / ANGLES as f64;
+    let scale = if with_scale { (-peak.dx * step).exp() } else { 1.0 };
+    Ok(RotationScale { angle_deg, scale, confidence: peak.confidence })
+}
+
+/// The Hann-windowed frame's magnitude spectrum, high-pass emphasised, on an
+/// `ANGLES × RADII` grid of angle in [0, π) and radius `r_min·e^{j·step}` cycles/px.
+fn log_polar(plane: &Plane, r_min: f64, step: f64) -> Result<Plane> {
+    let (rows, cols) = (plane.rows, plane.cols);
+    let windowed = tapered(plane, &tukey(rows, 1.0), &tukey(cols, 1.0));
+    let spec = fft::forward(&windowed, rows, cols)?;
+    let width = spec.width();
+    let magnitude: Vec<f64> = spec.data.iter().map(|z| z.norm()).collect();
+    let at = |kx: usize, ky: usize| magnitude[kx.min(width - 1) * rows + ky % rows];
+    let mut values = vec![0.0; ANGLES * RADII];
+    let pi = std::f64::consts::PI;
+    for i in 0..ANGLES {
+        let (sin, cos) = (pi * i as f64 / ANGLES as f64).sin_cos();
+        for j in 0..RADII {
+            let r = r_min * (j as f64 * step).exp();
+            // |F(−f)| = |F(f)|: fold onto the stored half (fx ≥ 0)
+            let (mut fx, mut fy) = (r * cos, r * sin);
+            if fx < 0.0 {
+                fx = -fx;
+                fy = -fy;
+            }
+            let (kx, ky) = (fx * cols as f64, (fy * rows as f64).rem_euclid(rows as f64));
+            let (x0, y0) = (kx.floor(), ky.floor());
+            let (tx, ty) = (kx - x0, ky - y0);
+            let (x0, y0) = (x0 as usize, y0 as usize);
+            let m = (1.0 - ty) * ((1.0 - tx) * at(x0, y0) + tx * at(x0 + 1, y0))
+                + ty * ((1.0 - tx) * at(x0, y0 + 1) + tx * at(x0 + 1, y0 + 1));
+            // Reddy & Chatterji's emphasis of high frequencies: H = (1 − X)(2 − X)
+            let x = (pi * fx).cos() * (pi * fy).cos();
+            values[i * RADII + j] = m * (1.0 - x) * (2.0 - x);
+        }
+    }
+    Ok(Plane::new(ANGLES, RADII, values, vec![true; ANGLES * RADII]))
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::super::affine::Affine;
+    use super::super::warp::{warp, Interp, Source};
+    use super::*;
+
+    /// A smooth pseudo-random scene: a sum of Gaussian blobs.
+    pub(crate) fn scene(rows: usize, cols: usize, seed: u64) -> Vec<f64> {
+        let mut state = seed;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let blobs: Vec<(f64, f64, f64, f64)> =
+            (0..150).map(|_| (next() * rows as f64, next() * cols as f64, 1.0 + 3.0 * next(), next() - 0.3)).collect();
+        let mut out = vec![0.0; rows * cols];
+        for r in 0..rows {
+            for c in 0..cols {
+                out[r * cols + c] = blobs
+                    .iter()
+                    .map(|&(y, x, s, a)| a * (-((r as f64 - y).powi(2) + (c as f64 - x).powi(2)) / (2.0 * s * s)).exp())
+                    .sum();
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn finds_rotation_and_scale_signs() {
+        let (rows, cols) = (128, 160);
+        let real_values = scene(rows, cols, 7);
+        let real = Plane::new(rows, cols, real_values.clone(), vec![true; rows * cols]);
+        for &(angle, scale) in &[(4.0, 1.0), (-6.0, 1.0), (2.0, 1.03), (0.0, 0.97)] {
+            // sim(p) = real(M p) with M the sim → real map
+            let m = Affine::rotation_scale(angle, scale, ((cols - 1) as f64 / 2.0, (rows - 1) as f64 / 2.0));
+            let src = Source { data: &real_values[..], rows, cols, valid: None };
+            let (values, valid) = warp(&src, &m, Interp::Bicubic, rows, cols, 0.0);
+            let sim = Plane::new(rows, cols, values, valid);
+            let est = rotation_scale(&real, &sim, true).unwrap();
+            assert!((est.angle_deg - angle).abs() < 0.25, "{angle}: {est:?}");
+            assert!((est.scale - scale).abs() < 0.005, "{scale}: {est:?}");
+            let rigid = rotation_scale(&real, &sim, false).unwrap();
+            assert_eq!(rigid.scale, 1.0);
+        }
+    }
+}
