@@ -87,6 +87,15 @@ impl Affine {
             .fold(0.0, f64::max)
     }
 
+    /// The same map on a grid `factor` times coarser (pixel centres at `(p + ½)/factor − ½`,
+    /// as [`super::image::Plane::halved`] makes for `factor` 2).
+    pub fn at_scale(&self, factor: f64) -> Affine {
+        let half = 0.5 / factor - 0.5;
+        let down = Affine([[1.0 / factor, 0.0, half], [0.0, 1.0 / factor, half]]);
+        let up = Affine([[factor, 0.0, -half * factor], [0.0, factor, -half * factor]]);
+        down.compose(self).compose(&up)
+    }
+
     /// Largest displacement of a frame corner: [`Affine::corner_distance`] to the identity.
     pub fn max_displacement(&self, rows: usize, cols: usize) -> f64 {
         self.corner_distance(&Affine::IDENTITY, rows, cols)
@@ -130,5 +139,11 @@ mod tests {
         assert!((t.max_displacement(10, 20) - 5f64.sqrt()).abs() < 1e-12);
         assert_eq!(t.shift(), (-1.0, 2.0));
         assert!(Affine([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]).inverse().is_none());
+        // a shift of 2 px is 1 px at half resolution, and back
+        let half = t.at_scale(2.0);
+        assert!(close(&half, &Affine::translation(1.0, -0.5), 1e-12), "{half:?}");
+        assert!(close(&half.at_scale(0.5), &t, 1e-12));
+        let r = Affine::rotation_scale(3.0, 1.02, (10.0, 7.0));
+        assert!((r.at_scale(2.0).angle_deg() - 3.0).abs() < 1e-12);
     }
 }

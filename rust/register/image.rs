@@ -2,6 +2,7 @@
 //! the pixels that take part (not masked by the caller, finite). Excluded pixels hold 0
 //! and are skipped by every step, never propagated.
 
+use super::bands;
 use crate::error::{Error, Result};
 use crate::kernel::Sample;
 
@@ -55,6 +56,16 @@ impl Plane {
         Ok(Plane::new(rows, cols, values, valid))
     }
 
+    /// Mean of the valid pixels (0 if none).
+    pub fn mean(&self) -> f64 {
+        let sum: f64 = self.values.iter().zip(&self.valid).map(|(&v, &ok)| if ok { v } else { 0.0 }).sum();
+        if self.n_valid == 0 {
+            0.0
+        } else {
+            sum / self.n_valid as f64
+        }
+    }
+
     /// Mean and population standard deviation of the valid pixels (two passes).
     pub fn mean_std(&self) -> (f64, f64) {
         if self.n_valid == 0 {
@@ -68,7 +79,14 @@ impl Plane {
 
     /// Smallest and largest valid value.
     pub fn range(&self) -> (f64, f64) {
-        self.valid_values().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)))
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (&v, &ok) in self.values.iter().zip(&self.valid) {
+            if ok {
+                lo = if v < lo { v } else { lo };
+                hi = if v > hi { v } else { hi };
+            }
+        }
+        (lo, hi)
     }
 
     fn valid_values(&self) -> impl Iterator<Item = f64> + '_ {
@@ -76,8 +94,8 @@ impl Plane {
     }
 
     /// Gaussian smoothing of standard deviation `sigma` px by normalised convolution: only
-    /// valid pixels contribute, each output weighted by the valid part of its kernel. The
-    /// mask is unchanged.
+    /// valid pixels contribute, each output weighted by the valid part of its kernel (at the
+    /// border too). The mask is unchanged.
     pub fn smoothed(&self, sigma: f64) -> Plane {
         let radius = (3.0 * sigma).ceil() as usize;
         let kernel: Vec<f64> = (0..=2 * radius)
@@ -86,11 +104,24 @@ impl Plane {
                 (-0.5 * d * d / (sigma * sigma)).exp()
             })
             .collect();
-        let weights: Vec<f64> = self.valid.iter().map(|&ok| if ok { 1.0 } else { 0.0 }).collect();
-        let num = convolve_separable(&self.values, self.rows, self.cols, &kernel);
-        let den = convolve_separable(&weights, self.rows, self.cols, &kernel);
-        let values = num.iter().zip(&den).map(|(&n, &d)| if d > 0.0 { n / d } else { 0.0 }).collect();
-        Plane::new(self.rows, self.cols, values, self.valid.clone())
+        let (rows, cols) = (self.rows, self.cols);
+        // invalid pixels hold 0, so the numerator is a plain convolution of the values
+        let mut values = convolve_separable(&self.values, rows, cols, &kernel);
+        if self.n_valid == rows * cols {
+            // all valid: the weight image is separable
+            let along = |n: usize| convolve_separable(&vec![1.0; n], 1, n, &kernel);
+            let (wr, wc) = (along(rows), along(cols));
+            for (line, &w) in values.chunks_exact_mut(cols).zip(&wr) {
+                line.iter_mut().zip(&wc).for_each(|(v, &u)| *v /= w * u);
+            }
+        } else {
+            let weights: Vec<f64> = self.valid.iter().map(|&ok| if ok { 1.0 } else { 0.0 }).collect();
+            let den = convolve_separable(&weights, rows, cols, &kernel);
+            for ((v, &d), &ok) in values.iter_mut().zip(&den).zip(&self.valid) {
+                *v = if ok && d > 0.0 { *v / d } else { 0.0 };
+            }
+        }
+        Plane { rows, cols, values, valid: self.valid.clone(), n_valid: self.n_valid }
     }
 
     /// Half the resolution: the mean of each 2×2 block whose four pixels are valid.
@@ -158,27 +189,35 @@ impl Plane {
 fn convolve_separable(values: &[f64], rows: usize, cols: usize, kernel: &[f64]) -> Vec<f64> {
     let radius = kernel.len() / 2;
     let mut tmp = vec![0.0; rows * cols];
-    for r in 0..rows {
-        let line = &values[r * cols..(r + 1) * cols];
-        let out = &mut tmp[r * cols..(r + 1) * cols];
-        for (c, o) in out.iter_mut().enumerate() {
-            let lo = c.saturating_sub(radius);
-            let hi = (c + radius).min(cols - 1);
-            *o = (lo..=hi).map(|k| line[k] * kernel[k + radius - c]).sum();
-        }
-    }
-    let mut out = vec![0.0; rows * cols];
-    for r in 0..rows {
-        let lo = r.saturating_sub(radius);
-        let hi = (r + radius).min(rows - 1);
-        let dst = &mut out[r * cols..(r + 1) * cols];
-        for k in lo..=hi {
-            let w = kernel[k + radius - r];
-            for (d, s) in dst.iter_mut().zip(&tmp[k * cols..(k + 1) * cols]) {
-                *d += w * s;
+    bands::fill_rows(&mut tmp, cols, |first, band| {
+        for (k, out) in band.chunks_exact_mut(cols).enumerate() {
+            let line = &values[(first + k) * cols..(first + k + 1) * cols];
+            for (c, o) in out.iter_mut().enumerate() {
+                if c >= radius && c + radius < cols {
+                    // interior: the whole kernel
+                    *o = line[c - radius..=c + radius].iter().zip(kernel).map(|(v, k)| v * k).sum();
+                } else {
+                    let lo = c.saturating_sub(radius);
+                    let hi = (c + radius).min(cols - 1);
+                    *o = (lo..=hi).map(|k| line[k] * kernel[k + radius - c]).sum();
+                }
             }
         }
-    }
+    });
+    let mut out = vec![0.0; rows * cols];
+    bands::fill_rows(&mut out, cols, |first, band| {
+        for (k, dst) in band.chunks_exact_mut(cols).enumerate() {
+            let r = first + k;
+            let lo = r.saturating_sub(radius);
+            let hi = (r + radius).min(rows - 1);
+            for j in lo..=hi {
+                let w = kernel[j + radius - r];
+                for (d, s) in dst.iter_mut().zip(&tmp[j * cols..(j + 1) * cols]) {
+                    *d += w * s;
+                }
+            }
+        }
+    });
     out
 }
 

@@ -8,7 +8,7 @@
 
 use super::fft;
 use super::image::Plane;
-use super::phase::{correlate_tapered, Polarity};
+use super::phase::{correlate_tapered, Locate, Polarity};
 use super::window::{tapered, tukey};
 use crate::error::Result;
 
@@ -44,7 +44,7 @@ pub fn rotation_scale(real: &Plane, sim: &Plane, with_scale: bool) -> Result<Rot
     let ta = tapered(&a, &w_angle, &w_radius);
     let tb = tapered(&b, &w_angle, &w_radius);
     let radius_limit = if with_scale { (MAX_SCALE.ln() / step).floor() as usize } else { 0 };
-    let (peak, _) = correlate_tapered(&ta, &tb, ANGLES, RADII, (ANGLES / 2, radius_limit), Polarity::Positive)?;
+    let (peak, _) = correlate_tapered(&ta, &tb, ANGLES, RADII, (ANGLES / 2, radius_limit), Polarity::Positive, Locate::HalfWhitened)?;
     // real's spectrum at angle φ equals sim's at φ − dy samples: the real frame is the
     // simulated one turned by −dy samples; likewise its radii are scaled by e^{dx·step}.
     let angle_deg = -peak.dy * 180.0 / ANGLES as f64;
@@ -59,7 +59,7 @@ fn log_polar(plane: &Plane, r_min: f64, step: f64) -> Result<Plane> {
     let windowed = tapered(plane, &tukey(rows, 1.0), &tukey(cols, 1.0));
     let spec = fft::forward(&windowed, rows, cols)?;
     let width = spec.width();
-    let magnitude: Vec<f64> = spec.data.iter().map(|z| z.norm()).collect();
+    let magnitude: Vec<f64> = spec.data.iter().map(|z| z.norm_sqr().sqrt()).collect();
     let at = |kx: usize, ky: usize| magnitude[kx.min(width - 1) * rows + ky % rows];
     let mut values = vec![0.0; ANGLES * RADII];
     let pi = std::f64::consts::PI;

@@ -44,6 +44,8 @@ pub struct NmiFit {
     pub confidence: f64,
     /// Integer shift (full-resolution pixels) of the best coarse rival.
     pub rival: (isize, isize),
+    /// The registered frames correlate negatively (measured on the coarse level).
+    pub inverted: bool,
 }
 
 /// NMI of `real` and `sim` over the pixels valid in both (0 if fewer than [`MIN_PIXELS`]).
@@ -85,11 +87,13 @@ pub fn register_nmi(real: &Plane, sim: &Plane, start: &Affine, model: Model, max
     for (k, (r, s, factor)) in levels.iter().rev().enumerate() {
         let step = if k == 0 { coarse_step / factor } else { 0.5 };
         let tolerance = if k + 1 == n_levels { 0.005 } else { 0.05 };
-        matrix = nelder_mead(r, s, &to_level(&matrix, *factor), model, step, tolerance)?;
-        matrix = from_level(&matrix, *factor);
+        matrix = nelder_mead(r, s, &matrix.at_scale(*factor), model, step, tolerance)?;
+        matrix = matrix.at_scale(1.0 / factor);
     }
     let value = nmi_at(&real_u, &sim_u, &matrix)?;
-    Ok(NmiFit { matrix, nmi: value, confidence, rival })
+    let (r_top, s_top, f_top) = levels.last().expect("the full level");
+    let inverted = correlation_at(r_top, s_top, &matrix.at_scale(*f_top)) < 0.0;
+    Ok(NmiFit { matrix, nmi: value, confidence, rival, inverted })
 }
 
 /// Halvings to the coarse level, as a factor.
@@ -101,18 +105,6 @@ fn coarse_factor(rows: usize, cols: usize) -> usize {
     f
 }
 
-/// A full-resolution map seen at a level `factor` times coarser (pixel centres at
-/// `(p + ½)/factor − ½`).
-fn to_level(m: &Affine, factor: f64) -> Affine {
-    let down = Affine([[1.0 / factor, 0.0, 0.5 / factor - 0.5], [0.0, 1.0 / factor, 0.5 / factor - 0.5]]);
-    let up = down.inverse().expect("a positive factor");
-    down.compose(m).compose(&up)
-}
-
-fn from_level(m: &Affine, factor: f64) -> Affine {
-    to_level(m, 1.0 / factor)
-}
-
 /// NMI of `real` and `sim` warped by `matrix` (simulated → real).
 fn nmi_at(real: &Plane, sim: &Plane, matrix: &Affine) -> Result<f64> {
     let Some(to_sim) = matrix.inverse() else { return Ok(0.0) };
@@ -122,6 +114,20 @@ fn nmi_at(real: &Plane, sim: &Plane, matrix: &Affine) -> Result<f64> {
         *v &= r;
     }
     nmi(&real.values, &values, &valid, (real.rows, real.cols))
+}
+
+/// Covariance of `real` and `sim` warped by `matrix` over the pixels valid in both.
+fn correlation_at(real: &Plane, sim: &Plane, matrix: &Affine) -> f64 {
+    let Some(to_sim) = matrix.inverse() else { return 0.0 };
+    let src = Source { data: &sim.values[..], rows: sim.rows, cols: sim.cols, valid: Some(&sim.valid[..]) };
+    let (values, valid) = warp(&src, &to_sim, Interp::Bilinear, real.rows, real.cols, 0.0);
+    let both: Vec<usize> = (0..values.len()).filter(|&i| valid[i] && real.valid[i]).collect();
+    if both.is_empty() {
+        return 0.0;
+    }
+    let n = both.len() as f64;
+    let (mr, ms) = (both.iter().map(|&i| real.values[i]).sum::<f64>() / n, both.iter().map(|&i| values[i]).sum::<f64>() / n);
+    both.iter().map(|&i| (real.values[i] - mr) * (values[i] - ms)).sum::<f64>()
 }
 
 /// Exhaustive integer-shift search on the coarse level: `((dy, dx)` in full-resolution
@@ -140,7 +146,7 @@ fn coarse_search(
     }
     let f = factor as f64;
     // the simulated frame moved by `start` on the coarse grid, then shifted by whole pixels
-    let Some(to_sim) = to_level(start, f).inverse() else { return Ok(((0.0, 0.0), 0.0, (0, 0))) };
+    let Some(to_sim) = start.at_scale(f).inverse() else { return Ok(((0.0, 0.0), 0.0, (0, 0))) };
     let src = Source { data: &sc.values[..], rows: sc.rows, cols: sc.cols, valid: Some(&sc.valid[..]) };
     let (moved, moved_ok) = warp(&src, &to_sim, Interp::Bilinear, rc.rows, rc.cols, 0.0);
     let reach = |n: usize| {

@@ -3,22 +3,23 @@
 //! The cross-power spectrum `X = F_real · conj(F_sim)` of the tapered frames encodes the
 //! shift `d` of `real(p) = sim(p − d)` as the phase `e^{−i k·d}`. Two surfaces come from it:
 //!
-//! - the **half-whitened** surface `IFFT(X/|X|^½)` locates the peak (taken by absolute
-//!   value: a negative peak means inverted grey levels), and its spectrum gives the subpixel
-//!   shift ([`super::subpixel`]). Half whitening weights frequencies between plain
-//!   correlation (the lowest frequencies dominate: a broad peak) and phase correlation
-//!   (noise at high frequencies weighted like signal); on real thermal frames with noise
-//!   and blur it gave the smallest error (docs/registration.md).
 //! - the **fully whitened** surface `IFFT(X/|X|)` — a sharp peak over a flat floor — gives
-//!   the confidence: a rival peak elsewhere (a periodic pattern, an unrelated pair) shows as
-//!   a second peak of comparable height.
+//!   the integer peak (taken by absolute value: a negative peak means inverted grey levels)
+//!   and the confidence: a rival peak elsewhere (a periodic pattern, an unrelated pair)
+//!   shows as a second peak of comparable height.
+//! - the **half-whitened** spectrum `X/|X|^½` gives the subpixel shift
+//!   ([`super::subpixel`]); for log-polar spectra its surface also locates the peak. Half
+//!   whitening weights frequencies between plain correlation (the lowest frequencies
+//!   dominate: a broad peak) and phase correlation (noise at high frequencies weighted like
+//!   signal); on real thermal frames with noise and blur it gave the smallest error
+//!   (docs/registration.md).
 //!
 //! The apodisation window favours small shifts and the FFT cannot tell `d` from
 //! `d ± frame size`; both are settled on the pixels ([`super::shifts`]).
 
 use super::fft::{self, Spectrum, C64};
 use super::image::Plane;
-use super::shifts::{resolve_alias, shifted_correlation};
+use super::shifts::{resolve_alias, shifted_gradient_correlation};
 use super::subpixel::newton_peak;
 use super::window::{tapered, tukey, TUKEY_ALPHA};
 use crate::error::Result;
@@ -81,7 +82,7 @@ pub fn search_limits(rows: usize, cols: usize, max_shift: Option<f64>) -> (usize
 /// Phase correlation of two frames of the same shape, Tukey-windowed, peak searched within
 /// `|dy|, |dx| ≤ max_shift`. The peak's alias one frame away is taken if its overlap
 /// correlates better, and credible rivals are judged on the pixels too: a rival whose
-/// overlap correlates nearly as well as the peak's (a periodic pattern) lowers the
+/// gradients correlate nearly as well as the peak's (a periodic pattern) lowers the
 /// confidence to `1 − r_rival/r_peak`.
 pub fn correlate(real: &Plane, sim: &Plane, max_shift: Option<f64>) -> Result<Peak> {
     let (rows, cols) = (real.rows, real.cols);
@@ -89,15 +90,16 @@ pub fn correlate(real: &Plane, sim: &Plane, max_shift: Option<f64>) -> Result<Pe
     let a = tapered(real, &wr, &wc);
     let b = tapered(sim, &wr, &wc);
     let (mut peak, rivals) =
-        correlate_tapered(&a, &b, rows, cols, search_limits(rows, cols, max_shift), Polarity::Either)?;
+        correlate_tapered(&a, &b, rows, cols, search_limits(rows, cols, max_shift), Polarity::Either, Locate::Whitened)?;
     let canonical = (peak.dy.round() as isize, peak.dx.round() as isize);
     let chosen = resolve_alias(real, sim, canonical, peak.sign, max_shift);
     peak.dy += (chosen.0 - canonical.0) as f64;
     peak.dx += (chosen.1 - canonical.1) as f64;
     let min_pairs = rows * cols / 8;
-    if let Some(r_peak) = shifted_correlation(real, sim, chosen, min_pairs).map(|r| peak.sign * r) {
+    let r_peak = if rivals.is_empty() { None } else { shifted_gradient_correlation(real, sim, chosen, min_pairs) };
+    if let Some(r_peak) = r_peak.map(|r| peak.sign * r) {
         for rival in rivals {
-            if let Some(r) = shifted_correlation(real, sim, rival, min_pairs) {
+            if let Some(r) = shifted_gradient_correlation(real, sim, rival, min_pairs) {
                 let c = if r_peak > 0.0 { (1.0 - peak.sign * r / r_peak).clamp(0.0, 1.0) } else { 0.0 };
                 if c < peak.confidence {
                     peak.confidence = c;
@@ -109,6 +111,16 @@ pub fn correlate(real: &Plane, sim: &Plane, max_shift: Option<f64>) -> Result<Pe
     Ok(peak)
 }
 
+/// Which surface the integer peak is taken on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Locate {
+    /// The fully whitened surface (sharp): frames, whose spectra are broad.
+    Whitened,
+    /// The half-whitened surface (smoother): log-polar spectra, whose fully whitened surface
+    /// is too noisy to locate the peak reliably.
+    HalfWhitened,
+}
+
 /// Phase correlation of two already tapered, mean-free images: the peak, and the credible
 /// rivals (local maxima outside the peak's box, at least [`CREDIBLE_RIVAL`] of its height).
 pub fn correlate_tapered(
@@ -118,41 +130,46 @@ pub fn correlate_tapered(
     cols: usize,
     limits: (usize, usize),
     polarity: Polarity,
+    locate: Locate,
 ) -> Result<(Peak, Vec<(isize, isize)>)> {
     let fa = fft::forward(a, rows, cols)?;
     let fb = fft::forward(b, rows, cols)?;
-    let cross: Vec<C64> = fa.data.iter().zip(&fb.data).map(|(x, y)| x * y.conj()).collect();
-    let largest = cross.iter().map(|z| z.norm()).fold(0.0, f64::max);
+    // X = A·conj(B), then X/|X|^½ (kept for the subpixel step) and X/|X| in one sweep
+    let largest = fa.data.iter().zip(&fb.data).map(|(x, y)| x.norm_sqr() * y.norm_sqr()).fold(0.0, f64::max).sqrt();
     let floor = largest * 1e-12;
-    let whiten = |power: f64| -> Spectrum {
-        let data = cross
-            .iter()
-            .map(|z| {
-                let m = z.norm();
-                if m > floor {
-                    z / m.powf(power)
-                } else {
-                    C64::default()
-                }
-            })
-            .collect();
-        Spectrum { rows, cols, data }
+    let mut half = fa;
+    let mut full = Vec::with_capacity(half.data.len());
+    for (x, y) in half.data.iter_mut().zip(&fb.data) {
+        let z = *x * y.conj();
+        let m = z.norm_sqr().sqrt(); // no overflow here; `norm` calls libm's slow hypot
+        if m > floor {
+            let inv = 1.0 / m;
+            *x = z * inv.sqrt();
+            full.push(z * inv);
+        } else {
+            *x = C64::default();
+            full.push(C64::default());
+        }
+    }
+    drop(fb);
+    let surface = fft::inverse(Spectrum { rows, cols, data: full })?;
+    let half_surface = match locate {
+        Locate::Whitened => None,
+        Locate::HalfWhitened => Some(fft::inverse(half.clone())?),
     };
-    let half = whiten(0.5);
-    let locate = fft::inverse(half.clone())?;
-    let surface = fft::inverse(whiten(1.0))?;
-    let (iy, ix, sign) = integer_peak(&locate, rows, cols, limits, polarity);
+    let locate = half_surface.as_deref().unwrap_or(&surface);
+    let (iy, ix, sign) = integer_peak(locate, rows, cols, limits, polarity);
     let at = |s: &[f64], y: isize, x: isize| sign * s[wrap(y, rows) * cols + wrap(x, cols)];
     let height = at(&surface, iy, ix);
     let (confidence, rival, rivals) = surface_confidence(&surface, rows, cols, (iy, ix), sign, limits, polarity);
     let outside = (rows / 2, cols / 2);
     let beyond_limit = limits != outside && {
-        let (gy, gx, gsign) = integer_peak(&locate, rows, cols, outside, polarity);
+        let (gy, gx, gsign) = integer_peak(locate, rows, cols, outside, polarity);
         let far = gy.unsigned_abs() > limits.0 || gx.unsigned_abs() > limits.1;
-        (far && gsign * locate[wrap(gy, rows) * cols + wrap(gx, cols)] > BEYOND_RATIO * at(&locate, iy, ix))
-            || rises_beyond(&locate, rows, cols, (iy, ix), sign, limits)
+        (far && gsign * locate[wrap(gy, rows) * cols + wrap(gx, cols)] > BEYOND_RATIO * at(locate, iy, ix))
+            || rises_beyond(locate, rows, cols, (iy, ix), sign, limits)
     };
-    let start = parabolic_start(&locate, rows, cols, (iy, ix), sign);
+    let start = parabolic_start(locate, rows, cols, (iy, ix), sign);
     let (dy, dx) = newton_peak(&half, start, (iy as f64, ix as f64), sign);
     Ok((Peak { dy, dx, sign, height, confidence, rival, beyond_limit }, rivals))
 }
@@ -230,6 +247,7 @@ fn surface_confidence(
         let d = d.rem_euclid(n as isize);
         d.min(n as isize - d) <= EXCLUSION
     };
+    let col_near: Vec<bool> = (0..cols).map(|c| near(signed(c, cols) - peak.1, cols)).collect();
     let (mut rival, mut at) = (f64::NEG_INFINITY, (0isize, 0isize));
     let (mut sum_sq, mut count) = (0.0f64, 0usize);
     let mut credible: Vec<(f64, (isize, isize))> = Vec::new();
@@ -237,10 +255,10 @@ fn surface_confidence(
         let sy = signed(r, rows);
         let row_near = near(sy - peak.0, rows);
         for c in 0..cols {
-            let sx = signed(c, cols);
-            if row_near && near(sx - peak.1, cols) {
+            if row_near && col_near[c] {
                 continue;
             }
+            let sx = signed(c, cols);
             let v = value(r, c);
             sum_sq += v * v;
             count += 1;
@@ -348,7 +366,7 @@ mod tests {
                 let sim = pattern(rows, cols, -dy, -dx); // real(p) = sim(p − d)
                 let limits = search_limits(rows, cols, None);
                 let (pk, _) =
-                    correlate_tapered(&untapered(&real), &untapered(&sim), rows, cols, limits, Polarity::Either)
+                    correlate_tapered(&untapered(&real), &untapered(&sim), rows, cols, limits, Polarity::Either, Locate::Whitened)
                         .unwrap();
                 assert!((pk.dy - dy).abs() < 1e-6 && (pk.dx - dx).abs() < 1e-6, "{rows}x{cols} {dy},{dx}: {pk:?}");
                 assert_eq!(pk.sign, 1.0);
@@ -362,11 +380,11 @@ mod tests {
         let mut sim = pattern(48, 64, 1.5, -2.25);
         sim.values.iter_mut().for_each(|v| *v = 100.0 - 3.0 * *v);
         let limits = search_limits(48, 64, None);
-        let (pk, _) = correlate_tapered(&untapered(&real), &untapered(&sim), 48, 64, limits, Polarity::Either).unwrap();
+        let (pk, _) = correlate_tapered(&untapered(&real), &untapered(&sim), 48, 64, limits, Polarity::Either, Locate::Whitened).unwrap();
         assert_eq!(pk.sign, -1.0);
         assert!((pk.dy + 1.5).abs() < 1e-6 && (pk.dx - 2.25).abs() < 1e-6, "{pk:?}");
         let (pos, _) =
-            correlate_tapered(&untapered(&real), &untapered(&sim), 48, 64, limits, Polarity::Positive).unwrap();
+            correlate_tapered(&untapered(&real), &untapered(&sim), 48, 64, limits, Polarity::Positive, Locate::HalfWhitened).unwrap();
         assert_eq!(pos.sign, 1.0);
     }
 

@@ -79,15 +79,18 @@ impl<'a> Interpolant<'a> {
 
 /// Maximise `sign·f` from `start`, staying within ±1 px of `centre` on each axis.
 pub fn newton_peak(spec: &Spectrum, start: (f64, f64), centre: (f64, f64), sign: f64) -> (f64, f64) {
+    /// Steps shorter than this (pixels) end the search: far below any other error.
+    const TOLERANCE: f64 = 1e-6;
     let interp = Interpolant::new(spec);
     let clamp = |p: [f64; 2]| [p[0].clamp(centre.0 - 1.0, centre.0 + 1.0), p[1].clamp(centre.1 - 1.0, centre.1 + 1.0)];
     let mut p = [start.0, start.1];
     let mut here = interp.eval(p[0], p[1]);
-    for _ in 0..30 {
+    for _ in 0..20 {
         let g = [sign * here.grad[0], sign * here.grad[1]];
         let h = [[sign * here.hess[0][0], sign * here.hess[0][1]], [sign * here.hess[1][0], sign * here.hess[1][1]]];
         let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
-        let mut step = if h[0][0] < 0.0 && det > 0.0 {
+        let concave = h[0][0] < 0.0 && det > 0.0;
+        let mut step = if concave {
             [-(h[1][1] * g[0] - h[0][1] * g[1]) / det, -(h[0][0] * g[1] - h[1][0] * g[0]) / det]
         } else {
             let norm = g[0].hypot(g[1]);
@@ -97,11 +100,20 @@ pub fn newton_peak(spec: &Spectrum, start: (f64, f64), centre: (f64, f64), sign:
             [0.25 * g[0] / norm, 0.25 * g[1] / norm]
         };
         let len = step[0].hypot(step[1]);
+        if len < TOLERANCE {
+            break;
+        }
         if len > 0.5 {
             step = [step[0] * 0.5 / len, step[1] * 0.5 / len];
         }
+        if concave && len < 1e-3 {
+            // quadratic convergence: take the step and stop (a value test would only see
+            // rounding at this scale)
+            p = clamp([p[0] + step[0], p[1] + step[1]]);
+            break;
+        }
         let mut accepted = None;
-        for _ in 0..12 {
+        for _ in 0..8 {
             let q = clamp([p[0] + step[0], p[1] + step[1]]);
             let there = interp.eval(q[0], q[1]);
             if sign * there.value >= sign * here.value {
@@ -114,7 +126,7 @@ pub fn newton_peak(spec: &Spectrum, start: (f64, f64), centre: (f64, f64), sign:
         let moved = (q[0] - p[0]).hypot(q[1] - p[1]);
         p = q;
         here = there;
-        if moved < 1e-9 {
+        if moved < TOLERANCE {
             break;
         }
     }

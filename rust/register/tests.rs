@@ -188,3 +188,62 @@ fn names_parse() {
     assert_eq!(Method::parse("nmi").unwrap().name(), "nmi");
     assert!(Method::parse("ecc").is_err());
 }
+
+#[test]
+fn timing_probe_pipeline() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/thermal/readthermal_zenmuse_xtr_raw16.png");
+    let frame = decode_frame(&path, &DecodeOptions::default()).unwrap();
+    let FrameData::U16(data) = frame.data else { panic!() };
+    let real = Plane::from_samples(&data, frame.rows, frame.cols, None, "real").unwrap().smoothed(0.7);
+    let (_, std) = real.mean_std();
+    let c = centre_of(&real);
+    let model = if std::env::var_os("PROBE_RIGID").is_some() { Model::Rigid } else { Model::Translation };
+    let truth = if model == Model::Rigid { Affine::translation(-1.2, 0.8).compose(&Affine::rotation_scale(2.5, 1.0, c)) } else { Affine::translation(3.37, -2.61) };
+    let sim = simulate(&real, &truth, 1.3, 500.0, 0.2 * std);
+    let t = std::time::Instant::now();
+    let n: u32 = std::env::var("PROBE_N").ok().and_then(|v| v.parse().ok()).unwrap_or(20);
+    for _ in 0..n {
+        let reg = register_planes(&real, &sim, &opts(model, Method::Phase)).unwrap();
+        std::hint::black_box(reg);
+    }
+    eprintln!("per call {:?}", t.elapsed() / n.max(1));
+}
+
+#[test]
+fn timing_probe_stages() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/thermal/readthermal_zenmuse_xtr_raw16.png");
+    let frame = decode_frame(&path, &DecodeOptions::default()).unwrap();
+    let FrameData::U16(data) = frame.data else { panic!() };
+    let real = Plane::from_samples(&data, frame.rows, frame.cols, None, "real").unwrap().smoothed(0.7);
+    let (_, std) = real.mean_std();
+    let sim = simulate(&real, &Affine::translation(3.37, -2.61), 1.3, 500.0, 0.2 * std);
+    let sim = Plane::new(sim.rows, sim.cols, sim.values.clone(), vec![true; sim.values.len()]);
+    let n = 20;
+    let time = |name: &str, f: &mut dyn FnMut()| {
+        let t = std::time::Instant::now();
+        for _ in 0..n {
+            f();
+        }
+        eprintln!("{name:12} {:?}", t.elapsed() / n);
+    };
+    let (rows, cols) = (real.rows, real.cols);
+    time("from_samples", &mut || { std::hint::black_box(Plane::from_samples(&data, rows, cols, None, "real").unwrap()); });
+    time("check", &mut || { check_content(&real, "real").unwrap(); });
+    let (wr, wc) = (window::tukey(rows, 0.5), window::tukey(cols, 0.5));
+    time("tapered", &mut || { std::hint::black_box(window::tapered(&real, &wr, &wc)); });
+    let a = window::tapered(&real, &wr, &wc);
+    time("fft fwd", &mut || { std::hint::black_box(fft::forward(&a, rows, cols).unwrap()); });
+    let fa = fft::forward(&a, rows, cols).unwrap();
+    time("fft inv", &mut || { std::hint::black_box(fft::inverse(fa.clone()).unwrap()); });
+    time("correlate", &mut || { std::hint::black_box(phase::correlate(&real, &sim, None).unwrap()); });
+    let to_sim = Affine::translation(-3.3, 2.6);
+    time("coverage", &mut || { std::hint::black_box(coverage((rows, cols), None, &to_sim, Interp::Bilinear, (rows, cols))); });
+    time("register", &mut || { std::hint::black_box(register_planes(&real, &sim, &opts(Model::Translation, Method::Phase)).unwrap()); });
+    time("reg auto", &mut || { std::hint::black_box(register_planes(&real, &sim, &opts(Model::Translation, Method::Auto)).unwrap()); });
+    time("smoothed", &mut || { std::hint::black_box(real.smoothed(1.0)); });
+    eprintln!("{:?}", register_planes(&real, &sim, &opts(Model::Translation, Method::Auto)).unwrap());
+    eprintln!("{:?}", register_planes(&real, &sim, &opts(Model::Translation, Method::Phase)).unwrap());
+    let t = std::time::Instant::now();
+    let r = refine::refine(&real.smoothed(1.0), &sim.smoothed(1.0), &Affine::translation(3.3, -2.6), Model::Translation, false);
+    eprintln!("refine {:?} {:?}", t.elapsed(), r);
+}

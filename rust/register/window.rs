@@ -34,7 +34,7 @@ pub fn tukey(n: usize, alpha: f64) -> Vec<f64> {
 /// `(v − mean)·w_rows[r]·w_cols[c]` at valid pixels, 0 elsewhere (the mean of the valid
 /// pixels: an excluded pixel contributes nothing).
 pub fn tapered(plane: &Plane, w_rows: &[f64], w_cols: &[f64]) -> Vec<f64> {
-    let (mean, _) = plane.mean_std();
+    let mean = plane.mean();
     let mut out = vec![0.0; plane.rows * plane.cols];
     for (r, &wr) in w_rows.iter().enumerate() {
         let base = r * plane.cols;
