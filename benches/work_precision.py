@@ -94,7 +94,7 @@ def make_cases(side: int) -> list[dict]:
     # one constant frame
     r = np.full(sh, 30000, np.uint16)
     s = (30000 + np.arange(side * side).reshape(sh) % 7).astype(np.uint16)
-    add("u16_const_vs_ramp", r, s, peak=65535, note="real constant: c = s = 0 and NMI = 0 by DESIGN §4")
+    add("u16_const_vs_ramp", r, s, peak=65535, note="real constant: c = s = 0 and NMI = 0 by docs/design.md §4")
     # dim vs bright: very different means (luminance ≈ 2e-9)
     r = rng.integers(0, 4, sh).astype(np.uint32)
     s = (r.astype(np.uint64) * 10**9 + rng.integers(0, 1000, sh)).astype(np.uint32)
@@ -150,7 +150,7 @@ def _entropy(counts) -> mpmath.mpf:
 
 
 def bin_index(r: np.ndarray, s: np.ndarray, bins):
-    """The library's documented binning (DESIGN §3): integer frames, width = ceil(levels/bins)
+    """The library's documented binning (docs/design.md §3): integer frames, width = ceil(levels/bins)
     whole grey levels from the data min; float frames, (hi − lo)/bins wide from the data min."""
     if bins == "levels":
         return r.astype(np.int64), s.astype(np.int64)

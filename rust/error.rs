@@ -1,5 +1,5 @@
 //! The crate's one error type. Kernels return `Result<_, Error>`; the binding maps each
-//! kind to the matching Python exception class (DESIGN §5) in one place.
+//! kind to the matching Python exception class in one place (`rust/binding/mod.rs`).
 
 use std::fmt;
 
@@ -11,19 +11,24 @@ pub enum Error {
     Range(String),
     /// A frame file that cannot be read or is not supported (Python: `FrameError`).
     Frame(String),
-    /// Any other bad argument (Python: `FidelityError`, a `ValueError`).
-    Value(String),
     /// A frame pair that cannot be registered (Python: `RegistrationError`).
     Registration(String),
+    /// Any other bad argument (Python: `FidelityError`, a `ValueError`).
+    Value(String),
+}
+
+impl Error {
+    /// The message, without the kind.
+    pub fn message(&self) -> &str {
+        match self {
+            Error::Shape(m) | Error::Range(m) | Error::Frame(m) | Error::Registration(m) | Error::Value(m) => m,
+        }
+    }
 }
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Error::Shape(m) | Error::Range(m) | Error::Frame(m) | Error::Value(m) | Error::Registration(m) => {
-                f.write_str(m)
-            }
-        }
+        f.write_str(self.message())
     }
 }
 

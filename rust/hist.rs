@@ -161,6 +161,42 @@ impl Joint {
         }
     }
 
+    /// The smallest and largest occupied keys of each axis, `((real_lo, real_hi), (sim_lo,
+    /// sim_hi))`, or `None` when nothing was counted.
+    pub fn occupied(&self) -> Option<((u64, u64), (u64, u64))> {
+        let runs = self.to_runs();
+        let (first, last) = (runs.first()?.0, runs.last()?.0);
+        let (sim_lo, sim_hi) =
+            runs.iter().fold((u64::MAX, 0), |(lo, hi), &(k, _)| (lo.min(k & 0xFFFF_FFFF), hi.max(k & 0xFFFF_FFFF)));
+        Some(((first >> 32, last >> 32), (sim_lo, sim_hi)))
+    }
+
+    /// The counts as a dense row-major table: real keys `real_first..real_first + rows` down,
+    /// simulated keys `sim_first..sim_first + cols` across. Counts of keys outside the table
+    /// are not included (callers pass ranges that cover [`Joint::occupied`]).
+    pub fn table(&self, real_first: u64, rows: usize, sim_first: u64, cols: usize) -> Vec<u64> {
+        let mut out = vec![0u64; rows * cols];
+        let mut put = |r: u64, s: u64, c: u64| {
+            let (i, j) = (r.wrapping_sub(real_first) as usize, s.wrapping_sub(sim_first) as usize);
+            if i < rows && j < cols {
+                out[i * cols + j] += c;
+            }
+        };
+        match self {
+            Joint::Dense { bins, offset, counts } => {
+                for (idx, &c) in counts.iter().enumerate().filter(|(_, &c)| c > 0) {
+                    put((idx / bins) as u64 + offset, (idx % bins) as u64 + offset, c);
+                }
+            }
+            Joint::Sparse(runs) => {
+                for &(k, c) in runs {
+                    put(k >> 32, k & 0xFFFF_FFFF, c);
+                }
+            }
+        }
+        out
+    }
+
     /// Marginal and joint entropies (paper eqs. 7 and 8).
     pub fn entropies(&self) -> Entropies {
         let n = self.total();
@@ -223,6 +259,42 @@ impl Joint {
     }
 }
 
+/// A joint histogram laid out as a dense row-major table of `rows × cols` counts: real bins
+/// (or levels) down, simulated across. Binned histograms cover every bin (`bins × bins`,
+/// first key 0); `levels` histograms the occupied span of each axis, `real_first` and
+/// `sim_first` being the level keys (value − the dtype's minimum) of the first row and column.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointTable {
+    pub real_first: u64,
+    pub sim_first: u64,
+    pub rows: usize,
+    pub cols: usize,
+    pub counts: Vec<u64>,
+}
+
+impl JointTable {
+    /// The table of `joint` (binned as `spec`), refused when it would hold more than
+    /// `max_cells` counts.
+    pub fn of(spec: &HistSpec, joint: &Joint, max_cells: usize) -> Result<JointTable> {
+        let ((real_first, rows), (sim_first, cols)) = match spec {
+            HistSpec::Binned { bins, .. } => ((0, *bins), (0, *bins)),
+            HistSpec::Levels => match joint.occupied() {
+                Some(((rl, rh), (sl, sh))) => ((rl, (rh - rl + 1) as usize), (sl, (sh - sl + 1) as usize)),
+                None => ((0, 0), (0, 0)),
+            },
+        };
+        let cells = rows.checked_mul(cols).filter(|&c| c <= max_cells).ok_or_else(|| {
+            Error::Value(format!(
+                "the joint histogram would be a {rows} × {cols} table, more than max_cells = {max_cells} counts; \
+                 compute the statistics with fewer bins (e.g. bins=256) or raise max_cells"
+            ))
+        })?;
+        let counts = joint.table(real_first, rows, sim_first, cols);
+        debug_assert_eq!(counts.len(), cells);
+        Ok(JointTable { real_first, sim_first, rows, cols, counts })
+    }
+}
+
 /// Check that two histogram specs share edges, so their counts may be added.
 pub fn check_mergeable(a: &HistSpec, b: &HistSpec) -> Result<()> {
     if a == b {
@@ -253,6 +325,23 @@ mod tests {
     }
 
     #[test]
+    fn joint_table_layouts() {
+        let binned = HistSpec::Binned { bins: 3, lo: 0.0, width: 1.0 };
+        let joint = Joint::Sparse(vec![(pack(0, 2), 4), (pack(2, 1), 1)]);
+        let t = JointTable::of(&binned, &joint, 100).unwrap();
+        assert_eq!((t.rows, t.cols, t.counts.iter().sum::<u64>()), (3, 3, 5));
+        assert_eq!(t.counts, [0, 0, 4, 0, 0, 0, 0, 1, 0]);
+        // levels: the occupied span of each axis (real 100..=102, sim 7..=9)
+        let joint = Joint::Sparse(vec![(pack(100, 9), 2), (pack(102, 7), 3)]);
+        let t = JointTable::of(&HistSpec::Levels, &joint, 100).unwrap();
+        assert_eq!((t.real_first, t.rows, t.sim_first, t.cols), (100, 3, 7, 3));
+        assert_eq!(t.counts, [0, 0, 2, 0, 0, 0, 3, 0, 0]);
+        assert!(JointTable::of(&HistSpec::Levels, &joint, 8).is_err());
+        let huge = HistSpec::Binned { bins: 1 << 20, lo: 0.0, width: 1.0 };
+        assert!(JointTable::of(&huge, &Joint::Sparse(vec![]), 1 << 24).is_err());
+    }
+
+    #[test]
     fn dense_and_sparse_agree_and_merge() {
         let mut d = Joint::dense(4, 0);
         let pairs = [(0u64, 0u64), (1, 1), (1, 2), (3, 3), (3, 3), (2, 0)];
@@ -269,6 +358,13 @@ mod tests {
         assert!((e1.h_real - e2.h_real).abs() < 1e-15);
         assert!((e1.h_sim - e2.h_sim).abs() < 1e-15);
         assert!((e1.h_joint - e2.h_joint).abs() < 1e-15);
+        assert_eq!(d.occupied(), Some(((0, 3), (0, 3))));
+        assert_eq!(sp.occupied(), d.occupied());
+        let table = d.table(0, 4, 0, 4);
+        assert_eq!(table, sp.table(0, 4, 0, 4));
+        assert_eq!(table, [1, 0, 0, 0, 0, 1, 1, 0, 1, 0, 0, 0, 0, 0, 0, 2]);
+        assert_eq!(sp.table(1, 2, 1, 3), [1, 1, 0, 0, 0, 0]); // rows 1..3, cols 1..4
+        assert_eq!(Joint::Sparse(vec![]).occupied(), None);
         let m = d.merge(&sp);
         assert_eq!(m.total(), 12);
         assert_eq!(m.merge(&Joint::Sparse(vec![])).total(), 12);

@@ -3,9 +3,12 @@
 //! `cargo test` needs no Python.
 
 pub mod error;
+pub mod fingerprint;
 pub mod hist;
 pub mod io;
 pub mod kernel;
+pub mod maps;
+pub mod noise;
 pub mod register;
 pub mod sequence;
 pub mod stats;

@@ -14,14 +14,20 @@
 //! with its own pair, so it stays on its thread (no oversubscription) and only spreads
 //! out at the tail, when threads run out of pairs.
 //!
-//! Progress: a shared [`AtomicUsize`] counts finished pairs (the Python binding polls
-//! it), an optional callback is called after each pair, and an [`AtomicBool`] cancels
-//! the pairs not yet started (Ctrl-C).
+//! Outcomes reach the consumer through [`stream_pairs`]: a bounded queue of
+//! [`QUEUE_PER_WORKER`] outcomes per worker, filled in completion order. A worker whose
+//! outcome finds the queue full waits before decoding its next pair (back-pressure), so a
+//! slow consumer bounds the memory held by finished pairs. A shared [`AtomicUsize`] counts
+//! finished pairs; an [`AtomicBool`] (or dropping the stream) cancels the pairs not yet
+//! started (Ctrl-C).
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::OnceLock;
+use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, TryRecvError};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
 use crate::hist::Entropies;
 use crate::io::{self, DecodeOptions, Frame, FrameData};
@@ -59,9 +65,16 @@ pub struct SeqRequest {
     pub valid: Option<(i64, i64)>,
     /// Float frames: exclude NaN/Inf pairs instead of failing the pair.
     pub mask_nonfinite: bool,
-    /// Channel to decode (EXR channel name, or PNG/TIFF channel); `None` = the only one / "Y".
-    pub channel: Option<String>,
+    /// Channel to decode from the real / simulated frames (EXR channel name, or PNG/TIFF
+    /// channel); `None` = the only one / "Y".
+    pub real_channel: Option<String>,
+    pub sim_channel: Option<String>,
+    /// Report the real frame's (min, max) over its finite values (for a PSNR peak of the
+    /// real frame's range).
+    pub real_extent: bool,
     pub max_pixels: u64,
+    /// Decoding budget per frame, in bytes (`DecodeOptions::max_bytes`); `None` = the default.
+    pub max_bytes: Option<u64>,
 }
 
 impl Default for SeqRequest {
@@ -72,8 +85,11 @@ impl Default for SeqRequest {
             hist: Some(HistRequest::Bins { bins: 256, range: None }),
             valid: None,
             mask_nonfinite: false,
-            channel: None,
+            real_channel: None,
+            sim_channel: None,
+            real_extent: false,
             max_pixels: io::DEFAULT_MAX_PIXELS,
+            max_bytes: None,
         }
     }
 }
@@ -90,6 +106,27 @@ pub struct PairOutcome {
     /// The histogram's entropies, computed on the worker (not on the thread that hands
     /// outcomes to Python, which all workers share).
     pub entropies: Option<Entropies>,
+    /// The real frame's (min, max) over its finite values, when asked for.
+    pub real_extent: Option<(f64, f64)>,
+}
+
+/// (min, max) over the finite values of a frame; None when it has none.
+fn extent(data: &FrameData) -> Option<(f64, f64)> {
+    fn fold<T: Copy>(v: &[T], to_f64: impl Fn(T) -> f64) -> Option<(f64, f64)> {
+        v.iter().map(|&x| to_f64(x)).filter(|x| x.is_finite()).fold(None, |acc, x| match acc {
+            None => Some((x, x)),
+            Some((lo, hi)) => Some((lo.min(x), hi.max(x))),
+        })
+    }
+    match data {
+        FrameData::U8(v) => fold(v, f64::from),
+        FrameData::U16(v) => fold(v, f64::from),
+        FrameData::I16(v) => fold(v, f64::from),
+        FrameData::U32(v) => fold(v, f64::from),
+        FrameData::F16(v) => fold(v, f64::from),
+        FrameData::F32(v) => fold(v, f64::from),
+        FrameData::F64(v) => fold(v, |x| x),
+    }
 }
 
 fn run_kernel(r: FrameData, s: FrameData, req: &Request) -> Result<PairStats> {
@@ -114,27 +151,41 @@ fn prefix(err: Error, what: &str) -> Error {
     match err {
         Error::Shape(m) => Error::Shape(format!("{what}: {m}")),
         Error::Range(m) => Error::Range(format!("{what}: {m}")),
-        Error::Value(m) => Error::Value(format!("{what}: {m}")),
         Error::Registration(m) => Error::Registration(format!("{what}: {m}")),
+        Error::Value(m) => Error::Value(format!("{what}: {m}")),
         // decode errors already start with the path
         Error::Frame(m) => Error::Frame(m),
     }
 }
 
-fn decode(src: &Source, req: &SeqRequest) -> Result<Frame> {
-    let opts = DecodeOptions { channel: req.channel.clone(), max_pixels: req.max_pixels, page: src.page };
+fn decode(src: &Source, channel: &Option<String>, req: &SeqRequest) -> Result<Frame> {
+    let opts = DecodeOptions {
+        channel: channel.clone(),
+        max_pixels: req.max_pixels,
+        max_bytes: req.max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES),
+        page: src.page,
+    };
     io::decode_frame(&src.path, &opts)
 }
 
 /// Decode and score one pair on the current thread (and the current rayon pool).
 pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -> PairOutcome {
-    let mut out =
-        PairOutcome { index, stats: Err(Error::Value(String::new())), shape: None, dtype: None, entropies: None };
+    let mut out = PairOutcome {
+        index,
+        stats: Err(Error::Value(String::new())),
+        shape: None,
+        dtype: None,
+        entropies: None,
+        real_extent: None,
+    };
     let body = || -> Result<PairStats> {
-        let r = decode(real, req)?;
+        let r = decode(real, &req.real_channel, req)?;
         out.shape = Some((r.rows, r.cols));
         out.dtype = Some(r.data.dtype_name());
-        let s = decode(sim, req)?;
+        if req.real_extent {
+            out.real_extent = extent(&r.data);
+        }
+        let s = decode(sim, &req.sim_channel, req)?;
         let what = || format!("{} vs {}", real.label(), sim.label());
         if (r.rows, r.cols) != (s.rows, s.cols) {
             return Err(Error::Shape(format!(
@@ -182,22 +233,7 @@ pub struct Progress {
     pub cancel: AtomicBool,
 }
 
-/// Score `real[i]` against `sim[i]` for every `i`, with `workers` threads (0 = all cores),
-/// handing each outcome to `sink` as soon as it is ready (completion order, from the
-/// worker threads). `sink` may block to apply back-pressure: the worker then waits before
-/// decoding its next pair, so memory stays bounded.
-///
-/// Errors only for bad arguments (different lengths) or when the thread pool cannot be
-/// built; frame problems are per-pair errors. Pairs not started when `progress.cancel`
-/// is set are never given to `sink`.
-pub fn score_pairs_with(
-    real: &[Source],
-    sim: &[Source],
-    req: &SeqRequest,
-    workers: usize,
-    progress: &Progress,
-    sink: &(dyn Fn(PairOutcome) + Sync),
-) -> Result<()> {
+fn check_lengths(real: &[Source], sim: &[Source]) -> Result<()> {
     if real.len() != sim.len() {
         return Err(Error::Value(format!(
             "the real sequence has {} frames and the simulated sequence {}; they must have the same number",
@@ -205,11 +241,26 @@ pub fn score_pairs_with(
             sim.len()
         )));
     }
-    let n = real.len();
+    Ok(())
+}
+
+/// Score `real[i]` against `sim[i]` for every `i` on `workers` threads, handing each
+/// outcome to `sink` from the worker that produced it (completion order). `sink` may block
+/// to apply back-pressure: the worker then waits before decoding its next pair. Pairs not
+/// started when `progress.cancel` is set are skipped. Errors only when the thread pool
+/// cannot be built; frame problems are per-pair errors.
+fn score_pairs_with(
+    real: &[Source],
+    sim: &[Source],
+    req: &SeqRequest,
+    workers: usize,
+    progress: &Progress,
+    sink: &(dyn Fn(PairOutcome) + Sync),
+) -> Result<()> {
+    let n = real.len().min(sim.len());
     if n == 0 {
         return Ok(());
     }
-    let workers = effective_workers(workers).min(n);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(workers)
         .thread_name(|i| format!("irfidelity-seq-{i}"))
@@ -248,27 +299,140 @@ pub fn effective_workers(workers: usize) -> usize {
     }
 }
 
-/// [`score_pairs_with`] collecting the outcomes: one entry per index, in index order,
-/// `None` for pairs skipped because `progress.cancel` was set. `on_done(count)` is called
-/// after each pair.
-pub fn score_pairs(
-    real: &[Source],
-    sim: &[Source],
-    req: &SeqRequest,
+/// Finished outcomes that may wait in a [`PairStream`]'s queue, per worker.
+pub const QUEUE_PER_WORKER: usize = 4;
+
+/// A sequence being scored on background threads (see [`stream_pairs`]). Iterating it
+/// blocks for the next outcome; [`PairStream::next_batch`] waits with a timeout. Dropping it
+/// cancels the pairs not yet started and waits for those in flight.
+pub struct PairStream {
+    outcomes: Option<Receiver<PairOutcome>>,
+    progress: Arc<Progress>,
+    engine: Option<JoinHandle<Result<()>>>,
     workers: usize,
-    progress: &Progress,
-    on_done: Option<&(dyn Fn(usize) + Sync)>,
-) -> Result<Vec<Option<PairOutcome>>> {
-    let slots: Vec<OnceLock<PairOutcome>> = (0..real.len().min(sim.len())).map(|_| OnceLock::new()).collect();
-    let sink = |o: PairOutcome| {
-        let i = o.index;
-        let _ = slots[i].set(o);
-        if let Some(cb) = on_done {
-            cb(progress.done.load(Ordering::Acquire));
+    capacity: usize,
+}
+
+/// Outcomes taken from a [`PairStream`] at once.
+#[derive(Debug, Default)]
+pub struct Batch {
+    pub outcomes: Vec<PairOutcome>,
+    /// Every outcome has been delivered (this batch holds the last ones, if any).
+    pub finished: bool,
+}
+
+/// Start scoring `real[i]` against `sim[i]` for every `i` with `workers` threads (0 = all
+/// cores, never more than pairs) and return at once. Outcomes arrive in completion order
+/// through a queue of [`QUEUE_PER_WORKER`] per worker: at most `capacity() + workers()`
+/// finished outcomes are ever waiting for the consumer, whatever the sequence length.
+///
+/// Errors for different lengths or when the engine thread cannot start.
+pub fn stream_pairs(real: Vec<Source>, sim: Vec<Source>, req: SeqRequest, workers: usize) -> Result<PairStream> {
+    check_lengths(&real, &sim)?;
+    let workers = effective_workers(workers).min(real.len()).max(1);
+    let capacity = QUEUE_PER_WORKER * workers;
+    let (sender, receiver) = sync_channel(capacity);
+    let progress = Arc::new(Progress::default());
+    let engine_progress = Arc::clone(&progress);
+    let engine = std::thread::Builder::new()
+        .name("irfidelity-seq".into())
+        .spawn(move || {
+            let sink = |o: PairOutcome| {
+                if sender.send(o).is_err() {
+                    // the consumer is gone: start no new pair
+                    engine_progress.cancel.store(true, Ordering::Relaxed);
+                }
+            };
+            score_pairs_with(&real, &sim, &req, workers, &engine_progress, &sink)
+        })
+        .map_err(|e| Error::Value(format!("cannot start the sequence engine thread: {e}")))?;
+    Ok(PairStream { outcomes: Some(receiver), progress, engine: Some(engine), workers, capacity })
+}
+
+impl PairStream {
+    /// Finished-pair count and cancel flag, shared with the workers.
+    pub fn progress(&self) -> &Arc<Progress> {
+        &self.progress
+    }
+
+    /// Worker threads in use.
+    pub fn workers(&self) -> usize {
+        self.workers
+    }
+
+    /// Outcomes the queue holds before workers wait.
+    pub fn capacity(&self) -> usize {
+        self.capacity
+    }
+
+    /// Start no new pair; the pairs in flight still finish and are delivered.
+    pub fn cancel(&self) {
+        self.progress.cancel.store(true, Ordering::SeqCst);
+    }
+
+    /// Wait until `min` outcomes (at least one) have arrived, the engine has finished, or
+    /// `timeout` has passed; then take them with every other outcome already queued.
+    pub fn next_batch(&mut self, min: usize, timeout: Duration) -> Batch {
+        let mut batch = Batch::default();
+        let Some(rx) = &self.outcomes else {
+            batch.finished = true;
+            return batch;
+        };
+        let deadline = Instant::now() + timeout;
+        while batch.outcomes.len() < min.max(1) {
+            match rx.recv_timeout(deadline.saturating_duration_since(Instant::now())) {
+                Ok(o) => batch.outcomes.push(o),
+                Err(RecvTimeoutError::Timeout) => break,
+                Err(RecvTimeoutError::Disconnected) => {
+                    batch.finished = true;
+                    return batch;
+                }
+            }
         }
-    };
-    score_pairs_with(real, sim, req, workers, progress, &sink)?;
-    Ok(slots.into_iter().map(|s| s.into_inner()).collect())
+        loop {
+            match rx.try_recv() {
+                Ok(o) => batch.outcomes.push(o),
+                Err(TryRecvError::Empty) => return batch,
+                Err(TryRecvError::Disconnected) => {
+                    batch.finished = true;
+                    return batch;
+                }
+            }
+        }
+    }
+
+    /// Stop receiving (a worker waiting on the full queue gives up and starts no new pair),
+    /// wait for the engine, and return its error: only a thread pool that could not be
+    /// built, or an internal panic.
+    pub fn finish(mut self) -> Result<()> {
+        self.stop()
+    }
+
+    fn stop(&mut self) -> Result<()> {
+        self.outcomes = None;
+        match self.engine.take() {
+            None => Ok(()),
+            Some(engine) => engine
+                .join()
+                .unwrap_or_else(|_| Err(Error::Value("internal error: the sequence engine panicked".into()))),
+        }
+    }
+}
+
+impl Iterator for PairStream {
+    type Item = PairOutcome;
+
+    /// The next outcome (blocking), or `None` when every pair has been delivered.
+    fn next(&mut self) -> Option<PairOutcome> {
+        self.outcomes.as_ref()?.recv().ok()
+    }
+}
+
+impl Drop for PairStream {
+    fn drop(&mut self) {
+        self.cancel();
+        let _ = self.stop();
+    }
 }
 
 /// Merge statistics (e.g. of all frames of a sequence). Histograms are merged when all
@@ -319,6 +483,17 @@ mod tests {
         range.map(|p| Source::new(data(STACK), p)).collect()
     }
 
+    /// Every outcome of a stream, in index order; checks each index arrives exactly once.
+    fn collect(real: &[Source], sim: &[Source], req: &SeqRequest, workers: usize) -> Vec<PairOutcome> {
+        let mut stream = stream_pairs(real.to_vec(), sim.to_vec(), req.clone(), workers).unwrap();
+        let mut out: Vec<PairOutcome> = stream.by_ref().collect();
+        assert_eq!(stream.progress().done.load(Ordering::SeqCst), real.len());
+        stream.finish().unwrap();
+        out.sort_by_key(|o| o.index);
+        assert_eq!(out.iter().map(|o| o.index).collect::<Vec<_>>(), (0..real.len()).collect::<Vec<_>>());
+        out
+    }
+
     fn u16_frame(src: &Source) -> Vec<u16> {
         let opts = DecodeOptions { page: src.page, ..Default::default() };
         match io::decode_frame(&src.path, &opts).unwrap().data {
@@ -332,14 +507,9 @@ mod tests {
         // real = pages 0..12, sim = pages 1..13 (consecutive Lepton frames)
         let real = stack_sources(0..12);
         let sim = stack_sources(1..13);
-        let req = SeqRequest::default();
-        let prog = Progress::default();
-        let out = score_pairs(&real, &sim, &req, 2, &prog, None).unwrap();
+        let out = collect(&real, &sim, &SeqRequest::default(), 2);
         assert_eq!(out.len(), 12);
-        assert_eq!(prog.done.load(Ordering::SeqCst), 12);
         for (i, o) in out.iter().enumerate() {
-            let o = o.as_ref().unwrap();
-            assert_eq!(o.index, i);
             assert_eq!(o.shape, Some((120, 160)));
             assert_eq!(o.dtype, Some("uint16"));
             let got = o.stats.as_ref().unwrap();
@@ -358,10 +528,8 @@ mod tests {
             hist: Some(HistRequest::Bins { bins: 256, range: Some((0.0, 65535.0)) }),
             ..Default::default()
         };
-        let a = score_pairs(&real, &sim, &req, 1, &Progress::default(), None).unwrap();
-        let b = score_pairs(&real, &sim, &req, 3, &Progress::default(), None).unwrap();
-        let sa: Vec<PairStats> = a.into_iter().map(|o| o.unwrap().stats.unwrap()).collect();
-        let sb: Vec<PairStats> = b.into_iter().map(|o| o.unwrap().stats.unwrap()).collect();
+        let sa: Vec<PairStats> = collect(&real, &sim, &req, 1).into_iter().map(|o| o.stats.unwrap()).collect();
+        let sb: Vec<PairStats> = collect(&real, &sim, &req, 3).into_iter().map(|o| o.stats.unwrap()).collect();
         assert_eq!(sa, sb);
         let (pooled, hist_ok) = merge_all(&sa).unwrap().unwrap();
         assert!(hist_ok);
@@ -384,8 +552,8 @@ mod tests {
     fn data_range_histograms_are_dropped_when_pooling() {
         let real = stack_sources(0..4);
         let sim = stack_sources(50..54);
-        let out = score_pairs(&real, &sim, &SeqRequest::default(), 2, &Progress::default(), None).unwrap();
-        let st: Vec<PairStats> = out.into_iter().map(|o| o.unwrap().stats.unwrap()).collect();
+        let out = collect(&real, &sim, &SeqRequest::default(), 2);
+        let st: Vec<PairStats> = out.into_iter().map(|o| o.stats.unwrap()).collect();
         let (pooled, hist_ok) = merge_all(&st).unwrap().unwrap();
         assert!(!hist_ok);
         assert!(pooled.hist.is_none());
@@ -419,8 +587,7 @@ mod tests {
             // dtype mismatch: float32 EXR of the same frame
             Source::new(data("thermal/cptv_v2_frame000_counts_f32_zip.exr"), 0),
         ];
-        let out = score_pairs(&real, &sim, &SeqRequest::default(), 2, &Progress::default(), None).unwrap();
-        let out: Vec<PairOutcome> = out.into_iter().map(Option::unwrap).collect();
+        let out = collect(&real, &sim, &SeqRequest::default(), 2);
         assert!(out[0].stats.is_ok());
         assert!(out[2].stats.is_ok());
         let err = |i: usize| out[i].stats.clone().unwrap_err();
@@ -436,35 +603,116 @@ mod tests {
         let real = stack_sources(0..3);
         let sim = stack_sources(3..6);
         let req = SeqRequest { valid: Some((0, 2047)), ..Default::default() };
-        let out = score_pairs(&real, &sim, &req, 2, &Progress::default(), None).unwrap();
-        for o in out {
-            let e = o.unwrap().stats.unwrap_err();
+        for o in collect(&real, &sim, &req, 2) {
+            let e = o.stats.unwrap_err();
             assert!(matches!(&e, Error::Range(m) if m.contains("cptv_v2_all100frames_uint16.tif[")), "{e:?}");
         }
     }
 
-    #[test]
-    fn mismatched_lengths_and_cancel() {
-        let real = stack_sources(0..3);
-        let sim = stack_sources(0..2);
-        let e = score_pairs(&real, &sim, &SeqRequest::default(), 1, &Progress::default(), None).unwrap_err();
-        assert!(e.to_string().contains("3 frames") && e.to_string().contains(" 2;"));
+    /// A cheap request (SSE only), so the engine outruns a slow consumer.
+    fn sse_only() -> SeqRequest {
+        SeqRequest { moments: false, hist: None, ..Default::default() }
+    }
 
-        let real = stack_sources(0..30);
-        let sim = stack_sources(30..60);
-        let prog = Progress::default();
-        let calls = AtomicUsize::new(0);
-        let cb = |d: usize| {
-            calls.fetch_add(1, Ordering::SeqCst);
-            if d >= 3 {
-                prog.cancel.store(true, Ordering::SeqCst);
+    fn wait_for(what: &str, cond: impl Fn() -> bool) {
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while !cond() {
+            assert!(Instant::now() < deadline, "timed out waiting for {what}");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
+    #[test]
+    fn mismatched_lengths_fail_before_any_work() {
+        let e = stream_pairs(stack_sources(0..3), stack_sources(0..2), SeqRequest::default(), 1).err().unwrap();
+        assert!(e.to_string().contains("3 frames") && e.to_string().contains(" 2;"));
+        let mut empty = stream_pairs(vec![], vec![], SeqRequest::default(), 0).unwrap();
+        assert!(empty.next().is_none());
+        empty.finish().unwrap();
+    }
+
+    #[test]
+    fn a_slow_consumer_bounds_the_queue() {
+        let n = 100;
+        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), 2).unwrap();
+        let (workers, capacity) = (stream.workers(), stream.capacity());
+        assert_eq!((workers, capacity), (2, 2 * QUEUE_PER_WORKER));
+        // finished but not received: the queue, plus one outcome per worker waiting to enter it
+        let bound = capacity + workers;
+        let progress = Arc::clone(stream.progress());
+        let done = || progress.done.load(Ordering::SeqCst);
+        // nothing received: the workers fill the queue, then wait
+        wait_for("a full queue", || done() >= bound);
+        std::thread::sleep(Duration::from_millis(200));
+        assert_eq!(done(), bound, "workers went on past a full queue");
+        // a slow consumer never sees more than the bound finished ahead of it
+        let mut received = Vec::new();
+        for o in stream.by_ref() {
+            received.push(o.index);
+            assert!(done() - received.len() <= bound, "{} finished, {} received", done(), received.len());
+            if received.len() % 10 == 0 {
+                std::thread::sleep(Duration::from_millis(20));
             }
-        };
-        let out = score_pairs(&real, &sim, &SeqRequest::default(), 1, &prog, Some(&cb)).unwrap();
-        let done = out.iter().filter(|o| o.is_some()).count();
-        assert_eq!(done, 3);
-        assert_eq!(calls.load(Ordering::SeqCst), 3);
-        assert!(out[..3].iter().all(|o| o.is_some()));
+        }
+        stream.finish().unwrap();
+        received.sort_unstable();
+        assert_eq!(received, (0..n).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn cancel_stops_new_pairs_and_delivers_those_in_flight() {
+        let n = 100;
+        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), 2).unwrap();
+        let first: Vec<PairOutcome> = stream.by_ref().take(3).collect();
+        stream.cancel();
+        let rest: Vec<PairOutcome> = stream.by_ref().collect();
+        let delivered = first.len() + rest.len();
+        let done = stream.progress().done.load(Ordering::SeqCst);
+        stream.finish().unwrap();
+        // every finished pair is delivered; at most the queue, the waiting and the in-flight
+        // outcomes come after the cancel
+        assert_eq!(delivered, done);
+        assert!(delivered <= 3 + 2 * QUEUE_PER_WORKER + 2 * 2, "{delivered} pairs after a cancel at 3");
+        let mut idx: Vec<usize> = first.iter().chain(&rest).map(|o| o.index).collect();
+        idx.sort_unstable();
+        idx.dedup();
+        assert_eq!(idx.len(), delivered);
+    }
+
+    #[test]
+    fn dropping_the_stream_stops_the_workers() {
+        let n = 100;
+        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), 2).unwrap();
+        let progress = Arc::clone(stream.progress());
+        assert!(stream.next().is_some());
+        wait_for("a full queue", || progress.done.load(Ordering::SeqCst) > stream.capacity());
+        let t = Instant::now();
+        drop(stream); // joins the engine: returns only once every worker has exited
+        assert!(t.elapsed() < Duration::from_secs(30));
+        let done = progress.done.load(Ordering::SeqCst);
+        assert!(done < n, "all {n} pairs were scored after the consumer left");
+        std::thread::sleep(Duration::from_millis(50));
+        assert_eq!(progress.done.load(Ordering::SeqCst), done, "a worker still runs");
+    }
+
+    #[test]
+    fn batches_wait_for_a_round_and_end_with_finished() {
+        let n = 20;
+        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), 2).unwrap();
+        let first = stream.next_batch(5, Duration::from_secs(60));
+        assert!(first.outcomes.len() >= 5 && !first.finished);
+        let mut idx: Vec<usize> = first.outcomes.iter().map(|o| o.index).collect();
+        loop {
+            let batch = stream.next_batch(2, Duration::from_millis(100));
+            idx.extend(batch.outcomes.iter().map(|o| o.index));
+            if batch.finished {
+                break;
+            }
+        }
+        assert!(stream.next_batch(1, Duration::ZERO).finished);
+        stream.finish().unwrap();
+        idx.sort_unstable();
+        assert_eq!(idx, (0..n).collect::<Vec<_>>());
     }
 
     #[test]
@@ -472,9 +720,8 @@ mod tests {
         let real = stack_sources(0..2);
         let sim = stack_sources(2..4);
         let req = SeqRequest { moments: false, hist: None, ..Default::default() };
-        let out = score_pairs(&real, &sim, &req, 2, &Progress::default(), None).unwrap();
-        for o in out {
-            let st = o.unwrap().stats.unwrap();
+        for o in collect(&real, &sim, &req, 2) {
+            let st = o.stats.unwrap();
             assert!(st.has_sse && !st.has_moments && st.hist.is_none());
         }
     }

@@ -412,3 +412,16 @@ pub(crate) fn merge_float(a: &FloatSums, na: u64, b: &FloatSums, nb: u64) -> Flo
         sse_c: a.sse_c + b.sse_c + e,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn det_wide_path() {
+        let big = i128::MAX / 3;
+        let v = det_f64(big, 4, big, 2);
+        assert!(((v - 2.0 * big as f64) / v).abs() < 1e-15);
+        assert_eq!(det_f64(3, 4, 2, 5), 2.0);
+    }
+}

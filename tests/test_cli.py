@@ -15,6 +15,7 @@ import pytest
 
 from irfidelity.cli import main
 from irfidelity.evaluation import evaluate
+from irfidelity.fuzzy import Weights
 
 DATA = pathlib.Path(__file__).parent / "data"
 REAL = str(DATA / "thermal" / "ptw_bb150C_frame000.png")
@@ -83,10 +84,15 @@ def test_edges_and_curves(tmp_path):
     (["score", REAL, SIM, "--bits", "12"], ["outside the valid range", REAL]),
     (["score", REAL, SIM, "--bits", "x"], ["--bits"]),
     (["score", REAL, SIM, "--bins", "0"], ["--bins"]),
-    (["score", REAL, SIM, "--bits", "14", "--peak", "3"], ["--peak", "--bits"]),
-    (["score", REAL, SIM, "--real-mtf", "a.csv"], ["--real-mtf", "--sim-mtf"]),
+    (["score", REAL, SIM, "--bits", "14", "--peak", "3"], ["--peak", "bits"]),
+    (["score", REAL, SIM, "--real-mtf", "a.csv"], ["--sim-mtf", "--sim-edge"]),
+    (["score", REAL, SIM, "--real-edge", "a.png", "--real-mtf", "b.csv"], ["--real-mtf", "--real-edge"]),
+    (["score", REAL, SIM, "--real-sitf-columns", "T,counts"], ["--real-sitf-columns", "--real-sitf"]),
+    (["score", REAL, SIM, "--peak", "-3"], ["--peak", "positive"]),
+    (["score", REAL, SIM, "--pages", "1:4"], ["--pages", "sequences"]),
+    (["score", REAL, SIM, "--config", "nope.toml"], ["nope.toml"]),
     (["score", REAL, SIM, "--real-sitf", "a.csv", "--sim-sitf", "b.csv"], ["a.csv"]),
-    (["score", REAL, SIM, "--missing", "raise"], ["real_mtf/sim_mtf"]),
+    (["score", REAL, SIM, "--missing", "raise"], ["real_mtf/sim_mtf", "--missing"]),
     (["score", REAL, SIM, "--real-edge", EDGE_R, "--sim-edge", EDGE_S], ["channel", EDGE_R]),
     (["score", REAL], ["SIM"]),
     (["score", str(DATA / "thermal"), SIM], ["directory"]),
@@ -160,6 +166,8 @@ def fake_sequence(monkeypatch):
         def to_dict(self):
             return {"failed": self.failed, "frames": []}
 
+        config = None
+
         def summary_text(self):
             return f"{len(self.failed)} failed"
 
@@ -180,35 +188,29 @@ def test_sequence_branch(fake_sequence, tmp_path, capsys):
                "--no-progress", "--csv", str(tmp_path / "f.csv"), "--resume", "--weights", "image_quality"])
     assert rc == 0
     real, sim, kw = fake_sequence[0]
-    assert real == str(tmp_path / "ok_r")
-    assert kw["bits"] == 14 and kw["workers"] == 2 and kw["progress"] is False and kw["resume"] is True
-    assert kw["csv"] == str(tmp_path / "f.csv") and kw["bins"] == 256 and kw["channel"] is None
-    assert kw["weights"].mtf == 0 and kw["weights"].psnr == pytest.approx(0.375)  # curves dropped, renormalised
+    cfg = kw["config"]
+    assert cfg.bits == 14 and kw["workers"] == 2 and kw["progress"] is False and kw["resume"] is True
+    assert kw["csv"] == str(tmp_path / "f.csv") and cfg.bins == 256 and cfg.real_channel is None
+    assert cfg.weights == Weights.image_quality()  # the sequence drops components without inputs itself
     assert "0 failed" in capsys.readouterr().out
-    # some frames failed -> 3; globs count as sequences
-    rc = main(["score", str(tmp_path / "bad*_r"), str(tmp_path / "bad*_s"), "--json", "-"])
-    assert rc == 3
-    assert json.loads(capsys.readouterr().out)["failed"] == [3]
 
 
 def test_sequence_usage_errors(fake_sequence, tmp_path, capsys):
     assert main(["score", str(tmp_path), SIM]) == 2
-    assert "directory/glob" in capsys.readouterr().err
+    assert "REAL is a sequence" in capsys.readouterr().err
     assert main(["score", str(tmp_path), str(tmp_path), "--real-sitf", "a.csv"]) == 2
     assert "--sim-sitf" in capsys.readouterr().err
     assert fake_sequence == []
 
 
-def test_sequence_takes_the_camera_curves(fake_sequence, tmp_path, capsys):
-    # curves and edges go to score_sequence (they count for every frame); the weights are
-    # not renormalised away from them
+def test_sequence_takes_the_camera(fake_sequence, tmp_path, capsys):
+    # curves and edges go to score_sequence (they count for every frame), in any mix
     rc = main(["score", str(tmp_path), str(tmp_path), "--real-sitf", "a.csv", "--sim-sitf", "b.csv",
-               "--real-edge", EDGE_R, "--sim-edge", EDGE_S, "--edge-channel", "R", "--no-progress"])
+               "--real-mtf", "r.csv", "--sim-edge", EDGE_S, "--edge-channel", "R", "--no-progress"])
     assert rc == 3  # the fake reports a failed frame for paths without "ok"
     _, _, kw = fake_sequence[0]
-    assert (kw["real_sitf"], kw["sim_sitf"], kw["real_mtf"], kw["sim_mtf"]) == ("a.csv", "b.csv", EDGE_R, EDGE_S)
-    assert kw["edge_channel"] == "R" and kw["weights"].mtf == pytest.approx(0.2)
-    assert "not scored" not in capsys.readouterr().err
+    assert (kw["real_sitf"], kw["sim_sitf"], kw["real_mtf"], kw["sim_mtf"]) == ("a.csv", "b.csv", "r.csv", EDGE_S)
+    assert kw["config"].edge_channel == "R" and kw["config"].weights.mtf == pytest.approx(0.2)
 
 
 def test_sequence_with_curves_end_to_end(tmp_path):
@@ -228,7 +230,7 @@ def test_sequence_with_curves_end_to_end(tmp_path):
     d = json.loads(p.stdout)
     pair = evaluate(REAL, SIM, bits=14, real_mtf=EDGE_R, sim_mtf=EDGE_S, edge_channel="R",
                     real_sitf=str(tmp_path / "r.csv"), sim_sitf=str(tmp_path / "s.csv"))
-    assert d["curves"]["components"] == {k: pair.components[k] for k in ("mtf", "sitf")}
-    assert d["curves"]["metrics"]["sitf_slope_real"] == pytest.approx(5)
+    assert {k: d["components"][k] for k in ("mtf", "sitf")} == {k: pair.components[k] for k in ("mtf", "sitf")}
+    assert d["metrics"]["sitf_slope_real"] == pytest.approx(5)
     assert [f["fidelity"] for f in d["frames"]] == [pair.fidelity] * 3
-    assert d["pooled"]["fidelity"] == pytest.approx(pair.fidelity, rel=1e-12)
+    assert d["fidelity"] == pytest.approx(pair.fidelity, rel=1e-12)

@@ -1,4 +1,4 @@
-"""Core statistics: exact references, DESIGN §4 conventions, planning, merge, pickling."""
+"""Core statistics: exact references, docs/design.md §4 conventions, planning, merge, pickling."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ import pytest
 from sklearn.metrics import normalized_mutual_info_score
 
 import irfidelity as irf
+from irfidelity.normalize import normalize_psnr
 from irfidelity import _core
 from irfidelity.metrics import nmi_from_entropies, signed_power
 
@@ -70,7 +71,7 @@ def test_integer_sums_are_exact(dtype):
     r, s = rand_pair(dtype)
     st = irf.pair_stats(r, s)
     ref = exact_ref(r, s)
-    assert st._raw.int_sums() == ref["sums"]
+    assert st.int_sums() == ref["sums"]
     assert st.mse() == float(ref["mse"])
     m = st.moments()
     assert rel(m["var_real"], ref["var_r"]) < 1e-15
@@ -90,7 +91,7 @@ def test_large_frames_near_65535_one_lsb_apart():
     assert st.mse() == float(Fraction(k, n))
     assert st.psnr() == pytest.approx(10 * math.log10(65535**2 * n / k), rel=1e-15)
     # exact sums via int64 numpy (no overflow at this size) against the kernel's i128
-    sums = st._raw.int_sums()
+    sums = st.int_sums()
     r64, s64 = r.astype(np.int64), s.astype(np.int64)
     assert sums["sum_real"] == int(r64.sum())
     assert sums["sum_real_sq"] == int((r64 * r64).sum())
@@ -103,7 +104,7 @@ def test_uint32_products_do_not_overflow():
     s[0, 0] = 0
     st = irf.pair_stats(r, s)
     ref = exact_ref(r, s)
-    assert st._raw.int_sums() == ref["sums"]
+    assert st.int_sums() == ref["sums"]
     assert rel(st.moments()["var_sim"], ref["var_s"]) < 1e-15
 
 
@@ -206,14 +207,14 @@ def test_span_within_bins_equals_levels():
     assert irf.nmi(r, s, bins=256).value == pytest.approx(irf.nmi(r, s, bins="levels").value, abs=1e-14)
 
 
-# --- DESIGN §4 conventions -----------------------------------------------------------
+# --- docs/design.md §4 conventions -----------------------------------------------------------
 
 
 def test_identical_frames():
     r, _ = rand_pair(np.uint16)
     st = irf.pair_stats(r, r, bits=16)
     assert st.psnr() == math.inf
-    assert irf.normalize_psnr(st.psnr()) == 1.0
+    assert normalize_psnr(st.psnr()) == 1.0
     assert st.ssim().value == 1.0
     assert st.nmi().value == pytest.approx(1.0, abs=1e-12)
 
@@ -335,9 +336,9 @@ def test_need_computes_only_what_is_asked():
     r, s = rand_pair(np.uint16)
     st = irf.pair_stats(r, s, need=("psnr",))
     assert not st._raw.has_hist and not st._raw.has_moments and st._raw.has_sse
-    with pytest.raises(irf.FidelityError, match="'nmi' in `need`"):
+    with pytest.raises(irf.FidelityError, match="'nmi' in need"):
         st.nmi()
-    with pytest.raises(irf.FidelityError, match="'ssim' in `need`"):
+    with pytest.raises(irf.FidelityError, match="'ssim' in need"):
         st.ssim()
     only_nmi = irf.pair_stats(r, s, need=("nmi",))
     assert only_nmi._raw.has_hist and not only_nmi._raw.has_sse
@@ -421,16 +422,16 @@ def test_paper_table1_arithmetic():
     v = nmi_from_entropies(6.8712, 6.4682, 11.8671)
     assert v.mi == pytest.approx(1.4723, abs=5e-5)
     assert v.value == pytest.approx(0.22074, abs=5e-5)
-    assert irf.normalize_psnr(21.072) == pytest.approx(0.7160, abs=5e-5)
-    assert irf.normalize_psnr(30) == pytest.approx(0.9, abs=1e-12)
-    assert irf.normalize_psnr(45) == pytest.approx(0.99, abs=1e-12)
+    assert normalize_psnr(21.072) == pytest.approx(0.7160, abs=5e-5)
+    assert normalize_psnr(30) == pytest.approx(0.9, abs=1e-12)
+    assert normalize_psnr(45) == pytest.approx(0.99, abs=1e-12)
     from irfidelity.normalize import psnr_curve_params
 
     a, k = psnr_curve_params()
     assert k == pytest.approx(math.log(2) / math.log(1.5), rel=1e-12)
     assert a == pytest.approx(18.4178, abs=1e-4)
     with pytest.raises(irf.FidelityError):
-        irf.normalize_psnr(float("nan"))
+        normalize_psnr(float("nan"))
 
 
 def test_real_thermal_frames():
@@ -592,12 +593,13 @@ def test_entropies_from_many_threads_at_once():
     script = r"""
 import threading, numpy as np
 from irfidelity import _core
+from irfidelity.stats import KernelRequest
 rng = np.random.default_rng(1)
 r = rng.integers(0, 16384, (256, 320)).astype(np.uint16)
 s = (r // 2 + rng.integers(0, 3, r.shape)).astype(np.uint16)
-want = _core.pair_stats(r, s, sse=False, moments=False, bins=256).entropies()
+want = _core.pair_stats(r, s, KernelRequest(sse=False, moments=False, bins=256)).entropies()
 for _ in range(40):
-    st = _core.pair_stats(r, s, sse=False, moments=False, bins=256)
+    st = _core.pair_stats(r, s, KernelRequest(sse=False, moments=False, bins=256))
     out = []
     ts = [threading.Thread(target=lambda: out.append(st.entropies())) for _ in range(4)]
     [t.start() for t in ts]

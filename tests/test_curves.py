@@ -1,88 +1,29 @@
-"""Tests of the performance curves (issue 4): Curve, MTF from LSF/ESF/slanted edge, MTF50,
-SiTF fit, NETD and the curve similarity of the paper (eqs. 1-4).
+"""Tests of the performance curves (issue 4): Curve, CSV reading, MTF from LSF/ESF, MTF50, SiTF
+fit, NETD and the curve similarity of the paper (eqs. 1-4). The slanted edge is in test_edge.py,
+units in test_curve_units.py.
 
-Truth is analytic wherever possible:
-* a Gaussian LSF of width sigma has MTF exp(-2 pi^2 sigma^2 f^2), MTF50 = sqrt(ln2/2)/(pi sigma);
-* a slanted edge rendered by supersampling (Gaussian PSF, then each pixel averaged over its
-  square footprint) has MTF exp(-2 pi^2 sigma^2 f^2) |sinc(f cos a) sinc(f sin a)| along the
-  edge normal;
-* a logistic SiTF A + B/(1 + exp(-(x - x0)/s)) has central slope B/(4 s).
+Truth is analytic wherever possible (see edge_render.py); a logistic SiTF
+A + B/(1 + exp(-(x - x0)/s)) has central slope B/(4 s).
 """
 
 from __future__ import annotations
 
 import math
 import pathlib
-import warnings
 
 import numpy as np
 import pytest
 
-from irfidelity.curves import Curve, CurveSimilarity, curve_similarity, cy_per_px_to_cy_per_mrad
-from irfidelity.edge import EdgeWarning, mtf_from_edge
-from irfidelity.mtf import mtf50, mtf_from_esf, mtf_from_lsf, mtf_similarity
-from irfidelity.sitf import SiTFFit, netd, sitf_fit, sitf_similarity
+import irfidelity
+from edge_render import erf, gauss_mtf, gauss_mtf50
+from irfidelity.curves import (Curve, CurveSimilarity, SiTFFit, curve_similarity, mtf50,
+                               mtf_from_esf, mtf_from_lsf, mtf_similarity, netd, sitf_fit, sitf_similarity)
 from irfidelity.errors import FidelityError
 
 DATA = pathlib.Path(__file__).parent / "data" / "curves"
-_erf = np.frompyfunc(math.erf, 1, 1)
+JADE = DATA / "pyradi_jade_lwir_calibration_sitf.csv"
 
-
-def erf(x):
-    return _erf(np.asarray(x, dtype=float)).astype(float)
-
-
-def gauss_mtf(f, sigma):
-    return np.exp(-2 * np.pi ** 2 * sigma ** 2 * np.asarray(f) ** 2)
-
-
-def gauss_mtf50(sigma):
-    return math.sqrt(math.log(2) / 2) / (math.pi * sigma)
-
-
-def render_edge(shape=(64, 64), angle_deg=5.0, sigma=1.0, lo=0.1, hi=0.9, ss=16, horizontal=False,
-                invert=False, noise=0.0, rng=None):
-    """Edge through the ROI centre, tilted angle_deg from vertical, blurred by a Gaussian PSF and
-    integrated over each pixel by ss x ss supersampling (the pixel-aperture box)."""
-    h, w = shape
-    th = math.radians(angle_deg)
-    sub = (np.arange(ss) + 0.5) / ss - 0.5
-    yy = (np.arange(h)[:, None] + sub[None, :]).ravel()
-    xx = (np.arange(w)[:, None] + sub[None, :]).ravel()
-    n = (xx[None, :] - ((w - 1) / 2 + 0.3)) * math.cos(th) - (yy[:, None] - (h - 1) / 2) * math.sin(th)
-    img = (0.5 * (1 + erf(n / (sigma * math.sqrt(2))))).reshape(h, ss, w, ss).mean(axis=(1, 3))
-    if invert:
-        img = 1 - img
-    img = lo + (hi - lo) * img
-    if horizontal:
-        img = img.T
-    if noise:
-        img = img + rng.normal(0.0, noise, img.shape)
-    return img
-
-
-def edge_truth(f, sigma, angle_deg):
-    th = math.radians(angle_deg)
-    return gauss_mtf(f, sigma) * np.abs(np.sinc(f * math.cos(th)) * np.sinc(f * math.sin(th)))
-
-
-def edge_truth_mtf50(sigma, angle_deg):
-    f = np.linspace(0, 1, 200001)
-    return mtf50(Curve(f, edge_truth(f, sigma, angle_deg)))
-
-
-def quiet_edge(img, **kw):
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", EdgeWarning)
-        return mtf_from_edge(img, **kw)
-
-
-def read_png_grey(path):
-    png = pytest.importorskip("png")
-    w, h, rows, info = png.Reader(filename=str(path)).asDirect()
-    a = np.vstack([np.asarray(r, dtype=np.uint16 if info["bitdepth"] > 8 else np.uint8) for r in rows])
-    a = a.reshape(h, w, info["planes"])
-    return a[..., 0]
+pytestmark = pytest.mark.filterwarnings("ignore::irfidelity.curves.CurveUnitsWarning")
 
 
 # --------------------------------------------------------------------------- Curve
@@ -108,19 +49,17 @@ class TestCurve:
         with pytest.raises(ValueError):
             Curve(x, y)
 
-    def test_units(self):
+    def test_units_convert_and_relabel(self):
         c = Curve([0, 0.25, 0.5], [1, 0.6, 0.2], x_unit="cy/px")
-        m = c.to_cy_per_mrad(0.05)  # 50 urad IFOV
-        assert m.x_unit == "cy/mrad"
+        m = c.to_units(x_unit="cycles/mrad", camera=irfidelity.curves.CameraGeometry(ifov_mrad=0.05))
+        assert (m.x_unit, m.y_unit) == ("cy/mrad", None)
         np.testing.assert_allclose(m.x, [0, 5, 10])
-        np.testing.assert_allclose(m.to_cy_per_px(0.05).x, c.x)
-        np.testing.assert_allclose(cy_per_px_to_cy_per_mrad(0.5, 0.1), 5.0)
-        with pytest.raises(FidelityError, match="ifov"):
-            c.to_cy_per_mrad(0)
-        with pytest.raises(FidelityError, match="cy/px"):
-            m.to_cy_per_mrad(0.05)
-        with pytest.raises(FidelityError, match="units"):
-            curve_similarity(c, m, a=1, b=1)
+        np.testing.assert_array_equal(m.y, c.y)
+        assert c.with_units(y_unit="%").y_unit == "%" and c.with_units(y_unit="%").x_unit == "cy/px"
+        assert c.with_units(x_unit=None).x_unit is None
+        with pytest.raises(FidelityError, match="--ifov MRAD"):
+            c.to_units(x_unit="cy/mrad")
+        assert c != c.with_units(y_unit="1") and c == Curve([0, 0.25, 0.5], [1, 0.6, 0.2], x_unit="cycles/pixel")
 
     def test_csv(self, tmp_path):
         p = tmp_path / "m.csv"
@@ -142,12 +81,50 @@ class TestCurve:
             Curve.from_csv(tmp_path / "missing.csv")
 
     def test_csv_real_multicolumn(self):
-        p = DATA / "pyradi_jade_lwir_calibration_sitf.csv"
-        with pytest.raises(FidelityError, match="two columns"):
-            Curve.from_csv(p)
-        # two series (instrument temperatures) one after the other: x restarts -> rule named
-        with pytest.raises(FidelityError, match="strictly increasing"):
-            Curve.from_csv(p, columns=("blackbody_temp_C", "digital_level"))
+        # four columns, two series (instrument temperatures) one after the other
+        with pytest.raises(FidelityError, match=r"found 4 columns: instrument_temp_C, dl_floor, "
+                                                r"blackbody_temp_C, digital_level; choose two"):
+            Curve.from_csv(JADE)
+        with pytest.raises(FidelityError, match=r"strictly increasing.*row filter such as instrument_temp_C=17\.1"):
+            Curve.from_csv(JADE, columns=("blackbody_temp_C", "digital_level"))
+        cold = Curve.from_csv(JADE, columns=("blackbody_temp_C", "digital_level"), where={"instrument_temp_C": 17.1})
+        warm = Curve.from_csv(JADE, columns=(2, 3), where={0: 34.4})
+        assert len(cold) == len(warm) == 9 and cold.x.tolist() == list(range(50, 451, 50))
+        assert (cold.x_unit, cold.y_unit) == ("degC", "counts")  # blackbody_temp_C: absolute; digital_level
+        assert (warm.x_unit, warm.y_unit) == ("degC", "counts")  # by index: the header still names the units
+        assert cold.y[0] == 4571 and warm.y[-1] == 14921
+        with pytest.raises(FidelityError, match=r"no row has instrument_temp_C = 20 \(values present: 17\.1, 34\.4\)"):
+            Curve.from_csv(JADE, columns=("blackbody_temp_C", "digital_level"), where={"instrument_temp_C": 20})
+        with pytest.raises(FidelityError, match="no column named 'T'"):
+            Curve.from_csv(JADE, columns=("T", "digital_level"))
+        with pytest.raises(FidelityError, match="out of range"):
+            Curve.from_csv(JADE, columns=(0, 4))
+
+    def test_csv_units_from_header(self, tmp_path):
+        p = tmp_path / "m.csv"
+        p.write_text("freq_cy_per_mrad,mtf\n0,1\n0.5,0.6\n1,0.2\n")
+        c = Curve.from_csv(p)
+        assert (c.x_unit, c.y_unit) == ("cy/mrad", "1")
+        assert Curve.from_csv(p, x_unit="cycles/mrad").x_unit == "cy/mrad"
+        with pytest.raises(FidelityError, match=r"column 'freq_cy_per_mrad' is in cy/mrad, but the x unit was "
+                                                r"given as cy/px"):
+            Curve.from_csv(p, x_unit="cy/px")
+        q = tmp_path / "s.csv"
+        q.write_text("K,signal\n1,10\n2,20\n3,30\n")  # K alone: a difference or an absolute temperature?
+        assert Curve.from_csv(q).x_unit is None
+        assert Curve.from_csv(q, x_unit="dT").x_unit == "delta_K"
+
+    def test_cli_text_helpers(self):
+        from irfidelity.curves.table import parse_columns, parse_where
+
+        assert parse_columns("blackbody_temp_C,digital_level") == ("blackbody_temp_C", "digital_level")
+        assert parse_columns(" 2 , 3 ") == (2, 3)
+        assert parse_where("instrument_temp_C=17.1,dl_floor=3625") == {"instrument_temp_C": 17.1, "dl_floor": 3625.0}
+        for bad in ("a", "a,b,c", ",b"):
+            with pytest.raises(FidelityError, match="two names or indices"):
+                parse_columns(bad)
+        with pytest.raises(FidelityError, match="name=number"):
+            parse_where("instrument_temp_C")
 
 
 # --------------------------------------------------------------------------- MTF from LSF / ESF
@@ -221,121 +198,6 @@ def test_mtf50_smooth_noisy():
     assert mtf50(Curve(f, y), smooth=True) == pytest.approx(gauss_mtf50(1.0), rel=0.02)
 
 
-# --------------------------------------------------------------------------- slanted edge
-@pytest.mark.parametrize("angle", [2.0, 5.0, 8.0, 12.0, -5.0])
-@pytest.mark.parametrize("sigma", [0.5, 1.0, 1.5])
-def test_slanted_edge_analytic(angle, sigma):
-    c = quiet_edge(render_edge(angle_deg=angle, sigma=sigma))
-    assert c.x_unit == "cy/px" and c.x[-1] >= 1.0
-    assert c.meta["angle_deg"] == pytest.approx(angle, abs=0.05)
-    m = mtf50(c)
-    assert m == pytest.approx(edge_truth_mtf50(sigma, angle), rel=0.03)
-    sel = c.x <= 1.0
-    assert np.abs(c.y[sel] - edge_truth(c.x[sel], sigma, angle)).max() < 0.04
-
-
-@pytest.mark.parametrize("horizontal", [False, True])
-@pytest.mark.parametrize("invert", [False, True])
-def test_slanted_edge_orientation_polarity(horizontal, invert):
-    c = quiet_edge(render_edge(angle_deg=5.0, sigma=1.0, horizontal=horizontal, invert=invert))
-    assert c.meta["orientation"] == ("horizontal" if horizontal else "vertical")
-    assert c.meta["polarity"] == (-1 if invert else 1)
-    assert mtf50(c) == pytest.approx(edge_truth_mtf50(1.0, 5.0), rel=0.03)
-
-
-def test_slanted_edge_noisy():
-    rng = np.random.default_rng(12233)
-    for sigma in (0.5, 1.0, 1.5):
-        for _ in range(3):
-            c = mtf_from_edge(render_edge(angle_deg=5.0, sigma=sigma, noise=0.01, rng=rng))  # SNR 80
-            assert mtf50(c) == pytest.approx(edge_truth_mtf50(sigma, 5.0), rel=0.05)
-
-
-def test_slanted_edge_uint16_and_float32():
-    img = render_edge(angle_deg=6.0, sigma=1.0)
-    u16 = np.round(img * 40000 + 1000).astype(np.uint16)
-    t = edge_truth_mtf50(1.0, 6.0)
-    assert mtf50(quiet_edge(u16)) == pytest.approx(t, rel=0.03)
-    assert mtf50(quiet_edge(img.astype(np.float32))) == pytest.approx(t, rel=0.03)
-
-
-@pytest.mark.parametrize("angle,pattern", [
-    (0.0, "nearly aligned"),
-    (45.0, "45°"),
-    (26.57, "critical angle 26.57"),
-    (14.04, "critical angle 14.04"),
-])
-@pytest.mark.filterwarnings("ignore::irfidelity.edge.EdgeWarning")  # the other warnings of the same call
-def test_slanted_edge_warns_at_bad_angles(angle, pattern):
-    with pytest.warns(EdgeWarning, match=pattern):
-        mtf_from_edge(render_edge(angle_deg=angle, sigma=1.0))
-
-
-def test_slanted_edge_warns_clipping_and_contrast():
-    img = render_edge(angle_deg=5.0, sigma=1.0, lo=0.0, hi=1.2)
-    u8 = np.round(np.clip(img, 0, 1) * 255).astype(np.uint8)
-    with pytest.warns(EdgeWarning, match="clipped"):
-        mtf_from_edge(u8)
-    rng = np.random.default_rng(3)
-    with pytest.warns(EdgeWarning, match="low contrast"):
-        mtf_from_edge(render_edge(angle_deg=5.0, lo=0.50, hi=0.52, noise=0.005, rng=rng))
-
-
-def test_slanted_edge_errors():
-    with pytest.raises(FidelityError, match="2-D"):
-        mtf_from_edge(np.zeros((10, 10, 3)))
-    with pytest.raises(FidelityError, match="no edge"):
-        mtf_from_edge(np.ones((32, 32)))
-    with pytest.raises(FidelityError, match="8x8"):
-        mtf_from_edge(np.ones((4, 32)))
-    bad = render_edge()
-    bad[3, 4] = np.nan
-    with pytest.raises(FidelityError, match="non-finite"):
-        mtf_from_edge(bad)
-
-
-REAL_EDGES = ["sfr_edge_x0552_y1976_F16.png", "sfr_edge_x2084_y0616_F2.png", "sfr_edge_x2088_y0616_F2_8.png"]
-
-
-@pytest.mark.parametrize("fname", REAL_EDGES)
-def test_real_edges(fname):
-    img = read_png_grey(DATA / fname)
-    c = quiet_edge(img)
-    m = mtf50(c)
-    assert 0.05 < m < 0.6
-    assert 1.5 < abs(c.meta["angle_deg"]) < 10
-    # invariances: transposing, flipping polarity or rotating by 180° measure the same edge
-    for other in (img.T, 255 - img, img[::-1, ::-1]):
-        assert mtf50(quiet_edge(np.ascontiguousarray(other))) == pytest.approx(m, rel=0.02)
-    # physical bound: no camera beats its pixel aperture (|sinc f|) by more than noise
-    sel = c.x <= 0.8
-    assert (c.y[sel] <= np.abs(np.sinc(c.x[sel])) + 0.1).all()
-
-
-def test_real_f16_below_diffraction_limit():
-    # f/16, 550 nm, 5 um pixels (SFR_calculation_code's example settings): diffraction cut-off
-    # 1/(lambda N) = 113.6 cy/mm = 0.568 cy/px. The system MTF50 cannot exceed that of the
-    # diffraction-limited optics times the pixel aperture.
-    c = quiet_edge(read_png_grey(DATA / "sfr_edge_x0552_y1976_F16.png"))
-    fc = 0.005 / (550e-6 * 16)
-    f = np.linspace(0, fc, 20001)
-    v = f / fc
-    diff = 2 / np.pi * (np.arccos(v) - v * np.sqrt(1 - v * v))
-    bound = mtf50(Curve(f, diff * np.abs(np.sinc(f))))
-    assert mtf50(c) < bound
-
-
-def test_real_aperture_pair_similarity():
-    f2 = quiet_edge(read_png_grey(DATA / "sfr_edge_x2084_y0616_F2.png"))
-    f28 = quiet_edge(read_png_grey(DATA / "sfr_edge_x2088_y0616_F2_8.png"))
-    f16 = quiet_edge(read_png_grey(DATA / "sfr_edge_x0552_y1976_F16.png"))
-    s_self = mtf_similarity(f2, f2)
-    assert s_self.value == pytest.approx(1.0) and s_self.area == 0.0
-    s = mtf_similarity(f28, f16)
-    assert 0 < s.value < 1 and s.mu == pytest.approx(2 * s.a * s.b / (s.a ** 2 + s.b ** 2))
-    assert s.a == pytest.approx(mtf50(f28)) and s.b == pytest.approx(mtf50(f16))
-
-
 # --------------------------------------------------------------------------- SiTF
 def logistic(x, A, B, x0, s):
     return A + B / (1 + np.exp(-(x - x0) / s))
@@ -405,11 +267,8 @@ def test_sitf_errors():
 
 
 def test_sitf_real_jade_calibration():
-    tab = np.loadtxt(DATA / "pyradi_jade_lwir_calibration_sitf.csv", delimiter=",", skiprows=2)
-    curves = {}
-    for t_inst in np.unique(tab[:, 0]):
-        rows = tab[tab[:, 0] == t_inst]
-        curves[t_inst] = Curve(rows[:, 2], rows[:, 3], name=f"Jade {t_inst} C", x_unit="degC")
+    curves = {t: Curve.from_csv(JADE, columns=("blackbody_temp_C", "digital_level"), where={"instrument_temp_C": t})
+              for t in (17.1, 34.4)}
     cold, warm = curves[17.1], curves[34.4]
     for c in (cold, warm):
         f = sitf_fit(c)
@@ -422,6 +281,12 @@ def test_sitf_real_jade_calibration():
     assert s.a == pytest.approx(fc.slope) and s.b == pytest.approx(fw.slope)
     assert s.rho > 0.999 and 0.95 < s.mu <= 1 and s.value == pytest.approx(s.mu * abs(s.rho))
     assert 0 < s.area < 0.2 and s.ccc < s.rho  # offset between the series shows in ccc and area, not rho
+    assert (s.x_unit, s.y_unit, s.notes) == ("degC", "counts", ())
+    # the same blackbody temperatures in kelvin: converted, same result
+    warm_k = warm.to_units(x_unit="K")
+    s_k = sitf_similarity(cold, warm_k)
+    assert s_k.value == pytest.approx(s.value, rel=1e-12)
+    assert s_k.notes == ("simulated x axis converted from K to degC",)
 
 
 def test_sitf_similarity_windows():
@@ -539,3 +404,14 @@ def test_sitffit_is_dataclass():
     f = sitf_fit(Curve(np.arange(10.0), 3 * np.arange(10.0) + 1))
     assert isinstance(f, SiTFFit) and f.slope == pytest.approx(3) and f.intercept == pytest.approx(1)
     assert f.to_dict()["method"] == "band"
+
+
+@pytest.mark.parametrize("module", ["curve", "table", "units", "similarity", "mtf", "edge", "sitf"])
+def test_docstring_examples(module):
+    """The Examples sections of the curves package run as written."""
+    import doctest
+    import importlib
+
+    mod = importlib.import_module(f"irfidelity.curves.{module}")
+    result = doctest.testmod(mod, extraglobs={"np": np, "Curve": Curve}, optionflags=doctest.ELLIPSIS)
+    assert result.failed == 0 and (result.attempted > 0 or module == "table")

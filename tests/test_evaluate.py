@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import pathlib
@@ -12,16 +13,16 @@ import pytest
 
 import irfidelity._core as core
 import irfidelity.stats as stats_mod
-from irfidelity.curves import Curve
-from irfidelity.edge import EdgeWarning, mtf_from_edge
-from irfidelity.mtf import mtf_similarity
+from irfidelity.curves import Curve, EdgeWarning, mtf_from_edge, mtf_similarity, sitf_similarity
 from irfidelity.errors import FidelityError, ShapeError
-from irfidelity.evaluation import FidelityReport, evaluate, image_components, plan_components
+from irfidelity.config import ScoringConfig
+from irfidelity.evaluation import evaluate
+from irfidelity.results import FidelityReport
+from irfidelity.scoring import image_components, plan_components
 from irfidelity.frames import load_frame
-from irfidelity.fuzzy import COMPONENTS, Weights, fidelity_sum
+from irfidelity.fuzzy import COMPONENTS, PAPER_COMPONENTS, Weights, fidelity_sum
 from irfidelity.metrics import SSIM, nmi_from_entropies
 from irfidelity.normalize import normalize_psnr
-from irfidelity.sitf import sitf_similarity
 from irfidelity.stats import nmi, pair_stats, psnr, ssim
 
 DATA = pathlib.Path(__file__).parent / "data"
@@ -70,34 +71,36 @@ def sitf_curves():
 # --------------------------------------------------------------------------- plan
 class TestPlan:
     def test_full(self):
-        w, need, skipped = plan_components(None, have_images=True, have_mtf=True, have_sitf=True, missing="raise")
-        assert w == Weights() and need == {"psnr", "nmi", "ssim"} and skipped == {}
+        w, image, skipped = plan_components(Weights(), "raise", have_images=True, have_mtf=True, have_sitf=True)
+        assert w == Weights() and image == ("psnr", "nmi", "ssim") and skipped == {}
 
     def test_weight_zero_is_planned_out(self):
-        w, need, skipped = plan_components("psnr=1", have_images=True, have_mtf=True, have_sitf=True,
-                                           missing="raise")
-        assert need == {"psnr"}
+        w, image, skipped = plan_components(Weights.parse("psnr=1"), "raise", have_images=True, have_mtf=True,
+                                            have_sitf=True)
+        assert image == ("psnr",)
         assert set(skipped) == {"mtf", "sitf", "nmi", "ssim"} and skipped["nmi"] == "weight 0"
 
     def test_missing_raise_names_inputs(self):
         with pytest.raises(FidelityError, match="real_mtf/sim_mtf") as ei:
-            plan_components(None, have_images=True, have_mtf=False, have_sitf=True, missing="raise")
-        assert "real_sitf" not in str(ei.value)
+            plan_components(Weights(), "raise", have_images=True, have_mtf=False, have_sitf=True)
+        assert "real_sitf" not in str(ei.value) and ei.value.option == "missing"
         with pytest.raises(FidelityError, match=r"real/sim"):
-            plan_components(None, have_images=False, have_mtf=True, have_sitf=True, missing="raise")
+            plan_components(Weights(), "raise", have_images=False, have_mtf=True, have_sitf=True)
 
     def test_missing_renormalize(self):
-        w, need, skipped = plan_components(Weights.performance(), have_images=True, have_mtf=False,
-                                           have_sitf=True, missing="renormalize")
+        w, image, skipped = plan_components(Weights.performance(), "renormalize", have_images=True,
+                                            have_mtf=False, have_sitf=True)
         assert w.mtf == 0 and w.sitf == pytest.approx(0.35 / 0.65)
         assert "real_mtf/sim_mtf" in skipped["mtf"] and "sitf" not in skipped
-        assert need == {"psnr", "nmi", "ssim"}
+        assert image == ("psnr", "nmi", "ssim")
         with pytest.raises(FidelityError, match="nothing to compute"):
-            plan_components("mtf=1", have_images=True, have_mtf=False, have_sitf=False, missing="renormalize")
+            plan_components(Weights.parse("mtf=1"), "renormalize", have_images=True, have_mtf=False,
+                            have_sitf=False)
 
     def test_bad_missing(self):
-        with pytest.raises(FidelityError, match="missing must be"):
-            plan_components(None, have_images=True, have_mtf=True, have_sitf=True, missing="drop")
+        with pytest.raises(FidelityError, match="missing: expected one of renormalize, raise") as ei:
+            evaluate(np.zeros((2, 2), np.uint8), np.zeros((2, 2), np.uint8), missing="drop")
+        assert ei.value.option == "missing"
 
 
 # --------------------------------------------------------------------------- components == standalone functions
@@ -108,7 +111,7 @@ def test_components_equal_standalone(frames, edges, sitf_curves):
         rep = evaluate(r, s, real_mtf=edges[0], sim_mtf=edges[1], real_sitf=sitf_curves[0],
                        sim_sitf=sitf_curves[1], bits=14)
         m_r, m_s = mtf_from_edge(edges[0]), mtf_from_edge(edges[1])
-    assert list(rep.components) == list(COMPONENTS)
+    assert list(rep.components) == list(PAPER_COMPONENTS)
     assert rep.components["psnr"] == normalize_psnr(psnr(r, s, bits=14))
     assert rep.metrics["psnr_db"] == psnr(r, s, bits=14)
     assert rep.components["nmi"] == nmi(r, s).value
@@ -117,7 +120,7 @@ def test_components_equal_standalone(frames, edges, sitf_curves):
     assert rep.components["sitf"] == sitf_similarity(*sitf_curves).value
     assert rep.metrics["mtf50_sim"] < rep.metrics["mtf50_real"]  # the blur shows
     # eq. (15), exactly
-    assert rep.fidelity == math.fsum(rep.weights[k] * rep.components[k] for k in COMPONENTS)
+    assert rep.fidelity == math.fsum(rep.weights[k] * rep.components[k] for k in PAPER_COMPONENTS)
     assert rep.fidelity == fidelity_sum(rep.weights, rep.components)
     assert 0 < rep.fidelity < 1 and rep.skipped == {}
     assert rep.grade in rep.membership and sum(rep.membership.values()) == pytest.approx(1)
@@ -158,9 +161,9 @@ class _Spy:
         self.calls = []
         real = core.pair_stats
 
-        def spy(*a, **kw):
-            self.calls.append(kw)
-            return real(*a, **kw)
+        def spy(real_frame, sim_frame, request, *a):
+            self.calls.append(dataclasses.asdict(request))
+            return real(real_frame, sim_frame, request, *a)
 
         monkeypatch.setattr(core, "pair_stats", spy)
 
@@ -199,12 +202,12 @@ def test_no_image_pass_without_image_weight(monkeypatch, sitf_curves):
 
 
 def test_no_curve_work_without_curve_weight(frames, monkeypatch):
-    import irfidelity.evaluation as ev
+    import irfidelity.curves as mtf_module
 
     def boom(*a, **kw):
         raise AssertionError("no curve work expected")
 
-    monkeypatch.setattr(ev, "mtf_similarity", boom)
+    monkeypatch.setattr(mtf_module, "mtf_similarity", boom)
     r, s = frames
     # the curve inputs do not even exist: they are never touched
     rep = evaluate(r, s, real_mtf="missing.csv", sim_mtf="missing2.csv", real_sitf="x.csv", sim_sitf="y.csv",
@@ -217,10 +220,11 @@ def test_no_curve_work_without_curve_weight(frames, monkeypatch):
 def test_missing_inputs(frames):
     r, s = frames
     with pytest.raises(FidelityError, match="real_mtf/sim_mtf and real_sitf/sim_sitf"):
-        evaluate(r, s, bits=14)
-    rep = evaluate(r, s, bits=14, missing="renormalize")
+        evaluate(r, s, bits=14, missing="raise")
+    rep = evaluate(r, s, bits=14)  # missing components are dropped by default, everywhere
+    assert rep.config.missing == "renormalize" and ScoringConfig().missing == "renormalize"
     assert set(rep.components) == {"psnr", "nmi", "ssim"}
-    assert rep.weights.psnr == pytest.approx(1 / 3) and rep.requested_weights == Weights()
+    assert rep.weights.psnr == pytest.approx(1 / 3) and rep.config.weights == Weights()
     assert "real_mtf/sim_mtf" in rep.skipped["mtf"] and "renormalised" in rep.skipped["sitf"]
     assert rep.fidelity == math.fsum(rep.weights[k] * rep.components[k] for k in rep.components)
     with pytest.raises(FidelityError, match="sim_mtf was given without real_mtf"):
@@ -270,6 +274,8 @@ class _Table1Stats:
 
     n, masked, nonfinite = 1, 0, 0
 
+    peak = 255.0
+
     def mse(self):
         return 255.0 ** 2 / 10 ** 2.1072
 
@@ -285,7 +291,7 @@ class _Table1Stats:
 
 
 def test_paper_table1():
-    comps, mets = image_components(_Table1Stats(), Weights())
+    comps, mets = image_components(_Table1Stats(), ("psnr", "nmi", "ssim"), ScoringConfig())
     assert mets["mi"] == pytest.approx(1.4723, abs=1e-9)  # the paper prints 1.4724 (rounded inputs)
     assert comps["nmi"] == pytest.approx(0.22074, abs=5e-6)
     assert comps["psnr"] == pytest.approx(0.7160, abs=5e-5)
@@ -299,18 +305,18 @@ def test_paper_table1():
     assert fid == pytest.approx(0.7678, abs=5e-5)
 
 
-def test_image_components_only_positive_weights():
-    comps, mets = image_components(_Table1Stats(), Weights.parse("nmi=1"))
+def test_image_components_only_the_plan():
+    comps, mets = image_components(_Table1Stats(), ("nmi",), ScoringConfig())
     assert set(comps) == {"nmi"} and "psnr_db" not in mets and "ssim" not in mets
-    comps, mets = image_components(_Table1Stats(), Weights.parse("mtf=1"))
-    assert comps == {} and mets == {}
+    comps, mets = image_components(_Table1Stats(), (), ScoringConfig())
+    assert comps == {} and set(mets) == {"n", "masked", "nonfinite"}
 
 
 def test_sequence_style_use(frames):
     """plan_components + pair_stats + image_components is what evaluate does."""
     r, s = frames
-    w, need, _ = plan_components("image_quality", have_images=True, have_mtf=False, have_sitf=False,
-                                 missing="renormalize")
-    comps, _ = image_components(pair_stats(r, s, bits=14, need=need), w)
-    rep = evaluate(r, s, weights="image_quality", bits=14, missing="renormalize")
+    cfg = ScoringConfig(weights="image_quality", bits=14)
+    w, image, _ = plan_components(cfg.weights, cfg.missing, have_images=True, have_mtf=False, have_sitf=False)
+    comps, _ = image_components(pair_stats(r, s, bits=14, need=image), image, cfg)
+    rep = evaluate(r, s, config=cfg)
     assert comps == rep.components

@@ -321,7 +321,7 @@ def test_errors_name_the_path(tmp_path: Path) -> None:
         load_frame(DATA / "thermal/cptv_v2_all100frames_uint16.tif", page=100)
     with pytest.raises(FrameError, match="page 1 out of range"):
         load_frame(DATA / "png/pngsuite_basn0g16.png", page=1)
-    with pytest.raises(FrameError, match="page must be a non-negative integer"):
+    with pytest.raises(FrameError, match="page must be an integer in 0..2\\^63-1"):
         load_frame(DATA / "png/pngsuite_basn0g16.png", page=-1)
     # FrameError is a FidelityError (ValueError) and an OSError
     with pytest.raises(OSError):

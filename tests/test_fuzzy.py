@@ -11,6 +11,7 @@ import pytest
 from irfidelity.errors import FidelityError
 from irfidelity.fuzzy import (
     COMPONENTS,
+    PAPER_COMPONENTS,
     AHPConsistencyWarning,
     GradeScale,
     Weights,
@@ -25,8 +26,8 @@ class TestWeights:
     def test_default_is_paper(self):
         w = Weights()
         assert w == Weights.balanced()
-        assert w.as_dict() == {k: 0.2 for k in COMPONENTS}
-        assert w.active() == COMPONENTS
+        assert w.as_dict() == {**{k: 0.2 for k in PAPER_COMPONENTS}, "noise": 0.0}
+        assert w.active() == PAPER_COMPONENTS
 
     def test_presets_valid_and_emphasised(self):
         p, q = Weights.performance(), Weights.image_quality()
@@ -59,7 +60,7 @@ class TestWeights:
 
     def test_normalized(self):
         w = Weights.normalized(mtf=3, psnr=1)
-        assert w.as_dict() == {"mtf": 0.75, "sitf": 0.0, "psnr": 0.25, "nmi": 0.0, "ssim": 0.0}
+        assert w.as_dict() == {"mtf": 0.75, "sitf": 0.0, "psnr": 0.25, "nmi": 0.0, "ssim": 0.0, "noise": 0.0}
         with pytest.raises(FidelityError, match="all be 0"):
             Weights.normalized(mtf=0)
         with pytest.raises(FidelityError, match="unknown"):
@@ -99,7 +100,10 @@ class TestWeights:
 def test_fidelity_sum_is_eq15():
     f = {"mtf": 0.9, "sitf": 0.8, "psnr": 0.7, "nmi": 0.3, "ssim": 0.95}
     w = Weights(mtf=0.1, sitf=0.2, psnr=0.3, nmi=0.25, ssim=0.15)
-    assert fidelity_sum(w, f) == math.fsum(w[k] * f[k] for k in COMPONENTS)
+    assert fidelity_sum(w, f) == math.fsum(w[k] * f[k] for k in PAPER_COMPONENTS)
+    # the opt-in sixth component adds like the others
+    w6 = Weights(mtf=0.1, sitf=0.1, psnr=0.3, nmi=0.25, ssim=0.15, noise=0.1)
+    assert fidelity_sum(w6, {**f, "noise": 0.5}) == math.fsum(w6[k] * {**f, "noise": 0.5}[k] for k in COMPONENTS)
     with pytest.raises(FidelityError, match="no value"):
         fidelity_sum(w, {"mtf": 1.0})
 
@@ -113,7 +117,8 @@ class TestAHP:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             res = ahp(m)
-        assert np.allclose([res.weights[k] for k in COMPONENTS], w, rtol=0, atol=1e-12)
+        assert np.allclose([res.weights[k] for k in PAPER_COMPONENTS], w, rtol=0, atol=1e-12)
+        assert res.weights.noise == 0.0  # the default names are the paper's five
         assert res.lambda_max == pytest.approx(5, abs=1e-9)
         assert res.cr == pytest.approx(0, abs=1e-9) and res.consistent
         assert Weights.from_ahp(m) == res.weights
@@ -169,10 +174,11 @@ class TestGrades:
                 assert all(0 <= v <= 1 for v in row.values())
         # well inside a class: crisp
         assert gs.memberships("ssim", 0.99)["excellent"] == 1
-        assert gs.memberships("ssim", 0.2)["poor"] == 1
-        assert gs.memberships("ssim", 0.9)["good"] == 1
+        assert gs.memberships("ssim", 0.1)["poor"] == 1
+        assert gs.memberships("ssim", 0.65)["good"] == 1
+        assert gs.memberships("nmi", 0.06)["fair"] == pytest.approx(1, abs=1e-12)
         # on a boundary: half and half
-        row = gs.memberships("ssim", 0.95)
+        row = gs.memberships("ssim", 0.82)
         assert row["excellent"] == pytest.approx(0.5) and row["good"] == pytest.approx(0.5)
 
     def test_b_is_k_times_r(self):
@@ -180,11 +186,14 @@ class TestGrades:
         w = Weights(mtf=0.1, sitf=0.2, psnr=0.3, nmi=0.25, ssim=0.15)
         f = {"mtf": 0.96, "sitf": 0.86, "psnr": 0.716, "nmi": 0.22074, "ssim": 0.933}
         g = gs.evaluate(w, f)
-        R = np.array([[gs.memberships(k, f[k])[gr] for gr in gs.grades] for k in COMPONENTS])
-        K = np.array([w[k] for k in COMPONENTS])
+        R = np.array([[gs.memberships(k, f[k])[gr] for gr in gs.grades] for k in PAPER_COMPONENTS])
+        K = np.array([w[k] for k in PAPER_COMPONENTS])
         assert np.allclose([g.membership[gr] for gr in gs.grades], K @ R, atol=1e-15)
-        assert g.grade == max(g.membership, key=g.membership.get)
         assert sum(g.membership.values()) == pytest.approx(1)
+        # the overall grade: the weighted average of B, capped one above the worst component
+        score = sum(g.membership[gr] * (3 - i) for i, gr in enumerate(gs.grades))
+        worst = max(gs.grades.index(v) for v in g.component_grades.values())
+        assert g.grade == gs.grades[max(3 - math.floor(score + 0.5), worst - 1, 0)]
 
     def test_custom_and_errors(self):
         cuts = {k: (0.5,) for k in COMPONENTS}

@@ -30,6 +30,7 @@ from irfidelity.errors import FidelityError
 from irfidelity.evaluation import evaluate
 from irfidelity.metrics import psnr_from_mse
 from irfidelity.sequence import SequenceReport, score_sequence
+from irfidelity.stats import KernelRequest
 
 tifffile = pytest.importorskip("tifffile")
 cv2 = pytest.importorskip("cv2")
@@ -76,7 +77,7 @@ def png_dirs(tmp_path):
 def _frame_metrics(frame: dict) -> dict:
     keys = ("n", "mse", "psnr_db", "ssim", "ssim_luminance", "ssim_contrast", "ssim_structure", "nmi", "mi",
             "h_real", "h_sim", "h_joint")
-    return {k: frame[k] for k in keys if k in frame}
+    return {k: frame["metrics"][k] for k in keys if k in frame["metrics"]}
 
 
 # --------------------------------------------------------------------------- per frame
@@ -94,8 +95,9 @@ def test_per_frame_values_equal_the_single_pair_api(lepton, workers):
         st = irf.pair_stats(real[i], sim[i], bits=14)
         want = st.metrics()
         assert _frame_metrics(f) == want, i  # identical, not approximately
-        one = evaluate(real[i], sim[i], bits=14, missing="renormalize")
+        one = evaluate(real[i], sim[i], bits=14)
         assert f["components"] == one.components
+        assert f["grade"] == one.grade and f["component_grades"] == one.component_grades
         assert f["fidelity"] == one.fidelity
         assert (f["rows"], f["cols"], f["dtype"]) == (120, 160, "uint16")
         assert f["error"] is None
@@ -119,15 +121,15 @@ def test_pooled_psnr_is_exact_from_summed_errors(lepton):
     sse = sum(int(((r.astype(np.int64) - s.astype(np.int64)) ** 2).sum()) for r, s in zip(real, sim))
     n = real.size
     peak = 2**14 - 1
-    assert rep.pooled["n"] == n and rep.pooled["frames"] == 100
-    assert rep.pooled["mse"] == float(Fraction(sse, n))  # one rounding of the exact ratio
-    assert rep.pooled["psnr_db"] == psnr_from_mse(float(Fraction(sse, n)), peak)
+    assert rep.metrics["n"] == n and rep.pooling["n"] == n and rep.pooling["frames"] == 100
+    assert rep.metrics["mse"] == float(Fraction(sse, n))  # one rounding of the exact ratio
+    assert rep.metrics["psnr_db"] == psnr_from_mse(float(Fraction(sse, n)), peak)
     exact = 10 * math.log10(Fraction(peak * peak * n, sse))
-    assert rep.pooled["psnr_db"] == pytest.approx(exact, rel=1e-15, abs=0)
+    assert rep.metrics["psnr_db"] == pytest.approx(exact, rel=1e-15, abs=0)
     # not a mean of dB values
-    mean_db = np.mean([f["psnr_db"] for f in rep.frames])
-    assert rep.pooled["psnr_db"] != mean_db
-    assert rep.frame_stats["psnr_db"]["mean"] == pytest.approx(mean_db, rel=1e-15)
+    mean_db = np.mean([f["metrics"]["psnr_db"] for f in rep.frames])
+    assert rep.metrics["psnr_db"] != mean_db
+    assert rep.frame_stats["metrics"]["psnr_db"]["mean"] == pytest.approx(mean_db, rel=1e-15)
 
 
 def test_pooled_stats_equal_one_pass_over_all_frames(lepton):
@@ -136,51 +138,56 @@ def test_pooled_stats_equal_one_pass_over_all_frames(lepton):
     rep = score_sequence(real_path, sim_path, bits=14, hist_range="full", workers=2, progress=False)
     whole = irf.pair_stats(real.reshape(-1, 160), sim.reshape(-1, 160), bits=14, hist_range="full")
     want = whole.metrics()
-    got = {k: rep.pooled[k] for k in want}
+    got = {k: rep.metrics[k] for k in want}
     assert got == want
-    assert rep.pooled["nmi_pooling"] == "histogram"
-    assert rep.pooled["components"]["nmi"] == want["nmi"]
+    assert rep.pooling["nmi"] == "histogram"
+    assert rep.components["nmi"] == want["nmi"]
 
 
 def test_default_hist_range_pools_nmi_as_frame_mean(lepton):
     real_path, sim_path, real, sim = lepton
     rep = score_sequence(real_path, sim_path, bits=14, progress=False)
-    assert rep.pooled["nmi_pooling"] == "frame_mean"
-    assert rep.pooled["nmi"] == pytest.approx(np.mean([f["nmi"] for f in rep.frames]), rel=1e-15)
+    assert rep.pooling["nmi"] == "frame_mean"
+    assert rep.metrics["nmi"] == pytest.approx(np.mean([f["metrics"]["nmi"] for f in rep.frames]), rel=1e-15)
     s = rep.frame_stats["fidelity"]
     assert s["p5"] <= s["p50"] <= s["p95"] and s["min"] <= s["mean"] <= s["max"]
-    assert set(rep.frame_stats) >= {"mse", "psnr_db", "ssim", "nmi", "fidelity", "f_psnr", "f_nmi", "f_ssim"}
+    assert set(rep.frame_stats["metrics"]) >= {"mse", "psnr_db", "ssim", "nmi"}
+    assert set(rep.frame_stats["components"]) == {"psnr", "nmi", "ssim"}
     text = rep.summary_text()
-    assert "100 scored, 0 failed" in text and "pooled fidelity" in text
+    assert "100 scored, 0 failed" in text and "fidelity" in text and "paired by page" in text
     d = rep.to_dict()
     assert d["failed"] == [] and len(d["frames"]) == 100 and d["weights"]["mtf"] == 0.0
     assert "mtf" in d["skipped"] and "sitf" in d["skipped"]
+    assert d["irfidelity"] == irf.__version__ and d["config"]["bits"] == 14
+    back = SequenceReport.from_dict(d)
+    assert back.to_dict() == d
 
 
 def test_only_the_plan_is_computed(lepton):
     real_path, sim_path, _, _ = lepton
     rep = score_sequence(real_path, sim_path, bits=14, weights="psnr=1", progress=False)
     f = rep.frames[0]
-    assert "psnr_db" in f and "ssim" not in f and "nmi" not in f
+    assert "psnr_db" in f["metrics"] and "ssim" not in f["metrics"] and "nmi" not in f["metrics"]
     assert set(f["components"]) == {"psnr"}
-    assert rep.columns == ["index", "real", "sim", "rows", "cols", "dtype", "n", "mse", "psnr_db", "f_psnr",
-                           "fidelity", "error"]
+    assert rep.columns == ["index", "real", "sim", "rows", "cols", "dtype", "n", "masked", "nonfinite", "mse",
+                           "psnr_db", "psnr_peak", "f_psnr", "fidelity", "grade", "error"]
     # the engine itself skips moments and histograms
-    out = _core.score_pairs([str(real_path)], [str(real_path)], [0], [1], sse=True, moments=False, bins=None)
-    (_, st, err, shape, dtype), = out
+    out = _core.score_pairs([str(real_path)], [str(real_path)], [0], [1],
+                            request=KernelRequest(sse=True, moments=False, bins=None))
+    (_, st, err, shape, dtype, extent), = out
+    assert extent is None  # not asked for
     assert err is None and st.has_sse and not st.has_moments and not st.has_hist
 
 
 # --------------------------------------------------------------------------- errors
-def test_mismatched_counts_fail_before_any_work(png_dirs, tmp_path):
-    rdir, sdir, _, _ = png_dirs
-    os.remove(sdir / "frame_11.png")
+def test_mismatched_counts_fail_before_any_work(lepton, tmp_path):
+    real_path, _, real, sim = lepton
     out = tmp_path / "rows.csv"
-    with pytest.raises(FidelityError, match=r"12 frames .* 11"):
-        score_sequence(rdir, sdir, csv=out, progress=False)
+    with pytest.raises(FidelityError, match=r"100 frames and the simulated sequence 99"):
+        score_sequence(real, sim[:99], csv=out, progress=False)  # arrays have no names to pair by
     assert not out.exists()
     with pytest.raises(FidelityError, match="3 frames and the simulated sequence 2"):
-        _core.score_pairs(["a", "b", "c"], ["a", "b"])
+        _core.score_pairs(["a", "b", "c"], ["a", "b"], request=KernelRequest())
 
 
 def test_truncated_frame_fails_alone(png_dirs, tmp_path):
@@ -192,12 +199,12 @@ def test_truncated_frame_fails_alone(png_dirs, tmp_path):
     rep = score_sequence(rdir, sdir, bits=14, workers=2, csv=out, progress=False)
     assert rep.failed == [5]
     assert "frame_5.png" in rep.frames[5]["error"]
-    assert rep.frames[5]["fidelity"] is None
+    assert rep.frames[5]["fidelity"] is None and rep.frames[5]["metrics"] == {}
     for i in range(12):
         if i != 5:
             assert rep.frames[i]["error"] is None
             assert _frame_metrics(rep.frames[i]) == irf.pair_stats(real[i], sim[i], bits=14).metrics()
-    assert rep.pooled["frames"] == 11 and rep.pooled["n"] == 11 * real[0].size
+    assert rep.pooling["frames"] == 11 and rep.pooling["n"] == 11 * real[0].size
     rows = list(csv.DictReader(open(out)))
     assert sorted(int(r["index"]) for r in rows) == list(range(12))
     assert [r["error"] != "" for r in sorted(rows, key=lambda r: int(r["index"]))] == [i == 5 for i in range(12)]
@@ -212,12 +219,12 @@ def test_shape_and_range_errors_are_rows(png_dirs):
     rep = score_sequence(rdir, sdir, bits=11, progress=False)  # values above 2047 everywhere
     assert rep.failed == list(range(12))
     assert "outside the valid range [0, 2047]" in rep.frames[0]["error"]
-    assert rep.pooled["frames"] == 0 and rep.pooled.get("fidelity") is None
+    assert rep.pooling["frames"] == 0 and rep.fidelity is None and rep.grade is None
 
 
 def test_bad_arguments(lepton):
     real_path, sim_path, _, _ = lepton
-    with pytest.raises(FidelityError, match="resume=True needs csv"):
+    with pytest.raises(FidelityError, match="resuming needs the CSV"):
         score_sequence(real_path, sim_path, resume=True, progress=False)
     with pytest.raises(FidelityError, match="bits must be"):
         score_sequence(real_path, sim_path, bits=17, progress=False)
@@ -241,7 +248,8 @@ def test_csv_rows_match_report_and_to_csv(lepton, tmp_path):
     assert streamed == written
     assert len(written) == 100
     assert float(written[7]["fidelity"]) == rep.frames[7]["fidelity"]
-    assert float(written[7]["psnr_db"]) == rep.frames[7]["psnr_db"]
+    assert float(written[7]["psnr_db"]) == rep.frames[7]["metrics"]["psnr_db"]
+    assert written[7]["grade"] == rep.frames[7]["grade"]
 
 
 def test_resume_after_an_interruption(lepton, tmp_path):
@@ -270,11 +278,11 @@ def test_resume_after_an_interruption(lepton, tmp_path):
     idx = [int(r["index"]) for r in rows]
     assert sorted(idx) == list(range(100))  # no duplicate, no missing row
     assert rep.frames == full.frames
-    assert rep.pooled == full.pooled
-    assert rep.settings["resumed"] == len(first)
+    assert rep.metrics == full.metrics and rep.fidelity == full.fidelity
+    assert rep.run["resumed"] == len(first)
     # resuming a finished run scores nothing
     again = score_sequence(real_path, sim_path, bits=14, csv=out, resume=True, progress=False)
-    assert again.pooled == full.pooled and len(_rows(out)) == 100
+    assert again.metrics == full.metrics and len(_rows(out)) == 100 and again.run["resumed"] == 100
 
 
 def test_resume_rescores_failed_frames_without_duplicates(png_dirs, tmp_path):
@@ -332,7 +340,7 @@ def test_resume_after_kill(lepton, tmp_path):
     idx = sorted(int(r["index"]) for r in _rows(out))
     assert idx == list(range(100))
     full = score_sequence(real_path, sim_path, bits=14, progress=False)
-    assert rep.frames == full.frames and rep.pooled == full.pooled
+    assert rep.frames == full.frames and rep.metrics == full.metrics
 
 
 # --------------------------------------------------------------------------- progress
@@ -340,7 +348,7 @@ def test_progress_reaches_python_and_tqdm_is_optional(lepton, monkeypatch):
     real_path, sim_path, _, _ = lepton
     calls = []
     out = _core.score_pairs([str(real_path)] * 40, [str(sim_path)] * 40, list(range(40)), list(range(40)),
-                            workers=2, progress=calls.append, bins=256)
+                            workers=2, progress=calls.append, request=KernelRequest(bins=256))
     assert len(out) == 40 and calls and calls[-1] == 40 and calls == sorted(calls)
     # progress=True without tqdm: no bar, no error
     import builtins
@@ -367,7 +375,7 @@ def test_callback_errors_stop_the_engine(lepton):
 
     with pytest.raises(RuntimeError, match="stop"):
         _core.score_pairs([str(real_path)] * 100, [str(sim_path)] * 100, list(range(100)), list(range(100)),
-                          workers=1, on_result=on_result)
+                          workers=1, on_result=on_result, request=KernelRequest())
     assert 1 <= len(got) < 100
 
 
@@ -382,7 +390,7 @@ def test_dask_local_cluster_gives_identical_results(lepton, tmp_path):
         remote = score_sequence(real_path, sim_path, bits=14, hist_range="full", client=client, chunk_size=8,
                                 csv=out, progress=False)
     assert remote.frames == local.frames
-    assert remote.pooled == local.pooled
+    assert remote.metrics == local.metrics and remote.fidelity == local.fidelity
     assert sorted(int(r["index"]) for r in _rows(out)) == list(range(100))
 
 
@@ -429,7 +437,7 @@ def test_ctrl_c_stops_the_run_and_resume_completes_it(lepton, tmp_path):
     assert len(set(idx)) == len(idx)
     # resume the same (long) run, but only check the rows: no duplicate, no missing
     rep = score_sequence([real_path] * 10, [sim_path] * 10, bits=14, csv=out, resume=True, progress=False)
-    assert rep.failed == [] and rep.settings["resumed"] == len(rows)
+    assert rep.failed == [] and rep.run["resumed"] == len(rows)
     assert sorted(int(r["index"]) for r in _rows(out)) == list(range(1000))
 
 
@@ -444,7 +452,7 @@ def _mtf_pair():
     return (f, np.exp(-((f / 0.3) ** 2))), (f, np.exp(-((f / 0.25) ** 2)))
 
 
-def test_curve_components_enter_every_frame_and_the_pool(png_dirs, tmp_path):
+def test_camera_components_enter_every_frame_and_the_pool(png_dirs, tmp_path):
     rdir, sdir, real, sim = png_dirs
     (rm, sm), (rs, ss) = _mtf_pair(), _sitf_pair()
     curves = dict(real_mtf=rm, sim_mtf=sm, real_sitf=rs, sim_sitf=ss)
@@ -452,23 +460,22 @@ def test_curve_components_enter_every_frame_and_the_pool(png_dirs, tmp_path):
     rep = score_sequence(rdir, sdir, bits=14, progress=False, csv=out, missing="raise", **curves)
     assert rep.failed == [] and rep.skipped == {}
     pair = [evaluate(real[i], sim[i], bits=14, **curves) for i in range(len(real))]
-    assert rep.curves["components"] == {"mtf": pair[0].components["mtf"], "sitf": pair[0].components["sitf"]}
-    assert rep.curves["metrics"]["sitf_slope_real"] == pytest.approx(40) and rep.curves["metrics"]["mtf50_sim"] > 0
+    assert {k: rep.components[k] for k in ("mtf", "sitf")} == {"mtf": pair[0].components["mtf"],
+                                                                 "sitf": pair[0].components["sitf"]}
+    assert rep.metrics["sitf_slope_real"] == pytest.approx(40) and rep.metrics["mtf50_sim"] > 0
     for f, one in zip(rep.frames, pair):
         assert f["components"] == one.components  # all five, the curves' the same in every frame
         assert f["fidelity"] == one.fidelity
-    assert list(rep.pooled["components"]) == ["mtf", "sitf", "psnr", "nmi", "ssim"]
-    assert rep.pooled["fidelity"] == pytest.approx(
-        sum(rep.weights[k] * v for k, v in rep.pooled["components"].items()), rel=1e-15)
+    assert list(rep.components) == ["mtf", "sitf", "psnr", "nmi", "ssim"]
+    assert rep.fidelity == pytest.approx(sum(rep.weights[k] * v for k, v in rep.components.items()), rel=1e-15)
     rows = _rows(out)
-    assert {float(r["f_mtf"]) for r in rows} == {rep.curves["components"]["mtf"]}
+    assert {float(r["f_mtf"]) for r in rows} == {rep.components["mtf"]}
     assert float(rows[0]["fidelity"]) == next(f for f in rep.frames if f["index"] == int(rows[0]["index"]))["fidelity"]
-    assert rep.to_dict()["curves"]["components"] == rep.curves["components"]
-    assert "mtf component (every frame)" in rep.summary_text()
+    assert "MTF50 real" in rep.summary_text()
     # resume keeps the rows (same curves); other curves are other settings
     again = score_sequence(rdir, sdir, bits=14, progress=False, csv=out, resume=True, missing="raise", **curves)
-    assert again.settings["resumed"] == len(real) and again.pooled["fidelity"] == rep.pooled["fidelity"]
-    with pytest.raises(FidelityError, match="different settings"):
+    assert again.run["resumed"] == len(real) and again.fidelity == rep.fidelity
+    with pytest.raises(FidelityError, match="other settings"):
         score_sequence(rdir, sdir, bits=14, progress=False, csv=out, resume=True,
                        **dict(curves, sim_sitf=rs))
 
@@ -480,7 +487,7 @@ def test_curves_are_planned_and_fail_before_any_frame(png_dirs, tmp_path):
     # weight 0: the curve inputs are not even read (a missing file is no error)
     rep = score_sequence(rdir, sdir, bits=14, progress=False, weights="psnr=0.5,ssim=0.5",
                          real_mtf=tmp_path / "nope.csv", sim_mtf=tmp_path / "nope.csv")
-    assert rep.curves == {} and "mtf" not in rep.pooled["components"]
+    assert "mtf" not in rep.components and "mtf50_real" not in rep.metrics
     # a bad curve: FidelityError before any frame is scored
     with pytest.raises(FidelityError, match="nope.csv"):
         score_sequence(rdir, sdir, bits=14, progress=lambda d, n: calls.append(d), csv=tmp_path / "x.csv",

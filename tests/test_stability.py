@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import irfidelity as irf
+from irfidelity.normalize import normalize_psnr
 from irfidelity import FidelityError, RangeError
 
 mpmath.mp.dps = 60
@@ -33,7 +34,7 @@ def _mp(x: Fraction) -> mpmath.mpf:
 
 
 def exact_moments(r: np.ndarray, s: np.ndarray) -> dict:
-    """MSE and SSIM factors (DESIGN §4 limits) in exact / 60-digit arithmetic."""
+    """MSE and SSIM factors (docs/design.md §4 limits) in exact / 60-digit arithmetic."""
     R, S = _vals(r), _vals(s)
     n = len(R)
     mr, ms = sum(R) / n, sum(S) / n
@@ -122,7 +123,7 @@ def test_constant_identical_frames():
     assert m["mse"] == 0.0 and m["psnr_db"] == math.inf
     assert (m["ssim_luminance"], m["ssim_contrast"], m["ssim_structure"], m["ssim"]) == (1.0, 1.0, 1.0, 1.0)
     assert (m["nmi"], m["h_real"], m["h_sim"], m["h_joint"]) == (1.0, 0.0, 0.0, 0.0)
-    assert irf.normalize_psnr(m["psnr_db"]) == 1.0
+    assert normalize_psnr(m["psnr_db"]) == 1.0
 
 
 def test_two_different_constants():
@@ -213,7 +214,7 @@ def test_saturated_halves_zero_vs_65535():
     assert m["mse"] == 65535.0**2 and m["psnr_db"] == 0.0
     assert (m["ssim_luminance"], m["ssim_contrast"], m["ssim_structure"], m["ssim"]) == (1.0, 1.0, -1.0, -1.0)
     assert m["nmi"] == 1.0  # one-to-one grey-level relation (a negative), not equality
-    assert st._raw.int_sums()["sum_cross"] == 0
+    assert st.int_sums()["sum_cross"] == 0
 
 
 def test_exact_4096_square_near_65535_one_lsb():
@@ -226,7 +227,7 @@ def test_exact_4096_square_near_65535_one_lsb():
     s = r.copy()
     s[flip & (r > 65520)] -= 1
     st = irf.pair_stats(r, s, bits=16, bins="levels")
-    sums = st._raw.int_sums()
+    sums = st.int_sums()
     # references: counts per value (bincount) times the value, in Python ints — no overflow possible
     cr = np.bincount(r.ravel(), minlength=65536)
     cs = np.bincount(s.ravel(), minlength=65536)
@@ -275,7 +276,7 @@ def test_exact_8192_square_uint16_at_scale():
     r = np.frombuffer(rng.bytes(2 * n * n), U16).reshape(n, n)
     s = np.frombuffer(rng.bytes(2 * n * n), U16).reshape(n, n) | U16(0x8000)
     st = irf.pair_stats(r, s, bits=16, need=("mse", "ssim"))
-    sums = st._raw.int_sums()
+    sums = st.int_sums()
     assert sums["sum_real"] == int(r.sum(dtype=np.int64))
     assert sums["sum_sim"] == int(s.sum(dtype=np.int64))
     acc = dict(rr=0, ss=0, rs=0, sse=0)
@@ -483,7 +484,7 @@ def test_anticorrelated_fractional_gamma_is_sign_preserving(gamma):
     s = (63 - r).astype(U16)  # same mean, s = −1 exactly
     sm = irf.ssim(r, s, gamma=gamma)
     assert (sm.luminance, sm.contrast, sm.structure) == (1.0, 1.0, -1.0)
-    assert sm.value == -1.0  # sign(s)·|s|^γ = −1 for every γ, even γ = 2 (DESIGN §4)
+    assert sm.value == -1.0  # sign(s)·|s|^γ = −1 for every γ, even γ = 2 (docs/design.md §4)
     # partially anti-correlated: value = −|s|^γ, real and finite
     rng = np.random.default_rng(5)
     noisy = np.clip(s.astype(np.int64) + rng.integers(-20, 21, s.shape), 0, 200).astype(U16)
@@ -521,7 +522,7 @@ def test_small_luminance_and_contrast_keep_relative_accuracy():
 # --------------------------------------------------------------------------- curves
 def test_curve_rho_minus_one():
     x = np.linspace(0, 1, 20)
-    cs = irf.curve_similarity(irf.Curve(x, x), irf.Curve(x, 1 - x), a=1.0, b=1.0)
+    cs = irf.curves.curve_similarity(irf.Curve(x, x), irf.Curve(x, 1 - x), a=1.0, b=1.0)
     assert cs.rho == pytest.approx(-1.0, abs=1e-15)
     assert cs.value == pytest.approx(1.0, abs=1e-15)  # eq. 3 uses |rho|
     assert 0 <= cs.value <= 1
@@ -529,33 +530,33 @@ def test_curve_rho_minus_one():
 
 def test_flat_curves():
     x = np.linspace(0, 1, 10)
-    both = irf.curve_similarity(irf.Curve(x, np.ones(10)), irf.Curve(x, 2 * np.ones(10)), a=0.0, b=0.0)
+    both = irf.curves.curve_similarity(irf.Curve(x, np.ones(10)), irf.Curve(x, 2 * np.ones(10)), a=0.0, b=0.0)
     assert (both.rho, both.mu, both.value) == (1.0, 1.0, 1.0)
-    one = irf.curve_similarity(irf.Curve(x, np.ones(10)), irf.Curve(x, x), a=0.3, b=0.3)
+    one = irf.curves.curve_similarity(irf.Curve(x, np.ones(10)), irf.Curve(x, x), a=0.3, b=0.3)
     assert (one.rho, one.value) == (0.0, 0.0)
     with pytest.raises(FidelityError, match="flat"):
-        irf.sitf_fit(irf.Curve(x, np.full(10, 5.0)))
+        irf.curves.sitf_fit(irf.Curve(x, np.full(10, 5.0)))
 
 
 def test_mtf_that_never_reaches_half_is_an_error():
     c = irf.Curve(np.linspace(0, 0.7, 8), np.linspace(1.0, 0.65, 8))
     with pytest.raises(FidelityError, match="never falls to 0.5"):
-        irf.mtf50(c)
+        irf.curves.mtf50(c)
     with pytest.raises(FidelityError, match="never falls to 0.5"):
-        irf.mtf50(c, smooth=True)
+        irf.curves.mtf50(c, smooth=True)
 
 
 def test_sitf_with_no_linear_region():
     x = np.arange(12.0)
     step = np.where(x < 6, 100.0, 16383.0)  # floor then saturation, no points in between
     with pytest.raises(FidelityError, match="no linear region"):
-        irf.sitf_fit(irf.Curve(x, step))
+        irf.curves.sitf_fit(irf.Curve(x, step))
     with pytest.raises(FidelityError, match="flat"):  # saturated everywhere
-        irf.sitf_fit(irf.Curve(x, np.full(12, 16383.0)))
+        irf.curves.sitf_fit(irf.Curve(x, np.full(12, 16383.0)))
 
 
 def test_two_point_curves_are_a_clear_error():
     with pytest.raises(FidelityError, match="at least 3 points"):
         irf.Curve([0.0, 1.0], [1.0, 0.0])
     # three points is the minimum, and works
-    assert irf.mtf50(irf.Curve([0.0, 1.0, 2.0], [1.0, 0.6, 0.2])) == pytest.approx(1.25)
+    assert irf.curves.mtf50(irf.Curve([0.0, 1.0, 2.0], [1.0, 0.6, 0.2])) == pytest.approx(1.25)

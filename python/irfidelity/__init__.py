@@ -3,71 +3,66 @@
 Implements the fuzzy-logic fidelity framework of Acta Photonica Sinica 41(5):547 (2012),
 doi:10.3788/gzxb20124105.0547: five components in [0, 1] (MTF and SiTF curve similarity,
 normalised PSNR, NMI, global SSIM) and their weighted sum, with an exact Rust core.
+
+The top level holds what a scoring session needs; the tools of each stage live in their
+module: :mod:`irfidelity.curves` (MTF, slanted edge, SiTF, curve similarity),
+:mod:`irfidelity.fuzzy` (grades, AHP weights, comparing simulators), :mod:`irfidelity.frames`
+(channels, pages), :mod:`irfidelity.schema` (the names and units of every output).
 """
 
-from .curves import Curve, CurveSimilarity, curve_similarity, cy_per_mrad_to_cy_per_px, cy_per_px_to_cy_per_mrad
-from .edge import EdgeWarning, mtf_from_edge
-from .errors import FidelityError, FrameError, RangeError, ShapeError
-from .evaluation import FidelityReport, evaluate, image_components, plan_components
-from .frames import FrameSequence, list_channels, load_frame, page_count
-from .fuzzy import AHPConsistencyWarning, Comparison, GradeScale, Weights, ahp, compare
-from .metrics import NMI, SSIM
-from .mtf import mtf50, mtf_from_esf, mtf_from_lsf, mtf_similarity
-from .normalize import normalize_psnr
+from . import curves, fuzzy
+from .config import ScoringConfig
+from .curves import Curve
+from .errors import FidelityError, FidelityWarning, FrameError, RangeError, RegistrationError, ShapeError
+from .evaluation import evaluate
+from .frames import FrameSequence, load_frame
+from .fuzzy import Weights
+from .maps import SSIMMap, ms_ssim, ssim_map
+from .noise import Noise3D, NoiseWarning, noise3d, noise_similarity
+from .results import FidelityReport
 from .registration import Registration, RegistrationWarning, register
 from .sequence import SequenceReport, score_sequence
-from .sitf import SiTFFit, netd, sitf_fit, sitf_similarity
 from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
-    "FidelityError",
-    "FrameError",
-    "RangeError",
-    "ShapeError",
-    "NMI",
-    "SSIM",
-    "PairStats",
+    # scoring
+    "evaluate",
+    "score_sequence",
+    "FidelityReport",
+    "SequenceReport",
+    "ScoringConfig",
+    "Weights",
+    # frame statistics and image metrics
     "pair_stats",
+    "PairStats",
     "mse",
     "psnr",
     "ssim",
     "nmi",
-    "normalize_psnr",
-    "Curve",
-    "CurveSimilarity",
-    "curve_similarity",
-    "cy_per_mrad_to_cy_per_px",
-    "cy_per_px_to_cy_per_mrad",
-    "mtf50",
-    "mtf_from_esf",
-    "mtf_from_lsf",
-    "mtf_similarity",
-    "EdgeWarning",
-    "mtf_from_edge",
-    "SiTFFit",
-    "netd",
-    "sitf_fit",
-    "sitf_similarity",
-    "FidelityReport",
-    "evaluate",
-    "plan_components",
-    "image_components",
-    "Weights",
-    "GradeScale",
-    "ahp",
-    "AHPConsistencyWarning",
-    "compare",
-    "Comparison",
-    "FrameSequence",
+    # inputs
     "load_frame",
-    "list_channels",
-    "page_count",
-    "score_sequence",
-    "SequenceReport",
+    "FrameSequence",
+    "Curve",
+    # where frames differ
+    "ssim_map",
+    "SSIMMap",
+    "ms_ssim",
+    # sensor noise (3-D noise, the opt-in component `noise`)
+    "noise3d",
+    "Noise3D",
+    "noise_similarity",
+    "NoiseWarning",
     # registration (docs/registration.md)
     "register",
     "Registration",
     "RegistrationWarning",
+    # errors and warnings
+    "FidelityError",
+    "FrameError",
+    "ShapeError",
+    "RangeError",
+    "RegistrationError",
+    "FidelityWarning",
 ]

@@ -2,11 +2,40 @@
 
 import os
 from collections.abc import Callable
-from typing import Any
+from typing import Any, final
 
 import numpy as np
 import numpy.typing as npt
 
+from irfidelity.stats import KernelRequest
+
+__all__ = [
+    "MS_SSIM_WEIGHTS",
+    "NoiseSums",
+    "PairStats",
+    "SUPPORTED_DTYPES",
+    "default_max_bytes",
+    "default_max_pixels",
+    "file_digests",
+    "list_channels",
+    "load_frame",
+    "max_scales",
+    "merge_all",
+    "ms_ssim",
+    "noise_sums_array",
+    "noise_sums_paths",
+    "page_count",
+    "pair_stats",
+    "plain_moments",
+    "plain_mse",
+    "score_pairs",
+    "ssim_map",
+]
+
+#: numpy names of the frame dtypes the kernel accepts.
+SUPPORTED_DTYPES: tuple[str, ...]
+
+@final
 class PairStats:
     """Sufficient statistics of a frame pair (wrapped by `irfidelity.PairStats`)."""
 
@@ -31,32 +60,25 @@ class PairStats:
     def entropies(self) -> tuple[float, float, float] | None: ...
     def hist_spec(self) -> tuple[Any, ...] | None: ...
     def int_sums(self) -> dict[str, int] | None: ...
+    def joint_histogram(self, max_cells: int) -> tuple[npt.NDArray[np.int64], int, int] | None: ...
     def merge(self, other: PairStats) -> PairStats: ...
     def to_bytes(self) -> bytes: ...
     @staticmethod
     def from_bytes(data: bytes) -> PairStats: ...
 
-def plain_mse(real: object, sim: object, /) -> float | None:
-    """MSE of two non-empty 2-D C-contiguous arrays of one supported dtype and shape; None otherwise."""
+def plain_mse(real: object, sim: object) -> float | None:
+    """MSE of two non-empty, aligned, 2-D C-contiguous arrays of one supported dtype and
+    shape; None otherwise."""
 
-def plain_moments(real: object, sim: object, /) -> PairStats | None:
-    """PairStats with the moments only (SSIM) of two non-empty 2-D C-contiguous arrays of one
-    supported dtype and shape; None otherwise."""
+def plain_moments(real: object, sim: object) -> PairStats | None:
+    """PairStats with the moments only (SSIM) of two non-empty, aligned, 2-D C-contiguous
+    arrays of one supported dtype and shape; None otherwise."""
 
 def pair_stats(
     real: npt.NDArray[Any],
     sim: npt.NDArray[Any],
-    *,
-    sse: bool = True,
-    moments: bool = True,
-    bins: int | None = None,
-    levels: bool = False,
-    hist_range: tuple[float, float] | None = None,
+    request: KernelRequest,
     mask: npt.NDArray[np.bool_] | None = None,
-    valid: tuple[int, int] | None = None,
-    mask_nonfinite: bool = False,
-    shape: tuple[int, int] = (0, 0),
-    fortran: bool = False,
 ) -> PairStats: ...
 
 # ---- frame I/O (rust/binding/io.rs) ---------------------------------------------------------
@@ -66,10 +88,13 @@ def load_frame(
     channel: str | None = None,
     page: int = 0,
     max_pixels: int | None = None,
+    *,
+    max_bytes: int | None = None,
 ) -> npt.NDArray[Any]: ...
 def page_count(path: str | os.PathLike[str]) -> int: ...
 def list_channels(path: str | os.PathLike[str]) -> list[str]: ...
 def default_max_pixels() -> int: ...
+def default_max_bytes() -> int: ...
 
 # ---- sequences (rust/binding/sequence.rs) ---------------------------------------------------
 
@@ -79,20 +104,90 @@ def score_pairs(
     real_pages: list[int] | None = None,
     sim_pages: list[int] | None = None,
     *,
-    channel: str | None = None,
-    sse: bool = True,
-    moments: bool = True,
-    bins: int | None = None,
-    levels: bool = False,
-    hist_range: tuple[float, float] | None = None,
-    valid: tuple[int, int] | None = None,
-    mask_nonfinite: bool = False,
-    max_pixels: int | None = None,
+    request: KernelRequest,
     workers: int = 0,
     progress: Callable[[int], Any] | None = None,
     on_result: Callable[[list[Any]], Any] | None = None,
-) -> list[tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None]] | None: ...
+) -> list[tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None, tuple[float, float] | None]] | None: ...
 def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats | None, bool]: ...
+
+# ---- file fingerprints (rust/binding/fingerprint.rs) -------------------------------------
+
+def file_digests(paths: list[str | os.PathLike[str]]) -> list[int | None]: ...
+
+# ---- SSIM maps (rust/binding/maps.rs) -------------------------------------------------------
+
+MS_SSIM_WEIGHTS: list[float]
+
+def ssim_map(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    *,
+    peak: float,
+    sigma: float,
+    win_size: int,
+    k1: float,
+    k2: float,
+    valid: tuple[int, int] | None = None,
+) -> tuple[npt.NDArray[np.float64], float]: ...
+def ms_ssim(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    *,
+    peak: float,
+    sigma: float,
+    win_size: int,
+    k1: float,
+    k2: float,
+    valid: tuple[int, int] | None = None,
+    scales: int | None = None,
+) -> tuple[float, list[float], list[float], list[float]]: ...
+def max_scales(rows: int, cols: int, win_size: int) -> int: ...
+# ---- 3-D noise (rust/binding/noise.rs) ------------------------------------------------------
+
+@final
+class NoiseSums:
+    """Sufficient statistics of a recording for the 3-D noise decomposition (wrapped by
+    `irfidelity.noise.NoiseSums`)."""
+
+    @property
+    def frames(self) -> int: ...
+    @property
+    def rows(self) -> int: ...
+    @property
+    def cols(self) -> int: ...
+    @property
+    def dtype(self) -> str: ...
+    def decomposition(self) -> dict[str, Any]: ...
+    def exact_ss(self) -> dict[str, int] | None: ...
+    def pixel_mean(self) -> npt.NDArray[np.float64]: ...
+    def pixel_var(self) -> npt.NDArray[np.float64]: ...
+    def row_means(self) -> npt.NDArray[np.float64]: ...
+    def col_means(self) -> npt.NDArray[np.float64]: ...
+    def value_range(self) -> dict[str, float | int]: ...
+    def merge(self, other: NoiseSums) -> NoiseSums: ...
+    def to_bytes(self) -> bytes: ...
+    @staticmethod
+    def from_bytes(data: bytes) -> NoiseSums: ...
+
+def noise_sums_array(
+    cube: npt.NDArray[Any],
+    *,
+    limits: tuple[int, int] | None = None,
+    window: tuple[int, int, int, int] | None = None,
+    workers: int = 0,
+) -> NoiseSums: ...
+def noise_sums_paths(
+    paths: list[str | os.PathLike[str]],
+    pages: list[int],
+    *,
+    channel: str | None = None,
+    max_pixels: int | None = None,
+    max_bytes: int | None = None,
+    limits: tuple[int, int] | None = None,
+    window: tuple[int, int, int, int] | None = None,
+    workers: int = 0,
+) -> NoiseSums: ...
 
 # ---- registration (rust/binding/register.rs) ------------------------------------------------
 

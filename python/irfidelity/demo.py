@@ -88,7 +88,7 @@ def model_sitf(real: Curve, *, band_um=(8.0, 12.0)) -> Curve:
     L = _band_radiance(real.x, *band_um)
     b = (real.y[-1] - real.y[0]) / (L[-1] - L[0])
     a = real.y[0] - b * L[0]
-    return Curve(real.x, a + b * L, name="model SiTF", x_unit=real.x_unit)
+    return Curve(real.x, a + b * L, name="model SiTF", x_unit=real.x_unit, y_unit=real.y_unit)
 
 
 @contextlib.contextmanager
@@ -105,11 +105,9 @@ def load_demo_data() -> dict:
         frame = load_frame(p)
     with _resource(EDGE_FILE) as p:
         edge = load_frame(p)
-    with _resource(SITF_FILE) as p:
-        tab = np.loadtxt(p, delimiter=",", comments="#", skiprows=2)
-    rows = tab[tab[:, 0] == tab[0, 0]]  # one instrument temperature (17.1 °C)
-    sitf = Curve(rows[:, 2], rows[:, 3], name=f"Jade LWIR calibration (instrument {rows[0, 0]:g} °C)",
-                 x_unit="degC")
+    with _resource(SITF_FILE) as p:  # one instrument temperature of two: 17.1 °C
+        sitf = Curve.from_csv(p, columns=("blackbody_temp_C", "digital_level"), where={"instrument_temp_C": 17.1},
+                              name="Jade LWIR calibration (instrument 17.1 °C)")
     return {"frame": frame, "edge": edge, "sitf": sitf}
 
 

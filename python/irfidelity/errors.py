@@ -8,11 +8,20 @@ kinds here), so there is one hierarchy whatever layer failed.
 
 from __future__ import annotations
 
-__all__ = ["FidelityError", "FrameError", "ShapeError", "RangeError", "RegistrationError", "FidelityWarning"]
+__all__ = ["FidelityError", "FrameError", "ShapeError", "RangeError", "RegistrationError", "FidelityWarning",
+           "PeakWarning"]
 
 
 class FidelityError(ValueError):
-    """Base class of every irfidelity error."""
+    """Base class of every irfidelity error.
+
+    ``option`` names the option (configuration field or keyword argument) the message is
+    about, when there is one; the command line uses it to name its flag.
+    """
+
+    def __init__(self, *args: object, option: str | None = None):
+        super().__init__(*args)
+        self.option = option
 
 
 class FrameError(FidelityError, OSError):
@@ -39,4 +48,16 @@ class RegistrationError(FidelityError):
 class FidelityWarning(UserWarning):
     """Base class of irfidelity's warnings: a result that is computed but may mislead
     (a PSNR peak far above the scene's range, a low-contrast edge, a low registration
-    confidence, ...). Filter them all with ``warnings.simplefilter("error", FidelityWarning)``."""
+    confidence, ...). Filter them all with ``warnings.simplefilter("error", FidelityWarning)``.
+
+    ``option`` names the option that would change the outcome, when there is one.
+    """
+
+    def __init__(self, *args: object, option: str | None = None):
+        super().__init__(*args)
+        self.option = option
+
+
+class PeakWarning(FidelityWarning):
+    """The PSNR peak is so far above the real frame's range that the ``psnr`` component is
+    pinned near 1 for any simulated frame whose errors stay within the scene's range."""

@@ -15,6 +15,7 @@ from __future__ import annotations
 import glob as _glob
 import os
 import re
+import stat
 from collections.abc import Iterable, Iterator, Sequence
 from typing import Any, Union, overload
 
@@ -23,7 +24,7 @@ import numpy as np
 from . import _core
 from .errors import FrameError
 
-__all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "natural_key"]
+__all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "natural_key", "display_name"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -31,9 +32,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 FRAME_EXTENSIONS = (".exr", ".png", ".tif", ".tiff", ".npy")
 
 #: dtypes a frame may have (the dtypes the metrics accept).
-FRAME_DTYPES = tuple(
-    np.dtype(t) for t in ("uint8", "uint16", "int16", "uint32", "float16", "float32", "float64")
-)
+FRAME_DTYPES = tuple(np.dtype(t) for t in _core.SUPPORTED_DTYPES)
 
 _GLOB_CHARS = re.compile(r"[*?\[]")
 
@@ -47,24 +46,42 @@ def _is_npy(path: str) -> bool:
     return path.lower().endswith(".npy")
 
 
+_LARGEST = 2**63 - 1  # what the decoders count in
+
+
 def _check_page(path: str, page: Any) -> int:
-    if isinstance(page, bool) or not isinstance(page, (int, np.integer)) or page < 0:
-        raise FrameError(f"{path}: page must be a non-negative integer, got {page!r}")
+    if isinstance(page, bool) or not isinstance(page, (int, np.integer)) or not 0 <= page <= _LARGEST:
+        raise FrameError(f"{path}: page must be an integer in 0..2^63-1, got {page!r}", option="page")
     return int(page)
 
 
-def _check_max_pixels(path: str, max_pixels: Any) -> int | None:
-    if max_pixels is None:
+def default_max_bytes() -> int:
+    """The default decoding budget of one frame, in bytes (every allocation of a decode)."""
+    return int(_core.default_max_bytes())
+
+
+def _check_limit(path: str, name: str, value: Any) -> int | None:
+    """A decoding limit (``max_pixels``, ``max_bytes``): None or an integer in 1..2^63-1."""
+    if value is None:
         return None
-    if isinstance(max_pixels, bool) or not isinstance(max_pixels, (int, np.integer)) or max_pixels < 1:
-        raise FrameError(f"{path}: max_pixels must be a positive integer, got {max_pixels!r}")
-    return int(max_pixels)
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= _LARGEST:
+        raise FrameError(f"{path}: {name} must be an integer in 1..2^63-1, got {value!r}", option=name)
+    return int(value)
 
 
 def _load_npy(path: str, channel: str | None, page: int, max_pixels: int | None) -> np.ndarray:
     if channel is not None:
         raise FrameError(f"{path}: .npy files have no channels (got channel={channel!r})")
     limit = default_max_pixels() if max_pixels is None else max_pixels
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as e:
+        raise FrameError(f"{path}: cannot open: {e.strerror or e}") from None
+    if stat.S_ISDIR(mode):
+        raise FrameError(f"{path}: is a directory, not an image file")
+    if not stat.S_ISREG(mode):
+        # opening a FIFO for reading blocks until a writer appears
+        raise FrameError(f"{path}: not a regular file (a FIFO, socket or device); frames are read from regular files")
     try:
         # mmap reads the header only, so a lying shape is refused before allocating
         mapped = np.load(path, mmap_mode="r", allow_pickle=False)
@@ -109,6 +126,7 @@ def load_frame(
     channel: str | None = None,
     page: int = 0,
     max_pixels: int | None = None,
+    max_bytes: int | None = None,
 ) -> np.ndarray:
     """Load one frame as a 2-D numpy array in the file's own sample type.
 
@@ -128,6 +146,11 @@ def load_frame(
     max_pixels : int, optional
         Refuse files whose header claims more pixels (default 16384 * 16384). Checked
         before the pixel buffer is allocated.
+    max_bytes : int, optional
+        The decoding budget in bytes: everything the decode allocates (all channels of a
+        block, samples, decompression scratch, metadata), planned from the headers before
+        allocating (default :func:`default_max_bytes`, 640 MiB). A file that would need more
+        is a :class:`FrameError` naming the budget.
 
     Returns
     -------
@@ -139,7 +162,7 @@ def load_frame(
     ------
     FrameError
         The file is missing, unreadable, truncated, corrupt, unsupported (deep or
-        subsampled EXR, palette TIFF, ...) or larger than ``max_pixels``; the message
+        subsampled EXR, palette TIFF, ...) or larger than ``max_pixels`` / ``max_bytes``; the message
         names the path and the reason.
     """
     try:
@@ -149,12 +172,13 @@ def load_frame(
     if isinstance(spath, bytes):
         spath = os.fsdecode(spath)
     page = _check_page(spath, page)
-    max_pixels = _check_max_pixels(spath, max_pixels)
+    max_pixels = _check_limit(spath, "max_pixels", max_pixels)
+    max_bytes = _check_limit(spath, "max_bytes", max_bytes)
     if channel is not None and not isinstance(channel, str):
         raise FrameError(f"{spath}: channel must be a string, got {channel!r}")
     if _is_npy(spath):
         return _load_npy(spath, channel, page, max_pixels)
-    return _core.load_frame(spath, channel, page, max_pixels)
+    return _core.load_frame(spath, channel, page, max_pixels, max_bytes=max_bytes)
 
 
 def list_channels(path: PathLike) -> list[str]:
@@ -180,6 +204,15 @@ def page_count(path: PathLike) -> int:
             raise FrameError(f"{spath}: corrupt or invalid .npy file: {e}") from None
         return int(a.shape[0]) if getattr(a, "ndim", 0) == 3 else 1
     return int(_core.page_count(spath))
+
+
+def display_name(name: str) -> str:
+    """A file name as valid text: bytes that are not UTF-8 (kept by Python as surrogate
+    escapes) are shown as ``\\xNN``, so reports, CSV and JSON can always be written."""
+    try:
+        return name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # a lone surrogate that no file system byte produced
+        return name.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
 def natural_key(text: str) -> list[Any]:
@@ -209,8 +242,8 @@ class FrameSequence(Sequence[np.ndarray]):
         accessed.
     channel : str, optional
         Channel passed to :func:`load_frame` for every file.
-    max_pixels : int, optional
-        Pixel limit passed to :func:`load_frame`.
+    max_pixels, max_bytes : int, optional
+        Decoding limits passed to :func:`load_frame`.
 
     Notes
     -----
@@ -225,9 +258,11 @@ class FrameSequence(Sequence[np.ndarray]):
         *,
         channel: str | None = None,
         max_pixels: int | None = None,
+        max_bytes: int | None = None,
     ) -> None:
         self.channel = channel
         self.max_pixels = max_pixels
+        self.max_bytes = max_bytes
         self._array: np.ndarray | None = None
         # entries: (path, page, display name); for arrays: (None, index, name)
         self._entries: list[tuple[str | None, int, str]]
@@ -251,6 +286,7 @@ class FrameSequence(Sequence[np.ndarray]):
         new = cls.__new__(cls)
         new.channel = parent.channel
         new.max_pixels = parent.max_pixels
+        new.max_bytes = parent.max_bytes
         new._array = parent._array
         new._entries = entries
         return new
@@ -279,9 +315,12 @@ class FrameSequence(Sequence[np.ndarray]):
     def _expand(self, paths: list[str], *, label_dirs: bool) -> list[tuple[str | None, int, str]]:
         out: list[tuple[str | None, int, str]] = []
         for p in paths:
-            base = os.path.basename(p) or p
+            base = display_name(os.path.basename(p) or p)
             if _is_tiff(p):
-                n = page_count(p)
+                try:
+                    n = page_count(p)
+                except FrameError:
+                    n = 1  # unreadable: one frame, whose decode reports why
                 if n > 1:
                     out.extend((p, i, f"{base}[{i}]") for i in range(n))
                     continue
@@ -298,7 +337,8 @@ class FrameSequence(Sequence[np.ndarray]):
         if path is None:
             assert self._array is not None
             return np.asarray(self._array[page])
-        return load_frame(path, channel=self.channel, page=page, max_pixels=self.max_pixels)
+        return load_frame(path, channel=self.channel, page=page, max_pixels=self.max_pixels,
+                          max_bytes=self.max_bytes)
 
     @overload
     def __getitem__(self, index: int) -> np.ndarray: ...
@@ -317,6 +357,17 @@ class FrameSequence(Sequence[np.ndarray]):
             raise IndexError(f"frame index {i} out of range for a sequence of {n} frames")
         return self._load(self._entries[i])
 
+    def take(self, indices: Iterable[int]) -> FrameSequence:
+        """A new sequence of the frames at these positions (0-based; negative from the end)."""
+        n = len(self._entries)
+        picked = []
+        for i in indices:
+            i = int(i)
+            if i < -n or i >= n:
+                raise IndexError(f"frame index {i} out of range for a sequence of {n} frames")
+            picked.append(self._entries[i])
+        return FrameSequence._subset(self, picked)
+
     def __iter__(self) -> Iterator[np.ndarray]:
         for entry in self._entries:
             yield self._load(entry)
@@ -325,6 +376,16 @@ class FrameSequence(Sequence[np.ndarray]):
     def names(self) -> list[str]:
         """Display name of each frame: file name, ``"file.tif[3]"`` for TIFF pages, ``"[i]"`` for arrays."""
         return [e[2] for e in self._entries]
+
+    @property
+    def entries(self) -> list[tuple[str | None, int, str]]:
+        """``(path, page, display name)`` of each frame (path None for a 3-D array source)."""
+        return list(self._entries)
+
+    @property
+    def is_files(self) -> bool:
+        """True when the frames come from files (not a 3-D array)."""
+        return self._array is None
 
     @property
     def sources(self) -> list[tuple[str | None, int]]:

@@ -28,6 +28,7 @@ from .errors import FidelityError
 
 __all__ = [
     "COMPONENTS",
+    "PAPER_COMPONENTS",
     "ordered_components",
     "Weights",
     "AHPResult",
@@ -40,12 +41,15 @@ __all__ = [
     "compare",
 ]
 
-#: Component names in the paper's order f1..f5.
-COMPONENTS = ("mtf", "sitf", "psnr", "nmi", "ssim")
+#: The paper's components, in its order f1..f5.
+PAPER_COMPONENTS = ("mtf", "sitf", "psnr", "nmi", "ssim")
+
+#: Every component: the paper's five, then ``noise`` (opt-in, weight 0 by default).
+COMPONENTS = PAPER_COMPONENTS + ("noise",)
 
 
 def ordered_components(components: Mapping[str, float]) -> dict:
-    """The given components in the paper's order (mtf, sitf, psnr, nmi, ssim)."""
+    """The given components in the paper's order (mtf, sitf, psnr, nmi, ssim), then noise."""
     return {k: components[k] for k in COMPONENTS if k in components}
 
 _TOL = 1e-9
@@ -66,7 +70,7 @@ def _number(v: Any, name: str) -> float:
     return f
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Weights:
     """The weight set ``K`` of eq. (15): one non-negative weight per component.
 
@@ -75,7 +79,8 @@ class Weights:
     weights sum to 1 within 1e-9. A weight of 0 means the component is not computed at
     all by :func:`irfidelity.evaluate`.
 
-    The default (``Weights()``) is the paper's: 1/5 each.
+    The default (``Weights()``) is the paper's: 1/5 each of its five components, and 0 for the
+    opt-in sixth, ``noise`` (the camera's 3-D noise, :mod:`irfidelity.noise`).
 
     Examples
     --------
@@ -90,18 +95,26 @@ class Weights:
     psnr: float = 0.2
     nmi: float = 0.2
     ssim: float = 0.2
+    noise: float = 0.0
 
-    def __post_init__(self) -> None:
-        vals = {}
-        for f in fields(self):
-            vals[f.name] = _number(getattr(self, f.name), f.name)
-            object.__setattr__(self, f.name, vals[f.name])
-        total = math.fsum(vals.values())
+    def __init__(self, mtf: float = 0.2, sitf: float = 0.2, psnr: float = 0.2, nmi: float = 0.2,
+                 ssim: float = 0.2, noise: float = 0.0, **unknown: Any) -> None:
+        if unknown:
+            raise FidelityError(f"unknown weight name(s) {sorted(unknown)}; expected some of {list(COMPONENTS)}",
+                                option="weights")
+        vals = {name: _number(value, name) for name, value in zip(COMPONENTS, (mtf, sitf, psnr, nmi, ssim, noise))}
+        for name, value in vals.items():
+            object.__setattr__(self, name, value)
+        try:
+            total = math.fsum(vals.values())
+        except OverflowError:
+            total = math.inf
         if abs(total - 1.0) > _TOL:
             raise FidelityError(
                 f"weights must sum to 1 (within 1e-9), got {total!r} "
                 f"({', '.join(f'{k}={v:g}' for k, v in vals.items())}); "
-                f"use Weights.normalized(...) to scale raw importances")
+                f"scale raw importances with Weights.normalized, or 'normalize' in a weights string",
+                option="weights")
 
     # -- construction ---------------------------------------------------------------
     @classmethod
@@ -114,12 +127,14 @@ class Weights:
         if unknown:
             raise FidelityError(f"unknown weight name(s) {sorted(unknown)}; expected some of {list(COMPONENTS)}")
         vals = {k: _number(raw.get(k, 0.0), k) for k in COMPONENTS}
-        total = math.fsum(vals.values())
+        try:
+            total = math.fsum(vals.values())
+        except OverflowError:  # scale down first: the ratios are what matter
+            vals = {k: v / 2.0 ** 1000 for k, v in vals.items()}
+            total = math.fsum(vals.values())
         if total <= 0:
             raise FidelityError("weights must not all be 0: at least one component needs a positive weight")
-        out = {k: v / total for k, v in vals.items()}
-        # make the sum exactly representable as close to 1 as floats allow
-        return cls(**out)
+        return cls(**{k: v / total for k, v in vals.items()})
 
     @classmethod
     def balanced(cls) -> Weights:
@@ -202,7 +217,7 @@ class Weights:
                             f"got {type(w).__name__}")
 
     @classmethod
-    def from_ahp(cls, matrix: Any, *, names: Iterable[str] = COMPONENTS, on_inconsistent: str = "warn",
+    def from_ahp(cls, matrix: Any, *, names: Iterable[str] = PAPER_COMPONENTS, on_inconsistent: str = "warn",
                  threshold: float = 0.1) -> Weights:
         """Weights from an AHP pairwise-comparison matrix (see :func:`ahp`).
 
@@ -285,7 +300,7 @@ class AHPResult:
                 "lambda_max": self.lambda_max, "ci": self.ci, "cr": self.cr, "consistent": self.consistent}
 
 
-def ahp(matrix: Any, *, names: Iterable[str] = COMPONENTS, on_inconsistent: str = "warn",
+def ahp(matrix: Any, *, names: Iterable[str] = PAPER_COMPONENTS, on_inconsistent: str = "warn",
         threshold: float = 0.1, rtol: float = 0.02) -> AHPResult:
     """Analytic hierarchy process: weights from a pairwise-comparison matrix.
 
@@ -355,13 +370,23 @@ def ahp(matrix: Any, *, names: Iterable[str] = COMPONENTS, on_inconsistent: str 
 
 # --------------------------------------------------------------------------- grades
 #: Default grade boundaries per component (ascending: poor|fair, fair|good, good|excellent).
+#: psnr: the paper's dB scale, f3 = 0.6 / 0.8 / 0.9 at 17.2 / 23.4 / 30 dB (30 dB: the paper's
+#: "indistinguishable"). nmi, ssim: the values they take for the same degradation, white noise
+#: at those PSNRs relative to the scene's range, median over the real thermal frames of
+#: tests/data (benches/calibrate_grades.py). mtf, sitf, noise: judgement (a comparison of
+#: camera properties has no noise scale to calibrate against), docs/interpretation.md.
 DEFAULT_CUTS = {
     "mtf": (0.70, 0.85, 0.95),
     "sitf": (0.70, 0.85, 0.95),
-    "psnr": (0.60, 0.80, 0.90),   # normalised PSNR: ≈ 17.2 dB, 23.4 dB, 30 dB
-    "nmi": (0.15, 0.30, 0.50),
-    "ssim": (0.70, 0.85, 0.95),
+    "psnr": (0.60, 0.80, 0.90),
+    "nmi": (0.05, 0.07, 0.145),
+    "ssim": (0.20, 0.50, 0.82),
+    "noise": (0.70, 0.85, 0.95),
 }
+
+#: Half-width of the fuzzy transition around each boundary, per component (at most half the
+#: smallest gap between boundaries, so every value's memberships still sum to 1).
+DEFAULT_WIDTHS = {"mtf": 0.04, "sitf": 0.04, "psnr": 0.04, "nmi": 0.01, "ssim": 0.04, "noise": 0.04}
 
 
 def _ramp_up(x: float, c: float, w: float) -> float:
@@ -383,18 +408,28 @@ class Grading:
         ``R``: ``{component: {grade: membership}}`` (each row sums to 1).
     membership : dict
         ``B = K·R``: ``{grade: membership}`` (sums to 1).
+    component_grades : dict
+        ``{component: grade}``: each weighted component's own grade (the grade of maximum
+        membership in its row of ``R``; ties go to the worse grade).
     grade : str
-        The grade of maximum membership (ties go to the lower grade).
+        The overall grade (:meth:`GradeScale.evaluate` states the rule).
     """
 
     grades: tuple
     matrix: dict
     membership: dict
+    component_grades: dict
     grade: str
 
     def to_dict(self) -> dict:
         return {"grades": list(self.grades), "matrix": {k: dict(v) for k, v in self.matrix.items()},
-                "membership": dict(self.membership), "grade": self.grade}
+                "membership": dict(self.membership), "component_grades": dict(self.component_grades),
+                "grade": self.grade}
+
+
+def _max_membership(row: Mapping[str, float], grades: tuple) -> str:
+    """The grade of largest membership; ties go to the worse grade."""
+    return max(reversed(grades), key=lambda g: row[g])
 
 
 @dataclass(frozen=True)
@@ -410,34 +445,55 @@ class GradeScale:
 
     i.e. 1 well inside ``[c_j, c_{j+1}]``, falling linearly to 0 across ``c ± w`` — so
     the memberships of every value sum to 1 (a Ruspini partition) and ``B = K·R`` sums
-    to 1 as well. With ``width = 0`` the grading is crisp.
+    to 1 as well. With ``width = 0`` the grading is crisp; ``width`` is one number or one
+    per component (default :data:`DEFAULT_WIDTHS`).
 
     Default grades: ``("excellent", "good", "fair", "poor")``; default boundaries
-    (:data:`DEFAULT_CUTS`): MTF, SiTF and SSIM 0.70 / 0.85 / 0.95; normalised PSNR
-    0.60 / 0.80 / 0.90 (0.9 = 30 dB, the paper's "indistinguishable" anchor); NMI
-    0.15 / 0.30 / 0.50 (NMI of a real and simulated frame runs much lower than the
-    other components: the paper's example has 0.22 next to SSIM 0.93). These are
-    judgement calls, not from the paper: pass your own ``cuts`` for a mission.
+    (:data:`DEFAULT_CUTS`): normalised PSNR 0.60 / 0.80 / 0.90 (17.2 / 23.4 / 30 dB; 30 dB
+    is the paper's "indistinguishable" anchor); NMI 0.05 / 0.07 / 0.145 and SSIM
+    0.20 / 0.50 / 0.82, the values these take on real thermal frames for white noise at
+    those same PSNRs relative to the scene's range (so every image component grades one
+    degradation alike); MTF and SiTF 0.70 / 0.85 / 0.95 (judgement).
+    docs/interpretation.md has the derivation; pass your own ``cuts`` for a mission.
+
+    The overall grade (:meth:`evaluate`) is not the grade of maximum membership in ``B``
+    alone, which can call a pair "excellent" while a weighted component is poor. It is
+
+    1. the *weighted-average* grade of ``B``: with grades scored 0 (worst) .. m−1 (best),
+       the score ``Σ_g B_g·score(g)`` rounded to the nearest grade (halves to the worse);
+    2. capped one grade above the worst weighted component's own grade (a weakest-link
+       rule: one poor component keeps the whole at "fair" or below).
     """
 
     grades: tuple = ("excellent", "good", "fair", "poor")
     cuts: Mapping[str, tuple] = field(default_factory=lambda: dict(DEFAULT_CUTS))
-    width: float = 0.04
+    width: float | Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_WIDTHS))
 
     def __post_init__(self) -> None:
         g = tuple(self.grades)
         if len(g) < 2 or len(set(g)) != len(g) or not all(isinstance(x, str) and x for x in g):
             raise FidelityError(f"grades must be at least 2 distinct non-empty names, got {self.grades!r}")
         object.__setattr__(self, "grades", g)
-        w = float(self.width)
-        if not (math.isfinite(w) and w >= 0):
-            raise FidelityError(f"grade width must be finite and >= 0, got {self.width!r}")
-        object.__setattr__(self, "width", w)
+        widths = {}
+        for name in COMPONENTS:
+            try:
+                w = float(self.width.get(name, DEFAULT_WIDTHS[name]) if isinstance(self.width, Mapping)
+                          else self.width)
+            except (KeyError, TypeError, ValueError):
+                raise FidelityError(f"grade width must be a number or one per component, got {self.width!r}") from None
+            if not (math.isfinite(w) and w >= 0):
+                raise FidelityError(f"grade width must be finite and >= 0, got {self.width!r}")
+            widths[name] = w
+        object.__setattr__(self, "width", widths)
         cuts = {}
         for name in COMPONENTS:
-            if name not in self.cuts:
+            w = widths[name]
+            given = self.cuts.get(name)
+            if given is None and len(g) == len(DEFAULT_CUTS[name]) + 1:
+                given = DEFAULT_CUTS[name]  # e.g. scales written before the noise component existed
+            if given is None:
                 raise FidelityError(f"grade cuts missing for component {name!r}")
-            c = tuple(float(v) for v in self.cuts[name])
+            c = tuple(float(v) for v in given)
             if len(c) != len(g) - 1:
                 raise FidelityError(f"grade cuts for {name}: need {len(g) - 1} boundaries for grades {g}, got {len(c)}")
             if not all(0 < v < 1 for v in c) or any(b - a < 2 * w - 1e-12 for a, b in zip(c, c[1:])):
@@ -453,21 +509,27 @@ class GradeScale:
         """Row of ``R`` for one component value: ``{grade: membership}`` (sums to 1)."""
         c = self.cuts[component]
         x = float(value)
-        ups = [1.0] + [_ramp_up(x, ci, self.width) for ci in c] + [0.0]
+        ups = [1.0] + [_ramp_up(x, ci, self.width[component]) for ci in c] + [0.0]
         # ups[j] = membership in "grade j or better" counted from the worst; grade j (worst=0)
         worst_first = [ups[j] - ups[j + 1] for j in range(len(c) + 1)]
         return dict(zip(self.grades, reversed(worst_first)))
 
     def evaluate(self, weights: Weights, components: Mapping[str, float]) -> Grading:
-        """``R`` from the components, ``B = K·R`` and the grade of maximum membership."""
+        """``R`` from the components, ``B = K·R``, each component's grade and the overall
+        grade by the rule in the class notes."""
         w = Weights.coerce(weights)
         R = {k: self.memberships(k, components[k]) for k in COMPONENTS if k in components and w[k] > 0}
         if not R:
             raise FidelityError("no component with a positive weight to grade")
         B = {g: math.fsum(w[k] * R[k][g] for k in R) for g in self.grades}
-        # ties go to the lower (worse) grade: scan from worst to best, keep the first maximum
-        best = max(reversed(self.grades), key=lambda g: B[g])
-        return Grading(grades=self.grades, matrix=R, membership=B, grade=best)
+        own = {k: _max_membership(row, self.grades) for k, row in R.items()}
+        score = {g: len(self.grades) - 1 - i for i, g in enumerate(self.grades)}  # best = m−1
+        average = math.fsum(B[g] * score[g] for g in self.grades)
+        nearest = math.ceil(average - 0.5)  # halves go to the worse grade
+        cap = min(score[g] for g in own.values()) + 1
+        by_score = {v: g for g, v in score.items()}
+        return Grading(grades=self.grades, matrix=R, membership=B, component_grades=own,
+                       grade=by_score[min(nearest, cap, len(self.grades) - 1)])
 
 
 # --------------------------------------------------------------------------- compare

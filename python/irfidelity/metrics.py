@@ -1,7 +1,7 @@
 """Image-quality metrics from sufficient statistics (paper §2, eqs. 5 and 7–14).
 
 These functions take the numbers a :class:`~irfidelity.PairStats` holds (MSE, moments,
-entropies) and apply the paper's formulas with the limits of DESIGN §4, so that no
+entropies) and apply the paper's formulas with the limits of docs/design.md §4, so that no
 degenerate frame pair produces NaN. The array-level functions ``irf.psnr`` etc. live
 in :mod:`irfidelity.stats`, which computes the statistics first.
 """
@@ -77,7 +77,7 @@ def psnr_from_mse(mse: float, peak: float) -> float:
 
 def signed_power(x: float, p: float) -> float:
     """``x**p`` for the SSIM factors: ``sign(x)·|x|**p``, so a negative factor with a
-    fractional exponent stays real (DESIGN §4); ``0**0 = 1``."""
+    fractional exponent stays real (docs/design.md §4); ``0**0 = 1``."""
     if p == 1:
         return x
     if x == 0:
@@ -122,7 +122,7 @@ def ssim_from_moments(
     ``s = (σrs + C3)/(σr σs + C3)``; the paper uses no stabilising constants (all 0, the
     default; ``c3=None`` means ``C2/2`` as in Wang et al. 2004).
 
-    Limits (DESIGN §4): both means 0 → l = 1; both σ = 0 → c = s = 1; exactly one σ = 0 →
+    Limits (docs/design.md §4): both means 0 → l = 1; both σ = 0 → c = s = 1; exactly one σ = 0 →
     s = 0. Factors are clipped to [-1, 1] against rounding; exponents apply sign-preserving.
     """
     for name, p in (("alpha", alpha), ("beta", beta), ("gamma", gamma)):

@@ -1,4 +1,4 @@
-"""Frame-pair statistics (DESIGN §2): :func:`pair_stats` and :class:`PairStats`, the one
+"""Frame-pair statistics (docs/design.md §2): :func:`pair_stats` and :class:`PairStats`, the one
 value every image metric is computed from, plus the array-level metric functions
 :func:`mse`, :func:`psnr`, :func:`ssim` and :func:`nmi`.
 
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -17,13 +18,13 @@ from . import _core
 from .errors import FidelityError, ShapeError
 from .metrics import NMI, SSIM, nmi_from_entropies, psnr_from_mse, ssim_from_moments
 
-__all__ = ["PairStats", "pair_stats", "mse", "psnr", "ssim", "nmi", "plan_need", "peak_and_valid", "hist_params"]
+__all__ = ["PairStats", "pair_stats", "merge_all", "mse", "psnr", "ssim", "nmi", "plan_need", "peak_and_valid", "hist_params"]
 
-_SUPPORTED = ("uint8", "uint16", "int16", "uint32", "float16", "float32", "float64")
+_SUPPORTED = _core.SUPPORTED_DTYPES
 # dtype.name is slow (it formats a string); compare the type objects instead
 _SUPPORTED_TYPES = frozenset(np.dtype(n).type for n in _SUPPORTED)
 
-# What each metric needs from the pass (DESIGN §2, "plan only what is needed").
+# What each metric needs from the pass (docs/design.md §2, "plan only what is needed").
 _NEEDS = {
     "mse": {"sse"},
     "psnr": {"sse"},
@@ -49,6 +50,51 @@ def plan_need(need: Iterable[str] | None) -> set[str]:
     return out
 
 
+@dataclass(frozen=True, slots=True)
+class KernelRequest:
+    """What one pass of the Rust kernel computes, and how a sequence's frames are decoded.
+
+    The one list of the kernel's request fields: :func:`pair_stats` and the sequence
+    engine build it, ``irfidelity._core`` reads it attribute by attribute.
+
+    Attributes
+    ----------
+    sse, moments : bool
+        Compute the squared error (MSE, PSNR) and the moments (SSIM).
+    bins : int or None
+        Uniform histogram bins over ``hist_range`` (NMI); ``None``: no histogram.
+    levels : bool
+        One histogram bin per grey level (integer frames); overrides ``bins``.
+    hist_range : (float, float) or None
+        Explicit histogram edges; ``None``: the data's min..max over both frames.
+    valid : (int, int) or None
+        Integer frames: the allowed values ``[lo, hi]`` (from ``bits``); anything else is a
+        :class:`~irfidelity.errors.RangeError`.
+    mask_nonfinite : bool
+        Float frames: exclude NaN/Inf pairs instead of raising.
+    real_channel, sim_channel : str or None
+        Sequences: the channel to decode from each side's files (``None``: the only one, or
+        luminance).
+    real_extent : bool
+        Sequences: report each real frame's (min, max) over its finite values.
+    max_pixels, max_bytes : int or None
+        Sequences: the decode limits per frame (``None``: the defaults).
+    """
+
+    sse: bool = True
+    moments: bool = True
+    bins: int | None = None
+    levels: bool = False
+    hist_range: tuple[float, float] | None = None
+    valid: tuple[int, int] | None = None
+    mask_nonfinite: bool = False
+    real_channel: str | None = None
+    sim_channel: str | None = None
+    real_extent: bool = False
+    max_pixels: int | None = None
+    max_bytes: int | None = None
+
+
 class PairStats:
     """Sufficient statistics of a (real, simulated) frame pair.
 
@@ -69,14 +115,20 @@ class PairStats:
         dtype's range).
     bins : int, "levels" or None
         The histogram's binning, if one was computed.
+    level_origin : int or None
+        Integer frames: the grey level of the kernel's level key 0 (the dtype's minimum),
+        which places a ``"levels"`` histogram's edges; None when unknown.
     """
 
-    __slots__ = ("_raw", "peak", "bins")
+    __slots__ = ("_raw", "peak", "bins", "level_origin")
 
-    def __init__(self, raw: _core.PairStats, *, peak: float | None = None, bins: object = None):
+    def __init__(
+        self, raw: _core.PairStats, *, peak: float | None = None, bins: object = None, level_origin: int | None = None
+    ):
         self._raw = raw
         self.peak = peak
         self.bins = bins
+        self.level_origin = level_origin
 
     # -- counts -------------------------------------------------------------------
     @property
@@ -96,7 +148,8 @@ class PairStats:
             raise FidelityError("no pixel pairs were counted (everything masked or non-finite)")
 
     def _missing(self, what: str, metric: str) -> FidelityError:
-        return FidelityError(f"these statistics were computed without {what}; include {metric!r} in `need`")
+        return FidelityError(f"these statistics were computed without {what}; ask for {metric!r} in need",
+                             option="need")
 
     # -- metrics ------------------------------------------------------------------
     def mse(self) -> float:
@@ -111,7 +164,7 @@ class PairStats:
         """PSNR in dB (eq. 5), ``+inf`` when MSE == 0. ``peak`` overrides the stored peak."""
         peak = self.peak if peak is None else float(peak)
         if peak is None:
-            raise FidelityError("PSNR of float frames needs an explicit `peak` (the maximum possible value)")
+            raise FidelityError("PSNR of float frames needs a peak (the largest possible value)", option="peak")
         return psnr_from_mse(self.mse(), peak)
 
     def ssim(
@@ -124,7 +177,7 @@ class PairStats:
         c2: float = 0.0,
         c3: float | None = None,
     ) -> SSIM:
-        """Global SSIM ``l^α·c^β·s^γ`` (eqs. 11–14) with the limits of DESIGN §4."""
+        """Global SSIM ``l^α·c^β·s^γ`` (eqs. 11–14) with the limits of docs/design.md §4."""
         self._nonempty()
         moments = self._raw.moments()
         if moments is None:
@@ -145,6 +198,75 @@ class PairStats:
         if ent is None:
             raise self._missing("a histogram", "nmi")
         return nmi_from_entropies(*ent, bins=self.bins)
+
+    def int_sums(self) -> dict[str, int] | None:
+        """The exact integer sums of integer frames, as Python ints; ``None`` for float frames.
+
+        Keys: ``sum_real`` Σx, ``sum_sim`` Σy, ``sum_real_sq`` Σx², ``sum_sim_sq`` Σy²,
+        ``sum_cross`` Σxy and ``sse`` Σ(x − y)², over the ``n`` counted pixel pairs. Every
+        integer-frame metric is a function of these and ``n``, rounded once at the end, so
+        they are an exact reference (they do not depend on threads, layout or merging).
+        Sums the pass did not compute (see ``need``) are 0.
+
+        Examples
+        --------
+        >>> import numpy as np, irfidelity as irf
+        >>> r = np.array([[1, 2], [3, 4]], dtype=np.uint16)
+        >>> irf.pair_stats(r, r + 1).int_sums()["sse"]
+        4
+        """
+        return self._raw.int_sums()
+
+    def joint_histogram(self, *, max_cells: int = 1 << 24) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The joint grey-level histogram behind NMI: ``(counts, real_edges, sim_edges)``.
+
+        ``counts[i, j]`` (int64, ``counts.sum() == n``) counts the pixel pairs whose real value
+        lies in ``[real_edges[i], real_edges[i + 1])`` and simulated value in
+        ``[sim_edges[j], sim_edges[j + 1])``. The edges are those of :func:`pair_stats`'s
+        binning: ``bins=B`` gives ``B × B`` counts and the shared edges ``lo + i·width``
+        (integer frames: a bin is ``width`` whole grey levels; float frames: the last bin also
+        holds the top of the range; values outside an explicit ``hist_range`` are counted in
+        the edge bins). ``bins="levels"`` gives one row per real grey level and one column per
+        simulated level over the span each frame occupies, edges ``v, v + 1``.
+
+        A table of more than ``max_cells`` counts is a :class:`FidelityError` (use fewer bins).
+        The entropies of eqs. 7–8 are those of ``counts.sum(1)``, ``counts.sum(0)`` and ``counts``
+        (each divided by ``n``).
+
+        Examples
+        --------
+        >>> import numpy as np, irfidelity as irf
+        >>> real = np.array([[0, 1], [2, 3]], dtype=np.uint8)
+        >>> counts, real_edges, sim_edges = irf.pair_stats(real, 3 - real, bins="levels").joint_histogram()
+        >>> counts
+        array([[0, 0, 0, 1],
+               [0, 0, 1, 0],
+               [0, 1, 0, 0],
+               [1, 0, 0, 0]])
+        >>> real_edges
+        array([0., 1., 2., 3., 4.])
+
+        References
+        ----------
+        .. [1] Acta Photonica Sinica 41(5):547 (2012), doi:10.3788/gzxb20124105.0547, eqs. 7–10.
+        """
+        self._nonempty()
+        spec = self._raw.hist_spec()
+        if spec is None:
+            raise self._missing("a histogram", "nmi")
+        if isinstance(max_cells, bool) or not isinstance(max_cells, (int, np.integer)) or max_cells < 1:
+            raise FidelityError(f"max_cells must be a positive integer, got {max_cells!r}")
+        if spec[0] == "levels" and self.level_origin is None:
+            raise FidelityError("the grey level of these 'levels' statistics' first key is unknown (level_origin)")
+        counts, real_first, sim_first = self._raw.joint_histogram(int(max_cells))
+        if spec[0] == "levels":
+            real_edges = float(self.level_origin + real_first) + np.arange(counts.shape[0] + 1, dtype=np.float64)
+            sim_edges = float(self.level_origin + sim_first) + np.arange(counts.shape[1] + 1, dtype=np.float64)
+        else:
+            _, nbins, lo, width = spec
+            real_edges = lo + width * np.arange(nbins + 1, dtype=np.float64)
+            sim_edges = real_edges.copy()
+        return counts, real_edges, sim_edges
 
     def moments(self) -> dict:
         """Population means, variances and covariance."""
@@ -171,17 +293,33 @@ class PairStats:
             out.update(nmi=v.value, h_real=v.h_real, h_sim=v.h_sim, h_joint=v.h_joint, mi=v.mi)
         return out
 
+    def with_peak(self, peak: float | None) -> PairStats:
+        """The same statistics with another PSNR peak (nothing is recomputed)."""
+        return PairStats(self._raw, peak=None if peak is None else float(peak), bins=self.bins,
+                         level_origin=self.level_origin)
+
     # -- combining ----------------------------------------------------------------
+    def to_bytes(self) -> bytes:
+        """The statistics as bytes (peak and binning not included); see :meth:`from_bytes`."""
+        return self._raw.to_bytes()
+
+    @classmethod
+    def from_bytes(cls, data: bytes, *, peak: float | None = None, bins: object = None,
+                   level_origin: int | None = None) -> PairStats:
+        """Statistics from :meth:`to_bytes` (a FidelityError for damaged bytes)."""
+        return cls(_core.PairStats.from_bytes(data), peak=peak, bins=bins, level_origin=level_origin)
+
     def merge(self, other: PairStats) -> PairStats:
         """Statistics of the union of both pixel sets (exact for integer frames)."""
         if not isinstance(other, PairStats):
             raise TypeError(f"can only merge PairStats, not {type(other).__name__}")
         if self.peak != other.peak:
             raise FidelityError(f"cannot merge statistics with different peaks ({self.peak} vs {other.peak})")
-        return PairStats(self._raw.merge(other._raw), peak=self.peak, bins=self.bins)
+        origin = self.level_origin if self.level_origin == other.level_origin else None
+        return PairStats(self._raw.merge(other._raw), peak=self.peak, bins=self.bins, level_origin=origin)
 
     def __reduce__(self):
-        return (_restore, (self._raw.to_bytes(), self.peak, self.bins))
+        return (_restore, (self._raw.to_bytes(), self.peak, self.bins, self.level_origin))
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, PairStats):
@@ -197,8 +335,20 @@ class PairStats:
         return f"PairStats({', '.join(parts)})"
 
 
-def _restore(data: bytes, peak, bins) -> PairStats:
-    return PairStats(_core.PairStats.from_bytes(data), peak=peak, bins=bins)
+def merge_all(stats: list[PairStats], *, histograms: bool = True) -> PairStats | None:
+    """Statistics of the union of every pixel set in ``stats`` (None for an empty list), merged
+    in list order. Histograms are merged when ``histograms`` and every item has one on the same
+    edges, and left out otherwise."""
+    if not stats:
+        return None
+    merged, _ = _core.merge_all([item._raw for item in stats], keep_hist=histograms)
+    first = stats[0]
+    return PairStats(merged, peak=first.peak, bins=first.bins if merged.has_hist else None,
+                     level_origin=first.level_origin)
+
+
+def _restore(data: bytes, peak, bins, level_origin=None) -> PairStats:
+    return PairStats(_core.PairStats.from_bytes(data), peak=peak, bins=bins, level_origin=level_origin)
 
 
 def _as_frame(x, name: str) -> np.ndarray:
@@ -219,11 +369,11 @@ def _as_frame(x, name: str) -> np.ndarray:
 def peak_and_valid(dtype: np.dtype, bits, peak):
     """The PSNR peak and (for integer frames) the allowed value range."""
     if bits is not None and peak is not None:
-        raise FidelityError("give either `bits` or `peak`, not both")
+        raise FidelityError("bits and a peak both set the PSNR peak; give one of them", option="peak")
     is_int = dtype.kind in "ui"
     if bits is not None:
         if not is_int:
-            raise FidelityError("`bits` applies to integer frames; give `peak` for float frames")
+            raise FidelityError("a bit depth applies to integer frames; give a peak for float frames", option="bits")
         width = dtype.itemsize * 8
         if not (isinstance(bits, (int, np.integer)) and 1 <= bits <= width):
             raise FidelityError(f"bits must be an integer in 1..{width} for {dtype} frames, got {bits!r}")
@@ -241,42 +391,46 @@ def peak_and_valid(dtype: np.dtype, bits, peak):
     return None, None
 
 
-def hist_params(bins, hist_range, dtype: np.dtype, bits, peak, pk):
-    """``(nbins, levels, range)`` for the kernel from ``bins``/``hist_range`` (see :func:`pair_stats`).
+def full_range(dtype: np.dtype, bits: int | None, peak: float | None) -> tuple[float, float] | None:
+    """The edges of ``hist_range="full"``: ``0..2**bits - 1`` or ``0..peak``; a signed integer
+    dtype's whole range when neither is given; None for float frames without a peak."""
+    if bits is None and peak is None and dtype.kind == "i":
+        info = np.iinfo(dtype)
+        return float(info.min), float(info.max)
+    top, _ = peak_and_valid(dtype, bits, peak)
+    return None if top is None else (0.0, float(top))
 
-    ``pk`` is the resolved peak (:func:`peak_and_valid`); shared with the sequence engine so both
-    bin frames by the same rules.
-    """
-    is_int = dtype.kind in "ui"
+
+def hist_params(bins, hist_range, dtype: np.dtype, full: tuple[float, float] | None):
+    """``(nbins, levels, range)`` for the kernel from ``bins``/``hist_range`` (see :func:`pair_stats`);
+    ``full`` is :func:`full_range`. Shared with the sequence engine, so both bin frames alike."""
     levels = isinstance(bins, str) and bins == "levels"
     nbins = None
     if levels:
-        if not is_int:
-            raise FidelityError("bins='levels' needs integer frames; give an integer bin count for float frames")
+        if dtype.kind not in "ui":
+            raise FidelityError("the 'levels' binning needs integer frames; give a number of bins for float frames",
+                                option="bins")
     elif isinstance(bins, (int, np.integer)) and not isinstance(bins, bool) and 1 <= bins <= (1 << 20):
         nbins = int(bins)
     else:
-        raise FidelityError(f"bins must be an integer in 1..1048576 or 'levels', got {bins!r}")
+        raise FidelityError(f"bins must be an integer in 1..1048576 or 'levels', got {bins!r}", option="bins")
     rng = None
     if isinstance(hist_range, str) and hist_range == "full":
-        if pk is None:
-            raise FidelityError("hist_range='full' on float frames needs `peak`")
-        if dtype.kind == "i" and bits is None and peak is None:
-            info = np.iinfo(dtype)
-            rng = (float(info.min), float(info.max))
-        else:
-            rng = (0.0, float(pk))
+        if full is None:
+            raise FidelityError("the 'full' histogram range of float frames needs a peak", option="hist_range")
+        rng = full
     elif isinstance(hist_range, str):
         if hist_range != "data":
-            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}")
+            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}",
+                                option="hist_range")
     else:
         try:
             lo, hi = (float(v) for v in hist_range)
         except (TypeError, ValueError) as exc:
-            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}") from exc
+            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}",
+                                option="hist_range") from exc
         rng = (lo, hi)
     return nbins, levels, rng
-
 
 
 def pair_stats(
@@ -339,16 +493,8 @@ def pair_stats(
 
     nbins, levels, rng = None, False, None
     if "hist" in wanted:
-        nbins, levels, rng = hist_params(bins, hist_range, r.dtype, bits, peak, pk)
+        nbins, levels, rng = hist_params(bins, hist_range, r.dtype, full_range(r.dtype, bits, peak))
 
-    # Layout: the kernel reads both frames as one flat run in the same pixel order.
-    fortran = False
-    if r.flags.c_contiguous and s.flags.c_contiguous:
-        pass
-    elif r.flags.f_contiguous and s.flags.f_contiguous and r.ndim == 2:
-        fortran = True
-    else:
-        r, s = np.ascontiguousarray(r), np.ascontiguousarray(s)
     m = None
     if mask is not None:
         m = np.asarray(mask)
@@ -356,23 +502,24 @@ def pair_stats(
             raise ShapeError(f"mask: shape {m.shape} differs from the frames' {r.shape}")
         if m.dtype != np.bool_:
             raise ShapeError(f"mask: expected a bool array, got dtype {m.dtype}")
-        m = np.asfortranarray(m) if fortran else np.ascontiguousarray(m)
 
-    raw = _core.pair_stats(
-        r,
-        s,
+    # the kernel reads the frames in place when it can (any shared contiguous layout)
+    request = KernelRequest(
         sse="sse" in wanted,
         moments="moments" in wanted,
         bins=nbins,
-        levels=levels and "hist" in wanted,
+        levels=levels,
         hist_range=rng,
-        mask=m,
         valid=valid if is_int else None,
         mask_nonfinite=nonfinite == "mask",
-        shape=(int(r.shape[0]), int(r.shape[1])),
-        fortran=fortran,
     )
-    return PairStats(raw, peak=pk, bins=("levels" if levels else nbins) if "hist" in wanted else None)
+    raw = _core.pair_stats(r, s, request, m)
+    return PairStats(
+        raw,
+        peak=pk,
+        bins=("levels" if levels else nbins) if "hist" in wanted else None,
+        level_origin=int(np.iinfo(r.dtype).min) if is_int else None,
+    )
 
 
 # Default PSNR peak per integer dtype (see peak_and_valid), for the single-metric fast path.

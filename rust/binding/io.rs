@@ -1,5 +1,5 @@
 //! Python wrappers of the frame decoders (`crate::io`): `load_frame`, `page_count`,
-//! `list_channels`. Decoding runs with the GIL released; the decoded `Vec` is handed to
+//! `list_channels`, and the default limits. Decoding runs with the GIL released; the decoded `Vec` is handed to
 //! numpy without a copy.
 
 use std::path::PathBuf;
@@ -8,7 +8,7 @@ use numpy::ndarray::Array2;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 
-use super::IntoPy;
+use super::args;
 use crate::io::{self, DecodeOptions, Frame, FrameData};
 
 fn to_array<'py>(py: Python<'py>, f: Frame, name: &str) -> PyResult<Bound<'py, PyAny>> {
@@ -16,8 +16,7 @@ fn to_array<'py>(py: Python<'py>, f: Frame, name: &str) -> PyResult<Bound<'py, P
     macro_rules! arr {
         ($v:expr) => {
             Array2::from_shape_vec(shape, $v)
-                .map_err(|e| crate::Error::Frame(format!("{name}: decoder returned a bad shape: {e}")))
-                .py_err()?
+                .map_err(|e| crate::Error::Frame(format!("{name}: decoder returned a bad shape: {e}")))?
                 .into_pyarray(py)
                 .into_any()
         };
@@ -34,31 +33,38 @@ fn to_array<'py>(py: Python<'py>, f: Frame, name: &str) -> PyResult<Bound<'py, P
 }
 
 /// Decode one frame of an OpenEXR, PNG or TIFF file into a 2-D numpy array in the file's
-/// own sample type. Raises `irfidelity.errors.FrameError` naming the path and the reason.
+/// own sample type. `max_bytes` is the decoding budget (peak memory of the decode, default
+/// `default_max_bytes()`). Raises `irfidelity.errors.FrameError` naming the path and the reason.
 #[pyfunction]
-#[pyo3(signature = (path, channel=None, page=0, max_pixels=None))]
+#[pyo3(signature = (path, channel=None, page=0, max_pixels=None, *, max_bytes=None))]
 fn load_frame<'py>(
     py: Python<'py>,
     path: PathBuf,
     channel: Option<String>,
-    page: usize,
-    max_pixels: Option<u64>,
+    #[pyo3(from_py_with = args::page)] page: usize,
+    #[pyo3(from_py_with = args::max_pixels)] max_pixels: Option<u64>,
+    #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let opts = DecodeOptions { channel, page, max_pixels: max_pixels.unwrap_or(io::DEFAULT_MAX_PIXELS) };
-    let frame = py.detach(|| io::decode_frame(&path, &opts)).py_err()?;
+    let opts = DecodeOptions {
+        channel,
+        page,
+        max_pixels: max_pixels.unwrap_or(io::DEFAULT_MAX_PIXELS),
+        max_bytes: max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES),
+    };
+    let frame = py.detach(|| io::decode_frame(&path, &opts))?;
     to_array(py, frame, &path.display().to_string())
 }
 
 /// Number of pages of a (multi-page) TIFF; 1 for EXR and PNG.
 #[pyfunction]
 fn page_count(py: Python<'_>, path: PathBuf) -> PyResult<usize> {
-    py.detach(|| io::page_count(&path)).py_err()
+    Ok(py.detach(|| io::page_count(&path))?)
 }
 
 /// Selectable channel names of a frame file.
 #[pyfunction]
 fn list_channels(py: Python<'_>, path: PathBuf) -> PyResult<Vec<String>> {
-    py.detach(|| io::list_channels(&path)).py_err()
+    Ok(py.detach(|| io::list_channels(&path))?)
 }
 
 /// The default pixel limit (16384 x 16384).
@@ -67,10 +73,18 @@ fn default_max_pixels() -> u64 {
     io::DEFAULT_MAX_PIXELS
 }
 
+/// The default decoding budget in bytes (640 MiB: a 16384 x 16384 16-bit frame plus the
+/// decoder's working memory).
+#[pyfunction]
+fn default_max_bytes() -> u64 {
+    io::DEFAULT_MAX_BYTES
+}
+
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_frame, m)?)?;
     m.add_function(wrap_pyfunction!(page_count, m)?)?;
     m.add_function(wrap_pyfunction!(list_channels, m)?)?;
     m.add_function(wrap_pyfunction!(default_max_pixels, m)?)?;
+    m.add_function(wrap_pyfunction!(default_max_bytes, m)?)?;
     Ok(())
 }

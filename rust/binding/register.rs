@@ -7,13 +7,12 @@ use numpy::{IntoPyArray, PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUn
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 
-use super::IntoPy;
 use crate::register::{self, Affine, Interp, Method, Model, Options, Plane, Source};
 
 fn shape_of(a: &Bound<'_, PyUntypedArray>, what: &str) -> PyResult<(usize, usize)> {
     match a.shape() {
         &[rows, cols] => Ok((rows, cols)),
-        s => Err(crate::Error::Shape(format!("{what} frame must be 2-D, got shape {s:?}"))).py_err(),
+        s => Err(crate::Error::Shape(format!("{what} frame must be 2-D, got shape {s:?}"))).map_err(PyErr::from),
     }
 }
 
@@ -40,7 +39,7 @@ macro_rules! with_samples {
 /// The frame as a registration plane (float64 and its valid mask), converted without the GIL.
 fn plane_of(py: Python<'_>, arr: &Bound<'_, PyUntypedArray>, mask: Option<&[bool]>, what: &str) -> PyResult<Plane> {
     let (rows, cols) = shape_of(arr, what)?;
-    with_samples!(py, arr, what, |data| py.detach(|| Plane::from_samples(data, rows, cols, mask, what)).py_err())
+    with_samples!(py, arr, what, |data| py.detach(|| Plane::from_samples(data, rows, cols, mask, what)).map_err(PyErr::from))
 }
 
 fn matrix_of(m: [f64; 6]) -> Affine {
@@ -66,7 +65,7 @@ fn register_frames(
     max_shift: Option<f64>,
     mask: Option<PyReadonlyArrayDyn<'_, bool>>,
 ) -> PyResult<([f64; 6], &'static str, f64, f64, bool)> {
-    let opts = Options { model: Model::parse(model).py_err()?, method: Method::parse(method).py_err()?, max_shift };
+    let opts = Options { model: Model::parse(model).map_err(PyErr::from)?, method: Method::parse(method).map_err(PyErr::from)?, max_shift };
     let mask = mask
         .as_ref()
         .map(|m| m.as_slice())
@@ -74,7 +73,7 @@ fn register_frames(
         .map_err(|_| PyTypeError::new_err("internal: mask must be contiguous"))?;
     let real = plane_of(py, real, mask, "real")?;
     let sim = plane_of(py, sim, mask, "simulated")?;
-    let reg = py.detach(|| register::register_planes(&real, &sim, &opts)).py_err()?;
+    let reg = py.detach(|| register::register_planes(&real, &sim, &opts)).map_err(PyErr::from)?;
     Ok((flat(&reg.matrix), reg.method.name(), reg.confidence, reg.overlap, reg.inverted))
 }
 
@@ -94,11 +93,11 @@ fn warp_frame<'py>(
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<bool>>)> {
     let interp = Interp::from_order(order)
         .ok_or_else(|| crate::Error::Value(format!("order must be 1 (bilinear) or 3 (bicubic), got {order}")))
-        .py_err()?;
+        .map_err(PyErr::from)?;
     let to_source = matrix_of(matrix)
         .inverse()
         .ok_or_else(|| crate::Error::Value(format!("the matrix {matrix:?} is singular and cannot be applied")))
-        .py_err()?;
+        .map_err(PyErr::from)?;
     let (rows, cols) = shape_of(frame, "simulated")?;
     let mask = mask
         .as_ref()
@@ -106,7 +105,7 @@ fn warp_frame<'py>(
         .transpose()
         .map_err(|_| PyTypeError::new_err("internal: mask must be contiguous"))?;
     if mask.is_some_and(|m| m.len() != rows * cols) {
-        return Err(crate::Error::Shape("mask must have the simulated frame's shape".into())).py_err();
+        return Err(crate::Error::Shape("mask must have the simulated frame's shape".into())).map_err(PyErr::from);
     }
     let (values, valid) = warped(py, frame, (rows, cols), mask, &to_source, interp, shape)?;
     let values = Array2::from_shape_vec(shape, values).expect("warp returns rows × cols values");

@@ -1,51 +1,32 @@
 //! Python wrappers of the sequence engine (`crate::sequence`): `score_pairs` and
 //! `merge_all`.
 //!
-//! `score_pairs` runs the engine on a background thread with the GIL released; the
-//! calling thread waits for outcomes (a few at a time, at most 100 ms) and takes the GIL
-//! only to hand them to Python, report progress and check for signals (Ctrl-C cancels the pairs
-//! not yet started, waits for those in flight, then raises `KeyboardInterrupt`).
+//! `score_pairs` starts the engine ([`sequence::stream_pairs`], which owns the bounded queue
+//! and the worker threads) and polls it: the calling thread waits for outcomes with the GIL
+//! released (about one round of the workers, at most 100 ms) and takes the GIL only to hand
+//! them to Python, report progress and check for signals (Ctrl-C cancels the pairs not yet
+//! started, waits for those in flight, then raises `KeyboardInterrupt`).
 
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
-use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::Duration;
 
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
 
+use super::args::{self, KernelRequest};
 use super::stats::PyPairStats;
-use super::IntoPy;
-use crate::sequence::{self, PairOutcome, Progress, SeqRequest, Source};
-use crate::stats::HistRequest;
+use crate::sequence::{self, Batch, PairOutcome, PairStream, Source};
+use crate::Error;
 
 const POLL: Duration = Duration::from_millis(100);
 
-fn sources(paths: Vec<PathBuf>, pages: Option<Vec<usize>>, which: &str) -> PyResult<Vec<Source>> {
+fn sources(paths: Vec<PathBuf>, pages: Option<Vec<usize>>, which: &str) -> crate::Result<Vec<Source>> {
     let pages = pages.unwrap_or_else(|| vec![0; paths.len()]);
     if pages.len() != paths.len() {
-        return Err(PyValueError::new_err(format!("{which}: {} paths but {} pages", paths.len(), pages.len())));
+        return Err(Error::Value(format!("{which}: {} paths but {} pages", paths.len(), pages.len())));
     }
     Ok(paths.into_iter().zip(pages).map(|(p, g)| Source::new(p, g)).collect())
-}
-
-/// Outcomes waiting for the calling thread, and whether the engine has finished.
-struct Queue {
-    items: Vec<PairOutcome>,
-    finished: bool,
-}
-
-struct Shared {
-    queue: Mutex<Queue>,
-    /// Signalled when an outcome arrives or the engine finishes (the poller waits on it).
-    ready: Condvar,
-    /// Signalled when the poller drained the queue (workers wait on it when it is full).
-    space: Condvar,
-}
-
-fn lock(m: &Mutex<Queue>) -> MutexGuard<'_, Queue> {
-    m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
 fn outcome_tuple<'py>(py: Python<'py>, o: PairOutcome) -> PyResult<Bound<'py, PyTuple>> {
@@ -53,16 +34,84 @@ fn outcome_tuple<'py>(py: Python<'py>, o: PairOutcome) -> PyResult<Bound<'py, Py
         Ok(s) => (Some(Py::new(py, PyPairStats::with_entropies(s, o.entropies))?), None),
         Err(e) => (None, Some(e.to_string())),
     };
-    (o.index, stats, err, o.shape, o.dtype).into_pyobject(py)
+    (o.index, stats, err, o.shape, o.dtype, o.real_extent).into_pyobject(py)
 }
 
-/// `score_pairs(real_paths, sim_paths, real_pages=None, sim_pages=None, *, channel=None,
-/// sse=True, moments=True, bins=None, levels=False, hist_range=None, valid=None,
-/// mask_nonfinite=False, max_pixels=None, workers=0, progress=None, on_result=None)`
+/// Where outcomes go: a Python callback (streaming), or slots in index order (collecting).
+enum Delivery<'py> {
+    Stream(Bound<'py, PyAny>),
+    Collect(Vec<Option<PairOutcome>>),
+}
+
+impl<'py> Delivery<'py> {
+    fn deliver(&mut self, py: Python<'py>, outcomes: Vec<PairOutcome>) -> PyResult<()> {
+        match self {
+            Delivery::Stream(on_result) => {
+                let items = PyList::empty(py);
+                for o in outcomes {
+                    items.append(outcome_tuple(py, o)?)?;
+                }
+                on_result.call1((items,))?;
+            }
+            Delivery::Collect(slots) => {
+                for o in outcomes {
+                    let i = o.index;
+                    slots[i] = Some(o);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The collected outcomes as a list in index order (`None` when streaming).
+    fn into_list(self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyList>>> {
+        let Delivery::Collect(slots) = self else { return Ok(None) };
+        let list = PyList::empty(py);
+        for (i, o) in slots.into_iter().enumerate() {
+            let o = o.ok_or_else(|| Error::Value(format!("internal error: frame pair {i} was not scored")))?;
+            list.append(outcome_tuple(py, o)?)?;
+        }
+        Ok(Some(list))
+    }
+}
+
+/// Hand every outcome of `stream` to `delivery` and the finished count to `progress`,
+/// until the engine finishes or Python raises (a signal, or an exception in a callback).
+fn poll<'py>(
+    py: Python<'py>,
+    stream: &mut PairStream,
+    delivery: &mut Delivery<'py>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<()> {
+    // Wake about once per round of the workers, not per outcome: each wake takes the GIL
+    // and runs Python on a core the workers need (below the queue's capacity: no stall).
+    let wake_at = stream.workers();
+    let mut reported = usize::MAX;
+    loop {
+        let Batch { outcomes, finished } = py.detach(|| stream.next_batch(wake_at, POLL));
+        py.check_signals()?;
+        if !outcomes.is_empty() {
+            delivery.deliver(py, outcomes)?;
+        }
+        let done = stream.progress().done.load(Ordering::Acquire);
+        if done != reported {
+            if let Some(cb) = progress {
+                cb.call1((done,))?;
+            }
+            reported = done;
+        }
+        if finished {
+            return Ok(());
+        }
+    }
+}
+
+/// `score_pairs(real_paths, sim_paths, real_pages=None, sim_pages=None, *, request,
+/// workers=0, progress=None, on_result=None)`
 ///
 /// Decode and score every pair `(real_paths[i] page real_pages[i], sim_paths[i] page
-/// sim_pages[i])` on `workers` threads (0 = all cores) with the GIL released. Each
-/// outcome is a tuple
+/// sim_pages[i])` on `workers` threads (0 = all cores) with the GIL released, as
+/// `request` (an `irfidelity.stats.KernelRequest`) says. Each outcome is a tuple
 /// `(index, PairStats | None, error_message | None, (rows, cols) | None, dtype_name | None)`;
 /// a frame that cannot be read or scored gives an error message for its index only.
 ///
@@ -76,166 +125,37 @@ fn outcome_tuple<'py>(py: Python<'py>, o: PairOutcome) -> PyResult<Bound<'py, Py
 /// pairs changed (at most every 100 ms, and at the end). Ctrl-C (or an exception in a
 /// callback) stops new pairs from starting, waits for the ones in flight and raises.
 #[pyfunction]
-#[pyo3(signature = (real_paths, sim_paths, real_pages=None, sim_pages=None, *, channel=None, sse=true,
-                    moments=true, bins=None, levels=false, hist_range=None, valid=None,
-                    mask_nonfinite=false, max_pixels=None, workers=0, progress=None, on_result=None))]
+#[pyo3(signature = (real_paths, sim_paths, real_pages=None, sim_pages=None, *, request, workers=0,
+                    progress=None, on_result=None))]
 #[allow(clippy::too_many_arguments)]
 fn score_pairs<'py>(
     py: Python<'py>,
     real_paths: Vec<PathBuf>,
     sim_paths: Vec<PathBuf>,
-    real_pages: Option<Vec<usize>>,
-    sim_pages: Option<Vec<usize>>,
-    channel: Option<String>,
-    sse: bool,
-    moments: bool,
-    bins: Option<usize>,
-    levels: bool,
-    hist_range: Option<(f64, f64)>,
-    valid: Option<(i64, i64)>,
-    mask_nonfinite: bool,
-    max_pixels: Option<u64>,
-    workers: usize,
+    #[pyo3(from_py_with = args::real_pages)] real_pages: Option<Vec<usize>>,
+    #[pyo3(from_py_with = args::sim_pages)] sim_pages: Option<Vec<usize>>,
+    #[pyo3(from_py_with = args::request)] request: KernelRequest,
+    #[pyo3(from_py_with = args::workers)] workers: usize,
     progress: Option<Bound<'py, PyAny>>,
     on_result: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Option<Bound<'py, PyList>>> {
     let real = sources(real_paths, real_pages, "real")?;
     let sim = sources(sim_paths, sim_pages, "sim")?;
-    if real.len() != sim.len() {
-        return Err(super::to_pyerr(crate::Error::Value(format!(
-            "the real sequence has {} frames and the simulated sequence {}; they must have the same number",
-            real.len(),
-            sim.len()
-        ))));
-    }
-    let hist =
-        if levels { Some(HistRequest::Levels) } else { bins.map(|b| HistRequest::Bins { bins: b, range: hist_range }) };
-    let req = SeqRequest {
-        sse,
-        moments,
-        hist,
-        valid,
-        mask_nonfinite,
-        channel,
-        max_pixels: max_pixels.unwrap_or(crate::io::DEFAULT_MAX_PIXELS),
-    };
     let n = real.len();
-    let workers_n = sequence::effective_workers(workers).max(1);
-    let cap = 4 * workers_n;
-    // Wake the caller about once per round of the workers, not per outcome: each wake takes
-    // the GIL and runs Python on a core the workers need (below `cap`: never a stall).
-    let wake_at = workers_n;
-    let state = Progress::default();
-    let shared = Shared {
-        queue: Mutex::new(Queue { items: Vec::new(), finished: false }),
-        ready: Condvar::new(),
-        space: Condvar::new(),
+    let mut stream = sequence::stream_pairs(real, sim, request.sequence_request(), workers)?;
+    let mut delivery = match on_result {
+        Some(cb) => Delivery::Stream(cb),
+        None => Delivery::Collect((0..n).map(|_| None).collect()),
     };
-    let mut pending_err: Option<PyErr> = None;
-    let mut collected: Vec<Option<PairOutcome>> = Vec::new();
-    if on_result.is_none() {
-        collected.resize_with(n, || None);
+    let polled = poll(py, &mut stream, &mut delivery, progress.as_ref());
+    if polled.is_err() {
+        stream.cancel();
     }
-    let engine_result = std::thread::scope(|scope| {
-        let handle = scope.spawn(|| {
-            // Mark the queue finished even if the engine panics, so the poller always ends.
-            struct Finish<'a>(&'a Shared);
-            impl Drop for Finish<'_> {
-                fn drop(&mut self) {
-                    let mut q = lock(&self.0.queue);
-                    q.finished = true;
-                    self.0.ready.notify_all();
-                }
-            }
-            let _finish = Finish(&shared);
-            let sink = |o: PairOutcome| {
-                let mut q = lock(&shared.queue);
-                q.items.push(o);
-                if q.items.len() >= wake_at {
-                    shared.ready.notify_all();
-                }
-                // back-pressure: wait while the caller is behind (unless cancelled)
-                while q.items.len() >= cap && !state.cancel.load(Ordering::Relaxed) {
-                    q = shared.space.wait_timeout(q, POLL).unwrap_or_else(|p| p.into_inner()).0;
-                }
-            };
-            sequence::score_pairs_with(&real, &sim, &req, workers, &state, &sink)
-        });
-        let mut reported = usize::MAX;
-        loop {
-            let (batch, finished) = py.detach(|| {
-                let q = lock(&shared.queue);
-                let mut q = shared
-                    .ready
-                    .wait_timeout_while(q, POLL, |q| q.items.is_empty() && !q.finished)
-                    .unwrap_or_else(|p| p.into_inner())
-                    .0;
-                let batch = std::mem::take(&mut q.items);
-                shared.space.notify_all();
-                (batch, q.finished)
-            });
-            if pending_err.is_none() {
-                if let Err(e) = py.check_signals() {
-                    state.cancel.store(true, Ordering::SeqCst);
-                    pending_err = Some(e);
-                }
-            }
-            if !batch.is_empty() && pending_err.is_none() {
-                match &on_result {
-                    Some(cb) => {
-                        let delivered = (|| -> PyResult<()> {
-                            let items = PyList::empty(py);
-                            for o in batch {
-                                items.append(outcome_tuple(py, o)?)?;
-                            }
-                            cb.call1((items,))?;
-                            Ok(())
-                        })();
-                        if let Err(e) = delivered {
-                            state.cancel.store(true, Ordering::SeqCst);
-                            pending_err = Some(e);
-                        }
-                    }
-                    None => {
-                        for o in batch {
-                            let i = o.index;
-                            collected[i] = Some(o);
-                        }
-                    }
-                }
-            }
-            let done = state.done.load(Ordering::Acquire);
-            if pending_err.is_none() && done != reported {
-                if let Some(cb) = &progress {
-                    if let Err(e) = cb.call1((done,)) {
-                        state.cancel.store(true, Ordering::SeqCst);
-                        pending_err = Some(e);
-                    }
-                }
-                reported = done;
-            }
-            if finished {
-                break;
-            }
-        }
-        match handle.join() {
-            Ok(r) => r.map_err(super::to_pyerr),
-            Err(_) => Err(PyValueError::new_err("internal error: the sequence engine panicked")),
-        }
-    });
-    if let Some(e) = pending_err {
-        return Err(e);
-    }
-    engine_result?;
-    if on_result.is_some() {
-        return Ok(None);
-    }
-    let list = PyList::empty(py);
-    for (i, o) in collected.into_iter().enumerate() {
-        let o = o.ok_or_else(|| PyValueError::new_err(format!("internal error: frame pair {i} was not scored")))?;
-        list.append(outcome_tuple(py, o)?)?;
-    }
-    Ok(Some(list))
+    // waits for the pairs in flight (none are left when polling ended normally)
+    let finished = py.detach(|| stream.finish());
+    polled?;
+    finished?;
+    delivery.into_list(py)
 }
 
 /// `merge_all(stats, keep_hist=True) -> (PairStats | None, hist_merged)`: merge a list of
@@ -249,27 +169,25 @@ fn merge_all(
     keep_hist: bool,
 ) -> PyResult<(Option<PyPairStats>, bool)> {
     let inner: Vec<&crate::stats::PairStats> = stats.iter().map(|p| &p.inner).collect();
-    let merged = py
-        .detach(|| {
-            if keep_hist {
-                sequence::merge_all(inner.iter().copied())
-            } else {
-                let bare: Vec<crate::stats::PairStats> = inner
-                    .iter()
-                    .map(|p| crate::stats::PairStats {
-                        n: p.n,
-                        masked: p.masked,
-                        nonfinite: p.nonfinite,
-                        has_sse: p.has_sse,
-                        has_moments: p.has_moments,
-                        sums: p.sums,
-                        hist: None,
-                    })
-                    .collect();
-                sequence::merge_all(bare.iter())
-            }
-        })
-        .py_err()?;
+    let merged = py.detach(|| {
+        if keep_hist {
+            sequence::merge_all(inner.iter().copied())
+        } else {
+            let bare: Vec<crate::stats::PairStats> = inner
+                .iter()
+                .map(|p| crate::stats::PairStats {
+                    n: p.n,
+                    masked: p.masked,
+                    nonfinite: p.nonfinite,
+                    has_sse: p.has_sse,
+                    has_moments: p.has_moments,
+                    sums: p.sums,
+                    hist: None,
+                })
+                .collect();
+            sequence::merge_all(bare.iter())
+        }
+    })?;
     Ok(match merged {
         None => (None, false),
         Some((p, keep)) => (Some(PyPairStats::new(p)), keep),

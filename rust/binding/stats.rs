@@ -1,17 +1,21 @@
-//! Python wrappers of the statistics kernel: `pair_stats` and the `PairStats` class.
-//! Arrays arrive contiguous (the Python layer decides the layout); the pass runs with
-//! the GIL released.
+//! Python wrappers of the statistics kernel: `pair_stats` and the `PairStats` class. The
+//! frames are read in place when aligned and contiguous in a shared memory order (copied
+//! otherwise); the pass runs with the GIL released.
 
-use numpy::{PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
-use pyo3::exceptions::PyTypeError;
-use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict};
-
-use super::IntoPy;
 use std::sync::OnceLock;
 
-use crate::hist::{Entropies, HistSpec};
-use crate::stats::{self, HistRequest, Request, Sums};
+use numpy::{
+    PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods,
+};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict, PyTuple};
+
+use super::args::{self, KernelRequest};
+use crate::hist::{Entropies, HistSpec, JointTable};
+use crate::stats::{self, Request, Sample, Sums};
+
+/// A joint histogram for Python: the int64 table and the keys of its first row and column.
+type JointCounts<'py> = (Bound<'py, numpy::PyArray2<i64>>, u64, u64);
 
 /// Sufficient statistics of a frame pair (see `irfidelity.PairStats` for the public face).
 #[pyclass(module = "irfidelity._core", name = "PairStats", frozen)]
@@ -100,6 +104,17 @@ impl PyPairStats {
             }
         })
     }
+    /// `(counts, real_first, sim_first)`: the joint histogram as a dense int64 table (see
+    /// `crate::hist::JointTable`), or None without a histogram.
+    fn joint_histogram<'py>(&self, py: Python<'py>, max_cells: usize) -> PyResult<Option<JointCounts<'py>>> {
+        let Some((spec, joint)) = &self.inner.hist else { return Ok(None) };
+        let table = py.detach(|| JointTable::of(spec, joint, max_cells))?;
+        // counts of pixels: far below 2^63
+        let counts: Vec<i64> = table.counts.into_iter().map(|c| c as i64).collect();
+        let counts = numpy::ndarray::Array2::from_shape_vec((table.rows, table.cols), counts)
+            .map_err(|e| crate::Error::Value(format!("internal: joint histogram shape: {e}")))?;
+        Ok(Some((numpy::PyArray2::from_owned_array(py, counts), table.real_first, table.sim_first)))
+    }
     /// Exact integer sums as Python ints (integer frames), for exact references.
     fn int_sums<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         let Sums::Int(s) = &self.inner.sums else {
@@ -116,7 +131,7 @@ impl PyPairStats {
     }
     fn merge(&self, py: Python<'_>, other: &PyPairStats) -> PyResult<PyPairStats> {
         let (a, b) = (&self.inner, &other.inner);
-        let merged = py.detach(|| a.merge(b)).py_err()?;
+        let merged = py.detach(|| a.merge(b))?;
         Ok(PyPairStats::new(merged))
     }
     fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
@@ -124,72 +139,171 @@ impl PyPairStats {
     }
     #[staticmethod]
     fn from_bytes(data: &[u8]) -> PyResult<PyPairStats> {
-        Ok(PyPairStats::new(stats::PairStats::from_bytes(data).py_err()?))
+        Ok(PyPairStats::new(stats::PairStats::from_bytes(data)?))
     }
 }
 
-/// Run the kernel on arrays of one element type.
-/// (The dtype is compared first: a failed `extract` builds a Python exception, and trying
-/// every type in turn cost microseconds per call on small frames.)
-macro_rules! dispatch {
-    ($py:expr, $real:expr, $sim:expr, $req:expr, $($t:ty),*) => {{
-        let dt = $real.dtype();
-        $(
-            if dt.is_equiv_to(&numpy::dtype::<$t>($py)) {
-                if let (Ok(r), Ok(s)) = ($real.extract::<PyReadonlyArrayDyn<$t>>(), $sim.extract::<PyReadonlyArrayDyn<$t>>()) {
-                    let (rs, ss) = (slice(&r)?, slice(&s)?);
-                    let req = $req;
-                    return $py.detach(|| stats::pair_stats(rs, ss, &req)).py_err().map(PyPairStats::new);
+/// Defines, from one list of (Rust sample type, numpy dtype name), `SUPPORTED_DTYPES` and
+/// `frame_stats`, the kernel on two arrays of one of those types.
+macro_rules! frame_types {
+    ($($t:ty => $name:literal),* $(,)?) => {
+        /// The frame dtypes the kernel accepts (exposed as `_core.SUPPORTED_DTYPES`).
+        const SUPPORTED_DTYPES: &[&str] = &[$($name),*];
+
+        /// The kernel on `real` and `sim` (same dtype, aligned, contiguous in `req`'s order),
+        /// or `None` when `real`'s dtype is not supported. The dtype is compared first: a
+        /// failed `extract` builds a Python exception, which costs microseconds on small frames.
+        fn frame_stats(
+            py: Python<'_>,
+            real: &Bound<'_, PyUntypedArray>,
+            sim: &Bound<'_, PyUntypedArray>,
+            req: &Request<'_>,
+        ) -> Option<crate::Result<stats::PairStats>> {
+            let dtype = real.dtype();
+            $(
+                if dtype.is_equiv_to(&numpy::dtype::<$t>(py)) {
+                    return Some(typed_stats::<$t>(py, real, sim, req));
                 }
-            }
-        )*
-    }};
+            )*
+            None
+        }
+    };
 }
 
-fn slice<'a, T: numpy::Element>(a: &'a PyReadonlyArrayDyn<'_, T>) -> PyResult<&'a [T]> {
-    a.as_slice().map_err(|_| PyTypeError::new_err("internal: frames must be contiguous (the Python layer copies them)"))
+frame_types!(
+    u8 => "uint8",
+    u16 => "uint16",
+    i16 => "int16",
+    u32 => "uint32",
+    half::f16 => "float16",
+    f32 => "float32",
+    f64 => "float64",
+);
+
+fn typed_stats<T: numpy::Element + Sample>(
+    py: Python<'_>,
+    real: &Bound<'_, PyUntypedArray>,
+    sim: &Bound<'_, PyUntypedArray>,
+    req: &Request<'_>,
+) -> crate::Result<stats::PairStats> {
+    let (Ok(r), Ok(s)) = (real.cast::<PyArrayDyn<T>>(), sim.cast::<PyArrayDyn<T>>()) else {
+        return Err(dtype_mismatch(real, sim));
+    };
+    let (r, s) = (readonly(r)?, readonly(s)?);
+    let (rs, ss) = (slice(&r)?, slice(&s)?);
+    py.detach(|| stats::pair_stats(rs, ss, req))
 }
 
-/// `pair_stats(real, sim, *, sse, moments, bins, levels, hist_range, mask, valid,
-/// mask_nonfinite, shape, fortran)`: see `irfidelity.stats.pair_stats`.
+fn dtype_mismatch(real: &Bound<'_, PyUntypedArray>, sim: &Bound<'_, PyUntypedArray>) -> crate::Error {
+    crate::Error::Shape(format!(
+        "real and sim frames differ in dtype: {} vs {}; expected two frames of the same dtype among {}",
+        real.dtype(),
+        sim.dtype(),
+        SUPPORTED_DTYPES.join(", ")
+    ))
+}
+
+fn readonly<'py, T: numpy::Element>(a: &Bound<'py, PyArrayDyn<T>>) -> crate::Result<PyReadonlyArrayDyn<'py, T>> {
+    a.try_readonly().map_err(|e| crate::Error::Value(format!("a frame is being written elsewhere: {e}")))
+}
+
+fn slice<'a, T: numpy::Element>(a: &'a PyReadonlyArrayDyn<'_, T>) -> crate::Result<&'a [T]> {
+    a.as_slice().map_err(|e| crate::Error::Value(format!("internal: frame not laid out for the kernel: {e}")))
+}
+
+/// `arr` itself when it is aligned and contiguous in the wanted order, else an aligned copy
+/// in that order (an `np.memmap` or `np.frombuffer` at an odd offset is contiguous but not
+/// aligned; the kernel reads aligned slices).
+fn laid_out<'py>(arr: &Bound<'py, PyUntypedArray>, fortran: bool) -> PyResult<Bound<'py, PyUntypedArray>> {
+    let in_order = if fortran { arr.is_fortran_contiguous() } else { arr.is_c_contiguous() };
+    if in_order && arr.is_aligned() {
+        return Ok(arr.clone());
+    }
+    let copy = arr.call_method1(pyo3::intern!(arr.py(), "copy"), (if fortran { "F" } else { "C" },))?;
+    Ok(copy.cast_into::<PyUntypedArray>()?)
+}
+
+/// Both frames laid out in one memory order and whether it is Fortran's: their own when
+/// they share one (C preferred), C otherwise. Copies only what is not laid out already.
+fn common_layout<'py>(
+    real: &Bound<'py, PyUntypedArray>,
+    sim: &Bound<'py, PyUntypedArray>,
+) -> PyResult<(Bound<'py, PyUntypedArray>, Bound<'py, PyUntypedArray>, bool)> {
+    let fortran = !(real.is_c_contiguous() && sim.is_c_contiguous())
+        && real.is_fortran_contiguous()
+        && sim.is_fortran_contiguous();
+    Ok((laid_out(real, fortran)?, laid_out(sim, fortran)?, fortran))
+}
+
+fn frame_shape(arr: &Bound<'_, PyUntypedArray>) -> crate::Result<(usize, usize)> {
+    match arr.shape() {
+        &[rows, cols] => Ok((rows, cols)),
+        _ => Err(crate::Error::Shape(format!("expected 2-D frames, got shape {}", shape_text(arr)))),
+    }
+}
+
+/// A shape as numpy prints it: `(2, 3)`.
+fn shape_text(arr: &Bound<'_, PyUntypedArray>) -> String {
+    let dims: Vec<String> = arr.shape().iter().map(usize::to_string).collect();
+    if dims.len() == 1 {
+        format!("({},)", dims[0])
+    } else {
+        format!("({})", dims.join(", "))
+    }
+}
+
+/// The mask in the frames' memory order (a copy if it is not), checked against their shape.
+fn mask_laid_out<'py>(
+    mask: &Bound<'py, PyArrayDyn<bool>>,
+    frame: &Bound<'py, PyUntypedArray>,
+    fortran: bool,
+) -> PyResult<Bound<'py, PyArrayDyn<bool>>> {
+    if mask.shape() != frame.shape() {
+        let (got, want) = (shape_text(mask.as_untyped()), shape_text(frame));
+        return Err(crate::Error::Shape(format!("mask: shape {got} differs from the frames' {want}")).into());
+    }
+    Ok(laid_out(mask.as_untyped(), fortran)?.cast_into::<PyArrayDyn<bool>>()?)
+}
+
+/// `pair_stats(real, sim, request, mask=None)`: see `irfidelity.stats.pair_stats`. The
+/// frames are used in place when they are aligned and share a memory order, else copied.
 #[pyfunction]
-#[pyo3(signature = (real, sim, *, sse=true, moments=true, bins=None, levels=false, hist_range=None,
-                    mask=None, valid=None, mask_nonfinite=false, shape=(0, 0), fortran=false))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (real, sim, request, mask=None))]
 fn pair_stats(
     py: Python<'_>,
     real: &Bound<'_, PyUntypedArray>,
     sim: &Bound<'_, PyUntypedArray>,
-    sse: bool,
-    moments: bool,
-    bins: Option<usize>,
-    levels: bool,
-    hist_range: Option<(f64, f64)>,
-    mask: Option<PyReadonlyArrayDyn<'_, bool>>,
-    valid: Option<(i64, i64)>,
-    mask_nonfinite: bool,
-    shape: (usize, usize),
-    fortran: bool,
+    #[pyo3(from_py_with = args::request)] request: KernelRequest,
+    mask: Option<&Bound<'_, PyArrayDyn<bool>>>,
 ) -> PyResult<PyPairStats> {
-    let hist =
-        if levels { Some(HistRequest::Levels) } else { bins.map(|b| HistRequest::Bins { bins: b, range: hist_range }) };
-    let mask_slice = match &mask {
-        Some(m) => Some(slice(m)?),
-        None => None,
-    };
-    let req = Request { sse, moments, hist, mask: mask_slice, valid, mask_nonfinite, shape, fortran };
-    dispatch!(py, real, sim, req.clone(), u8, u16, i16, u32, half::f16, f32, f64);
-    Err(PyTypeError::new_err(format!(
-        "unsupported frame dtype pair ({}, {}): expected two frames of the same dtype among \
-         uint8, uint16, int16, uint32, float16, float32, float64",
-        real.dtype(),
-        sim.dtype()
-    )))
+    let shape = frame_shape(real)?;
+    if sim.shape() != real.shape() {
+        return Err(crate::Error::Shape(format!(
+            "real and sim frames differ in shape: {} vs {}",
+            shape_text(real),
+            shape_text(sim)
+        ))
+        .into());
+    }
+    let (real, sim, fortran) = common_layout(real, sim)?;
+    let mask = mask.map(|m| mask_laid_out(m, &real, fortran)).transpose()?;
+    let mask = mask.as_ref().map(readonly).transpose()?;
+    let mask_slice = mask.as_ref().map(slice).transpose()?;
+    let req = request.frame_request(mask_slice, shape, fortran);
+    match frame_stats(py, &real, &sim, &req) {
+        Some(stats) => Ok(PyPairStats::new(stats?)),
+        None => Err(crate::Error::Shape(format!(
+            "unsupported frame dtype {}: expected one of {}",
+            real.dtype(),
+            SUPPORTED_DTYPES.join(", ")
+        ))
+        .into()),
+    }
 }
 
-/// The kernel on two non-empty 2-D C-contiguous arrays of one supported dtype and shape,
-/// else `None` (the caller takes the general path, which also explains what is wrong).
-/// The single-metric fast path: no keyword parsing, no Python-side checks.
+/// The kernel on two non-empty, aligned, 2-D C-contiguous arrays of one supported dtype
+/// and shape, else `None` (the caller takes the general path, which also explains what is
+/// wrong). The single-metric fast path: no keyword parsing, no Python-side checks.
 fn plain_stats(
     py: Python<'_>,
     real: &Bound<'_, PyAny>,
@@ -198,20 +312,15 @@ fn plain_stats(
     moments: bool,
 ) -> PyResult<Option<PyPairStats>> {
     let (Ok(r), Ok(s)) = (real.cast::<PyUntypedArray>(), sim.cast::<PyUntypedArray>()) else { return Ok(None) };
-    let plain = |a: &Bound<'_, PyUntypedArray>| a.ndim() == 2 && a.is_c_contiguous();
+    let plain = |a: &Bound<'_, PyUntypedArray>| a.ndim() == 2 && a.is_c_contiguous() && a.is_aligned();
     if !(plain(r) && plain(s)) || r.shape() != s.shape() || r.len() == 0 || !r.dtype().is_equiv_to(&s.dtype()) {
         return Ok(None);
     }
     let shape = (r.shape()[0], r.shape()[1]);
     let req = Request { sse, moments, hist: None, shape, ..Request::default() };
-    let stats = (|| -> PyResult<PyPairStats> {
-        dispatch!(py, r, s, req.clone(), u8, u16, i16, u32, half::f16, f32, f64);
-        Err(PyTypeError::new_err("unsupported dtype"))
-    })();
-    match stats {
-        Ok(st) => Ok(Some(st)),
-        Err(e) if e.is_instance_of::<PyTypeError>(py) => Ok(None),
-        Err(e) => Err(e),
+    match frame_stats(py, r, s, &req) {
+        Some(stats) => Ok(Some(PyPairStats::new(stats?))),
+        None => Ok(None),
     }
 }
 
@@ -234,5 +343,6 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(plain_moments, m)?)?;
     m.add_class::<PyPairStats>()?;
     m.add_function(wrap_pyfunction!(pair_stats, m)?)?;
+    m.add("SUPPORTED_DTYPES", PyTuple::new(m.py(), SUPPORTED_DTYPES)?)?;
     Ok(())
 }

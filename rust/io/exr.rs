@@ -4,7 +4,9 @@
 //! block is decompressed (shared between the calling thread and idle pool threads, see
 //! `kernel::map_units`) and only the selected channel's
 //! samples are copied out, in the file's own sample type (f16 / f32 / u32). The output is
-//! the data window (like OpenEXR's own readers), row-major.
+//! the data window (like OpenEXR's own readers), row-major. The decode's peak memory — the
+//! frame, the blocks of a round and the blocks in flight, each of *all* channels — is planned
+//! from the header against the decoding budget before any block is read (`plan`).
 
 use std::collections::HashSet;
 use std::io::{BufRead, Seek, SeekFrom};
@@ -16,12 +18,12 @@ use ::exr::compression::Compression;
 use ::exr::math::Vec2;
 use ::exr::meta::attribute::SampleType;
 use ::exr::meta::header::Header;
-use ::exr::meta::MetaData;
+use ::exr::meta::{BlockDescription, MetaData};
 use half::f16;
 
 use super::piz::{self, FromWords};
 use super::zip;
-use super::{check_size, DecodeOptions, Frame, FrameData, Reason};
+use super::{check_budget, check_size, product, DecodeOptions, Frame, FrameData, Reason};
 
 /// Map an `exr` crate error to a reason.
 fn exr_err(e: ::exr::error::Error) -> Reason {
@@ -237,9 +239,84 @@ fn decompress<T: Sample>(c: Chunk, meta: &MetaData, layout: &Layout) -> Result<P
     extract::<T>(&block, layout)
 }
 
+/// Decompressed copies of a block (all channels) one block in flight may hold at once: the
+/// decompressed block, and the decompressor's own intermediate buffers (the `exr` crate's
+/// PXR24, RLE and B44 paths hold one or two more; ours, the inflated or Huffman-decoded
+/// words). The extracted channel is counted apart.
+const WORK_COPIES: u64 = 3;
+
+/// Compressed bytes, and separately the extracted channel's bytes, held per round of
+/// sharing (a round holds at least one block).
+const BATCH_BYTES: u64 = 32 << 20;
+
+/// How many blocks are decoded per round and whether in parallel, so that the decode's peak
+/// memory stays within the budget: the frame; a round's extracted channel and compressed
+/// bytes, plus the chunk being read (the `exr` crate allocates up to its header's largest
+/// block, unclamped, for a chunk before reading it); the blocks in flight (one per thread)
+/// with their scratch.
+struct Plan {
+    /// blocks per round
+    batch: usize,
+    parallel: bool,
+}
+
+/// The most a chunk of any part may claim to hold, as the `exr` crate bounds its read: the
+/// header's bytes per pixel times the block's area (the tile as declared, or the lines per
+/// block across the layer).
+fn read_bound(headers: &[Header]) -> Option<u64> {
+    headers.iter().try_fold(0u64, |most, h| {
+        let area = match &h.blocks {
+            BlockDescription::Tiles(t) => product(&[t.tile_size.0 as u64, t.tile_size.1 as u64]),
+            BlockDescription::ScanLines => {
+                product(&[h.compression.scan_lines_per_block() as u64, h.layer_size.0 as u64])
+            }
+        };
+        Some(most.max(area?.checked_mul(h.channels.bytes_per_pixel as u64)?))
+    })
+}
+
+fn plan(headers: &[Header], h: &Header, layout: &Layout, sample: u64, o: &DecodeOptions) -> Result<Plan, Reason> {
+    let Vec2(cols, rows) = h.layer_size;
+    let (bw, bh) = match &h.blocks {
+        BlockDescription::Tiles(t) => (t.tile_size.0.min(cols), t.tile_size.1.min(rows)),
+        BlockDescription::ScanLines => (cols, h.compression.scan_lines_per_block().min(rows)),
+    };
+    let (bw, bh, bpp) = (bw as u64, bh as u64, layout.bytes_per_pixel as u64);
+    let block = product(&[bw, bh, bpp]); // all channels, uncompressed
+    let piece = product(&[bw, bh, sample]); // the selected channel
+    let frame = product(&[rows as u64, cols as u64, sample]);
+    let threads = rayon::current_num_threads().max(1) as u64;
+    let batch = piece.map_or(1, |p| (BATCH_BYTES / p.max(1)).clamp(1, (threads * 16).max(32)));
+    let need = |in_flight: u64| -> Option<u64> {
+        let held = frame?.checked_add(piece?.checked_mul(batch)?)?.checked_add(BATCH_BYTES)?;
+        let reading = held.checked_add(read_bound(headers)?)?;
+        reading.checked_add(block?.checked_mul(WORK_COPIES)?.checked_mul(in_flight)?)
+    };
+    let what = || {
+        format!(
+            "a {cols} x {rows} OpenEXR frame in blocks of {bw} x {bh} pixels of {} channels ({bpp} bytes per pixel)",
+            h.channels.list.len()
+        )
+    };
+    check_budget(need(1), what, o.max_bytes)?;
+    let parallel = threads > 1 && need(threads).is_some_and(|n| n <= o.max_bytes);
+    Ok(Plan { batch: batch as usize, parallel })
+}
+
+/// Bytes of a chunk's compressed data.
+fn compressed_len(c: &Chunk) -> usize {
+    match &c.compressed_block {
+        CompressedBlock::ScanLine(b) => b.compressed_pixels_le.len(),
+        CompressedBlock::Tile(b) => b.compressed_pixels_le.len(),
+        CompressedBlock::DeepScanLine(b) => b.compressed_sample_data_le.len(),
+        CompressedBlock::DeepTile(b) => b.compressed_sample_data_le.len(),
+    }
+}
+
 fn assemble<T: Sample, C: ChunksReader>(
     mut chunks: C,
     layout: &Layout,
+    plan: &Plan,
     rows: usize,
     cols: usize,
 ) -> Result<Vec<T>, Reason> {
@@ -247,13 +324,18 @@ fn assemble<T: Sample, C: ChunksReader>(
     let mut out: Vec<T> = vec![T::ZERO; rows * cols];
     let mut seen: HashSet<(usize, usize)> = HashSet::new();
     let mut covered: usize = 0;
-    // blocks per round of sharing: each round wakes a helper, and bounds the compressed bytes held
-    let batch = (rayon::current_num_threads().max(1) * 16).max(32);
+    // blocks per round of sharing: each round wakes a helper, and bounds the bytes held
+    let batch = plan.batch;
     loop {
         let mut compressed: Vec<Chunk> = Vec::with_capacity(batch);
-        for _ in 0..batch {
+        let mut bytes = 0u64;
+        while compressed.len() < batch && bytes < BATCH_BYTES {
             match chunks.next() {
-                Some(c) => compressed.push(c.map_err(exr_err)?),
+                Some(c) => {
+                    let c = c.map_err(exr_err)?;
+                    bytes += compressed_len(&c) as u64;
+                    compressed.push(c);
+                }
                 None => break,
             }
         }
@@ -263,7 +345,7 @@ fn assemble<T: Sample, C: ChunksReader>(
         // blocks shared with idle pool threads (unless the pool is busy with other frames)
         let slots: Vec<std::sync::Mutex<Option<Chunk>>> =
             compressed.into_iter().map(|c| std::sync::Mutex::new(Some(c))).collect();
-        let Ok(pieces) = crate::kernel::map_units::<_, std::convert::Infallible>(slots.len(), true, |i| {
+        let Ok(pieces) = crate::kernel::map_units::<_, std::convert::Infallible>(slots.len(), plan.parallel, |i| {
             // each unit is taken once (a shared counter), so its slot still holds the block
             let block = slots[i].lock().unwrap_or_else(|p| p.into_inner()).take();
             Ok(match block {
@@ -348,13 +430,15 @@ pub(super) fn decode<R: BufRead + Seek>(mut reader: R, o: &DecodeOptions) -> Res
         },
     };
 
+    let plan = plan(headers, h, &layout, sample_type.bytes_per_sample() as u64, o)?;
+
     let chunks = r
         .filter_chunks(false, |_, tile, block| block.layer == part && tile.level_index == Vec2(0, 0))
         .map_err(exr_err)?;
     let data = match sample_type {
-        SampleType::F16 => FrameData::F16(assemble::<f16, _>(chunks, &layout, rows, cols)?),
-        SampleType::F32 => FrameData::F32(assemble::<f32, _>(chunks, &layout, rows, cols)?),
-        SampleType::U32 => FrameData::U32(assemble::<u32, _>(chunks, &layout, rows, cols)?),
+        SampleType::F16 => FrameData::F16(assemble::<f16, _>(chunks, &layout, &plan, rows, cols)?),
+        SampleType::F32 => FrameData::F32(assemble::<f32, _>(chunks, &layout, &plan, rows, cols)?),
+        SampleType::U32 => FrameData::U32(assemble::<u32, _>(chunks, &layout, &plan, rows, cols)?),
     };
     Ok(Frame { rows, cols, data })
 }

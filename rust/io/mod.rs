@@ -9,12 +9,15 @@
 //! * [`decode_bytes`] is the same decoder over an in-memory buffer (used by the fuzz target).
 //!
 //! Hostile input: every failure is an [`Error::Frame`] whose message starts with the path.
-//! Headers that claim more than [`DecodeOptions::max_pixels`] pixels are refused before any
-//! pixel buffer is allocated, and the whole decode runs under `catch_unwind`, so a panic in
-//! a third-party decoder becomes a `FrameError("...: decoder failed: ...")` instead of
-//! unwinding into the caller.
+//! Two limits are checked from the headers before anything large is allocated: the pixel
+//! count ([`DecodeOptions::max_pixels`]) and the decode's peak memory in bytes
+//! ([`DecodeOptions::max_bytes`]: the frame, plus every block, strip or row of all channels
+//! and the decompression scratch held at once). Only regular files are opened (a FIFO would
+//! block forever). The whole decode runs under `catch_unwind`, so a panic in a third-party
+//! decoder becomes a `FrameError("...: decoder failed: ...")` instead of unwinding into the
+//! caller.
 
-use std::fs::File;
+use std::fs::{File, Metadata, OpenOptions};
 use std::io::{BufRead, BufReader, Cursor, Seek};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
@@ -22,6 +25,8 @@ use std::path::Path;
 use crate::{Error, Result};
 
 mod exr;
+#[cfg(feature = "fuzzing")]
+pub mod fuzzing;
 mod piz;
 mod raster;
 mod zip;
@@ -88,6 +93,13 @@ pub struct DecodeOptions {
     pub channel: Option<String>,
     /// Refuse files whose header claims more pixels than this (checked before allocating).
     pub max_pixels: u64,
+    /// The decoding budget: the most memory one decode may hold at its peak, in bytes — the
+    /// decoded frame (the selected channel) plus whatever the format needs alongside it:
+    /// the compressed and decompressed blocks of *all* channels in flight (EXR), a strip or
+    /// tile of all samples (TIFF), rows and metadata chunks (PNG), and decompression
+    /// scratch. Computed from the headers and checked before allocating; a decode that
+    /// would exceed it fails with a FrameError naming the budget.
+    pub max_bytes: u64,
     /// Page of a multi-page TIFF (0-based). Must be 0 for other formats.
     pub page: usize,
 }
@@ -95,9 +107,16 @@ pub struct DecodeOptions {
 /// Default pixel limit: one 16384 x 16384 frame.
 pub const DEFAULT_MAX_PIXELS: u64 = 16384 * 16384;
 
+/// Default decoding budget, 640 MiB: the largest 16-bit frame the default pixel limit allows
+/// (16384 x 16384 x 2 bytes = 512 MiB, the common case of a big thermal frame) plus 128 MiB
+/// for the decoder's blocks, rows and scratch. Well under 1 GB, so a few workers decoding at
+/// once stay within a workstation's memory; a larger float32/float64 frame needs a larger
+/// budget, given explicitly.
+pub const DEFAULT_MAX_BYTES: u64 = 640 << 20;
+
 impl Default for DecodeOptions {
     fn default() -> Self {
-        DecodeOptions { channel: None, max_pixels: DEFAULT_MAX_PIXELS, page: 0 }
+        DecodeOptions { channel: None, max_pixels: DEFAULT_MAX_PIXELS, max_bytes: DEFAULT_MAX_BYTES, page: 0 }
     }
 }
 
@@ -201,21 +220,42 @@ fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>) -> std::result::Result<
     }
 }
 
+/// Refuse what is not a regular file: a directory, or a FIFO, socket or device (whose read
+/// may block forever or never end).
+fn regular(meta: &Metadata) -> std::result::Result<(), Reason> {
+    if meta.is_dir() {
+        Err("is a directory, not an image file".to_string())
+    } else if !meta.is_file() {
+        Err("not a regular file (a FIFO, socket or device); frames are read from regular files".to_string())
+    } else {
+        Ok(())
+    }
+}
+
+/// Open a regular file for reading. The path is checked before opening (opening a FIFO for
+/// reading blocks until a writer appears), opened non-blocking in case it was swapped for
+/// one in between, and the open file checked again.
+pub(crate) fn open_regular(path: &Path) -> std::result::Result<File, Reason> {
+    regular(&std::fs::metadata(path).map_err(|e| format!("cannot open: {e}"))?)?;
+    let mut options = OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut options, libc::O_NONBLOCK);
+    let file = options.open(path).map_err(|e| format!("cannot open: {e}"))?;
+    regular(&file.metadata().map_err(|e| format!("cannot stat: {e}"))?)?;
+    Ok(file)
+}
+
 /// Whether the file starts with a TIFF signature (errors are left to the full decode path).
 fn is_tiff(path: &Path) -> bool {
     let mut head = [0u8; 8];
-    let n = File::open(path).and_then(|mut f| std::io::Read::read(&mut f, &mut head)).unwrap_or(0);
+    let n = open_regular(path).ok().and_then(|mut f| std::io::Read::read(&mut f, &mut head).ok()).unwrap_or(0);
     sniff(&head[..n]) == Some(Format::Tiff)
 }
 
 fn run_on_path(path: &Path, op: Op<'_>) -> Result<OpOut> {
     let name = path.display().to_string();
-    let file = File::open(path).map_err(|e| frame_err(&name, format!("cannot open: {e}")))?;
-    match file.metadata() {
-        Ok(m) if m.is_dir() => return Err(frame_err(&name, "is a directory, not an image file")),
-        Ok(_) => {}
-        Err(e) => return Err(frame_err(&name, format!("cannot stat: {e}"))),
-    }
+    let file = open_regular(path).map_err(|reason| frame_err(&name, reason))?;
     let reader = BufReader::with_capacity(1 << 16, file);
     guarded(&name, || run_op(reader, &op))
 }
@@ -269,6 +309,32 @@ pub(crate) fn check_size(cols: u64, rows: u64, max_pixels: u64) -> std::result::
     match cols.checked_mul(rows) {
         Some(n) if n <= max_pixels => Ok(()),
         _ => Err(format!("image of {cols} x {rows} pixels exceeds the limit of {max_pixels} pixels (max_pixels)")),
+    }
+}
+
+/// `a * b * ...` in u64, `None` on overflow.
+pub(crate) fn product(factors: &[u64]) -> Option<u64> {
+    factors.iter().try_fold(1u64, |acc, &f| acc.checked_mul(f))
+}
+
+/// Check that a decode whose peak memory is `need` bytes (`None`: beyond 2^64) fits the
+/// budget; `what` says what needs it, e.g. "a 16384 x 16384 frame and one block of 300
+/// channels".
+pub(crate) fn check_budget(
+    need: Option<u64>,
+    what: impl FnOnce() -> String,
+    max_bytes: u64,
+) -> std::result::Result<(), Reason> {
+    match need {
+        Some(n) if n <= max_bytes => Ok(()),
+        Some(n) => Err(format!(
+            "decoding {} needs {n} bytes, which exceeds the decoding budget of {max_bytes} bytes (max_bytes)",
+            what()
+        )),
+        None => Err(format!(
+            "decoding {} needs more than 2^64 bytes, which exceeds the decoding budget of {max_bytes} bytes (max_bytes)",
+            what()
+        )),
     }
 }
 

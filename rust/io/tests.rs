@@ -146,7 +146,8 @@ fn max_pixels_refused_before_decoding() {
         ("png/pngsuite_basn0g16.png", None),
         ("thermal/cptv_v2_all100frames_uint16.tif", None),
     ] {
-        let m = frame_msg(decode_frame(&data(f), &DecodeOptions { channel: ch, max_pixels: 100, page: 0 }));
+        let m =
+            frame_msg(decode_frame(&data(f), &DecodeOptions { channel: ch, max_pixels: 100, ..Default::default() }));
         assert!(m.contains("exceeds the limit of 100 pixels"), "{f}: {m}");
     }
     let m = frame_msg(dec("exr/damaged/exrimages_memory_DOS_1"));

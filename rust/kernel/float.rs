@@ -5,7 +5,12 @@
 //! are merged with Chan's update, in chunk order. Either way the result does not depend on
 //! how the chunks were shared out between threads.
 
-use super::{cost, map_chunks, Acc, Bad, Binner, HistPlan, Pass, Request, Sample};
+use super::acc::{Acc, Bad};
+use super::binning::{Binner, HistPlan};
+use super::dispatch::Pass;
+use super::parallel::{cost, map_chunks};
+use super::request::Request;
+use super::sample::Sample;
 use crate::stats::{merge_float, two_sum, FloatSums};
 
 /// Neumaier-compensated running sum: totals of per-block lane sums.
@@ -38,8 +43,9 @@ impl Neumaier {
 macro_rules! avx2_floats {
     ($rr:expr, $sb:expr, |$r:ident, $s:ident| $call:expr) => {
         #[cfg(target_arch = "x86_64")]
-        if super::use_avx2() {
-            // SAFETY (both): the CPU has AVX2 (`use_avx2`); callers state any other condition.
+        if super::dispatch::use_avx2() {
+            // SAFETY (both): the CPU has AVX2 (`use_avx2`), the only requirement of the `avx2`
+            // functions (their loads stay within the slices for any lengths).
             if let (Some($r), Some($s)) = (T::as_f32($rr), T::as_f32($sb)) {
                 return unsafe { $call };
             }
@@ -303,6 +309,10 @@ mod avx2 {
 
     const BLOCK: usize = super::SSE_BLOCK;
 
+    /// The sum of the four vectors' lanes, in a fixed order.
+    ///
+    /// # Safety
+    /// The CPU supports AVX2 (all functions of this module: callers check `use_avx2`).
     #[inline(always)]
     unsafe fn fold(acc: [__m256d; 4]) -> f64 {
         let s = _mm256_add_pd(_mm256_add_pd(acc[0], acc[2]), _mm256_add_pd(acc[1], acc[3]));
@@ -312,12 +322,17 @@ mod avx2 {
 
     /// Four values widened to float64 lanes.
     pub(super) trait Lanes: Sample + Into<f64> {
+        /// The four values at `p`.
+        ///
+        /// # Safety
+        /// The CPU supports AVX2, and `p .. p + 4` are readable values of `Self`.
         unsafe fn load4(p: *const Self) -> __m256d;
     }
 
     impl Lanes for f32 {
         #[inline(always)]
         unsafe fn load4(p: *const f32) -> __m256d {
+            // SAFETY: the caller's guarantee: four readable f32 at p
             _mm256_cvtps_pd(_mm_loadu_ps(p))
         }
     }
@@ -325,11 +340,15 @@ mod avx2 {
     impl Lanes for f64 {
         #[inline(always)]
         unsafe fn load4(p: *const f64) -> __m256d {
+            // SAFETY: the caller's guarantee: four readable f64 at p
             _mm256_loadu_pd(p)
         }
     }
 
     /// Σ(x − y)².
+    ///
+    /// # Safety
+    /// The CPU supports AVX2 (the loads stay within both slices for any lengths).
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn sse<T: Lanes>(r: &[T], s: &[T]) -> Neumaier {
         let n = r.len().min(s.len());
@@ -341,7 +360,8 @@ mod avx2 {
             let mut acc = [_mm256_setzero_pd(); 4];
             for j in (i..i + BLOCK).step_by(16) {
                 for (k, a) in acc.iter_mut().enumerate() {
-                    // SAFETY: j + 4k + 4 <= full <= len of both slices
+                    // SAFETY: j + 4k + 4 <= i + BLOCK <= full <= len of both slices (i steps by
+                    // BLOCK up to full, a multiple of BLOCK; j + 16 <= i + BLOCK; k < 4)
                     let x = T::load4(pr.add(j + 4 * k));
                     let y = T::load4(ps.add(j + 4 * k));
                     let d = _mm256_sub_pd(x, y);
@@ -361,6 +381,9 @@ mod avx2 {
     }
 
     /// `float_sums` with explicit AVX2: lanes 0-3 and 4-7 in two vectors per sum.
+    ///
+    /// # Safety
+    /// The CPU supports AVX2 (the loads stay within both slices for any lengths).
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn sums<T: Lanes, const RANGE: bool>(r: &[T], s: &[T], (pr, ps): (f64, f64)) -> RunSums {
         let n = r.len().min(s.len());
@@ -372,6 +395,8 @@ mod avx2 {
         let (mut lr, mut cr, mut ls, mut cs) = ([zero; 2], [zero; 2], [zero; 2], [zero; 2]);
         let (mut big, mut lo, mut hi) =
             ([zero; 2], [_mm256_set1_pd(f64::INFINITY); 2], [_mm256_set1_pd(f64::NEG_INFINITY); 2]);
+        /// # Safety
+        /// The CPU supports AVX2.
         #[inline(always)]
         unsafe fn two_sum_into(sum: &mut __m256d, comp: &mut __m256d, x: __m256d) {
             // crate::stats::two_sum, four lanes at a time
@@ -384,7 +409,8 @@ mod avx2 {
         let mut i = 0;
         while i < full {
             for h in 0..2 {
-                // SAFETY: i + 4h + 4 <= full <= len of both runs
+                // SAFETY: i + 4h + 4 <= i + LANES <= full <= len of both runs (i steps by
+                // LANES = 8 up to full, a multiple of 8; h < 2)
                 let x = T::load4(p_r.add(i + 4 * h));
                 let y = T::load4(p_s.add(i + 4 * h));
                 two_sum_into(&mut lr[h], &mut cr[h], _mm256_sub_pd(x, vpr));
@@ -400,6 +426,7 @@ mod avx2 {
             i += LANES;
         }
         let mut st = SumLanes::new();
+        // SAFETY (the stores): `dst` holds LANES = 8 doubles, two 4-lane stores at 0 and 4
         let store = |dst: &mut [f64; LANES], v: [__m256d; 2]| {
             _mm256_storeu_pd(dst.as_mut_ptr(), v[0]);
             _mm256_storeu_pd(dst.as_mut_ptr().add(4), v[1]);
@@ -417,6 +444,10 @@ mod avx2 {
     /// `float_hist` on a dense `bins × bins` table: bins of four pairs at a time, computed as
     /// `Binner::float_bin` does (`(v − lo)·(1/width)`, truncated, clamped to the edge bins; the
     /// clamp comes first here, in float64, so the truncation cannot overflow — same bins).
+    ///
+    /// # Safety
+    /// The CPU supports AVX2 (loads and table writes stay in bounds for any lengths; the
+    /// table's size is asserted).
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn hist_dense<T: Lanes>(r: &[T], s: &[T], bn: &Binner, dense: &mut [u32]) {
         let bins = bn.bins;
@@ -433,12 +464,15 @@ mod avx2 {
         let mut idx = [0u32; 4];
         let mut j = 0;
         while j < full {
-            // SAFETY: j + 4 <= full <= len of both runs
+            // SAFETY: j + 4 <= full <= len of both runs (j steps by 4 up to full, a multiple of 4)
             let (x, y) = (T::load4(r.as_ptr().add(j)), T::load4(s.as_ptr().add(j)));
             let cell = _mm_add_epi32(_mm_mullo_epi32(bin(x), stride), bin(y));
             _mm_storeu_si128(idx.as_mut_ptr().cast(), cell);
             for &c in &idx {
-                // SAFETY: both bins are clamped to [0, bins − 1], so c < bins² = dense.len()
+                // SAFETY: both bins are clamped to [0, bins − 1] in float64 before the conversion
+                // (NaN becomes 0: maxpd returns its second operand), so c = bin_x · bins + bin_y
+                // < bins² = dense.len() (asserted above; bins ≤ 512, no i32 overflow). Tested
+                // with values beyond both ends by `float_simd_equals_portable_at_the_boundaries`.
                 *dense.get_unchecked_mut(c as usize) += 1;
             }
             j += 4;
@@ -449,6 +483,9 @@ mod avx2 {
     }
 
     /// `centred_totals` with explicit AVX2: one vector of four lanes per sum.
+    ///
+    /// # Safety
+    /// The CPU supports AVX2 (the loads stay within both slices for any lengths).
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn centred<T: Lanes>(
         r: &[T],
@@ -465,7 +502,8 @@ mod avx2 {
             let mut a = [_mm256_setzero_pd(); 6];
             let mut j = 0;
             while j < full {
-                // SAFETY: j + 4 <= full <= len of both runs
+                // SAFETY: j + 4 <= full <= len of both runs (j steps by LANES_C = 4 up to full,
+                // a multiple of 4)
                 let (x, y) = (T::load4(pr_.add(j)), T::load4(ps_.add(j)));
                 let dr = _mm256_sub_pd(_mm256_sub_pd(x, vpr), vmr);
                 let ds = _mm256_sub_pd(_mm256_sub_pd(y, vps), vms);
@@ -480,6 +518,7 @@ mod avx2 {
             }
             let mut l = [[0.0f64; LANES_C]; 6];
             for (lane, v) in l.iter_mut().zip(a) {
+                // SAFETY: each lane array holds LANES_C = 4 doubles, one 4-lane store
                 _mm256_storeu_pd(lane.as_mut_ptr(), v);
             }
             for (&x, &y) in cr[full..n].iter().zip(&cs[full..n]) {

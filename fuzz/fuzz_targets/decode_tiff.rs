@@ -1,0 +1,8 @@
+//! TIFF files (classic and BigTIFF, either byte order) through
+//! `irfidelity::io::decode_bytes` (first byte: options and page).
+#![no_main]
+libfuzzer_sys::fuzz_target!(init: irfidelity_fuzz::init(), |data: &[u8]| {
+    if matches!(data.get(1..5), Some(b"II*\0" | b"MM\0*" | b"II+\0" | b"MM\0+")) {
+        irfidelity_fuzz::decode(data);
+    }
+});

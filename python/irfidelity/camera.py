@@ -1,0 +1,172 @@
+"""The camera-property components from whatever the user gives: f1 (MTF), f2 (SiTF) and the
+opt-in ``noise`` component.
+
+A curve input is a :class:`~irfidelity.Curve`, an ``(x, y)`` pair, a CSV path, or — for the
+MTF — a slanted-edge image (array or path) measured with
+:func:`irfidelity.curves.mtf_from_edge`. A noise input is a :class:`~irfidelity.noise.Noise3D`
+or a recording of a uniform source (3-D array, directory, glob, multi-page TIFF) measured with
+:func:`irfidelity.noise.noise3d`. These are camera properties: a sequence compares them once,
+before any frame, and every frame's fidelity includes them.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .config import ScoringConfig
+from .curves import Curve
+from .errors import FidelityError
+from .fuzzy import Weights
+
+__all__ = ["CameraInputs", "camera_components", "describe_input"]
+
+_CURVE_EXTENSIONS = (".csv", ".txt", ".tsv", ".dat")
+
+#: The camera-property components, in report order.
+KINDS = ("mtf", "sitf", "noise")
+
+
+@dataclass(frozen=True)
+class CameraInputs:
+    """The camera-property inputs of a scene (any of them None; given in pairs)."""
+
+    real_mtf: Any = None
+    sim_mtf: Any = None
+    real_sitf: Any = None
+    sim_sitf: Any = None
+    real_noise: Any = None
+    sim_noise: Any = None
+
+    def __post_init__(self) -> None:
+        for kind in KINDS:
+            real, sim = getattr(self, f"real_{kind}"), getattr(self, f"sim_{kind}")
+            if (real is None) != (sim is None):
+                given, absent = (f"real_{kind}", f"sim_{kind}") if sim is None else (f"sim_{kind}", f"real_{kind}")
+                raise FidelityError(f"{given} was given without {absent}: give both or neither", option=absent)
+
+    def given(self) -> dict[str, bool]:
+        """``{kind: whether both inputs were given}`` for mtf, sitf and noise."""
+        return {kind: getattr(self, f"real_{kind}") is not None for kind in KINDS}
+
+
+def describe_input(x: Any) -> Any:
+    """A short, JSON-ready description of an input (path, curve, array)."""
+    if isinstance(x, (str, os.PathLike)):
+        return os.fsdecode(os.fspath(x))
+    if isinstance(x, Curve):
+        return f"Curve({len(x)} points{', ' + repr(x.name) if x.name else ''})"
+    if isinstance(x, np.ndarray):
+        return f"array {x.shape} {x.dtype}"
+    return type(x).__name__
+
+
+def _edge_curve(image: Any, what: str, config: ScoringConfig) -> Curve:
+    from .curves import mtf_from_edge
+    from .frames import load_frame
+
+    source = os.fspath(image) if isinstance(image, (str, os.PathLike)) else None
+    if source is not None:
+        image = load_frame(source, channel=config.edge_channel)
+    try:
+        return mtf_from_edge(image, name=what, edge_fit_order=config.edge_fit_order)
+    except FidelityError as exc:
+        raise FidelityError(f"{what}{f' ({source})' if source else ''}: {exc}") from None
+
+
+def as_curve(x: Any, what: str, config: ScoringConfig, *, edge_ok: bool) -> Curve:
+    """A Curve from a Curve, an (x, y) pair, a CSV path, or (MTF only) an edge image/path."""
+    if isinstance(x, Curve):
+        return x
+    if isinstance(x, (str, os.PathLike)):
+        path = os.fspath(x)
+        if path.lower().endswith(_CURVE_EXTENSIONS):
+            return Curve.from_csv(path, name=what)
+        if not edge_ok:
+            raise FidelityError(f"{what}: {path!r} is not a curve file ({', '.join(_CURVE_EXTENSIONS)})")
+        return _edge_curve(path, what, config)
+    if isinstance(x, np.ndarray) and x.ndim == 2 and edge_ok and min(x.shape) > 2:
+        return _edge_curve(x, what, config)
+    try:
+        cx, cy = x
+    except (TypeError, ValueError):
+        kinds = "a Curve, an (x, y) pair, a CSV path" + (" or an edge image (array or path)" if edge_ok else "")
+        raise FidelityError(f"{what} must be {kinds}, got {type(x).__name__}") from None
+    return Curve(cx, cy, name=what)
+
+
+def as_noise(x: Any, side: str, config: ScoringConfig) -> Any:
+    """A :class:`~irfidelity.noise.Noise3D` from one, or from a recording of a uniform source
+    (``side``: "real" or "sim")."""
+    from .noise import Noise3D, noise3d
+
+    if isinstance(x, Noise3D):
+        return x
+    channel = config.real_channel if side == "real" else config.sim_channel
+    try:
+        return noise3d(x, bits=config.bits, channel=channel)
+    except FidelityError as exc:
+        raise FidelityError(f"{side} noise recording: {exc}", option=f"{side}_noise") from None
+
+
+def _compare_noise(inputs: CameraInputs, config: ScoringConfig) -> tuple[float, dict, dict, dict]:
+    from .noise import noise_similarity
+
+    real = as_noise(inputs.real_noise, "real", config)
+    sim = as_noise(inputs.sim_noise, "sim", config)
+    s = noise_similarity(real, sim)
+    described = {"real_noise": describe_input(inputs.real_noise), "sim_noise": describe_input(inputs.sim_noise)}
+    return float(s.value), s.metrics(), described, {"real_noise": real, "sim_noise": sim}
+
+
+def _compare(kind: str, inputs: CameraInputs, config: ScoringConfig) -> tuple[float, dict, dict, dict]:
+    """One camera component: its value, raw metrics, input descriptions and what was compared."""
+    from .curves import CameraGeometry, mtf_similarity, sitf_similarity
+
+    if kind == "noise":
+        return _compare_noise(inputs, config)
+    real_in, sim_in = getattr(inputs, f"real_{kind}"), getattr(inputs, f"sim_{kind}")
+    real = as_curve(real_in, f"real {kind.upper()}", config, edge_ok=kind == "mtf")
+    sim = as_curve(sim_in, f"simulated {kind.upper()}", config, edge_ok=kind == "mtf")
+    if kind == "mtf":
+        camera = CameraGeometry(ifov_mrad=config.ifov_mrad, pixel_pitch_um=config.pixel_pitch_um,
+                                focal_length_mm=config.focal_length_mm)
+        s = mtf_similarity(real, sim, camera=camera, **config.mtf_options)
+        metrics = {"mtf50_real": s.a, "mtf50_sim": s.b, "mtf50_unit": s.x_unit}
+    else:
+        s = sitf_similarity(real, sim, **config.sitf_options)
+        unit = None if s.x_unit is None and s.y_unit is None else f"{s.y_unit or '?'}/{s.x_unit or '?'}"
+        metrics = {"sitf_slope_real": s.a, "sitf_slope_sim": s.b, "sitf_slope_unit": unit}
+    metrics.update({f"{kind}_mu": s.mu, f"{kind}_rho": s.rho, f"{kind}_ccc": s.ccc, f"{kind}_area": s.area})
+    described = {f"real_{kind}": describe_input(real_in), f"sim_{kind}": describe_input(sim_in)}
+    return float(s.value), metrics, described, {f"real_{kind}": real, f"sim_{kind}": sim}
+
+
+def camera_components(inputs: CameraInputs, weights: Weights, config: ScoringConfig
+                     ) -> tuple[dict, dict, dict, dict]:
+    """Components f1 (MTF, eqs. 1–4), f2 (SiTF) and ``noise`` whose weight is positive.
+
+    Inputs with weight 0 are not read at all. Curves in different units are converted with
+    the configuration's camera geometry, or refused (:mod:`irfidelity.curves.units`).
+
+    Returns
+    -------
+    (components, metrics, inputs, curves)
+        ``{"mtf"|"sitf": f}``; the raw metrics (:data:`irfidelity.schema.METRICS`); short input
+        descriptions; and the :class:`~irfidelity.Curve` and noise objects compared
+        (``real_mtf``, ..., ``real_noise``, ``sim_noise``).
+    """
+    components: dict[str, float] = {}
+    metrics: dict[str, Any] = {}
+    described: dict[str, Any] = {}
+    curves: dict[str, Any] = {}
+    for kind in KINDS:
+        if weights[kind] > 0:
+            components[kind], kind_metrics, kind_inputs, kind_curves = _compare(kind, inputs, config)
+            metrics.update(kind_metrics)
+            described.update(kind_inputs)
+            curves.update(kind_curves)
+    return components, metrics, described, curves

@@ -1,0 +1,74 @@
+"""Command line: ``irfidelity score REAL SIM ...``, ``irfidelity demo``, ``irfidelity config``.
+
+Exit status: 0 everything scored; 2 bad usage or input (one line on stderr naming the file
+or flag, no traceback); 3 a sequence finished but some frames failed.
+"""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from collections.abc import Sequence
+
+from ..errors import FidelityError
+from .output import UsageError, message, warning_lines, write_outputs
+from .parser import EXIT_FAILED_FRAMES, EXIT_OK, EXIT_USAGE, build_parser
+
+__all__ = ["main"]
+
+
+def _demo(a) -> int:
+    from ..demo import run_demo
+
+    report = run_demo(out=None if a.json == "-" else print)
+    a.save_config = None
+    write_outputs(report, a, sequence=False) if (a.json or a.report) else None
+    return EXIT_OK
+
+
+def _config(a) -> int:
+    from ..config import ScoringConfig
+
+    if a.path is None:
+        sys.stdout.write(ScoringConfig().to_toml())
+    else:
+        ScoringConfig().save(a.path)
+    return EXIT_OK
+
+
+def _run(a) -> int:
+    if a.command == "score":
+        from .score import score_command
+
+        report, sequence = score_command(a)
+        return EXIT_FAILED_FRAMES if sequence and report.failed else EXIT_OK
+    return _demo(a) if a.command == "demo" else _config(a)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status (0, 2 or 3)."""
+    parser = build_parser()
+    try:
+        a = parser.parse_args(argv)
+    except SystemExit as exc:  # --help / --version (0) or usage errors (2)
+        return int(exc.code or 0) if not isinstance(exc.code, str) else EXIT_USAGE
+    if a.command is None:
+        parser.print_help(sys.stderr)
+        return EXIT_USAGE
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            return _run(a)
+        except (UsageError, FidelityError, OSError, ValueError, OverflowError) as exc:
+            print(f"irfidelity {a.command}: error: {message(exc)}", file=sys.stderr)
+            return EXIT_USAGE
+        except KeyboardInterrupt:
+            print("irfidelity: interrupted", file=sys.stderr)
+            return 130
+        finally:
+            for line in warning_lines(caught):
+                print(line, file=sys.stderr)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

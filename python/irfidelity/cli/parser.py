@@ -1,0 +1,199 @@
+"""The command line's arguments: ``irfidelity score``, ``irfidelity demo``, ``irfidelity config``."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..config import MISSING_MODES, NONFINITE_MODES, PAIRING_RULES, REGISTRATION_MODELS
+from ..curves.table import parse_columns, parse_where
+from ..errors import FidelityError
+
+__all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "flag_for"]
+
+EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES = 0, 2, 3
+
+#: Options whose command-line name is not ``--`` + the option name with dashes.
+_FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "sim_mtf": "--sim-mtf/--sim-edge",
+          "psnr_anchors": "--config", "ssim_exponents": "--config", "grades": "--config",
+          "mtf_options": "--config", "sitf_options": "--config", "register": "--register", "client": "--workers",
+          "chunk_size": "--workers"}
+
+
+def flag_for(option: str | None) -> str | None:
+    """The command-line flag (or argument) that sets an API option."""
+    if option is None:
+        return None
+    return _FLAGS.get(option, "--" + option.replace("_", "-"))
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, no usage dump
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _int_from(lowest: int):
+    """An argparse type: an integer >= ``lowest``."""
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            n = lowest - 1
+        if n < lowest:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lowest}, got {text!r}")
+        return n
+
+    return parse
+
+
+_positive_int, _non_negative_int = _int_from(1), _int_from(0)
+
+
+def _positive_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        x = float("nan")
+    if not x > 0 or x == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return x
+
+
+def _peak(text: str) -> float | str:
+    return "range" if text == "range" else _positive_float(text)
+
+
+def _bins(text: str) -> int | str:
+    if text == "levels":
+        return text
+    try:
+        return _positive_int(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer or 'levels', got {text!r}") from None
+
+
+def _hist_range(text: str) -> str | tuple[float, float]:
+    if text in ("data", "full"):
+        return text
+    try:
+        lo, hi = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected data, full or LO,HI; got {text!r}") from None
+    return (lo, hi)
+
+
+def _argument_type(parse):
+    """An argparse type from a parser that raises FidelityError."""
+    def convert(text: str):
+        try:
+            return parse(text)
+        except FidelityError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    return convert
+
+
+_columns, _where = _argument_type(parse_columns), _argument_type(parse_where)
+
+
+def _add_score(sub: argparse._SubParsersAction) -> None:
+    s = sub.add_parser(
+        "score", help="score a simulated frame (or sequence) against the real one",
+        description="Score SIM against REAL: components (MTF, SiTF, PSNR, NMI, SSIM), weights, fidelity "
+                    "(eq. 15) and grade. REAL and SIM are two frame files (PNG, TIFF, EXR, .npy), or two "
+                    "sequences: directories, glob patterns or multi-page TIFFs (scored pair by pair and pooled).",
+        epilog="Options left out keep the value of --config, or the default. "
+               "Exit status: 0 scored, 2 bad usage or input, 3 some frames of a sequence failed.")
+    s.add_argument("real", metavar="REAL", help="real camera frame, or a directory / glob / multi-page TIFF")
+    s.add_argument("sim", metavar="SIM", help="simulated frame, or a directory / glob / multi-page TIFF")
+    s.add_argument("--config", metavar="FILE", help="scoring configuration (TOML or JSON; see 'irfidelity config')")
+    g = s.add_argument_group("what decides the score")
+    g.add_argument("--bits", type=_positive_int, metavar="N",
+                   help="bit depth of integer frames: values must be <= 2^N-1; default PSNR peak 2^N-1")
+    g.add_argument("--peak", type=_peak, metavar="X|range",
+                   help="PSNR peak: a number (needed for float frames), or 'range' (the real frame's max - min)")
+    g.add_argument("--weights", metavar="SPEC",
+                   help="balanced (default, 1/5 each) | performance | image_quality | "
+                        "'mtf=..,sitf=..,psnr=..,nmi=..,ssim=..,noise=..' (unnamed components 0; sum 1)")
+    g.add_argument("--bins", type=_bins, metavar="N|levels",
+                   help="histogram bins for NMI (default 256), or 'levels' (one bin per grey level)")
+    g.add_argument("--hist-range", type=_hist_range, metavar="data|full|LO,HI",
+                   help="histogram edges: both frames' min..max (default), 0..peak, or given")
+    g.add_argument("--missing", choices=MISSING_MODES,
+                   help="a weighted component without inputs: drop it and renormalise the other weights "
+                        "(default; shown as skipped), or fail (raise)")
+    g.add_argument("--nonfinite", choices=NONFINITE_MODES, help="NaN/Inf in float frames: fail (default) or mask")
+    c = s.add_argument_group("channels")
+    c.add_argument("--channel", metavar="C", help="channel of both frames' files (e.g. EXR 'Y', PNG 'R')")
+    c.add_argument("--real-channel", metavar="C", help="channel of the real frames only")
+    c.add_argument("--sim-channel", metavar="C", help="channel of the simulated frames only")
+    c.add_argument("--edge-channel", metavar="C", help="channel of multi-channel edge images")
+    k = s.add_argument_group("camera curves (compared once; with sequences they count for every frame)")
+    k.add_argument("--real-mtf", metavar="CSV|IMG", help="real MTF: a curve CSV (frequency, MTF) or an edge image")
+    k.add_argument("--sim-mtf", metavar="CSV|IMG", help="simulated MTF: a curve CSV or an edge image")
+    k.add_argument("--real-edge", metavar="IMG", help="real slanted-edge image (MTF by ISO 12233 e-SFR)")
+    k.add_argument("--sim-edge", metavar="IMG", help="simulated slanted-edge image")
+    k.add_argument("--real-sitf", metavar="CSV", help="real SiTF curve (temperature difference, signal)")
+    k.add_argument("--sim-sitf", metavar="CSV", help="simulated SiTF curve")
+    for side in ("real", "sim"):
+        for kind in ("mtf", "sitf"):
+            k.add_argument(f"--{side}-{kind}-columns", type=_columns, metavar="X,Y",
+                           help=f"the two columns of the {side} {kind.upper()} CSV (names or 0-based indices)")
+            k.add_argument(f"--{side}-{kind}-where", type=_where, metavar="NAME=VALUE",
+                           help=f"only the rows of the {side} {kind.upper()} CSV where column NAME equals VALUE")
+    k.add_argument("--edge-fit-order", type=_int_from(1), metavar="N", choices=range(1, 6),
+                   help="order of the edge-location fit of slanted-edge images: 5 (default, ISO 12233:2023) .. 1 "
+                        "(a straight line, ISO 12233:2014)")
+    k.add_argument("--ifov", type=_positive_float, metavar="MRAD", dest="ifov_mrad",
+                   help="instantaneous field of view of a pixel, to convert cycles/pixel <-> cycles/mrad")
+    k.add_argument("--pixel-pitch", type=_positive_float, metavar="UM", dest="pixel_pitch_um",
+                   help="detector pixel pitch, to convert cycles/pixel <-> line pairs/mm")
+    k.add_argument("--focal-length", type=_positive_float, metavar="MM", dest="focal_length_mm",
+                   help="focal length, to convert cycles/mrad <-> line pairs/mm")
+    n = s.add_argument_group("sensor noise (the opt-in 'noise' component: give it a weight in --weights)")
+    n.add_argument("--real-noise", metavar="DIR|TIF", help="frames of a uniform source (blackbody) from the real "
+                                                          "camera: a directory, glob or multi-page TIFF")
+    n.add_argument("--sim-noise", metavar="DIR|TIF", help="the same from the simulator")
+    r = s.add_argument_group("registration and sequences")
+    r.add_argument("--register", choices=REGISTRATION_MODELS, metavar="MODEL",
+                   help="align the simulated frames to the real ones first: translation, rigid or similarity")
+    r.add_argument("--register-each", action="store_true", default=None,
+                   help="sequences: register every frame pair (default: once)")
+    r.add_argument("--max-delay", type=_non_negative_int, metavar="N",
+                   help="sequences: find the frame offset between the sequences within +-N frames")
+    r.add_argument("--pair-by", choices=PAIRING_RULES,
+                   help="sequences: pair frames by file name (auto, the default, when names match) or by order")
+    r.add_argument("--pages", metavar="SEL",
+                   help="sequences: frames to score, by position: START:STOP[:STEP] or i,j,k (0-based)")
+    o = s.add_argument_group("output and running")
+    o.add_argument("--json", metavar="PATH|-", help="write the report as JSON to PATH, or to stdout with '-'")
+    o.add_argument("--csv", metavar="PATH", help="write one row per frame pair as CSV (sequences: streamed)")
+    o.add_argument("--report", metavar="PATH", help="write a self-contained HTML report")
+    o.add_argument("--save-config", metavar="PATH", help="write the scoring configuration used (TOML or JSON)")
+    o.add_argument("--resume", action="store_true", help="sequences: keep the frames already scored in --csv")
+    o.add_argument("--workers", type=_positive_int, metavar="N", help="sequences: parallel workers")
+    o.add_argument("--no-progress", action="store_true", help="sequences: no progress display")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from .. import __version__
+
+    p = _Parser(prog="irfidelity",
+                description="Fidelity of an infrared camera simulator against the real camera "
+                            "(fuzzy-logic framework, Acta Photonica Sinica 41(5):547, 2012).")
+    p.add_argument("--version", action="version", version=f"irfidelity {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    _add_score(sub)
+    d = sub.add_parser(
+        "demo", help="score a toy simulator on bundled real infrared data",
+        description="Scores a simulated frame made by a simple camera model (Gaussian blur, gain/offset, "
+                    "seeded noise) against a real FLIR Lepton frame, a blurred slanted-edge crop against "
+                    "the real crop (MTF), and a Planck in-band model against a measured Jade LWIR "
+                    "calibration (SiTF). No arguments needed.")
+    d.add_argument("--json", metavar="PATH|-", help="also write the report as JSON to PATH, or only JSON to stdout "
+                                                   "with '-'")
+    d.add_argument("--report", metavar="PATH", help="also write a self-contained HTML report")
+    c = sub.add_parser("config", help="print (or write) the default scoring configuration",
+                       description="Print the default scoring configuration as TOML, or write it to PATH: a "
+                                   "starting point for 'irfidelity score --config PATH'.")
+    c.add_argument("path", nargs="?", metavar="PATH", help="write here instead of printing (.toml or .json)")
+    return p

@@ -1,0 +1,122 @@
+"""``irfidelity score REAL SIM``: one pair or two sequences, with the same options as the API."""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import os
+from typing import Any
+
+from ..config import ScoringConfig
+from ..errors import FidelityError
+from ..frames import FrameSequence, page_count
+from ..fuzzy import Weights
+from .output import UsageError, write_outputs
+
+__all__ = ["score_command"]
+
+#: Flags that set a ScoringConfig field of the same name.
+_CONFIG_FLAGS = ("bits", "peak", "bins", "hist_range", "missing", "nonfinite", "channel", "real_channel",
+                 "sim_channel", "edge_channel", "edge_fit_order", "ifov_mrad", "pixel_pitch_um", "focal_length_mm", "register",
+                 "register_each", "max_delay", "pair_by")
+
+
+def _config(a: argparse.Namespace) -> ScoringConfig:
+    options: dict[str, Any] = {k: getattr(a, k) for k in _CONFIG_FLAGS}
+    if a.weights is not None:
+        try:
+            options["weights"] = Weights.parse(a.weights)
+        except FidelityError as exc:
+            raise UsageError(f"--weights: {exc}") from None
+    return ScoringConfig.resolve(a.config, **options)
+
+
+def _is_sequence(path: str) -> bool:
+    """A directory, a glob pattern, or a multi-page TIFF."""
+    if os.path.isdir(path):
+        return True
+    if not os.path.exists(path):
+        return glob.has_magic(path)
+    return path.lower().endswith((".tif", ".tiff")) and page_count(path) > 1
+
+
+def _curve(a: argparse.Namespace, side: str, kind: str) -> Any:
+    from ..curves import Curve
+
+    given = getattr(a, f"{side}_{kind}")
+    if kind == "mtf" and a.__dict__.get(f"{side}_edge") is not None:
+        if given is not None:
+            raise UsageError(f"give the {side} MTF either as --{side}-mtf or as --{side}-edge, not both")
+        given = getattr(a, f"{side}_edge")
+    columns, where = getattr(a, f"{side}_{kind}_columns"), getattr(a, f"{side}_{kind}_where")
+    if columns is None and where is None:
+        return given
+    if given is None or not given.lower().endswith((".csv", ".txt", ".tsv", ".dat")):
+        flag = f"--{side}-{kind}-columns" if columns is not None else f"--{side}-{kind}-where"
+        raise UsageError(f"{flag} selects from a curve CSV given with --{side}-{kind}")
+    return Curve.from_csv(given, columns=columns, where=where, name=os.path.basename(given))
+
+
+def _pages(seq: FrameSequence, spec: str) -> FrameSequence:
+    try:
+        if ":" in spec:
+            bounds = [int(p) if p.strip() else None for p in spec.split(":")]
+            if len(bounds) > 3:
+                raise ValueError
+            return seq[slice(*bounds)]
+        return seq.take([int(p) for p in spec.split(",")])
+    except ValueError:
+        raise UsageError(f"--pages: expected START:STOP[:STEP] or i,j,k (0-based frame positions), "
+                         f"got {spec!r}") from None
+    except IndexError as exc:
+        raise UsageError(f"--pages: {exc}") from None
+
+
+def _sequence(a: argparse.Namespace, config: ScoringConfig, curves: dict) -> Any:
+    from ..sequence import score_sequence
+
+    real: Any = a.real
+    sim: Any = a.sim
+    if a.pages is not None:
+        real = _pages(FrameSequence(a.real, channel=config.real_channel), a.pages)
+        sim = _pages(FrameSequence(a.sim, channel=config.sim_channel), a.pages)
+    return score_sequence(real, sim, config=config, workers=a.workers, progress=not a.no_progress, csv=a.csv,
+                          resume=a.resume, **curves)
+
+
+def _curves(a: argparse.Namespace) -> dict:
+    curves = {f"{side}_{kind}": _curve(a, side, kind) for side in ("real", "sim") for kind in ("mtf", "sitf")}
+    curves.update(real_noise=a.real_noise, sim_noise=a.sim_noise)
+    for kind in ("mtf", "sitf", "noise"):
+        real, sim = curves[f"real_{kind}"], curves[f"sim_{kind}"]
+        if (real is None) != (sim is None):
+            given, absent = ("real", "sim") if sim is None else ("sim", "real")
+            alternative = f" (or --{absent}-edge)" if kind == "mtf" else ""
+            raise UsageError(f"the {given} {kind.upper()} needs the {absent} one too: give --{absent}-{kind}"
+                             f"{alternative}")
+    return curves
+
+
+def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
+    """Score as the arguments say; returns the report and whether it is a sequence's."""
+    config = _config(a)
+    curves = _curves(a)
+    seq_real, seq_sim = _is_sequence(a.real), _is_sequence(a.sim)
+    if seq_real != seq_sim:
+        one, other = ("REAL", "SIM") if seq_real else ("SIM", "REAL")
+        raise UsageError(f"{one} is a sequence (a directory, glob or multi-page TIFF) but {other} is a single frame "
+                         f"({a.real!r} vs {a.sim!r})")
+    if seq_real:
+        report = _sequence(a, config, curves)
+    else:
+        for flag in ("resume", "pages"):
+            if getattr(a, flag):
+                raise UsageError(f"--{flag} applies to sequences; REAL and SIM are single frames")
+        for name, path in (("REAL", a.real), ("SIM", a.sim)):
+            if not os.path.isfile(path):
+                raise UsageError(f"{name} {path!r}: no such file")
+        from ..evaluation import evaluate
+
+        report = evaluate(a.real, a.sim, config=config, **curves)
+    write_outputs(report, a, sequence=seq_real)
+    return report, seq_real

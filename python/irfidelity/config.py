@@ -1,0 +1,413 @@
+"""The scoring configuration: everything that decides a score, in one frozen object.
+
+:class:`ScoringConfig` is what :func:`irfidelity.evaluate`, :func:`irfidelity.score_sequence`
+and ``irfidelity score`` take (keyword arguments still work and override its fields), what
+``irfidelity score --config scoring.toml`` reads, and what every report embeds, with the
+irfidelity version, so that a number can always be traced back to how it was made.
+
+What is *not* here: how the work is run (workers, progress, CSV paths, resume, Dask
+clients, decoding limits). Those change how fast a score arrives, never its value.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from .errors import FidelityError
+from .fuzzy import GradeScale, Weights
+from .normalize import DEFAULT_PSNR_ANCHORS, psnr_curve_params
+
+__all__ = ["ScoringConfig", "MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "PAIRING_RULES"]
+
+MISSING_MODES = ("renormalize", "raise")
+NONFINITE_MODES = ("raise", "mask")
+REGISTRATION_MODELS = ("translation", "rigid", "similarity")
+REGISTRATION_METHODS = ("auto", "phase", "nmi")
+PAIRING_RULES = ("auto", "name", "order")
+PEAK_RULES = ("range",)
+
+
+class ConfigError(FidelityError):
+    """A scoring configuration value (or file) that is not valid; names the field."""
+
+    def __init__(self, field_name: str, message: str):
+        super().__init__(f"{field_name}: {message}", option=field_name)
+
+
+def _choice(name: str, value: Any, choices: tuple) -> str:
+    if isinstance(value, str):
+        key = value.lower().replace("normalise", "normalize")
+        if key in choices:
+            return key
+    raise ConfigError(name, f"expected one of {', '.join(choices)}; got {value!r}")
+
+
+def _optional_int(name: str, value: Any, lo: int, hi: int | None = None) -> int | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int) or value < lo or (hi is not None and value > hi):
+        bound = f"{lo}..{hi}" if hi is not None else f">= {lo}"
+        raise ConfigError(name, f"expected an integer {bound}; got {value!r}")
+    return int(value)
+
+
+def _optional_positive(name: str, value: Any) -> float | None:
+    if value is None:
+        return None
+    if isinstance(value, bool):
+        raise ConfigError(name, f"expected a positive number; got {value!r}")
+    try:
+        number = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ConfigError(name, f"expected a positive number; got {value!r}") from None
+    if not (number > 0 and math.isfinite(number)):
+        raise ConfigError(name, f"expected a positive finite number; got {value!r}")
+    return number
+
+
+def _numbers(name: str, value: Any, count: int) -> tuple[float, ...]:
+    try:
+        out = tuple(float(v) for v in value)
+    except (TypeError, ValueError, OverflowError):
+        raise ConfigError(name, f"expected {count} numbers; got {value!r}") from None
+    if len(out) != count or not all(math.isfinite(v) for v in out):
+        raise ConfigError(name, f"expected {count} finite numbers; got {value!r}")
+    return out
+
+
+def _optional_name(name: str, value: Any) -> str | None:
+    if value is None or (isinstance(value, str) and value):
+        return value
+    raise ConfigError(name, f"expected a non-empty name; got {value!r}")
+
+
+@dataclass(frozen=True)
+class ScoringConfig:
+    """What decides a fidelity score: weights, PSNR peak, binning, anchors, exponents, ...
+
+    Every field has the default a new user gets; a report embeds the whole object
+    (``report.config``), and :meth:`load` / :meth:`save` read and write it as TOML or
+    JSON. Invalid values raise :class:`~irfidelity.FidelityError` naming the field.
+
+    Attributes
+    ----------
+    weights : Weights
+        ``K`` of eq. (15). Anything :meth:`Weights.coerce` accepts (a preset name, a
+        ``"psnr=0.5,ssim=0.5"`` string, a mapping). Default: the paper's 1/5 each.
+    bits : int or None
+        Bit depth of integer frames: values must lie in ``[0, 2**bits - 1]`` (else a
+        RangeError naming value and position), and the default PSNR peak is ``2**bits - 1``.
+    peak : float, "range" or None
+        The PSNR peak (eq. 5). None: ``2**bits - 1`` (the paper's choice), or the integer
+        dtype's maximum; float frames need a number or ``"range"``. ``"range"``: the real
+        frame's ``max - min``, for scenes that use a small part of the sensor's range (see
+        docs/interpretation.md).
+    bins : int or "levels"
+        Histogram bins for NMI (uniform over ``hist_range``), or one bin per grey level.
+    hist_range : "data", "full" or (lo, hi)
+        Histogram edges shared by both frames: their joint min..max, ``0..peak``, or given.
+    psnr_anchors : ((dB, value), (dB, value))
+        The two points fixing eq. (6); default 30 dB -> 0.9, 45 dB -> 0.99.
+    ssim_exponents : (alpha, beta, gamma)
+        Exponents of eq. (14).
+    missing : "renormalize" or "raise"
+        A weighted component without inputs (no curves given, say): drop it and rescale the
+        other weights (recorded in ``report.skipped``), or fail.
+    nonfinite : "raise" or "mask"
+        NaN/Inf in float frames: an error with counts and the first position, or exclude
+        those pixel pairs (counted in the report).
+    real_channel, sim_channel : str or None
+        Channel of multi-channel frame files ("Y", "R", an EXR channel name, ...), per side.
+    edge_channel : str or None
+        Channel of multi-channel slanted-edge images.
+    edge_fit_order : int
+        Order (1..5) of the polynomial fitted to the edge location of slanted-edge images:
+        5 follows lens curvature (ISO 12233:2023), 1 is the straight line of ISO 12233:2014.
+    ifov_mrad, pixel_pitch_um, focal_length_mm : float or None
+        Camera geometry for converting curve frequencies between cycles/pixel, cycles/mrad
+        and line pairs/mm (only needed when the two curves are in different units).
+    mtf_options, sitf_options : mapping
+        Options of the curve comparisons (:func:`irfidelity.curves.mtf_similarity`,
+        :func:`irfidelity.curves.sitf_similarity`), e.g. ``{"points": 64}``.
+    grades : GradeScale
+        Grade names and boundaries of the fuzzy evaluation.
+    register : "translation", "rigid", "similarity" or None
+        Align the simulated frames to the real ones before the image metrics.
+    register_method : "auto", "phase" or "nmi"
+    register_each : bool
+        Sequences: register every frame pair instead of once.
+    max_delay : int
+        Sequences: search the frame offset between the two sequences in ``[-max_delay,
+        max_delay]``.
+    pair_by : "auto", "name" or "order"
+        Sequences: pair frames by file name (``"auto"`` does when both sides are named
+        files) or by position.
+    """
+
+    weights: Weights = field(default_factory=Weights)
+    bits: int | None = None
+    peak: float | str | None = None
+    bins: int | str = 256
+    hist_range: str | tuple = "data"
+    psnr_anchors: tuple = DEFAULT_PSNR_ANCHORS
+    ssim_exponents: tuple = (1.0, 1.0, 1.0)
+    missing: str = "renormalize"
+    nonfinite: str = "raise"
+    real_channel: str | None = None
+    sim_channel: str | None = None
+    edge_channel: str | None = None
+    edge_fit_order: int = 5
+    ifov_mrad: float | None = None
+    pixel_pitch_um: float | None = None
+    focal_length_mm: float | None = None
+    mtf_options: Mapping = field(default_factory=dict)
+    sitf_options: Mapping = field(default_factory=dict)
+    grades: GradeScale = field(default_factory=GradeScale)
+    register: str | None = None
+    register_method: str = "auto"
+    register_each: bool = False
+    max_delay: int = 0
+    pair_by: str = "auto"
+
+    def __post_init__(self) -> None:
+        for name, value in self._validated().items():
+            object.__setattr__(self, name, value)
+
+    def _validated(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        try:
+            out["weights"] = Weights.coerce(self.weights)
+        except FidelityError as exc:
+            raise ConfigError("weights", str(exc)) from None
+        out["bits"] = _optional_int("bits", self.bits, 1, 32)
+        out["peak"] = _peak(self.peak)
+        if out["bits"] is not None and isinstance(out["peak"], float):
+            raise ConfigError("peak", "a numeric peak and bits both set the PSNR peak; give one of them (bits "
+                                      "still bounds the values with the peak 'range')")
+        out["bins"] = _bins(self.bins)
+        out["hist_range"] = _hist_range(self.hist_range)
+        anchors = tuple(_numbers("psnr_anchors", a, 2) for a in _pairs("psnr_anchors", self.psnr_anchors))
+        try:
+            psnr_curve_params(anchors)
+        except FidelityError as exc:
+            raise ConfigError("psnr_anchors", str(exc)) from None
+        out["psnr_anchors"] = anchors
+        exponents = _numbers("ssim_exponents", self.ssim_exponents, 3)
+        if any(e < 0 for e in exponents):
+            raise ConfigError("ssim_exponents", f"expected numbers >= 0; got {self.ssim_exponents!r}")
+        out["ssim_exponents"] = exponents
+        out["missing"] = _choice("missing", self.missing, MISSING_MODES)
+        out["nonfinite"] = _choice("nonfinite", self.nonfinite, NONFINITE_MODES)
+        for name in ("real_channel", "sim_channel", "edge_channel"):
+            out[name] = _optional_name(name, getattr(self, name))
+        out["edge_fit_order"] = _optional_int("edge_fit_order", self.edge_fit_order, 1, 5)
+        for name in ("ifov_mrad", "pixel_pitch_um", "focal_length_mm"):
+            out[name] = _optional_positive(name, getattr(self, name))
+        for name in ("mtf_options", "sitf_options"):
+            value = getattr(self, name)
+            if not isinstance(value, Mapping) or not all(isinstance(k, str) for k in value):
+                raise ConfigError(name, f"expected a mapping of option names to values; got {value!r}")
+            out[name] = dict(value)
+        if not isinstance(self.grades, GradeScale):
+            out["grades"] = _grades(self.grades)
+        out["register"] = None if self.register is None else _choice("register", self.register, REGISTRATION_MODELS)
+        out["register_method"] = _choice("register_method", self.register_method, REGISTRATION_METHODS)
+        if not isinstance(self.register_each, bool):
+            raise ConfigError("register_each", f"expected true or false; got {self.register_each!r}")
+        out["max_delay"] = _optional_int("max_delay", self.max_delay, 0, 1 << 20)
+        out["pair_by"] = _choice("pair_by", self.pair_by, PAIRING_RULES)
+        return out
+
+    # -- construction ---------------------------------------------------------------
+    @classmethod
+    def fields(cls) -> tuple[str, ...]:
+        """Names of the configuration fields, in order."""
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    def replace(self, **changes: Any) -> ScoringConfig:
+        """A copy with some fields changed (``channel=`` sets both frame channels).
+
+        Unknown names raise :class:`~irfidelity.FidelityError` listing the valid ones.
+        """
+        changes = dict(changes)
+        if "channel" in changes:
+            channel = changes.pop("channel")
+            changes.setdefault("real_channel", channel)
+            changes.setdefault("sim_channel", channel)
+        unknown = sorted(set(changes) - set(self.fields()))
+        if unknown:
+            raise FidelityError(f"unknown scoring option(s) {', '.join(unknown)}; "
+                                f"the options are: {', '.join(self.fields())}, channel", option=unknown[0])
+        return dataclasses.replace(self, **changes) if changes else self
+
+    @classmethod
+    def resolve(cls, config: ScoringConfig | Mapping | str | os.PathLike | None = None,
+                **overrides: Any) -> ScoringConfig:
+        """The configuration an entry point runs with: ``config`` (an object, a mapping or a
+        TOML/JSON path; default: the defaults) with ``overrides`` applied. Overrides that
+        are None are ignored, so keyword arguments left at their default change nothing."""
+        if config is None:
+            base = cls()
+        elif isinstance(config, ScoringConfig):
+            base = config
+        elif isinstance(config, Mapping):
+            base = cls.from_dict(config)
+        elif isinstance(config, (str, os.PathLike)):
+            base = cls.load(config)
+        else:
+            raise FidelityError(f"config: expected a ScoringConfig, a mapping or a TOML/JSON path; "
+                                f"got {type(config).__name__}")
+        return base.replace(**{k: v for k, v in overrides.items() if v is not None})
+
+    # -- serialisation --------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict; :meth:`from_dict` inverts it."""
+        out: dict[str, Any] = {}
+        for name in self.fields():
+            value = getattr(self, name)
+            if isinstance(value, Weights):
+                value = value.as_dict()
+            elif isinstance(value, GradeScale):
+                value = {"grades": list(value.grades), "cuts": {k: list(v) for k, v in value.cuts.items()},
+                         "width": dict(value.width)}
+            elif isinstance(value, tuple):
+                value = [list(v) if isinstance(v, tuple) else v for v in value]
+            out[name] = value
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> ScoringConfig:
+        """A configuration from a mapping (missing fields keep their defaults)."""
+        if not isinstance(data, Mapping):
+            raise FidelityError(f"config: expected a mapping of options; got {type(data).__name__}")
+        values = dict(data)
+        values.pop("version", None)  # reports record it beside the options
+        return cls().replace(**values)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> ScoringConfig:
+        """Read a configuration from a ``.toml`` or ``.json`` file (see :meth:`save`)."""
+        spath = os.fspath(path)
+        try:
+            with open(spath, "rb") as fh:
+                raw = fh.read()
+        except OSError as exc:
+            raise FidelityError(f"{spath}: cannot read the configuration: {exc.strerror or exc}") from None
+        try:
+            if spath.lower().endswith(".json"):
+                data = json.loads(raw.decode("utf-8"))
+            else:
+                data = tomllib.loads(raw.decode("utf-8"))
+        except (ValueError, UnicodeDecodeError) as exc:
+            kind = "JSON" if spath.lower().endswith(".json") else "TOML"
+            raise FidelityError(f"{spath}: not a valid {kind} configuration: {exc}") from None
+        data = data.get("scoring", data) if isinstance(data, dict) else data
+        try:
+            return cls.from_dict(data)
+        except FidelityError as exc:
+            raise FidelityError(f"{spath}: {exc}") from None
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Write the configuration as TOML (or JSON for a ``.json`` path)."""
+        spath = os.fspath(path)
+        text = (json.dumps(self.to_dict(), indent=2) + "\n" if spath.lower().endswith(".json")
+                else self.to_toml())
+        with open(spath, "w", encoding="utf-8") as fh:
+            fh.write(text)
+
+    def to_toml(self) -> str:
+        """The configuration as TOML. TOML has no null: a field that is None is written as a
+        commented-out example."""
+        data = self.to_dict()
+        tables = {k: data.pop(k) for k in ("weights", "mtf_options", "sitf_options", "grades")}
+        lines = ["# irfidelity scoring configuration (irfidelity score --config FILE)"]
+        lines += [f"{k} = {_toml_value(v)}" if v is not None else f"# {k} = {_UNSET_EXAMPLES[k]}"
+                  for k, v in data.items()]
+        for name, table in tables.items():
+            lines += ["", f"[{name}]"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in table.items() if not isinstance(v, dict)]
+            for k, v in table.items():
+                if isinstance(v, dict):
+                    lines += ["", f"[{name}.{k}]"] + [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items()]
+        return "\n".join(lines) + "\n"
+
+
+#: What a commented-out line shows for a field that is not set.
+_UNSET_EXAMPLES = {
+    "bits": "14            # bit depth of integer frames (default PSNR peak 2^bits - 1)",
+    "peak": '"range"       # or a number: the PSNR peak',
+    "real_channel": '"Y"   # channel of the real frame files',
+    "sim_channel": '"Y"    # channel of the simulated frame files',
+    "edge_channel": '"R"   # channel of slanted-edge images',
+    "ifov_mrad": "0.5     # camera geometry for curve unit conversions",
+    "pixel_pitch_um": "12.0",
+    "focal_length_mm": "25.0",
+    "register": '"translation"   # or "rigid", "similarity": align before the image metrics',
+}
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)  # a TOML basic string is a JSON string
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"cannot write {value!r} as TOML")
+
+
+def _pairs(name: str, value: Any) -> tuple:
+    try:
+        items = tuple(value)
+    except TypeError:
+        raise ConfigError(name, f"expected two (dB, value) pairs; got {value!r}") from None
+    if len(items) != 2:
+        raise ConfigError(name, f"expected two (dB, value) pairs; got {value!r}")
+    return items
+
+
+def _peak(value: Any) -> float | str | None:
+    if value is None:
+        return None
+    if isinstance(value, str):
+        return _choice("peak", value, PEAK_RULES)
+    return _optional_positive("peak", value)
+
+
+def _bins(value: Any) -> int | str:
+    if isinstance(value, str) and value == "levels":
+        return value
+    if isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= (1 << 20):
+        return int(value)
+    raise ConfigError("bins", f"expected an integer in 1..1048576 or 'levels'; got {value!r}")
+
+
+def _hist_range(value: Any) -> str | tuple:
+    if isinstance(value, str):
+        if value in ("data", "full"):
+            return value
+        raise ConfigError("hist_range", f"expected 'data', 'full' or (lo, hi); got {value!r}")
+    lo, hi = _numbers("hist_range", value, 2)
+    if not lo <= hi:
+        raise ConfigError("hist_range", f"expected lo <= hi; got {value!r}")
+    return (lo, hi)
+
+
+def _grades(value: Any) -> GradeScale:
+    if not isinstance(value, Mapping):
+        raise ConfigError("grades", f"expected a GradeScale or a mapping; got {type(value).__name__}")
+    try:
+        return GradeScale(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in value.items()})
+    except TypeError as exc:
+        raise ConfigError("grades", str(exc)) from None
+    except FidelityError as exc:
+        raise ConfigError("grades", str(exc)) from None

@@ -1,0 +1,288 @@
+"""The single-pair report: :func:`render_pair_html`."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..errors import FidelityError
+from ..maps import SSIMMap, ms_ssim, ssim_map
+from ..stats import _as_frame, pair_stats
+from . import figures, sections
+from .html import Missing, Raw, colour_bar, image, missing, page, panels, paragraph, section
+
+__all__ = ["render_pair_html"]
+
+
+def render_pair_html(
+    report: Any,
+    *,
+    real: Any = None,
+    sim: Any = None,
+    mask: Any = None,
+    ssim: Any = None,
+    joint_histogram: tuple[Any, Any, Any] | None = None,
+    curves: Mapping[str, Any] | None = None,
+    registration: Any = None,
+    peak: float | None = None,
+    title: str | None = None,
+    fragment: bool = False,
+) -> str:
+    """One self-contained HTML page (or a ``<div>`` for notebooks) for a single frame pair.
+
+    Parameters
+    ----------
+    report : dict or object with ``to_dict()``
+        The JSON-ready report (``FidelityReport.to_dict()``). Every key is optional: a section
+        whose data is missing is replaced by a note saying so.
+    real, sim : 2-D arrays or paths, optional
+        The frames as scored (``sim`` aligned, when a registration was applied). Without them
+        the frame, difference, SSIM-map and joint-histogram sections are left out.
+    mask : 2-D bool array, optional
+        Valid pixels (``False`` = excluded from the metrics, e.g. outside a registration's
+        overlap): shown grey in the difference and left out of the histograms.
+    ssim : SSIMMap or 2-D array, optional
+        A precomputed SSIM map; default: :func:`irfidelity.ssim_map` of the frames.
+    joint_histogram : (counts, real_edges, sim_edges), optional
+        Default: :meth:`irfidelity.PairStats.joint_histogram` with the report's ``bins`` and
+        ``hist_range`` settings (256 bins over the data range when it records none).
+    curves : mapping, optional
+        ``real_mtf``, ``sim_mtf``, ``real_sitf``, ``sim_sitf`` (Curve, ``(x, y)`` or
+        ``{"x", "y"}``) and ``real_sitf_fit``, ``sim_sitf_fit`` (SiTFFit or a mapping with
+        ``slope, intercept, lo, hi``).
+    registration : Registration or mapping, optional
+        Default: ``report["registration"]``.
+    peak : float, optional
+        Data range L of the SSIM map. Default: the report's ``peak`` or ``bits`` setting, else
+        the frames' joint data range (max − min); the page says which.
+    title : str, optional
+    fragment : bool
+        Return a ``<div>`` (styles scoped to it) instead of a whole document.
+
+    Returns
+    -------
+    str
+        HTML: figures are embedded PNGs, styles inline, no script, and a
+        Content-Security-Policy that forbids any network fetch.
+
+    Examples
+    --------
+    >>> import numpy as np, irfidelity as irf
+    >>> from irfidelity.report import render_pair_html
+    >>> y, x = np.mgrid[0:120, 0:160]
+    >>> real = (3000 + 200 * np.sin(x / 9.0) + 50 * np.cos(y / 5.0)).astype(np.uint16)
+    >>> sim = (real // 2 + 1600).astype(np.uint16)
+    >>> rep = irf.evaluate(real, sim, bits=14, missing="renormalize")
+    >>> page = render_pair_html(rep.to_dict(), real=real, sim=sim)
+    >>> page.startswith("<!DOCTYPE html>"), "Not shown: no MTF curves were given" in page
+    (True, True)
+
+    References
+    ----------
+    .. [1] Acta Photonica Sinica 41(5):547 (2012), doi:10.3788/gzxb20124105.0547 (components,
+       eq. 15, fuzzy grades, and Figs. 5–6: each frame with its normalised histogram).
+    .. [2] Z. Wang et al., IEEE Trans. Image Processing 13(4), 600–612 (2004) (the SSIM map).
+    """
+    d = sections.as_dict(report)
+    figures.require_matplotlib()
+    curves = dict(curves or {})
+    metrics = sections.mapping(d, "metrics")
+    frames = _frames(real, sim, mask)
+    body = [
+        sections.header(title or "Fidelity report", _subtitle(d)),
+        sections.verdict(d),
+        sections.components(d),
+        *(_frame_sections(d, frames, ssim, joint_histogram, peak) if isinstance(frames, tuple) else
+          [missing(t, frames, anchor=a) for t, a in _FRAME_SECTIONS]),
+        sections.mtf(curves, metrics),
+        sections.sitf(curves, metrics),
+        sections.registration(d, registration),
+        sections.settings(d),
+    ]
+    body.append(sections.footer([b.title for b in body if isinstance(b, Missing)]))
+    return page(title or "irfidelity fidelity report", "".join(body), fragment=fragment)
+
+
+_FRAME_SECTIONS = [("Frames", "frames"), ("Difference", "difference"), ("SSIM map", "ssim-map"),
+                   ("Joint histogram", "joint-histogram")]
+
+
+def _subtitle(d: Mapping) -> str | None:
+    inputs = sections.mapping(d, "inputs")
+    if "real" in inputs or "sim" in inputs:
+        return f"real: {inputs.get('real', '?')} — simulated: {inputs.get('sim', '?')}"
+    return None
+
+
+def _frames(real: Any, sim: Any, mask: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | str:
+    """The frames (and mask) checked, or why they cannot be shown."""
+    if real is None or sim is None:
+        return "no frames were given (real=..., sim=...)"
+    try:
+        r, s = _as_frame(real, "real"), _as_frame(sim, "sim")
+    except FidelityError as exc:
+        return f"the frames could not be read: {exc}"
+    if r.shape != s.shape:
+        return f"the frames differ in shape: {r.shape} vs {s.shape}"
+    m = None
+    if mask is not None:
+        m = np.asarray(mask)
+        if m.shape != r.shape or m.dtype != np.bool_:
+            return f"mask must be a bool array of the frames' shape {r.shape}"
+    return r, s, m
+
+
+def _settings(d: Mapping) -> dict:
+    out = {}
+    for key in ("settings", "config"):
+        out.update(sections.mapping(d, key))
+    return out
+
+
+def _data_range(d: Mapping, real: np.ndarray, sim: np.ndarray, peak: float | None) -> tuple[float, str]:
+    """The SSIM map's data range L and where it came from: the ``peak`` argument, the report's
+    ``peak`` or ``bits`` setting, else the frames' joint data range (max − min)."""
+    st = _settings(d)
+    metrics = sections.mapping(d, "metrics")
+    for source, value in (("the peak argument", peak), ("the report's PSNR peak", metrics.get("psnr_peak")),
+                          ("the report's peak", st.get("peak"))):
+        v = sections.as_float(value)
+        if v is not None and v > 0:
+            return v, source
+    bits = st.get("bits")
+    if isinstance(bits, int) and not isinstance(bits, bool) and bits > 0:
+        return float(2**bits - 1), f"the report's bits = {bits}"
+    both = np.concatenate([real.ravel(), sim.ravel()]).astype(np.float64)
+    both = both[np.isfinite(both)]
+    span = float(both.max() - both.min()) if both.size else 0.0
+    return (span if span > 0 else 1.0), "the frames' joint data range (the report records no peak or bits)"
+
+
+def _frame_sections(d, frames, ssim, joint, peak) -> list[Raw]:
+    real, sim, mask = frames
+    hist = _joint_histogram(d, real, sim, mask, joint)
+    return [_frames_section(real, sim, hist), _difference_section(real, sim, mask),
+            _ssim_section(d, real, sim, ssim, peak), _joint_section(hist)]
+
+
+def _joint_histogram(d, real, sim, mask, given):
+    """``(counts, real_edges, sim_edges)`` or the reason there is none."""
+    if given is not None:
+        try:
+            counts, re, se = (np.asarray(a) for a in given)
+        except (TypeError, ValueError):
+            return "joint_histogram must be (counts, real_edges, sim_edges)"
+        if counts.ndim != 2 or counts.shape != (len(re) - 1, len(se) - 1):
+            return "joint_histogram: counts must be (len(real_edges) - 1) × (len(sim_edges) - 1)"
+        return counts, re, se
+    st = _settings(d)
+    bins = st.get("bins", sections.mapping(d, "metrics").get("bins", 256))
+    if not (bins == "levels" and real.dtype.kind in "ui") and not (isinstance(bins, int) and bins > 0):
+        bins = 256
+    hist_range = st.get("hist_range", "data")
+    if not (isinstance(hist_range, (list, tuple)) and len(hist_range) == 2):
+        hist_range = "data"  # "full" needs the peak, which the pixels of a report need not know
+    try:
+        stats = pair_stats(real, sim, bins=bins, hist_range=hist_range, mask=mask, need=("nmi",), nonfinite="mask")
+        return stats.joint_histogram()
+    except FidelityError as exc:
+        return f"no joint histogram: {exc}"
+
+
+def _ticks(lo: float, hi: float, mid: float | None = None) -> list[tuple[float, str]]:
+    mid = (lo + hi) / 2 if mid is None else mid
+    span = hi - lo if hi > lo else 1.0
+    return [(0.0, f"{lo:.4g}"), ((mid - lo) / span, f"{mid:.4g}"), (1.0, f"{hi:.4g}")]
+
+
+def _display_note(real: np.ndarray) -> str:
+    step = figures.display(real)[1]
+    return f" Displayed at every {step}th pixel." if step > 1 else ""
+
+
+def _frames_section(real, sim, hist) -> Raw:
+    title = "Frames"
+    if isinstance(hist, str):
+        counts_r, edges_r = np.histogram(real[np.isfinite(real)], bins=256)
+        counts_s, edges_s = np.histogram(sim[np.isfinite(sim)], bins=256)
+    else:
+        counts, edges_r, edges_s = hist
+        counts_r, counts_s = counts.sum(axis=1), counts.sum(axis=0)
+    lo, hi = figures.frame_range(real, sim)
+    images = panels([(figures.raster(real, "viridis", lo, hi), "real frame", "real frame"),
+                     (figures.raster(sim, "viridis", lo, hi), "simulated frame", "simulated frame")])
+    bar = colour_bar(figures.colour_stops("viridis"), _ticks(lo, hi), "grey level (one scale for both frames)")
+    hist_png = figures.histograms_figure((counts_r, edges_r, counts_s, edges_s), (lo, hi))
+    caption = (f"{real.shape[1]}×{real.shape[0]} pixels, {real.dtype}. Colour scale: the 0.5–99.5th percentiles of "
+               "both frames' pixels together (shaded on the histograms); histograms normalised to the pixel count, "
+               "on the edges NMI was computed with." + _display_note(real))
+    body = images + bar + image(hist_png, "normalised histograms of the real and simulated frames", caption=caption)
+    return section(title, body, anchor="frames")
+
+
+def _difference_section(real, sim, mask) -> Raw:
+    diff = sim.astype(np.float64) - real.astype(np.float64)
+    if mask is not None:
+        diff[~mask] = np.nan
+    valid = diff[np.isfinite(diff)]
+    if valid.size == 0:
+        return missing("Difference", "no valid pixel pair", anchor="difference")
+    limit = figures.difference_limit(diff)
+    body = panels([(figures.raster(diff, "RdBu_r", -limit, limit), "signed difference simulated minus real",
+                    "simulated − real")], single=True)
+    body += colour_bar(figures.colour_stops("RdBu_r"), _ticks(-limit, limit, 0.0), "simulated − real (grey levels)")
+    caption = (f"Red: simulator brighter, blue: darker; scale ±{limit:.4g} (99.5th percentile of |difference|, "
+               f"beyond it the end colours). Mean (bias) {valid.mean():.4g}, RMS {np.sqrt(np.mean(valid**2)):.4g}, "
+               f"largest |difference| {np.abs(valid).max():.4g}." + _display_note(real))
+    if valid.size < diff.size:
+        caption += f" Grey: {diff.size - valid.size} pixels excluded (mask or non-finite)."
+    return section("Difference", body + paragraph(caption, cls="caption"), anchor="difference")
+
+
+def _ssim_section(d, real, sim, given, peak) -> Raw:
+    title = "SSIM map"
+    border, extra = 5, ""
+    if given is not None:
+        values = given.map if isinstance(given, SSIMMap) else np.asarray(given, dtype=np.float64)
+        if values.shape != real.shape:
+            return missing(title, f"ssim has shape {values.shape}, the frames {real.shape}", anchor="ssim-map")
+        if isinstance(given, SSIMMap):
+            border = (given.win_size - 1) // 2
+            extra = f"Mean (Wang et al. 2004, without the {border}-pixel border) {given.mean:.6g}. "
+    else:
+        data_range, source = _data_range(d, real, sim, peak)
+        try:
+            m = ssim_map(real, sim, peak=data_range)
+        except FidelityError as exc:
+            return missing(title, f"the SSIM map cannot be computed: {exc}", anchor="ssim-map")
+        values = m.map
+        extra = (f"Mean SSIM (Wang et al. 2004: 11×11 Gaussian window, σ = 1.5, K = 0.01, 0.03, data range "
+                 f"L = {m.peak:g} from {source}; mean without the 5-pixel border) {m.mean:.6g}")
+        try:
+            extra += f"; MS-SSIM {ms_ssim(real, sim, peak=m.peak):.6g}. "
+        except FidelityError:
+            extra += ". "
+    lo = figures.ssim_range(values)
+    body = panels([(figures.raster(values, "cividis", lo, 1.0, outline=border), "windowed SSIM map", "local SSIM")],
+                  single=True)
+    body += colour_bar(figures.colour_stops("cividis"), _ticks(lo, 1.0), "local SSIM (1 = locally identical)")
+    caption = (extra + "The paper's component f5 is the global SSIM of the whole frame; this windowed map shows "
+               "where the frames differ (dotted: the region the mean covers)." + _display_note(real))
+    return section(title, body + paragraph(caption, cls="caption"), anchor="ssim-map")
+
+
+def _joint_section(hist) -> Raw:
+    title = "Joint histogram"
+    if isinstance(hist, str):
+        return missing(title, hist, anchor="joint-histogram")
+    counts, re, se = hist
+    png = figures.joint_histogram_figure(counts, re, se)
+    caption = (f"{counts.shape[0]}×{counts.shape[1]} bins, {int(counts.sum())} pixel pairs, log colour scale (white: "
+               "empty). The NMI component (eqs. 7–10) is computed from these counts; a thin curve means a "
+               "one-to-one grey-level relation (NMI near 1), the dashed line is equality.")
+    if max(counts.shape) > 256:
+        caption += " Displayed summed into at most 256 bins per axis."
+    return section(title, image(png, "joint histogram of real and simulated grey levels", caption=caption),
+                   anchor="joint-histogram")

@@ -1,0 +1,227 @@
+"""The report of one scene: :class:`FidelityReport`, and the text shared by every report.
+
+A report holds the verdict (fidelity, grade, components, raw metrics) and how it was made
+(the :class:`~irfidelity.ScoringConfig`, the irfidelity version, the effective weights,
+what was skipped and why, notes, inputs). Its JSON form follows :mod:`irfidelity.schema`,
+the same keys a sequence report uses for its pooled result and for each frame.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+from .config import ScoringConfig
+from .errors import FidelityError
+from .fuzzy import COMPONENTS, PAPER_COMPONENTS, Weights
+from .schema import from_json, to_json
+
+__all__ = ["FidelityReport", "component_lines", "recorded_warnings", "reading_report"]
+
+
+@contextlib.contextmanager
+def reading_report(cls: type, data: Any) -> Iterator[dict]:
+    """The decoded dict of a report's JSON form; a FidelityError naming the report class for
+    anything that is not one."""
+    if not isinstance(data, Mapping):
+        raise FidelityError(f"not a {cls.__name__} dict: got {type(data).__name__}")
+    try:
+        yield from_json(dict(data))
+    except KeyError as exc:
+        raise FidelityError(f"not a {cls.__name__} dict: missing key {exc}") from None
+    except (TypeError, ValueError, AttributeError) as exc:
+        if isinstance(exc, FidelityError):
+            raise
+        raise FidelityError(f"not a {cls.__name__} dict: {exc}") from None
+
+
+@contextlib.contextmanager
+def recorded_warnings() -> Iterator[list[str]]:
+    """Collect the warnings raised inside as report notes (``"Category: message"``), and
+    re-issue them on leaving, so callers still see them."""
+    notes: list[str] = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield notes
+    for w in caught:
+        notes.append(f"{w.category.__name__}: {w.message}")
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
+def version() -> str:
+    from . import __version__
+
+    return __version__
+
+
+_RAW = {
+    "mtf": lambda m: f"MTF50 real {m['mtf50_real']:.4g}, sim {m['mtf50_sim']:.4g} {m.get('mtf50_unit') or ''}; "
+                     f"mu {m['mtf_mu']:.4f}, rho {m['mtf_rho']:.4f}",
+    "sitf": lambda m: f"slope real {m['sitf_slope_real']:.4g}, sim {m['sitf_slope_sim']:.4g} "
+                      f"{m.get('sitf_slope_unit') or ''}; mu {m['sitf_mu']:.4f}, rho {m['sitf_rho']:.4f}",
+    "psnr": lambda m: f"PSNR {m['psnr_db']:.3f} dB (peak {m['psnr_peak']:g}), MSE {m['mse']:.6g}",
+    "nmi": lambda m: f"MI {m['mi']:.4f}, H(R) {m['h_real']:.4f}, H(S) {m['h_sim']:.4f}, H(R,S) {m['h_joint']:.4f}",
+    "noise": lambda m: f"σ_tvh real {m['noise_sigma_tvh_real']:.4g}, sim {m['noise_sigma_tvh_sim']:.4g}; "
+                       f"mu {m['noise_mu']:.4f}, rho {m['noise_rho']:.4f}",
+    "ssim": lambda m: f"SSIM {m['ssim']:.4f} = l {m['ssim_luminance']:.4f} · c {m['ssim_contrast']:.4f} · "
+                      f"s {m['ssim_structure']:.4f}",
+}
+
+
+def component_lines(components: Mapping[str, float], component_grades: Mapping[str, str],
+                    metrics: Mapping[str, Any], weights: Weights, skipped: Mapping[str, str]) -> list[str]:
+    """The component table of a text summary: weight, value, own grade, raw metrics."""
+    lines = [f"{'component':<10} {'weight':>7} {'value':>8}  {'grade':<9} raw"]
+    for k in COMPONENTS:
+        if k not in components and k not in skipped and k not in PAPER_COMPONENTS:
+            continue  # an opt-in component nobody asked for
+        if k in components:
+            try:
+                raw = _RAW[k](metrics)
+            except (KeyError, TypeError, ValueError):
+                raw = ""
+            lines.append(f"{k:<10} {weights[k]:>7.4f} {components[k]:>8.4f}  {component_grades.get(k, ''):<9} {raw}")
+        else:
+            lines.append(f"{k:<10} {'-':>7} {'-':>8}  {'':<9} skipped: {skipped.get(k, '')}")
+    return lines
+
+
+@dataclass
+class FidelityReport:
+    """The fidelity of one scene (paper eq. 15) with everything it came from.
+
+    Attributes
+    ----------
+    fidelity : float
+        ``Σ k_i·f_i`` over the computed components, with ``weights`` (eq. 15).
+    grade : str
+        Overall grade (rule: :class:`~irfidelity.fuzzy.GradeScale`).
+    components : dict
+        ``{name: f_i}`` for the computed components only (positive weight, inputs given).
+    component_grades : dict
+        ``{name: grade}`` of each computed component.
+    membership : dict
+        ``B = K·R``: ``{grade: membership}``.
+    metrics : dict
+        Raw values behind the components (:data:`irfidelity.schema.METRICS`), with ``n``.
+    weights : Weights
+        The weights eq. (15) used: the configured ones, or renormalised ones when a
+        component without inputs was dropped.
+    skipped : dict
+        ``{name: reason}`` for every component not computed.
+    config : ScoringConfig
+        What decided the score.
+    version : str
+        The irfidelity version that made the report.
+    grading : dict
+        The full evaluation matrix ``R`` and memberships.
+    notes : list of str
+        Warnings raised while computing.
+    inputs : dict
+        Short descriptions of the inputs (paths, shapes).
+    """
+
+    fidelity: float
+    grade: str
+    components: dict
+    weights: Weights
+    metrics: dict = field(default_factory=dict)
+    component_grades: dict = field(default_factory=dict)
+    membership: dict = field(default_factory=dict)
+    skipped: dict = field(default_factory=dict)
+    config: ScoringConfig = field(default_factory=ScoringConfig)
+    version: str = field(default_factory=version)
+    grading: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
+    inputs: dict = field(default_factory=dict)
+    sources: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def to_html(self, path: str | os.PathLike | None = None) -> str:
+        """A self-contained HTML report (figures embedded, no network): the verdict, the frames
+        and their difference, the SSIM map, the joint histogram, the curves. Written to
+        ``path`` when given; returned either way. Needs matplotlib (``irfidelity[report]``).
+
+        The frames and curves are those this report was computed from; a report read back with
+        :meth:`from_dict` has only its numbers, and the page says which sections are missing.
+        """
+        from .report import render_pair_html, write_html
+
+        src = self.sources
+        html = render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
+                                curves=src.get("curves"))
+        return write_html(html, path)
+
+    def _repr_html_(self) -> str:
+        from .report import render_pair_html
+
+        src = self.sources
+        return render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
+                                curves=src.get("curves"), fragment=True)
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""
+        return to_json({
+            "irfidelity": self.version,
+            "fidelity": self.fidelity,
+            "grade": self.grade,
+            "components": dict(self.components),
+            "component_grades": dict(self.component_grades),
+            "membership": dict(self.membership),
+            "metrics": dict(self.metrics),
+            "weights": self.weights.as_dict(),
+            "skipped": dict(self.skipped),
+            "config": self.config.to_dict(),
+            "grading": dict(self.grading),
+            "notes": list(self.notes),
+            "inputs": dict(self.inputs),
+        })
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> FidelityReport:
+        """A report from :meth:`to_dict`'s output; FidelityError naming what is wrong otherwise."""
+        with reading_report(cls, data) as d:
+            return cls(fidelity=float(d["fidelity"]), grade=str(d["grade"]), components=dict(d["components"]),
+                       weights=Weights.coerce(d["weights"]), metrics=dict(d.get("metrics", {})),
+                       component_grades=dict(d.get("component_grades", {})),
+                       membership=dict(d.get("membership", {})), skipped=dict(d.get("skipped", {})),
+                       config=ScoringConfig.from_dict(d.get("config", {})),
+                       version=str(d.get("irfidelity", "unknown")), grading=dict(d.get("grading", {})),
+                       notes=list(d.get("notes", [])), inputs=dict(d.get("inputs", {})))
+
+    @property
+    def grades(self) -> tuple:
+        """Grade names, best first."""
+        return tuple(self.membership)
+
+    def summary_text(self) -> str:
+        """Human-readable table: components, weights, grades, fidelity, how it was made."""
+        lines = component_lines(self.components, self.component_grades, self.metrics, self.weights, self.skipped)
+        lines.append(f"{'fidelity':<10} {'':>7} {self.fidelity:>8.4f}  (eq. 15, Σ k_i·f_i)")
+        b = ", ".join(f"{g} {v:.3f}" for g, v in self.membership.items())
+        lines.append(f"{'grade':<10} {'':>7} {self.grade:>8}  membership B = K·R: {b}")
+        lines.append(settings_line(self.config, self.version))
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary_text()
+
+
+def _peak_text(config: ScoringConfig) -> str:
+    if isinstance(config.peak, float):
+        return f"{config.peak:g}"
+    if config.peak == "range":
+        return "the real frame's max − min"
+    return "2^bits − 1" if config.bits else "the dtype's maximum"
+
+
+def settings_line(config: ScoringConfig, version: str) -> str:
+    """One line naming the settings a reader needs to reproduce the numbers."""
+    parts = [f"irfidelity {version}", f"bits {config.bits}" if config.bits else None,
+             f"PSNR peak {_peak_text(config)}", f"bins {config.bins}", f"hist_range {config.hist_range}",
+             f"registration {config.register}" if config.register else None]
+    return "settings: " + ", ".join(p for p in parts if p)

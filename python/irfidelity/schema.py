@@ -1,0 +1,163 @@
+"""The one output schema: names, units and order of everything a report holds.
+
+A single pair (:class:`~irfidelity.FidelityReport`) and a sequence
+(:class:`~irfidelity.SequenceReport`, whose top level is the pooled result and whose
+``frames`` are per-frame results) use the same keys for the same quantities. JSON nests
+them (``components.psnr``, ``metrics.psnr_db``); CSV flattens them by one rule:
+``components.X`` is the column ``f_X`` (the paper's f_i), ``metrics.Y`` the column ``Y``.
+The table in ``docs/schema.md`` is :func:`markdown_table` (a test checks they agree).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Iterable
+
+import numpy as np
+
+from .fuzzy import COMPONENTS
+
+__all__ = ["METRICS", "FRAME_COLUMNS", "metric_names", "csv_columns", "to_json", "from_json"]
+
+#: Raw metrics behind each component: (key, unit, meaning), in report and CSV order.
+METRICS: dict[str, tuple[tuple[str, str, str], ...]] = {
+    "mtf": (
+        ("mtf50_real", "curve x unit", "MTF50 of the real camera (eq. 4's a)"),
+        ("mtf50_sim", "curve x unit", "MTF50 of the simulated camera (eq. 4's b)"),
+        ("mtf50_unit", "", "the unit of the MTF50s (cy/px, cy/mrad, lp/mm; empty when unknown)"),
+        ("mtf_mu", "1", "mu = 2|a||b|/(a²+b²) of the MTF50s (eq. 4)"),
+        ("mtf_rho", "1", "Pearson correlation of the curves at common points (eq. 2)"),
+        ("mtf_ccc", "1", "Lin's concordance of the curves (not in eq. 15)"),
+        ("mtf_area", "1", "normalised area between the curves (not in eq. 15)"),
+    ),
+    "sitf": (
+        ("sitf_slope_real", "signal / K", "slope of the real SiTF's linear region"),
+        ("sitf_slope_sim", "signal / K", "slope of the simulated SiTF's linear region"),
+        ("sitf_slope_unit", "", "the unit of the slopes (signal unit / temperature unit; empty when unknown)"),
+        ("sitf_mu", "1", "mu of the slopes (eq. 4)"),
+        ("sitf_rho", "1", "Pearson correlation of the curves (eq. 2)"),
+        ("sitf_ccc", "1", "Lin's concordance of the curves (not in eq. 15)"),
+        ("sitf_area", "1", "normalised area between the curves (not in eq. 15)"),
+    ),
+    "psnr": (
+        ("mse", "frame units²", "mean squared error E[(S − R)²] (eq. 5)"),
+        ("psnr_db", "dB", "10·log10(peak²/MSE) (eq. 5); inf for identical frames"),
+        ("psnr_peak", "frame units", "the peak used (see config.peak)"),
+    ),
+    "nmi": (
+        ("nmi", "1", "MI / ((H(R)+H(S))/2) (eq. 10)"),
+        ("mi", "bit", "mutual information H(R)+H(S)−H(R,S) (eq. 9)"),
+        ("h_real", "bit", "entropy of the real frame's histogram (eq. 7)"),
+        ("h_sim", "bit", "entropy of the simulated frame's histogram (eq. 7)"),
+        ("h_joint", "bit", "joint entropy (eq. 8)"),
+    ),
+    "ssim": (
+        ("ssim", "1", "global SSIM l^α·c^β·s^γ (eq. 14)"),
+        ("ssim_luminance", "1", "l (eq. 11)"),
+        ("ssim_contrast", "1", "c (eq. 12)"),
+        ("ssim_structure", "1", "s (eq. 13)"),
+    ),
+}
+
+#: The seven parts of the 3-D noise model (frames × rows × columns), and the noise spectra compared.
+NOISE_PARTS = ("t", "v", "h", "tv", "th", "vh", "tvh")
+NOISE_SPECTRA = ("fixed_row", "fixed_col", "temporal_row", "temporal_col")
+
+
+def _noise_metrics() -> tuple[tuple[str, str, str], ...]:
+    rows = [("noise_mu", "1", "mu of the seven component σ (eq. 4 for a vector of levels)"),
+            ("noise_rho", "1", "weighted Bhattacharyya overlap of the noise spectra's shapes"),
+            ("noise_total_mu", "1", "eq. 4 on the total noise σ alone (not in the component)"),
+            ("noise_units", "", "'frame' (levels in frame units) or 'temperature' (divided by the SiTF slopes)")]
+    for who, camera in (("real", "real"), ("sim", "simulated")):
+        rows += [(f"noise_sigma_{part}_{who}", "frame units", f"σ_{part} of the {camera} camera's 3-D noise")
+                 for part in NOISE_PARTS]
+        rows += [(f"noise_total_{who}", "frame units", f"total noise σ of the {camera} camera"),
+                 (f"noise_netd_{who}", "SiTF x unit", f"σ_tvh / |SiTF slope| of the {camera} camera (empty without a SiTF)"),
+                 (f"noise_mean_{who}", "frame units", f"mean level of the {camera} noise recording"),
+                 (f"noise_frames_{who}", "frames", f"frames in the {camera} noise recording")]
+    rows += [(f"noise_overlap_{name}", "1", f"Bhattacharyya coefficient of the {name.replace('_', ' ')} spectra")
+             for name in NOISE_SPECTRA]
+    return tuple(rows)
+
+
+METRICS["noise"] = _noise_metrics()
+
+#: Per-frame columns before the metrics: (key, unit, meaning).
+FRAME_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("index", "", "position of the pair in the (paired) sequence, 0 for a single pair"),
+    ("real", "", "the real frame's name (file name, 'file.tif[page]', or '[i]' for arrays)"),
+    ("sim", "", "the simulated frame's name"),
+    ("rows", "px", "frame height"),
+    ("cols", "px", "frame width"),
+    ("dtype", "", "sample type of the frames"),
+    ("n", "pixel pairs", "pixel pairs counted"),
+    ("masked", "pixel pairs", "pairs left out by a mask (or outside a registration's overlap)"),
+    ("nonfinite", "pixel pairs", "pairs left out for NaN/Inf values (config.nonfinite = 'mask')"),
+)
+
+#: Per-frame columns after the components.
+RESULT_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("fidelity", "1", "Σ k_i·f_i (eq. 15)"),
+    ("grade", "", "overall grade (docs/interpretation.md)"),
+    ("error", "", "why the frame could not be scored (empty when it was)"),
+)
+
+IMAGE_COMPONENTS = ("psnr", "nmi", "ssim")
+CURVE_COMPONENTS = ("mtf", "sitf")
+
+
+def metric_names(components: Iterable[str]) -> list[str]:
+    """The raw metric keys of the given components, in schema order."""
+    wanted = set(components)
+    return [key for comp in COMPONENTS if comp in wanted for key, _, _ in METRICS.get(comp, ())]
+
+
+def csv_columns(components: Iterable[str]) -> list[str]:
+    """CSV columns of a frame row (single pair or sequence) scoring ``components``."""
+    comps = [c for c in COMPONENTS if c in set(components)]
+    return ([k for k, _, _ in FRAME_COLUMNS] + metric_names(comps) + [f"f_{c}" for c in comps]
+            + [k for k, _, _ in RESULT_COLUMNS])
+
+
+def to_json(value: Any) -> Any:
+    """JSON-ready value: non-finite floats as the strings "inf", "-inf", "nan"; numpy scalars
+    as Python numbers; tuples as lists."""
+    if isinstance(value, (float, np.floating)):
+        value = float(value)
+        if math.isfinite(value):
+            return value
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, dict):
+        return {str(k): to_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_json(v) for v in value]
+    return value
+
+
+def from_json(value: Any) -> Any:
+    """Inverse of :func:`to_json` for the non-finite floats."""
+    if isinstance(value, str) and value in ("inf", "-inf", "nan"):
+        return float(value)
+    if isinstance(value, dict):
+        return {k: from_json(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [from_json(v) for v in value]
+    return value
+
+
+def markdown_table() -> str:
+    """The schema as the markdown of docs/schema.md."""
+    lines = ["| JSON key | CSV column | unit | meaning |", "|---|---|---|---|"]
+    for key, unit, meaning in FRAME_COLUMNS:
+        lines.append(f"| `frames[].{key}` | `{key}` | {unit} | {meaning} |")
+    for comp in COMPONENTS:
+        for key, unit, meaning in METRICS[comp]:
+            lines.append(f"| `metrics.{key}` | `{key}` | {unit} | {meaning} |")
+    for comp in COMPONENTS:
+        lines.append(f"| `components.{comp}` | `f_{comp}` | 1 | fidelity component f_i in [0, 1] |")
+    for key, unit, meaning in RESULT_COLUMNS:
+        lines.append(f"| `{key}` | `{key}` | {unit} | {meaning} |")
+    return "\n".join(lines)

@@ -1,0 +1,191 @@
+"""From statistics to a verdict: which components to compute, their values, fidelity, grade.
+
+Shared by :func:`irfidelity.evaluate` (one pair) and :func:`irfidelity.score_sequence`
+(every frame and the pooled statistics), so both give the same numbers for the same pair:
+
+* :func:`plan_components` decides what to compute before anything is read (a component with
+  weight 0, or without inputs, is not computed; docs/design.md, "plan only what is needed");
+* :func:`image_components` turns a :class:`~irfidelity.PairStats` into f3..f5 (eqs. 5–14);
+* :func:`score_components` adds eq. (15) and the fuzzy grade: a :class:`Score`;
+* :func:`psnr_peak` resolves the configured peak for a frame and warns when it pins f3.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+from .config import ScoringConfig
+from .errors import FidelityError, PeakWarning
+from .fuzzy import COMPONENTS, PAPER_COMPONENTS, Grading, Weights, fidelity_sum, ordered_components
+from .normalize import normalize_psnr
+from .schema import CURVE_COMPONENTS, IMAGE_COMPONENTS
+
+__all__ = ["plan_components", "image_components", "score_components", "Score", "psnr_peak",
+           "pinned_psnr_floor", "IMAGE_COMPONENTS", "CURVE_COMPONENTS"]
+
+_INPUTS = {"mtf": "real_mtf/sim_mtf", "sitf": "real_sitf/sim_sitf", "psnr": "real/sim", "nmi": "real/sim",
+           "ssim": "real/sim", "noise": "real_noise/sim_noise"}
+
+
+# --------------------------------------------------------------------------- plan
+def plan_components(weights: Weights, missing: str, *, have_images: bool, have_mtf: bool,
+                    have_sitf: bool, have_noise: bool = False) -> tuple[Weights, tuple[str, ...], dict]:
+    """Decide what to compute, before computing anything.
+
+    Parameters
+    ----------
+    weights : Weights
+    missing : "raise" | "renormalize"
+        A component with positive weight but no inputs: raise FidelityError naming the
+        missing inputs, or drop it and rescale the remaining weights to sum 1.
+    have_images, have_mtf, have_sitf, have_noise : bool
+        Whether frames, MTF inputs, SiTF inputs and noise recordings were given.
+
+    Returns
+    -------
+    (weights, image_components, skipped)
+        The weights eq. (15) uses (dropped components 0); the image components to compute
+        (subset of ``("psnr", "nmi", "ssim")``, empty: no image pass at all); and
+        ``{component: reason}`` for every component not computed (the opt-in ``noise`` only when
+        it was weighted).
+    """
+    have = {"mtf": have_mtf, "sitf": have_sitf, "psnr": have_images, "nmi": have_images, "ssim": have_images,
+            "noise": have_noise}
+    skipped: dict[str, str] = {}
+    kept: dict[str, float] = {}
+    absent = []
+    for k in COMPONENTS:
+        if weights[k] == 0:
+            if k in PAPER_COMPONENTS:
+                skipped[k] = "weight 0"
+        elif not have[k]:
+            absent.append(k)
+        else:
+            kept[k] = weights[k]
+    if absent and missing == "raise":
+        inputs = " and ".join(dict.fromkeys(_INPUTS[k] for k in absent))
+        raise FidelityError(f"component(s) {', '.join(absent)} have a positive weight but no input: give "
+                            f"{inputs}, set their weight to 0, or let missing components be dropped "
+                            f"(missing = renormalize)", option="missing")
+    for k in absent:
+        skipped[k] = f"no input ({_INPUTS[k]} not given); weight {weights[k]:g} dropped and the rest renormalised"
+    if not kept:
+        raise FidelityError("nothing to compute: every component with a positive weight lacks its inputs "
+                            f"({', '.join(dict.fromkeys(_INPUTS[k] for k in absent))})", option="weights")
+    effective = Weights.normalized(**kept) if absent else weights
+    return effective, tuple(k for k in IMAGE_COMPONENTS if effective[k] > 0), skipped
+
+
+# --------------------------------------------------------------------------- image components
+def image_components(stats: Any, components: tuple[str, ...], config: ScoringConfig) -> tuple[dict, dict]:
+    """Components f3 (normalised PSNR), f4 (NMI), f5 (max(SSIM, 0)) from a PairStats.
+
+    Only ``components`` are computed (and only their raw metrics reported), so ``stats``
+    need only hold what the plan asked for.
+
+    Returns
+    -------
+    (components, metrics)
+        ``{"psnr"|"nmi"|"ssim": f}`` and the raw values (:data:`irfidelity.schema.METRICS`)
+        with ``n``, ``masked`` and ``nonfinite``.
+    """
+    comps: dict[str, float] = {}
+    mets: dict[str, Any] = {"n": int(stats.n), "masked": int(stats.masked), "nonfinite": int(stats.nonfinite)}
+    if "psnr" in components:
+        db = stats.psnr()
+        mets.update(mse=float(stats.mse()), psnr_db=float(db), psnr_peak=float(stats.peak))
+        comps["psnr"] = float(normalize_psnr(db, anchors=config.psnr_anchors))
+    if "nmi" in components:
+        v = stats.nmi()
+        mets.update(nmi=float(v.value), mi=float(v.mi), h_real=float(v.h_real), h_sim=float(v.h_sim),
+                    h_joint=float(v.h_joint))
+        comps["nmi"] = float(v.value)
+    if "ssim" in components:
+        s = stats.ssim(*config.ssim_exponents)
+        mets.update(ssim=float(s.value), ssim_luminance=float(s.luminance), ssim_contrast=float(s.contrast),
+                    ssim_structure=float(s.structure))
+        comps["ssim"] = max(float(s.value), 0.0)
+    return comps, mets
+
+
+# --------------------------------------------------------------------------- the verdict
+@dataclass(frozen=True)
+class Score:
+    """One scored pair (or pooled statistics): components, fidelity (eq. 15) and grade.
+
+    Attributes
+    ----------
+    fidelity : float
+    components : dict
+        ``{component: f_i}`` in the paper's order.
+    metrics : dict
+        The raw values behind them (:data:`irfidelity.schema.METRICS`).
+    grading : Grading
+        Memberships, each component's grade and the overall grade.
+    """
+
+    fidelity: float
+    components: dict
+    metrics: dict
+    grading: Grading
+
+    @property
+    def grade(self) -> str:
+        return self.grading.grade
+
+    def to_dict(self) -> dict:
+        return {"fidelity": self.fidelity, "grade": self.grading.grade, "components": dict(self.components),
+                "component_grades": dict(self.grading.component_grades),
+                "membership": dict(self.grading.membership), "metrics": dict(self.metrics)}
+
+
+def score_components(components: Mapping[str, float], metrics: Mapping[str, Any], weights: Weights,
+                     config: ScoringConfig) -> Score:
+    """Eq. (15) and the fuzzy grade of a set of components."""
+    comps = ordered_components(components)
+    return Score(fidelity=fidelity_sum(weights, comps), components=comps, metrics=dict(metrics),
+                 grading=config.grades.evaluate(weights, comps))
+
+
+# --------------------------------------------------------------------------- PSNR peak
+def pinned_psnr_floor(peak: float, scene_range: float, config: ScoringConfig) -> float:
+    """The smallest f3 a simulated frame can get while its RMS error stays within the real
+    frame's range: the normalised PSNR at MSE = range², i.e. at ``20·log10(peak/range)`` dB."""
+    if scene_range <= 0:
+        return 0.0
+    return normalize_psnr(20.0 * math.log10(peak / scene_range), anchors=config.psnr_anchors)
+
+
+#: f3 floors at or above this (the paper's 30 dB anchor, f3 = 0.9) pin the component.
+PINNED_FLOOR = 0.9
+
+
+def psnr_peak(config: ScoringConfig, default_peak: float | None, scene_range: float | None,
+              where: str) -> float:
+    """The PSNR peak for one frame: the configured number, ``2**bits - 1`` / the dtype's
+    maximum (``default_peak``), or the real frame's range for ``peak="range"``.
+
+    Warns (:class:`~irfidelity.PeakWarning`) when the peak pins f3 near 1 (see
+    :func:`pinned_psnr_floor`); ``where`` names the frame in messages.
+    """
+    if config.peak == "range":
+        if scene_range is None or not scene_range > 0:
+            raise FidelityError(f"{where}: the PSNR peak 'range' needs a real frame with more than one value "
+                                f"(its range is {scene_range!r})", option="peak")
+        return float(scene_range)
+    peak = config.peak if config.peak is not None else default_peak
+    if peak is None:
+        raise FidelityError("PSNR of float frames needs a peak: a number (the largest possible value) or "
+                            "'range' (the real frame's max − min)", option="peak")
+    if scene_range is not None:
+        floor = pinned_psnr_floor(peak, scene_range, config)
+        if floor >= PINNED_FLOOR:
+            warnings.warn(PeakWarning(
+                f"{where}: the PSNR peak {peak:g} is {peak / scene_range:.0f}× the real frame's range "
+                f"{scene_range:g}, so the psnr component cannot fall below {floor:.3f} for any simulated "
+                f"frame whose errors stay within that range; the peak 'range' (max − min of the real frame) "
+                f"lets it move", option="peak"), stacklevel=3)
+    return float(peak)

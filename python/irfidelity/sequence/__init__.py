@@ -1,0 +1,105 @@
+"""Whole sequences: :func:`score_sequence` and :class:`SequenceReport`.
+
+A real camera's recording and a simulator's rendering of the same run are scored frame by
+frame and pooled. The package, in the order a run goes through it:
+
+* :mod:`.sources` — inputs as :class:`~irfidelity.FrameSequence`;
+* :mod:`.pairing` — which simulated frame goes with which real frame (by name, or order);
+* :mod:`.plan` — what is computed, fixed before any pair is scored;
+* :mod:`.backends` — where pairs are scored: the Rust engine, Dask, or an array loop;
+* :mod:`.outcomes` — a scored pair as a report entry (the same functions as ``evaluate``);
+* :mod:`.log`, :mod:`.fingerprint` — the streamed CSV and what makes resuming safe;
+* :mod:`.pooling` — the merged statistics of every scored frame;
+* :mod:`.run` — one run, start to end; :mod:`.report` — its result.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Callable
+
+from ..camera import CameraInputs
+from ..config import ScoringConfig
+from ..errors import FidelityError
+from .pairing import pair_frames
+from .plan import make_plan
+from .report import SequenceReport
+from .run import RunOptions, execute
+from .sources import as_sequence
+
+__all__ = ["score_sequence", "SequenceReport"]
+
+
+_MOST = 1 << 16  # workers or pairs per Dask task: far beyond any machine
+
+
+def _positive(name: str, value: Any, allow_none: bool = False) -> Any:
+    if value is None and allow_none:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= _MOST:
+        raise FidelityError(f"{name} must be an integer in 1..{_MOST}{' or None' if allow_none else ''}, "
+                            f"got {value!r}", option=name)
+    return int(value)
+
+
+def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
+                   sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
+                   config: ScoringConfig | None = None, workers: int | None = None,
+                   progress: bool | Callable[[int, int], Any] = True, client: Any = None,
+                   csv: str | os.PathLike | None = None, resume: bool = False, chunk_size: int = 16,
+                   max_pixels: int | None = None, max_bytes: int | None = None, **options: Any) -> SequenceReport:
+    """Score a simulated sequence against the real one, frame by frame and pooled.
+
+    Parameters
+    ----------
+    real, sim : directory, glob, list of paths, multi-page TIFF, 3-D array, list of 2-D
+        arrays, or :class:`~irfidelity.FrameSequence`
+        Frames are paired by file name when both are files (``pair_by``; a frame without a
+        partner is reported as a failed frame, never dropped), else by position.
+    real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise :
+        The camera curves and noise recordings, as in :func:`irfidelity.evaluate`: compared
+        once, before any frame; their components enter every frame's and the pooled fidelity.
+    config : ScoringConfig, mapping or TOML/JSON path, optional
+        What decides the score; ``**options`` (any ScoringConfig field) override it.
+    workers : threads over frame pairs (default: all cores); with ``client``, threads per
+        Dask task (default 1).
+    progress : True (a tqdm bar, or a plain line without tqdm), False, or
+        ``callable(done, total)``.
+    client : dask.distributed.Client, optional
+        Score chunks of ``chunk_size`` pairs on the cluster (file sources only).
+    csv : path, optional
+        Stream one row per frame as frames finish (flushed), with ``csv + ".pairstats"`` (what
+        a resume trusts) and ``csv + ".lock"``; see :mod:`irfidelity.sequence.log`.
+    resume : bool
+        Keep the frames of an earlier run on ``csv`` whose records are intact and whose files
+        are unchanged; score the rest.
+    max_pixels, max_bytes : decoding limits per frame (:func:`irfidelity.load_frame`); a frame
+        beyond them is that frame's error row.
+
+    Returns
+    -------
+    SequenceReport
+        The pooled result at the top level (the keys of a single-pair report), ``.frames``,
+        ``.failed``, ``.frame_stats``, ``.to_csv()``, ``.to_dict()``, ``.summary_text()``.
+
+    Examples
+    --------
+    >>> import numpy as np, irfidelity as irf
+    >>> real = np.arange(3 * 64, dtype=np.uint16).reshape(3, 8, 8)
+    >>> rep = irf.score_sequence(real, real + 1, bits=14, weights="psnr=1", progress=False)
+    >>> len(rep.frames), round(rep.metrics["psnr_db"], 2)
+    (3, 84.29)
+    """
+    cfg = ScoringConfig.resolve(config, **options)
+    if resume and csv is None:
+        raise FidelityError("resuming needs the CSV of the interrupted run", option="csv")
+    run = RunOptions(workers=_positive("workers", workers, allow_none=True), progress=progress, client=client,
+                     csv=None if csv is None else os.fspath(csv), resume=bool(resume),
+                     chunk_size=_positive("chunk_size", chunk_size), max_pixels=max_pixels, max_bytes=max_bytes)
+    real_seq = as_sequence(real, "real", cfg.real_channel, max_pixels, max_bytes)
+    sim_seq = as_sequence(sim, "sim", cfg.sim_channel, max_pixels, max_bytes)
+    if len(real_seq) == 0 or len(sim_seq) == 0:
+        raise FidelityError("empty sequences: nothing to score")
+    pairing = pair_frames(real_seq, sim_seq, cfg.pair_by)
+    plan = make_plan(real_seq, pairing, CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise), cfg)
+    return execute(real_seq, sim_seq, pairing, plan, run)

@@ -1,0 +1,164 @@
+"""Where frame pairs are scored: three backends behind one interface.
+
+A backend takes the pairs still to score, ``[(index, real_index, sim_index), ...]``, and
+calls ``deliver(outcomes)`` with batches of :class:`~irfidelity.sequence.outcomes.Outcome`
+as pairs finish, in any order.
+
+* :class:`RustEngine` — files (EXR/PNG/TIFF): the whole loop in Rust (``_core.score_pairs``):
+  both frames decoded and reduced to statistics on ``workers`` threads, in parallel over
+  pairs, GIL released, a few frames in flight per worker whatever the sequence length.
+* :class:`DaskBackend` — the same engine on a Dask cluster's workers, chunk by chunk; the
+  statistics come back as bytes (identical results; the files must be readable at the same
+  paths on every worker).
+* :class:`ArrayLoop` — arrays and ``.npy`` files: a Python loop over
+  :func:`irfidelity.pair_stats` (each call itself parallel in Rust).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from .. import _core
+from ..errors import FidelityError
+from ..frames import FrameSequence
+from ..stats import KernelRequest, PairStats, pair_stats
+from .outcomes import Outcome
+from .plan import SequencePlan
+
+__all__ = ["Backend", "RustEngine", "DaskBackend", "ArrayLoop", "choose_backend", "Todo"]
+
+Todo = list[tuple[int, int, int]]  # (index, real index, sim index)
+Deliver = Callable[[list[Outcome]], None]
+
+
+class Backend(Protocol):
+    def run(self, todo: Todo, deliver: Deliver) -> None: ...
+
+
+@dataclass(frozen=True)
+class Decoding:
+    """How frame files are decoded (limits do not change a score, only what is refused)."""
+
+    workers: int | None = None
+    max_pixels: int | None = None
+    max_bytes: int | None = None
+
+
+def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
+    """(path, page) of every frame when the Rust engine can decode them all, else None."""
+    if not seq.is_files:
+        return None
+    entries = seq.entries
+    if any(str(p).lower().endswith(".npy") for p, _, _ in entries):
+        return None
+    return [(p, page) for p, page, _ in entries]
+
+
+def _outcomes(todo: Todo, rows: list, plan: SequencePlan) -> list[Outcome]:
+    """Outcomes from the engine's ``(k, stats, error, shape, dtype, real extent)`` tuples (k
+    indexes ``todo``)."""
+    out = []
+    for k, raw, err, shape, dtype, extent in rows:
+        stats = None if raw is None else PairStats(raw, bins=plan.bin_label)
+        out.append(Outcome(todo[k][0], stats, err, None if shape is None else tuple(shape), dtype, extent))
+    return out
+
+
+class RustEngine:
+    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, decoding: Decoding):
+        self.real, self.sim = _file_sources(real), _file_sources(sim)
+        self.plan, self.decoding = plan, decoding
+
+    def run(self, todo: Todo, deliver: Deliver) -> None:
+        request = self.plan.kernel_request(self.decoding.max_pixels, self.decoding.max_bytes)
+        real = [self.real[r] for _, r, _ in todo]
+        sim = [self.sim[s] for _, _, s in todo]
+        _core.score_pairs([p for p, _ in real], [p for p, _ in sim], [g for _, g in real], [g for _, g in sim],
+                          request=request, workers=int(self.decoding.workers or 0),
+                          on_result=lambda rows: deliver(_outcomes(todo, rows, self.plan)))
+
+
+def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: list, request: KernelRequest,
+                workers: int) -> list:
+    """Run on a Dask worker: score one chunk with the Rust engine; statistics as bytes."""
+    from irfidelity import _core as core
+
+    out = core.score_pairs(real_paths, sim_paths, real_pages, sim_pages, request=request, workers=workers)
+    return [(k, None if st is None else st.to_bytes(), *rest) for k, st, *rest in out]
+
+
+class DaskBackend(RustEngine):
+    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, decoding: Decoding,
+                 client: Any, chunk_size: int):
+        super().__init__(real, sim, plan, decoding)
+        self.client, self.chunk_size = client, chunk_size
+
+    def run(self, todo: Todo, deliver: Deliver) -> None:
+        try:
+            from distributed import as_completed
+        except ImportError as exc:  # only without the dask extra
+            raise FidelityError("a Dask client needs dask.distributed (pip install 'irfidelity[dask]')") from exc
+        request = self.plan.kernel_request(self.decoding.max_pixels, self.decoding.max_bytes)
+        workers = int(self.decoding.workers or 1)
+        futures = {}
+        for start in range(0, len(todo), self.chunk_size):
+            chunk = todo[start:start + self.chunk_size]
+            real = [self.real[r] for _, r, _ in chunk]
+            sim = [self.sim[s] for _, _, s in chunk]
+            future = self.client.submit(score_chunk, [p for p, _ in real], [p for p, _ in sim],
+                                        [g for _, g in real], [g for _, g in sim], request, workers, pure=False)
+            futures[future] = chunk
+        try:
+            for future in as_completed(list(futures)):
+                chunk = futures.pop(future)
+                rows = future.result()
+                future.release()
+                deliver(_outcomes(chunk, [(k, None if data is None else _core.PairStats.from_bytes(data), *rest)
+                                          for k, data, *rest in rows], self.plan))
+        finally:
+            if futures:
+                self.client.cancel(list(futures))
+
+
+def _extent(frame: np.ndarray) -> tuple[float, float] | None:
+    values = frame[np.isfinite(frame)] if frame.dtype.kind == "f" else frame
+    return (float(values.min()), float(values.max())) if values.size else None
+
+
+class ArrayLoop:
+    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan):
+        self.real, self.sim, self.plan = real, sim, plan
+
+    def _one(self, index: int, r: int, s: int) -> Outcome:
+        cfg = self.plan.config
+        try:
+            real, sim = np.asarray(self.real[r]), np.asarray(self.sim[s])
+            numeric_peak = cfg.peak if isinstance(cfg.peak, float) else None
+            st = pair_stats(real, sim, bits=cfg.bits, peak=numeric_peak, bins=cfg.bins, hist_range=cfg.hist_range,
+                            need=self.plan.image, nonfinite=cfg.nonfinite)
+        except FidelityError as exc:
+            return Outcome(index, None, str(exc))
+        return Outcome(index, st, None, real.shape, real.dtype.name,
+                       _extent(real) if cfg.peak == "range" else None)
+
+    def run(self, todo: Todo, deliver: Deliver) -> None:
+        for index, r, s in todo:
+            deliver([self._one(index, r, s)])
+
+
+def choose_backend(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, decoding: Decoding,
+                   client: Any, chunk_size: int) -> Backend:
+    """The Rust engine for files it decodes, Dask when a client is given, else the array loop."""
+    files = _file_sources(real) is not None and _file_sources(sim) is not None
+    if client is not None:
+        if not files:
+            raise FidelityError("a Dask client needs file sources (EXR/PNG/TIFF paths) for both sequences; "
+                                "arrays and .npy files are scored locally", option="client")
+        return DaskBackend(real, sim, plan, decoding, client, chunk_size)
+    if files:
+        return RustEngine(real, sim, plan, decoding)
+    return ArrayLoop(real, sim, plan)

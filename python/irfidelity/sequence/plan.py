@@ -1,0 +1,123 @@
+"""What a sequence run computes, decided before any frame pair is scored.
+
+The plan fixes, from the configuration and the first readable real frame: the weights and
+image components (the same :func:`~irfidelity.scoring.plan_components` as a single pair),
+the camera-curve components (compared once, so a bad curve fails before any work), the
+sample type every frame must have, the PSNR peak, and the histogram binning.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..camera import CameraInputs, camera_components
+from ..config import ScoringConfig
+from ..errors import FidelityError
+from ..frames import FrameSequence
+from ..fuzzy import Weights
+from ..results import recorded_warnings
+from ..scoring import plan_components, psnr_peak
+from ..stats import KernelRequest, full_range, hist_params, peak_and_valid
+from .pairing import Pairing
+
+__all__ = ["SequencePlan", "make_plan"]
+
+
+@dataclass(frozen=True)
+class SequencePlan:
+    """Everything the per-frame scoring needs, fixed for the whole run."""
+
+    config: ScoringConfig
+    weights: Weights
+    image: tuple[str, ...]
+    skipped: dict
+    camera_components: dict
+    camera_metrics: dict
+    inputs: dict
+    camera_objects: dict  # the curves and noise measurements compared (for reports)
+    notes: tuple[str, ...]
+    dtype: np.dtype | None  # of the first readable real frame; None when no frame is readable
+    peak: float | None  # None with peak="range" (per frame) or when no frame is readable
+    default_peak: float | None
+    valid: tuple[int, int] | None
+    bins: int | None
+    levels: bool
+    hist_range: tuple[float, float] | None
+
+    @property
+    def bin_label(self) -> Any:
+        """The histogram's binning as reports name it (int, "levels" or None)."""
+        if "nmi" not in self.image:
+            return None
+        return "levels" if self.levels else self.bins
+
+    @property
+    def keep_hist(self) -> bool:
+        """Whether frames share histogram edges, so their histograms pool."""
+        return "nmi" in self.image and (self.levels or self.hist_range is not None)
+
+    def kernel_request(self, max_pixels: int | None = None, max_bytes: int | None = None) -> KernelRequest:
+        """What the Rust engine computes per pair (only what the image components need) and
+        how it decodes frames."""
+        cfg = self.config
+        return KernelRequest(sse="psnr" in self.image, moments="ssim" in self.image, bins=self.bins,
+                             levels=self.levels, hist_range=self.hist_range, valid=self.valid,
+                             mask_nonfinite=cfg.nonfinite == "mask", real_channel=cfg.real_channel,
+                             sim_channel=cfg.sim_channel, real_extent=cfg.peak == "range" and "psnr" in self.image,
+                             max_pixels=max_pixels, max_bytes=max_bytes)
+
+    def settings(self) -> dict:
+        """What a resumed run must share with the one it continues (beyond the config)."""
+        return {"dtype": None if self.dtype is None else self.dtype.name, "peak": self.peak,
+                "bins": self.bin_label, "hist_range": None if self.hist_range is None else list(self.hist_range),
+                "curves": {k: float(v) for k, v in self.camera_components.items()}}
+
+
+def _first_readable(real: FrameSequence, pairing: Pairing) -> np.ndarray | None:
+    """The first real frame (in pairing order) that decodes; None when none does."""
+    for r, _ in pairing.pairs:
+        if r is None:
+            continue
+        try:
+            return np.asarray(real[r])
+        except FidelityError:
+            continue
+    return None
+
+
+def _scene_range(frame: np.ndarray) -> float | None:
+    values = frame[np.isfinite(frame)] if frame.dtype.kind == "f" else frame
+    return float(values.max()) - float(values.min()) if values.size else None
+
+
+def make_plan(real: FrameSequence, pairing: Pairing, camera: CameraInputs, config: ScoringConfig) -> SequencePlan:
+    """Plan a sequence run (raises before any pair is scored when the plan cannot work)."""
+    given = camera.given()
+    weights, image, skipped = plan_components(config.weights, config.missing, have_images=True,
+                                              have_mtf=given["mtf"], have_sitf=given["sitf"],
+                                              have_noise=given["noise"])
+    if not image:
+        raise FidelityError("a sequence needs a positive weight on psnr, nmi or ssim (the per-frame components); "
+                            "to compare curves alone, score a single pair without frames", option="weights")
+    with recorded_warnings() as notes:
+        fixed, fixed_metrics, inputs, compared = camera_components(camera, weights, config)
+        first = _first_readable(real, pairing)
+        dtype = None if first is None else first.dtype
+        default_peak = valid = None
+        peak = bins = hist_range = None
+        levels = False
+        if dtype is not None:
+            default_peak, valid = peak_and_valid(dtype, config.bits, None)
+            if "psnr" in image and config.peak != "range":  # "range": each frame's own
+                peak = psnr_peak(config, default_peak, _scene_range(first), where="the first real frame")
+            if "nmi" in image:
+                numeric = config.peak if isinstance(config.peak, float) else None
+                bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
+                                                       full_range(dtype, config.bits, numeric))
+    return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,
+                        camera_metrics=fixed_metrics, inputs=inputs, camera_objects=compared, notes=tuple(notes), dtype=dtype,
+                        peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
+                        else None, bins=bins, levels=levels, hist_range=hist_range)

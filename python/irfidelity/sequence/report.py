@@ -1,0 +1,151 @@
+"""The report of a whole sequence: :class:`SequenceReport`.
+
+Its top level is the pooled result, with the keys of a single-pair
+:class:`~irfidelity.FidelityReport` (``fidelity``, ``grade``, ``components``, ``metrics``,
+...); ``frames`` holds one entry per frame pair with the same keys; the CSV has the columns
+:func:`irfidelity.schema.csv_columns` names, the same for a single pair.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+from ..config import ScoringConfig
+from ..fuzzy import Weights
+from ..results import component_lines, reading_report, settings_line, version
+from ..schema import csv_columns, to_json
+from .log import csv_line
+from .outcomes import flat_row
+
+__all__ = ["SequenceReport"]
+
+
+@dataclass
+class SequenceReport:
+    """Fidelity of a whole sequence: pooled, and frame by frame.
+
+    Attributes
+    ----------
+    fidelity, grade, components, component_grades, membership, metrics
+        The pooled result: the metrics of the merged statistics of every scored frame
+        (PSNR from ΣSSE/ΣN, SSIM from the pooled moments; NMI as ``pooling["nmi"]`` says),
+        and the curve components, which are the same for every frame. None / empty when no
+        frame was scored.
+    frames : list of dict
+        One entry per frame pair, in index order, with the keys of a single-pair result plus
+        ``index``, ``real``, ``sim``, ``rows``, ``cols``, ``dtype`` and ``error`` (None, or
+        why the pair could not be scored).
+    failed : list of int
+        Indices of the frames with an error.
+    frame_stats : dict
+        Mean, p5, p50, p95, min and max over the scored frames of ``fidelity``, of each
+        component (``frame_stats["components"]``) and of each metric (``["metrics"]``).
+    pooling : dict
+        ``frames`` (how many were pooled), ``n`` (pixel pairs), ``nmi`` ("histogram" or
+        "frame_mean").
+    weights, skipped, config, version, notes, inputs
+        As in :class:`~irfidelity.FidelityReport`.
+    run : dict
+        How the run went: ``pair_by`` (how frames were paired), ``workers``, ``csv``,
+        ``resumed`` (frames taken from an earlier run).
+    """
+
+    frames: list
+    weights: Weights
+    fidelity: float | None = None
+    grade: str | None = None
+    components: dict = field(default_factory=dict)
+    component_grades: dict = field(default_factory=dict)
+    membership: dict = field(default_factory=dict)
+    metrics: dict = field(default_factory=dict)
+    failed: list = field(default_factory=list)
+    frame_stats: dict = field(default_factory=dict)
+    pooling: dict = field(default_factory=dict)
+    skipped: dict = field(default_factory=dict)
+    config: ScoringConfig = field(default_factory=ScoringConfig)
+    version: str = field(default_factory=version)
+    notes: list = field(default_factory=list)
+    inputs: dict = field(default_factory=dict)
+    run: dict = field(default_factory=dict)
+    sources: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10) -> str:
+        """A self-contained HTML report (figures embedded, no network): the pooled verdict, the
+        components over time with failed frames marked, the spread of per-frame fidelity, the
+        ``worst`` frames (with thumbnails when the frames can still be read), the failures and
+        the curves. Written to ``path`` when given; returned either way. Needs matplotlib
+        (``irfidelity[report]``)."""
+        from ..report import render_sequence_html, write_html
+
+        html = render_sequence_html(self, worst=worst, frames=self.sources.get("frames"),
+                                    curves=self.sources.get("curves"))
+        return write_html(html, path)
+
+    def _repr_html_(self) -> str:
+        from ..report import render_sequence_html
+
+        return render_sequence_html(self, frames=self.sources.get("frames"), curves=self.sources.get("curves"),
+                                    fragment=True)
+
+    @property
+    def columns(self) -> list[str]:
+        """The CSV columns (as in a single pair's CSV)."""
+        return csv_columns(self.weights.active())
+
+    def to_csv(self, path: str | os.PathLike) -> None:
+        """Write one row per frame, in index order (the columns of ``csv=``)."""
+        cols = self.columns
+        with open(path, "w", newline="", encoding="utf-8") as fh:
+            fh.write(csv_line(cols))
+            fh.writelines(csv_line(flat_row(f, cols)) for f in self.frames)
+
+    _FIELDS = ("fidelity", "grade", "components", "component_grades", "membership", "metrics", "failed",
+               "frame_stats", "pooling", "skipped", "notes", "inputs", "run")
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""
+        out: dict[str, Any] = {"irfidelity": self.version}
+        out.update({k: getattr(self, k) for k in self._FIELDS})
+        out.update(weights=self.weights.as_dict(), config=self.config.to_dict(), frames=self.frames)
+        return to_json(out)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> SequenceReport:
+        """A report from :meth:`to_dict`'s output; FidelityError naming what is wrong otherwise."""
+        with reading_report(cls, data) as d:
+            values = {k: d[k] for k in cls._FIELDS if k in d}
+            return cls(frames=list(d["frames"]), weights=Weights.coerce(d["weights"]),
+                       config=ScoringConfig.from_dict(d.get("config", {})),
+                       version=str(d.get("irfidelity", "unknown")), **values)
+
+    def summary_text(self) -> str:
+        """A short human-readable summary: pooled table, per-frame spread, failures."""
+        n = len(self.frames)
+        lines = [f"sequence of {n} frame pairs: {n - len(self.failed)} scored, {len(self.failed)} failed"
+                 f" (paired by {self.run.get('pair_by', 'order')})"]
+        if self.fidelity is not None:
+            lines.append("pooled over the scored frames (PSNR from ΣSSE/ΣN"
+                         + (", NMI as the mean of the frames')" if self.pooling.get("nmi") == "frame_mean" else ")"))
+            lines += component_lines(self.components, self.component_grades, self.metrics, self.weights,
+                                     self.skipped)
+            lines.append(f"{'fidelity':<10} {'':>7} {self.fidelity:>8.4f}  (eq. 15, Σ k_i·f_i)")
+            lines.append(f"{'grade':<10} {'':>7} {self.grade:>8}")
+        spread = [("fidelity", self.frame_stats.get("fidelity"))]
+        spread += [(k, self.frame_stats.get("metrics", {}).get(k)) for k in ("psnr_db", "ssim", "nmi")]
+        for key, s in spread:
+            if s:
+                lines.append(f"per frame {key}: mean {s['mean']:.6g}  p5 {s['p5']:.6g}  p50 {s['p50']:.6g}  "
+                             f"p95 {s['p95']:.6g}  min {s['min']:.6g}")
+        if self.failed:
+            shown = ", ".join(str(i) for i in self.failed[:10]) + (", ..." if len(self.failed) > 10 else "")
+            lines.append(f"failed frames: {shown}")
+            first = next(f for f in self.frames if f["error"])
+            lines.append(f"  first error (frame {first['index']}): {first['error']}")
+        lines.append(settings_line(self.config, self.version))
+        lines += [f"note: {note}" for note in self.notes]
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary_text()

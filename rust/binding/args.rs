@@ -1,0 +1,153 @@
+//! Arguments shared by several functions: the kernel request (`irfidelity.stats.KernelRequest`)
+//! and non-negative integers. Both are extracted so that a bad value is an irfidelity error
+//! naming it, not a bare `OverflowError`.
+
+use pyo3::exceptions::PyOverflowError;
+use pyo3::prelude::*;
+
+use crate::sequence::SeqRequest;
+use crate::stats::{HistRequest, Request};
+use crate::Error;
+
+/// `irfidelity.stats.KernelRequest`, read attribute by attribute: what one kernel pass
+/// computes and, for sequences, how frames are decoded.
+#[derive(FromPyObject)]
+pub(crate) struct KernelRequest {
+    sse: bool,
+    moments: bool,
+    bins: Option<usize>,
+    levels: bool,
+    hist_range: Option<(f64, f64)>,
+    valid: Option<(i64, i64)>,
+    mask_nonfinite: bool,
+    real_channel: Option<String>,
+    sim_channel: Option<String>,
+    real_extent: bool,
+    max_pixels: Option<u64>,
+    max_bytes: Option<u64>,
+}
+
+impl KernelRequest {
+    fn hist(&self) -> Option<HistRequest> {
+        if self.levels {
+            Some(HistRequest::Levels)
+        } else {
+            self.bins.map(|bins| HistRequest::Bins { bins, range: self.hist_range })
+        }
+    }
+
+    /// The request for one in-memory pair (the decode fields do not apply).
+    pub(crate) fn frame_request<'m>(
+        &self,
+        mask: Option<&'m [bool]>,
+        shape: (usize, usize),
+        fortran: bool,
+    ) -> Request<'m> {
+        Request {
+            sse: self.sse,
+            moments: self.moments,
+            hist: self.hist(),
+            mask,
+            valid: self.valid,
+            mask_nonfinite: self.mask_nonfinite,
+            shape,
+            fortran,
+        }
+    }
+
+    /// The request for every pair of a sequence, decode options included.
+    pub(crate) fn sequence_request(self) -> SeqRequest {
+        SeqRequest {
+            hist: self.hist(),
+            sse: self.sse,
+            moments: self.moments,
+            valid: self.valid,
+            mask_nonfinite: self.mask_nonfinite,
+            real_channel: self.real_channel,
+            sim_channel: self.sim_channel,
+            real_extent: self.real_extent,
+            max_pixels: self.max_pixels.unwrap_or(crate::io::DEFAULT_MAX_PIXELS),
+            max_bytes: self.max_bytes,
+        }
+    }
+}
+
+/// `from_py_with` extractor of a `request` argument. A field of the wrong type or out of
+/// range is a `FidelityError` (`RangeError` for an integer out of range) naming the field.
+pub(crate) fn request(obj: &Bound<'_, PyAny>) -> PyResult<KernelRequest> {
+    obj.extract::<KernelRequest>().map_err(|err| {
+        let py = obj.py();
+        // The derive reports "failed to extract field KernelRequest.<name>" with the
+        // conversion error as the cause; a missing attribute comes as it is.
+        let cause = err.cause(py);
+        let detail = match &cause {
+            Some(c) => format!("{}: {}", message(py, &err), message(py, c)),
+            None => message(py, &err),
+        };
+        let detail = format!("request: {detail} (expected an irfidelity.stats.KernelRequest)");
+        if cause.is_some_and(|c| c.is_instance_of::<PyOverflowError>(py)) {
+            Error::Range(detail).into()
+        } else {
+            Error::Value(detail).into()
+        }
+    })
+}
+
+fn message(py: Python<'_>, err: &PyErr) -> String {
+    err.value(py).str().map(|s| s.to_string()).unwrap_or_default()
+}
+
+/// A non-negative integer argument that fits `T`; a negative value or one ≥ 2⁶⁴ is a
+/// `RangeError` naming `name` (other types keep PyO3's `TypeError`).
+fn unsigned<T: TryFrom<u64>>(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<T> {
+    let out_of_range =
+        || -> PyErr { Error::Range(format!("{name} must be an integer in 0..={}, got {obj}", u64::MAX)).into() };
+    match obj.extract::<u64>() {
+        Ok(v) => T::try_from(v).map_err(|_| out_of_range()),
+        Err(e) if e.is_instance_of::<PyOverflowError>(obj.py()) => Err(out_of_range()),
+        Err(e) => Err(e),
+    }
+}
+
+/// [`unsigned`], or `None` for Python's `None`.
+fn optional_unsigned<T: TryFrom<u64>>(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Option<T>> {
+    if obj.is_none() {
+        Ok(None)
+    } else {
+        unsigned(obj, name).map(Some)
+    }
+}
+
+/// A list of [`unsigned`] values, or `None`.
+fn optional_unsigned_list<T: TryFrom<u64>>(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Option<Vec<T>>> {
+    if obj.is_none() {
+        return Ok(None);
+    }
+    obj.extract::<Vec<Bound<'_, PyAny>>>()?.iter().map(|item| unsigned(item, name)).collect::<PyResult<_>>().map(Some)
+}
+
+// `from_py_with` extractors, one per argument so that errors name it.
+
+pub(crate) fn page(obj: &Bound<'_, PyAny>) -> PyResult<usize> {
+    unsigned(obj, "page")
+}
+
+pub(crate) fn workers(obj: &Bound<'_, PyAny>) -> PyResult<usize> {
+    unsigned(obj, "workers")
+}
+
+pub(crate) fn max_pixels(obj: &Bound<'_, PyAny>) -> PyResult<Option<u64>> {
+    optional_unsigned(obj, "max_pixels")
+}
+
+pub(crate) fn max_bytes(obj: &Bound<'_, PyAny>) -> PyResult<Option<u64>> {
+    optional_unsigned(obj, "max_bytes")
+}
+
+pub(crate) fn real_pages(obj: &Bound<'_, PyAny>) -> PyResult<Option<Vec<usize>>> {
+    optional_unsigned_list(obj, "real_pages")
+}
+
+pub(crate) fn sim_pages(obj: &Bound<'_, PyAny>) -> PyResult<Option<Vec<usize>>> {
+    optional_unsigned_list(obj, "sim_pages")
+}

@@ -1,0 +1,145 @@
+//! Python wrappers of the SSIM map and MS-SSIM kernels (`crate::maps`). Frames arrive 2-D and
+//! C-contiguous (the Python layer, `irfidelity.maps`, decides the layout and the peak); the
+//! kernels run with the GIL released.
+
+use numpy::ndarray::Array2;
+use numpy::{PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+
+use crate::maps::{self, SsimParams};
+
+/// Evaluate `$body` with `$r`, `$s` bound to both frames as slices of their element type,
+/// for the first supported dtype the frames have; fall through when none matches.
+macro_rules! with_frames {
+    ($py:expr, $real:expr, $sim:expr, |$r:ident, $s:ident| $body:expr, $($t:ty),*) => {{
+        let dt = $real.dtype();
+        $(
+            if dt.is_equiv_to(&numpy::dtype::<$t>($py)) {
+                if let (Ok(ra), Ok(sa)) = ($real.extract::<PyReadonlyArrayDyn<$t>>(), $sim.extract::<PyReadonlyArrayDyn<$t>>()) {
+                    let ($r, $s) = (contiguous(&ra)?, contiguous(&sa)?);
+                    return $body;
+                }
+            }
+        )*
+    }};
+}
+
+fn contiguous<'a, T: numpy::Element>(a: &'a PyReadonlyArrayDyn<'_, T>) -> PyResult<&'a [T]> {
+    a.as_slice().map_err(|_| {
+        crate::Error::Value("internal: frames must be C-contiguous (the Python layer copies them)".into()).into()
+    })
+}
+
+/// `(rows, cols)` of two 2-D frames of one shape.
+fn frame_shape(real: &Bound<'_, PyUntypedArray>, sim: &Bound<'_, PyUntypedArray>) -> PyResult<(usize, usize)> {
+    if real.ndim() != 2 || real.shape() != sim.shape() {
+        return Err(crate::Error::Shape(format!(
+            "real and sim must be 2-D frames of one shape, got {:?} and {:?}",
+            real.shape(),
+            sim.shape()
+        ))
+        .into());
+    }
+    Ok((real.shape()[0], real.shape()[1]))
+}
+
+fn unsupported(real: &Bound<'_, PyUntypedArray>, sim: &Bound<'_, PyUntypedArray>) -> PyErr {
+    PyErr::from(crate::Error::Shape(format!(
+        "unsupported frame dtype pair ({}, {}): expected two frames of the same dtype among uint8, uint16, \
+         int16, uint32, float16, float32, float64",
+        real.dtype(),
+        sim.dtype()
+    )))
+}
+
+/// `ssim_map(real, sim, *, peak, sigma, win_size, k1, k2, valid)` -> `(map, mean)`: see
+/// `irfidelity.maps.ssim_map`.
+#[pyfunction]
+#[pyo3(signature = (real, sim, *, peak, sigma, win_size, k1, k2, valid=None))]
+#[allow(clippy::too_many_arguments)]
+fn ssim_map<'py>(
+    py: Python<'py>,
+    real: &Bound<'py, PyUntypedArray>,
+    sim: &Bound<'py, PyUntypedArray>,
+    peak: f64,
+    sigma: f64,
+    win_size: usize,
+    k1: f64,
+    k2: f64,
+    valid: Option<(i64, i64)>,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, f64)> {
+    let (rows, cols) = frame_shape(real, sim)?;
+    let params = SsimParams { sigma, win_size, k1, k2, peak };
+    let finish = |m: maps::SsimMap| -> PyResult<(Bound<'py, PyArray2<f64>>, f64)> {
+        let map = Array2::from_shape_vec((m.rows, m.cols), m.map)
+            .map_err(|e| crate::Error::Value(format!("internal: map shape: {e}")))?;
+        Ok((PyArray2::from_owned_array(py, map), m.mean))
+    };
+    with_frames!(
+        py,
+        real,
+        sim,
+        |r, s| finish(py.detach(|| maps::ssim_map(r, s, rows, cols, &params, valid))?),
+        u8,
+        u16,
+        i16,
+        u32,
+        half::f16,
+        f32,
+        f64
+    );
+    Err(unsupported(real, sim))
+}
+
+/// `ms_ssim(real, sim, *, peak, sigma, win_size, k1, k2, valid, scales)` ->
+/// `(value, weights, ssim per scale, cs per scale)`: see `irfidelity.maps.ms_ssim`.
+#[pyfunction]
+#[pyo3(signature = (real, sim, *, peak, sigma, win_size, k1, k2, valid=None, scales=None))]
+#[allow(clippy::too_many_arguments)]
+#[allow(clippy::type_complexity)]
+fn ms_ssim(
+    py: Python<'_>,
+    real: &Bound<'_, PyUntypedArray>,
+    sim: &Bound<'_, PyUntypedArray>,
+    peak: f64,
+    sigma: f64,
+    win_size: usize,
+    k1: f64,
+    k2: f64,
+    valid: Option<(i64, i64)>,
+    scales: Option<usize>,
+) -> PyResult<(f64, Vec<f64>, Vec<f64>, Vec<f64>)> {
+    let (rows, cols) = frame_shape(real, sim)?;
+    let params = SsimParams { sigma, win_size, k1, k2, peak };
+    with_frames!(
+        py,
+        real,
+        sim,
+        |r, s| {
+            let m = py.detach(|| maps::ms_ssim(r, s, rows, cols, &params, valid, scales))?;
+            Ok((m.value, m.weights, m.ssim, m.cs))
+        },
+        u8,
+        u16,
+        i16,
+        u32,
+        half::f16,
+        f32,
+        f64
+    );
+    Err(unsupported(real, sim))
+}
+
+/// `max_scales(rows, cols, win_size)`: see `crate::maps::max_scales`.
+#[pyfunction]
+fn max_scales(rows: usize, cols: usize, win_size: usize) -> usize {
+    maps::max_scales(rows, cols, win_size)
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(ssim_map, m)?)?;
+    m.add_function(wrap_pyfunction!(ms_ssim, m)?)?;
+    m.add_function(wrap_pyfunction!(max_scales, m)?)?;
+    m.add("MS_SSIM_WEIGHTS", maps::MS_SSIM_WEIGHTS.to_vec())?;
+    Ok(())
+}
