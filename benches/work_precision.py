@@ -674,6 +674,8 @@ def write_md(rows, out: Path, quick: bool, cases_note: list[str], reg_rows=()):
 
 def plot_registration(axes, reg_rows):
     """One panel per registration model: worst corner error against time, every frame size."""
+    from matplotlib.lines import Line2D
+
     methods = sorted({r["method"] for r in reg_rows})
     cmap = plt_colours(len(methods))
     markers = {"640×512 Lepton↑": "o", "640×512 XT-R": "s", "160×120 Lepton": "^"}
@@ -691,8 +693,8 @@ def plot_registration(axes, reg_rows):
         ax.set_xlabel("time per call (ms)")
         ax.set_ylabel("worst corner error (px; 1e2 = failed)")
         ax.grid(True, which="major", alpha=0.3)
-        handles = dict(zip(*reversed(ax.get_legend_handles_labels())))
-        ax.legend(handles.values(), handles.keys(), fontsize=7)
+        shown = sorted({r["method"] for r in reg_rows if r["model"] == model})
+        ax.legend([Line2D([], [], ls="", marker="o", color=cmap[methods.index(m)]) for m in shown], shown, fontsize=7)
 
 
 def plt_colours(n: int):
