@@ -13,6 +13,9 @@ __all__ = [
     "MS_SSIM_WEIGHTS",
     "NoiseSums",
     "PairStats",
+    "REGISTRATION_AMBIGUOUS",
+    "REGISTRATION_LOW_CONFIDENCE",
+    "REGISTRATION_MIN_OVERLAP",
     "SUPPORTED_DTYPES",
     "default_max_bytes",
     "default_max_pixels",
@@ -28,8 +31,10 @@ __all__ = [
     "pair_stats",
     "plain_moments",
     "plain_mse",
+    "register_frames",
     "score_pairs",
     "ssim_map",
+    "warp_frame",
 ]
 
 #: numpy names of the frame dtypes the kernel accepts.
