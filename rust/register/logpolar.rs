@@ -37,8 +37,7 @@ pub struct RotationScale {
 pub fn rotation_scale(real: &Plane, sim: &Plane, with_scale: bool) -> Result<RotationScale> {
     let r_min = R_MIN_CYCLES / real.rows.min(real.cols) as f64;
     let step = (R_MAX / r_min).ln() / (RADII - 1) as f64;
-    let a = log_polar(real, r_min, step)?;
-    let b = log_polar(sim, r_min, step)?;
+    let (a, b) = log_polar_pair(real, sim, r_min, step)?;
     // log-radius is not periodic: Hann window along it; angle is periodic: no window
     let (w_angle, w_radius) = (vec![1.0; ANGLES], tukey(RADII, 1.0));
     let ta = tapered(&a, &w_angle, &w_radius);
@@ -52,21 +51,27 @@ pub fn rotation_scale(real: &Plane, sim: &Plane, with_scale: bool) -> Result<Rot
     Ok(RotationScale { angle_deg, scale, confidence: peak.confidence })
 }
 
-/// The Hann-windowed frame's magnitude spectrum, high-pass emphasised, on an
-/// `ANGLES × RADII` grid of angle in [0, π) and radius `r_min·e^{j·step}` cycles/px.
-fn log_polar(plane: &Plane, r_min: f64, step: f64) -> Result<Plane> {
-    let (rows, cols) = (plane.rows, plane.cols);
-    let windowed = tapered(plane, &tukey(rows, 1.0), &tukey(cols, 1.0));
-    let spec = fft::forward(&windowed, rows, cols)?;
-    let width = spec.width();
-    let magnitude: Vec<f64> = spec.data.iter().map(|z| z.norm_sqr().sqrt()).collect();
-    let at = |kx: usize, ky: usize| magnitude[kx.min(width - 1) * rows + ky % rows];
-    let mut values = vec![0.0; ANGLES * RADII];
+/// The magnitude of the Hann-windowed frame's half spectrum (column-major, as [`fft::Spectrum`]).
+fn magnitude(plane: &Plane) -> Result<Vec<f64>> {
+    let windowed = tapered(plane, &tukey(plane.rows, 1.0), &tukey(plane.cols, 1.0));
+    let spec = fft::forward(&windowed, plane.rows, plane.cols)?;
+    Ok(spec.data.iter().map(|z| z.norm_sqr().sqrt()).collect())
+}
+
+/// Both frames' Hann-windowed magnitude spectra, high-pass emphasised, on an
+/// `ANGLES × RADII` grid of angle in [0, π) and radius `r_min·e^{j·step}` cycles/px. The
+/// frames share their shape, so the grid's taps and emphasis are computed once for both.
+fn log_polar_pair(real: &Plane, sim: &Plane, r_min: f64, step: f64) -> Result<(Plane, Plane)> {
+    let (rows, cols) = (real.rows, real.cols);
+    let (ma, mb) = (magnitude(real)?, magnitude(sim)?);
+    let width = cols / 2 + 1;
+    let radii: Vec<f64> = (0..RADII).map(|j| r_min * (j as f64 * step).exp()).collect();
+    let mut va = vec![0.0; ANGLES * RADII];
+    let mut vb = vec![0.0; ANGLES * RADII];
     let pi = std::f64::consts::PI;
     for i in 0..ANGLES {
         let (sin, cos) = (pi * i as f64 / ANGLES as f64).sin_cos();
-        for j in 0..RADII {
-            let r = r_min * (j as f64 * step).exp();
+        for (j, &r) in radii.iter().enumerate() {
             // |F(−f)| = |F(f)|: fold onto the stored half (fx ≥ 0)
             let (mut fx, mut fy) = (r * cos, r * sin);
             if fx < 0.0 {
@@ -77,14 +82,22 @@ fn log_polar(plane: &Plane, r_min: f64, step: f64) -> Result<Plane> {
             let (x0, y0) = (kx.floor(), ky.floor());
             let (tx, ty) = (kx - x0, ky - y0);
             let (x0, y0) = (x0 as usize, y0 as usize);
-            let m = (1.0 - ty) * ((1.0 - tx) * at(x0, y0) + tx * at(x0 + 1, y0))
-                + ty * ((1.0 - tx) * at(x0, y0 + 1) + tx * at(x0 + 1, y0 + 1));
+            // clamped at the highest stored column; rows wrap (`ky` may round up to `rows`)
+            let (x0, x1) = (x0.min(width - 1), (x0 + 1).min(width - 1));
+            let (y0, y1) = (y0 % rows, (y0 + 1) % rows);
             // Reddy & Chatterji's emphasis of high frequencies: H = (1 − X)(2 − X)
             let x = (pi * fx).cos() * (pi * fy).cos();
-            values[i * RADII + j] = m * (1.0 - x) * (2.0 - x);
+            let emphasis = (1.0 - x) * (2.0 - x);
+            let sample = |m: &[f64]| {
+                let at = |kx: usize, ky: usize| m[kx * rows + ky];
+                (1.0 - ty) * ((1.0 - tx) * at(x0, y0) + tx * at(x1, y0)) + ty * ((1.0 - tx) * at(x0, y1) + tx * at(x1, y1))
+            };
+            va[i * RADII + j] = sample(&ma) * emphasis;
+            vb[i * RADII + j] = sample(&mb) * emphasis;
         }
     }
-    Ok(Plane::new(ANGLES, RADII, values, vec![true; ANGLES * RADII]))
+    let all = || vec![true; ANGLES * RADII];
+    Ok((Plane::new(ANGLES, RADII, va, all()), Plane::new(ANGLES, RADII, vb, all())))
 }
 
 #[cfg(test)]
