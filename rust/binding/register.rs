@@ -39,7 +39,9 @@ macro_rules! with_samples {
 /// The frame as a registration plane (float64 and its valid mask), converted without the GIL.
 fn plane_of(py: Python<'_>, arr: &Bound<'_, PyUntypedArray>, mask: Option<&[bool]>, what: &str) -> PyResult<Plane> {
     let (rows, cols) = shape_of(arr, what)?;
-    with_samples!(py, arr, what, |data| py.detach(|| Plane::from_samples(data, rows, cols, mask, what)).map_err(PyErr::from))
+    with_samples!(py, arr, what, |data| py
+        .detach(|| Plane::from_samples(data, rows, cols, mask, what))
+        .map_err(PyErr::from))
 }
 
 fn matrix_of(m: [f64; 6]) -> Affine {
@@ -65,7 +67,11 @@ fn register_frames(
     max_shift: Option<f64>,
     mask: Option<PyReadonlyArrayDyn<'_, bool>>,
 ) -> PyResult<([f64; 6], &'static str, f64, f64, bool)> {
-    let opts = Options { model: Model::parse(model).map_err(PyErr::from)?, method: Method::parse(method).map_err(PyErr::from)?, max_shift };
+    let opts = Options {
+        model: Model::parse(model).map_err(PyErr::from)?,
+        method: Method::parse(method).map_err(PyErr::from)?,
+        max_shift,
+    };
     let mask = mask
         .as_ref()
         .map(|m| m.as_slice())

@@ -22,14 +22,16 @@ fn band_rows(b: usize, rows: usize) -> (usize, usize) {
 }
 
 /// `f(first_row, values, flags)` on each band of two row-major outputs of `cols` columns.
-pub fn fill_bands<A: Send, B: Send>(a: &mut [A], b: &mut [B], cols: usize, f: impl Fn(usize, &mut [A], &mut [B]) + Sync) {
+pub fn fill_bands<A: Send, B: Send>(
+    a: &mut [A],
+    b: &mut [B],
+    cols: usize,
+    f: impl Fn(usize, &mut [A], &mut [B]) + Sync,
+) {
     let cols = cols.max(1);
     let rows = a.len() / cols;
-    let parts: Vec<Mutex<Option<(&mut [A], &mut [B])>>> = a
-        .chunks_mut(BAND_ROWS * cols)
-        .zip(b.chunks_mut(BAND_ROWS * cols))
-        .map(|p| Mutex::new(Some(p)))
-        .collect();
+    let parts: Vec<Mutex<Option<(&mut [A], &mut [B])>>> =
+        a.chunks_mut(BAND_ROWS * cols).zip(b.chunks_mut(BAND_ROWS * cols)).map(|p| Mutex::new(Some(p))).collect();
     let parallel = rows * cols >= PARALLEL_MIN_PIXELS;
     let _ = map_units::<(), std::convert::Infallible>(parts.len(), parallel, |i| {
         let taken = parts[i].lock().unwrap_or_else(|e| e.into_inner()).take();

@@ -6,7 +6,11 @@
 //! [0°, 180°) (a magnitude spectrum is point-symmetric), so it is periodic and needs no
 //! window, and a rotation is known modulo 180° — the caller tries both.
 
+use std::cell::RefCell;
+use std::rc::Rc;
+
 use super::fft;
+
 use super::image::Plane;
 use super::phase::{correlate_tapered, Locate, Polarity};
 use super::window::{tapered, tukey};
@@ -43,7 +47,15 @@ pub fn rotation_scale(real: &Plane, sim: &Plane, with_scale: bool) -> Result<Rot
     let ta = tapered(&a, &w_angle, &w_radius);
     let tb = tapered(&b, &w_angle, &w_radius);
     let radius_limit = if with_scale { (MAX_SCALE.ln() / step).floor() as usize } else { 0 };
-    let (peak, _) = correlate_tapered(&ta, &tb, ANGLES, RADII, (ANGLES / 2, radius_limit), Polarity::Positive, Locate::HalfWhitened)?;
+    let (peak, _) = correlate_tapered(
+        &ta,
+        &tb,
+        ANGLES,
+        RADII,
+        (ANGLES / 2, radius_limit),
+        Polarity::Positive,
+        Locate::HalfWhitened,
+    )?;
     // real's spectrum at angle φ equals sim's at φ − dy samples: the real frame is the
     // simulated one turned by −dy samples; likewise its radii are scaled by e^{dx·step}.
     let angle_deg = -peak.dy * 180.0 / ANGLES as f64;
@@ -58,20 +70,25 @@ fn magnitude(plane: &Plane) -> Result<Vec<f64>> {
     Ok(spec.data.iter().map(|z| z.norm_sqr().sqrt()).collect())
 }
 
-/// Both frames' Hann-windowed magnitude spectra, high-pass emphasised, on an
-/// `ANGLES × RADII` grid of angle in [0, π) and radius `r_min·e^{j·step}` cycles/px. The
-/// frames share their shape, so the grid's taps and emphasis are computed once for both.
-fn log_polar_pair(real: &Plane, sim: &Plane, r_min: f64, step: f64) -> Result<(Plane, Plane)> {
-    let (rows, cols) = (real.rows, real.cols);
-    let (ma, mb) = (magnitude(real)?, magnitude(sim)?);
+/// Where one log-polar sample reads the half spectrum: the offsets of its four bilinear taps
+/// (`kx·rows + ky`), their weights along x and y, and the high-pass emphasis there.
+struct Tap {
+    at: [usize; 4],
+    tx: f64,
+    ty: f64,
+    emphasis: f64,
+}
+
+/// The `ANGLES × RADII` taps for a `rows × cols` frame: angle in [0, π), radius
+/// `r_min·e^{j·step}` cycles/px.
+fn grid(rows: usize, cols: usize, r_min: f64, step: f64) -> Vec<Tap> {
     let width = cols / 2 + 1;
     let radii: Vec<f64> = (0..RADII).map(|j| r_min * (j as f64 * step).exp()).collect();
-    let mut va = vec![0.0; ANGLES * RADII];
-    let mut vb = vec![0.0; ANGLES * RADII];
     let pi = std::f64::consts::PI;
+    let mut taps = Vec::with_capacity(ANGLES * RADII);
     for i in 0..ANGLES {
         let (sin, cos) = (pi * i as f64 / ANGLES as f64).sin_cos();
-        for (j, &r) in radii.iter().enumerate() {
+        for &r in &radii {
             // |F(−f)| = |F(f)|: fold onto the stored half (fx ≥ 0)
             let (mut fx, mut fy) = (r * cos, r * sin);
             if fx < 0.0 {
@@ -85,17 +102,54 @@ fn log_polar_pair(real: &Plane, sim: &Plane, r_min: f64, step: f64) -> Result<(P
             // clamped at the highest stored column; rows wrap (`ky` may round up to `rows`)
             let (x0, x1) = (x0.min(width - 1), (x0 + 1).min(width - 1));
             let (y0, y1) = (y0 % rows, (y0 + 1) % rows);
+            let offset = |x: usize, y: usize| x * rows + y;
             // Reddy & Chatterji's emphasis of high frequencies: H = (1 − X)(2 − X)
             let x = (pi * fx).cos() * (pi * fy).cos();
-            let emphasis = (1.0 - x) * (2.0 - x);
-            let sample = |m: &[f64]| {
-                let at = |kx: usize, ky: usize| m[kx * rows + ky];
-                (1.0 - ty) * ((1.0 - tx) * at(x0, y0) + tx * at(x1, y0)) + ty * ((1.0 - tx) * at(x0, y1) + tx * at(x1, y1))
-            };
-            va[i * RADII + j] = sample(&ma) * emphasis;
-            vb[i * RADII + j] = sample(&mb) * emphasis;
+            taps.push(Tap {
+                at: [offset(x0, y0), offset(x1, y0), offset(x0, y1), offset(x1, y1)],
+                tx,
+                ty,
+                emphasis: (1.0 - x) * (2.0 - x),
+            });
         }
     }
+    taps
+}
+
+/// A grid and the frame shape `(rows, cols)` it was built for.
+type ShapedGrid = ((usize, usize), Rc<Vec<Tap>>);
+
+thread_local! {
+    /// The last grid built on this thread: frames of one camera share it (sequences).
+    static GRID: RefCell<Option<ShapedGrid>> = const { RefCell::new(None) };
+}
+
+/// [`grid`] for this frame shape, from the thread's cache when the shape repeats.
+fn cached_grid(rows: usize, cols: usize, r_min: f64, step: f64) -> Rc<Vec<Tap>> {
+    GRID.with(|cell| {
+        let mut cache = cell.borrow_mut();
+        match cache.as_ref() {
+            Some((shape, taps)) if *shape == (rows, cols) => taps.clone(),
+            _ => {
+                let taps = Rc::new(grid(rows, cols, r_min, step));
+                *cache = Some(((rows, cols), taps.clone()));
+                taps
+            }
+        }
+    })
+}
+
+/// Both frames' Hann-windowed magnitude spectra, high-pass emphasised, on the log-polar
+/// [`grid`] (shared: the frames have one shape).
+fn log_polar_pair(real: &Plane, sim: &Plane, r_min: f64, step: f64) -> Result<(Plane, Plane)> {
+    let taps = cached_grid(real.rows, real.cols, r_min, step);
+    let (ma, mb) = (magnitude(real)?, magnitude(sim)?);
+    let sample = |m: &[f64], t: &Tap| {
+        let v = |k: usize| m[t.at[k]];
+        ((1.0 - t.ty) * ((1.0 - t.tx) * v(0) + t.tx * v(1)) + t.ty * ((1.0 - t.tx) * v(2) + t.tx * v(3))) * t.emphasis
+    };
+    let va = taps.iter().map(|t| sample(&ma, t)).collect();
+    let vb = taps.iter().map(|t| sample(&mb, t)).collect();
     let all = || vec![true; ANGLES * RADII];
     Ok((Plane::new(ANGLES, RADII, va, all()), Plane::new(ANGLES, RADII, vb, all())))
 }

@@ -291,7 +291,9 @@ fn phase_fit(real: &Plane, sim: &Plane, opts: &Options) -> Result<Fit> {
         None
     };
     let (matrix, inverted) = match refined {
-        Some(r) if r.matrix.corner_distance(&start, real.rows, real.cols) <= MAX_REFINE_MOVE => (r.matrix, r.gain < 0.0),
+        Some(r) if r.matrix.corner_distance(&start, real.rows, real.cols) <= MAX_REFINE_MOVE => {
+            (r.matrix, r.gain < 0.0)
+        }
         _ => (start, peak.sign < 0.0),
     };
     Ok(Fit {

@@ -126,7 +126,8 @@ fn correlation_at(real: &Plane, sim: &Plane, matrix: &Affine) -> f64 {
         return 0.0;
     }
     let n = both.len() as f64;
-    let (mr, ms) = (both.iter().map(|&i| real.values[i]).sum::<f64>() / n, both.iter().map(|&i| values[i]).sum::<f64>() / n);
+    let (mr, ms) =
+        (both.iter().map(|&i| real.values[i]).sum::<f64>() / n, both.iter().map(|&i| values[i]).sum::<f64>() / n);
     both.iter().map(|&i| (real.values[i] - mr) * (values[i] - ms)).sum::<f64>()
 }
 

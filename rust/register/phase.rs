@@ -89,8 +89,15 @@ pub fn correlate(real: &Plane, sim: &Plane, max_shift: Option<f64>) -> Result<Pe
     let (wr, wc) = (tukey(rows, TUKEY_ALPHA), tukey(cols, TUKEY_ALPHA));
     let a = tapered(real, &wr, &wc);
     let b = tapered(sim, &wr, &wc);
-    let (mut peak, rivals) =
-        correlate_tapered(&a, &b, rows, cols, search_limits(rows, cols, max_shift), Polarity::Either, Locate::Whitened)?;
+    let (mut peak, rivals) = correlate_tapered(
+        &a,
+        &b,
+        rows,
+        cols,
+        search_limits(rows, cols, max_shift),
+        Polarity::Either,
+        Locate::Whitened,
+    )?;
     let canonical = (peak.dy.round() as isize, peak.dx.round() as isize);
     let chosen = resolve_alias(real, sim, canonical, peak.sign, max_shift);
     peak.dy += (chosen.0 - canonical.0) as f64;
@@ -365,9 +372,16 @@ mod tests {
             for &(dy, dx) in &[(2.3, -1.7), (0.5, 0.5), (-3.25, 4.75), (0.0, 0.0)] {
                 let sim = pattern(rows, cols, -dy, -dx); // real(p) = sim(p − d)
                 let limits = search_limits(rows, cols, None);
-                let (pk, _) =
-                    correlate_tapered(&untapered(&real), &untapered(&sim), rows, cols, limits, Polarity::Either, Locate::Whitened)
-                        .unwrap();
+                let (pk, _) = correlate_tapered(
+                    &untapered(&real),
+                    &untapered(&sim),
+                    rows,
+                    cols,
+                    limits,
+                    Polarity::Either,
+                    Locate::Whitened,
+                )
+                .unwrap();
                 assert!((pk.dy - dy).abs() < 1e-6 && (pk.dx - dx).abs() < 1e-6, "{rows}x{cols} {dy},{dx}: {pk:?}");
                 assert_eq!(pk.sign, 1.0);
             }
@@ -380,11 +394,21 @@ mod tests {
         let mut sim = pattern(48, 64, 1.5, -2.25);
         sim.values.iter_mut().for_each(|v| *v = 100.0 - 3.0 * *v);
         let limits = search_limits(48, 64, None);
-        let (pk, _) = correlate_tapered(&untapered(&real), &untapered(&sim), 48, 64, limits, Polarity::Either, Locate::Whitened).unwrap();
+        let (pk, _) =
+            correlate_tapered(&untapered(&real), &untapered(&sim), 48, 64, limits, Polarity::Either, Locate::Whitened)
+                .unwrap();
         assert_eq!(pk.sign, -1.0);
         assert!((pk.dy + 1.5).abs() < 1e-6 && (pk.dx - 2.25).abs() < 1e-6, "{pk:?}");
-        let (pos, _) =
-            correlate_tapered(&untapered(&real), &untapered(&sim), 48, 64, limits, Polarity::Positive, Locate::HalfWhitened).unwrap();
+        let (pos, _) = correlate_tapered(
+            &untapered(&real),
+            &untapered(&sim),
+            48,
+            64,
+            limits,
+            Polarity::Positive,
+            Locate::HalfWhitened,
+        )
+        .unwrap();
         assert_eq!(pos.sign, 1.0);
     }
 

@@ -17,8 +17,8 @@
 //! at full resolution, where typically one or two remain.
 
 use super::affine::Affine;
-use super::image::Plane;
 use super::bands::map_bands;
+use super::image::Plane;
 use super::warp::{warp_into, Interp, Source};
 use super::Model;
 
@@ -48,15 +48,18 @@ pub struct Refined {
 pub fn refine(real: &Plane, sim: &Plane, start: &Affine, model: Model, coarse: bool) -> Option<Refined> {
     // halved copies, finest first; the full resolution is used as given
     let mut halved: Vec<(Plane, Plane)> = Vec::new();
-    while coarse {
-        let (r, s) = halved.last().map_or((real, sim), |(r, s)| (r, s));
-        if r.rows.min(r.cols) / 2 < COARSE_MIN_SIDE {
-            break;
+    if coarse {
+        loop {
+            let (r, s) = halved.last().map_or((real, sim), |(r, s)| (r, s));
+            if r.rows.min(r.cols) / 2 < COARSE_MIN_SIDE {
+                break;
+            }
+            let next = (r.halved(), s.halved());
+            halved.push(next);
         }
-        let next = (r.halved(), s.halved());
-        halved.push(next);
     }
-    let levels: Vec<(&Plane, &Plane)> = std::iter::once((real, sim)).chain(halved.iter().map(|(r, s)| (r, s))).collect();
+    let levels: Vec<(&Plane, &Plane)> =
+        std::iter::once((real, sim)).chain(halved.iter().map(|(r, s)| (r, s))).collect();
     let mut matrix = *start;
     let mut photometric = None;
     let mut last = None;
@@ -72,7 +75,13 @@ pub fn refine(real: &Plane, sim: &Plane, start: &Affine, model: Model, coarse: b
 
 /// Gauss–Newton iterations on one level; `photometric` is the `(gain, offset)` to start
 /// from (fitted by least squares when `None`).
-fn refine_level(real: &Plane, sim: &Plane, start: &Affine, model: Model, photometric: Option<(f64, f64)>) -> Option<Refined> {
+fn refine_level(
+    real: &Plane,
+    sim: &Plane,
+    start: &Affine,
+    model: Model,
+    photometric: Option<(f64, f64)>,
+) -> Option<Refined> {
     let real_grad = real.gradient();
     let mut to_sim = start.inverse()?;
     let mut best: Option<Refined> = None;
@@ -350,7 +359,10 @@ mod tests {
         }
         let x = cholesky_solve(&normal, &rhs, 3).unwrap();
         // centred model: 0.5·g + 2·(w − m) + (2m − 3)
-        assert!((x[0] - 0.5).abs() < 1e-9 && (x[1] - 2.0).abs() < 1e-9 && (x[2] - (2.0 * mean - 3.0)).abs() < 1e-6, "{x:?}");
+        assert!(
+            (x[0] - 0.5).abs() < 1e-9 && (x[1] - 2.0).abs() < 1e-9 && (x[2] - (2.0 * mean - 3.0)).abs() < 1e-6,
+            "{x:?}"
+        );
     }
 
     #[test]

@@ -99,12 +99,7 @@ fn cubic_weights(t: f64) -> [f64; 4] {
     // Keys (1981), a = −0.5.
     let t2 = t * t;
     let t3 = t2 * t;
-    [
-        -0.5 * t3 + t2 - 0.5 * t,
-        1.5 * t3 - 2.5 * t2 + 1.0,
-        -1.5 * t3 + 2.0 * t2 + 0.5 * t,
-        0.5 * t3 - 0.5 * t2,
-    ]
+    [-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1.0, -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2]
 }
 
 /// `(floor(v), v − floor(v))` with the fraction snapped to 0 within [`SNAP`] of an integer.
@@ -328,7 +323,12 @@ pub fn coverage(
     }
 }
 
-fn coverage_with<K: Kernel<N>, const N: usize>(src: &Source<'_, u8>, m: &Affine, out_rows: usize, out_cols: usize) -> usize {
+fn coverage_with<K: Kernel<N>, const N: usize>(
+    src: &Source<'_, u8>,
+    m: &Affine,
+    out_rows: usize,
+    out_cols: usize,
+) -> usize {
     let clean = src.clean_spans();
     let m = &m.0;
     let covered = |x: f64, y: f64| {
@@ -339,7 +339,8 @@ fn coverage_with<K: Kernel<N>, const N: usize>(src: &Source<'_, u8>, m: &Affine,
         }
         let (wx, wy) = (K::weights(tx), K::weights(ty));
         wy.iter().enumerate().all(|(j, &w)| {
-            w == 0.0 || wx.iter().enumerate().all(|(i, &u)| u == 0.0 || src.tap(y0 + j as isize, x0 + i as isize).is_some())
+            w == 0.0
+                || wx.iter().enumerate().all(|(i, &u)| u == 0.0 || src.tap(y0 + j as isize, x0 + i as isize).is_some())
         })
     };
     let all_valid = src.valid.is_none();
