@@ -24,8 +24,17 @@ compared against the exact NMI *of the binning the implementation uses* (the lib
 documented 256-bin edges, or one bin per grey level), so every implementation is judged
 on the same question: how well it computes its own definition.
 
+Registration
+------------
+The registration of a simulated frame onto the real one has no exact reference; its
+reference is a known transform: real frames from ``tests/data/thermal`` seen through known
+subpixel shifts, rotations and scales, blurred, gain/offset-changed and noised
+(``registration_cases.py``, shared with ``bench_register.py``). Error: the worst displacement
+of a frame corner between the found and the true transform, in pixels; peers: scikit-image
+``phase_cross_correlation``, OpenCV ``phaseCorrelate`` and ``findTransformECC``.
+
 Output: ``DIR/work_precision.md`` (table) and ``DIR/work_precision.png`` (error vs time,
-log-log, one panel per metric). ``--quick`` uses 128×128 frames and fewer repeats.
+log-log, one panel per metric, and one per registration model). ``--quick`` uses 128×128 frames and fewer repeats.
 ``--threads 1`` limits irfidelity's Rust pool (and OpenCV) to one thread: core for core, since
 the peers compute on one core while irfidelity shares a pass between the calling thread and
 idle pool threads.
@@ -49,6 +58,7 @@ import irfidelity as irf
 
 mpmath.mp.dps = 60
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
 DATA = HERE.parent / "tests" / "data" / "thermal"
 
 METRICS = ("mse", "psnr", "ssim_l", "ssim_c", "ssim_s", "h_real", "h_sim", "h_joint", "nmi")
@@ -587,7 +597,26 @@ def summary_table(rows) -> list[str]:
     return out
 
 
-def write_md(rows, out: Path, quick: bool, cases_note: list[str]):
+REGISTRATION_MODELS = ("translation", "rigid", "similarity")
+
+
+def registration_rows(quick: bool) -> list[dict]:
+    """Registration error (px) and time per frame size, model and method (``registration_cases``)."""
+    from registration_cases import run as run_registration
+
+    return run_registration(2 if quick else 6, 1 if quick else 3, time.perf_counter, verbose=False)
+
+
+def registration_table(rows) -> list[str]:
+    out = ["| frames | model | method | worst corner error (px) | median (px) | time / call (ms) |",
+           "|---|---|---|---|---|---|"]
+    for r in rows:
+        worst = "failed" if not math.isfinite(r["worst"]) else f"{r['worst']:.3f}"
+        out.append(f"| {r['frame']} | {r['model']} | {r['method']} | {worst} | {r['median']:.3f} | {r['time_ms']:.1f} |")
+    return out
+
+
+def write_md(rows, out: Path, quick: bool, cases_note: list[str], reg_rows=()):
     lines = [
         "# Work-precision: error against an exact reference, and run time",
         "",
@@ -616,6 +645,14 @@ def write_md(rows, out: Path, quick: bool, cases_note: list[str]):
         "",
         *summary_table(rows),
         "",
+        "## Registration",
+        "",
+        "Known transforms of real thermal frames (see the module docstring); error = worst frame-corner",
+        "displacement between the found and the true transform (px); time = wall time, best of the repeats,",
+        "median over the cases. An `inf` median or `failed` = the call raised on some case.",
+        "",
+        *registration_table(reg_rows),
+        "",
         "## Cases",
         "",
         *cases_note,
@@ -635,7 +672,39 @@ def write_md(rows, out: Path, quick: bool, cases_note: list[str]):
     (out / "work_precision.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
-def plot(rows, out: Path):
+def plot_registration(axes, reg_rows):
+    """One panel per registration model: worst corner error against time, every frame size."""
+    from matplotlib.lines import Line2D
+
+    methods = sorted({r["method"] for r in reg_rows})
+    cmap = plt_colours(len(methods))
+    markers = {"640×512 Lepton↑": "o", "640×512 XT-R": "s", "160×120 Lepton": "^"}
+    for ax, model in zip(axes, REGISTRATION_MODELS):
+        for r in reg_rows:
+            if r["model"] != model:
+                continue
+            y = r["worst"] if math.isfinite(r["worst"]) else 1e2
+            ax.scatter(r["time_ms"], y, s=40, marker=markers.get(r["frame"], "o"),
+                       color=cmap[methods.index(r["method"])], label=f"{r['method']}", alpha=0.85)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.axhline(1e2, color="r", lw=0.5, ls=":")
+        ax.set_title(f"registration, {model} (○ 640×512 Lepton↑, □ XT-R, △ 160×120)", fontsize=9)
+        ax.set_xlabel("time per call (ms)")
+        ax.set_ylabel("worst corner error (px; 1e2 = failed)")
+        ax.grid(True, which="major", alpha=0.3)
+        shown = sorted({r["method"] for r in reg_rows if r["model"] == model})
+        ax.legend([Line2D([], [], ls="", marker="o", color=cmap[methods.index(m)]) for m in shown], shown, fontsize=7)
+
+
+def plt_colours(n: int):
+    import matplotlib.pyplot as plt
+
+    cmap = plt.get_cmap("tab10")
+    return [cmap(i % 10) for i in range(n)]
+
+
+def plot(rows, out: Path, reg_rows=()):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -644,8 +713,10 @@ def plot(rows, out: Path):
     impls = sorted({r["impl"] for r in rows})
     cmap = plt.get_cmap("tab20")
     colour = {name: cmap(i % 20) for i, name in enumerate(impls)}
-    fig, axes = plt.subplots(3, 3, figsize=(15, 13))
-    for ax, metric in zip(axes.ravel(), METRICS):
+    fig, axes = plt.subplots(4 if reg_rows else 3, 3, figsize=(15, 17 if reg_rows else 13))
+    if reg_rows:
+        plot_registration(axes[3], reg_rows)
+    for ax, metric in zip(axes[:3].ravel(), METRICS):
         for r in rows:
             if r["metric"] != metric or not math.isfinite(r["time"]):
                 continue
@@ -670,7 +741,7 @@ def plot(rows, out: Path):
         ax.set_ylabel("relative error (1e-18 = exact, 1e2 = NaN/inf)")
         ax.grid(True, which="major", alpha=0.3)
     handles = {}
-    for ax in axes.ravel():
+    for ax in axes[:3].ravel():
         for h, lab in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(lab, h)
     fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=5, fontsize=8)
@@ -696,9 +767,10 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     rows = run(out, args.quick)
+    reg_rows = registration_rows(args.quick)
     notes = [f"- `{c['name']}`: {c['note']} ({c['r'].dtype})" for c in make_cases(8)]
-    write_md(rows, out, args.quick, notes)
-    plot(rows, out)
+    write_md(rows, out, args.quick, notes, reg_rows)
+    plot(rows, out, reg_rows)
     print(f"wrote {out / 'work_precision.md'} and {out / 'work_precision.png'} in {time.perf_counter() - t0:.1f}s")
     print("\n".join(verdict(rows)))
     return 0

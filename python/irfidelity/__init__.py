@@ -20,6 +20,7 @@ from .fuzzy import Weights
 from .maps import SSIMMap, ms_ssim, ssim_map
 from .noise import Noise3D, NoiseWarning, noise3d, noise_similarity
 from .results import FidelityReport
+from .registration import Registration, RegistrationWarning, register
 from .sequence import SequenceReport, score_sequence
 from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
 
@@ -53,6 +54,10 @@ __all__ = [
     "Noise3D",
     "noise_similarity",
     "NoiseWarning",
+    # registration (docs/registration.md)
+    "register",
+    "Registration",
+    "RegistrationWarning",
     # errors and warnings
     "FidelityError",
     "FrameError",

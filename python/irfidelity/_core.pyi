@@ -13,6 +13,9 @@ __all__ = [
     "MS_SSIM_WEIGHTS",
     "NoiseSums",
     "PairStats",
+    "REGISTRATION_AMBIGUOUS",
+    "REGISTRATION_LOW_CONFIDENCE",
+    "REGISTRATION_MIN_OVERLAP",
     "SUPPORTED_DTYPES",
     "default_max_bytes",
     "default_max_pixels",
@@ -28,8 +31,10 @@ __all__ = [
     "pair_stats",
     "plain_moments",
     "plain_mse",
+    "register_frames",
     "score_pairs",
     "ssim_map",
+    "warp_frame",
 ]
 
 #: numpy names of the frame dtypes the kernel accepts.
@@ -188,3 +193,25 @@ def noise_sums_paths(
     window: tuple[int, int, int, int] | None = None,
     workers: int = 0,
 ) -> NoiseSums: ...
+
+# ---- registration (rust/binding/register.rs) ------------------------------------------------
+
+REGISTRATION_LOW_CONFIDENCE: float
+REGISTRATION_AMBIGUOUS: float
+REGISTRATION_MIN_OVERLAP: float
+
+def register_frames(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    model: str,
+    method: str,
+    max_shift: float | None = None,
+    mask: npt.NDArray[np.bool_] | None = None,
+) -> tuple[tuple[float, float, float, float, float, float], str, float, float, bool]: ...
+def warp_frame(
+    frame: npt.NDArray[Any],
+    matrix: tuple[float, float, float, float, float, float],
+    order: int,
+    shape: tuple[int, int],
+    mask: npt.NDArray[np.bool_] | None = None,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]: ...

@@ -10,6 +10,7 @@ mod fingerprint;
 mod io;
 mod maps;
 mod noise;
+mod register;
 mod sequence;
 mod stats;
 
@@ -40,5 +41,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     fingerprint::register(m)?;
     maps::register(m)?;
     noise::register(m)?;
+    register::register(m)?;
     Ok(())
 }

@@ -1,0 +1,145 @@
+//! Python wrappers of registration (`crate::register`): `register_frames` and `warp_frame`.
+//! Arrays arrive 2-D and C-contiguous (the Python layer decides the layout), each in any
+//! supported sample type; conversion and search run with the GIL released.
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
+use pyo3::exceptions::PyTypeError;
+use pyo3::prelude::*;
+
+use crate::register::{self, Affine, Interp, Method, Model, Options, Plane, Source};
+
+fn shape_of(a: &Bound<'_, PyUntypedArray>, what: &str) -> PyResult<(usize, usize)> {
+    match a.shape() {
+        &[rows, cols] => Ok((rows, cols)),
+        s => Err(crate::Error::Shape(format!("{what} frame must be 2-D, got shape {s:?}"))).map_err(PyErr::from),
+    }
+}
+
+/// Run `$body` with `$s` bound to the array's contiguous data as `&[T]` for its sample type.
+macro_rules! with_samples {
+    ($py:expr, $arr:expr, $what:expr, |$s:ident| $body:expr) => {{
+        let dt = $arr.dtype();
+        with_samples!(@try $py, $arr, dt, $s, $body, u8, u16, i16, u32, half::f16, f32, f64);
+        Err(PyTypeError::new_err(format!("{} frame: unsupported dtype {}", $what, dt)))
+    }};
+    (@try $py:expr, $arr:expr, $dt:expr, $s:ident, $body:expr, $($t:ty),*) => {
+        $(
+            if $dt.is_equiv_to(&numpy::dtype::<$t>($py)) {
+                let array = $arr.extract::<PyReadonlyArrayDyn<$t>>()?;
+                let $s = array
+                    .as_slice()
+                    .map_err(|_| PyTypeError::new_err("internal: frames must be contiguous (the Python layer copies them)"))?;
+                return $body;
+            }
+        )*
+    };
+}
+
+/// The frame as a registration plane (float64 and its valid mask), converted without the GIL.
+fn plane_of(py: Python<'_>, arr: &Bound<'_, PyUntypedArray>, mask: Option<&[bool]>, what: &str) -> PyResult<Plane> {
+    let (rows, cols) = shape_of(arr, what)?;
+    with_samples!(py, arr, what, |data| py
+        .detach(|| Plane::from_samples(data, rows, cols, mask, what))
+        .map_err(PyErr::from))
+}
+
+fn matrix_of(m: [f64; 6]) -> Affine {
+    Affine([[m[0], m[1], m[2]], [m[3], m[4], m[5]]])
+}
+
+fn flat(m: &Affine) -> [f64; 6] {
+    let a = &m.0;
+    [a[0][0], a[0][1], a[0][2], a[1][0], a[1][1], a[1][2]]
+}
+
+/// Register `sim` onto `real`. Returns `(matrix as 6 floats row-major, method used,
+/// confidence, overlap, inverted)`; raises `RegistrationError` when the pair cannot be
+/// registered.
+#[pyfunction]
+#[pyo3(signature = (real, sim, model, method, max_shift=None, mask=None))]
+fn register_frames(
+    py: Python<'_>,
+    real: &Bound<'_, PyUntypedArray>,
+    sim: &Bound<'_, PyUntypedArray>,
+    model: &str,
+    method: &str,
+    max_shift: Option<f64>,
+    mask: Option<PyReadonlyArrayDyn<'_, bool>>,
+) -> PyResult<([f64; 6], &'static str, f64, f64, bool)> {
+    let opts = Options {
+        model: Model::parse(model).map_err(PyErr::from)?,
+        method: Method::parse(method).map_err(PyErr::from)?,
+        max_shift,
+    };
+    let mask = mask
+        .as_ref()
+        .map(|m| m.as_slice())
+        .transpose()
+        .map_err(|_| PyTypeError::new_err("internal: mask must be contiguous"))?;
+    let real = plane_of(py, real, mask, "real")?;
+    let sim = plane_of(py, sim, mask, "simulated")?;
+    let reg = py.detach(|| register::register_planes(&real, &sim, &opts)).map_err(PyErr::from)?;
+    Ok((flat(&reg.matrix), reg.method.name(), reg.confidence, reg.overlap, reg.inverted))
+}
+
+/// Resample `frame` (the simulated frame) onto the real frame's `shape` through `matrix`
+/// (simulated → real coordinates, 6 floats row-major) with interpolation `order` (1
+/// bilinear, 3 bicubic). Returns `(float64 frame, bool mask of valid pixels)`; invalid
+/// pixels hold NaN.
+#[pyfunction]
+#[pyo3(signature = (frame, matrix, order, shape, mask=None))]
+fn warp_frame<'py>(
+    py: Python<'py>,
+    frame: &Bound<'py, PyUntypedArray>,
+    matrix: [f64; 6],
+    order: u32,
+    shape: (usize, usize),
+    mask: Option<PyReadonlyArrayDyn<'py, bool>>,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<bool>>)> {
+    let interp = Interp::from_order(order)
+        .ok_or_else(|| crate::Error::Value(format!("order must be 1 (bilinear) or 3 (bicubic), got {order}")))
+        .map_err(PyErr::from)?;
+    let to_source = matrix_of(matrix)
+        .inverse()
+        .ok_or_else(|| crate::Error::Value(format!("the matrix {matrix:?} is singular and cannot be applied")))
+        .map_err(PyErr::from)?;
+    let (rows, cols) = shape_of(frame, "simulated")?;
+    let mask = mask
+        .as_ref()
+        .map(|m| m.as_slice())
+        .transpose()
+        .map_err(|_| PyTypeError::new_err("internal: mask must be contiguous"))?;
+    if mask.is_some_and(|m| m.len() != rows * cols) {
+        return Err(crate::Error::Shape("mask must have the simulated frame's shape".into())).map_err(PyErr::from);
+    }
+    let (values, valid) = warped(py, frame, (rows, cols), mask, &to_source, interp, shape)?;
+    let values = Array2::from_shape_vec(shape, values).expect("warp returns rows × cols values");
+    let valid = Array2::from_shape_vec(shape, valid).expect("warp returns rows × cols flags");
+    Ok((values.into_pyarray(py), valid.into_pyarray(py)))
+}
+
+/// [`register::warp`] on the array's own sample type, without the GIL.
+fn warped(
+    py: Python<'_>,
+    frame: &Bound<'_, PyUntypedArray>,
+    (rows, cols): (usize, usize),
+    mask: Option<&[bool]>,
+    to_source: &Affine,
+    interp: Interp,
+    shape: (usize, usize),
+) -> PyResult<(Vec<f64>, Vec<bool>)> {
+    with_samples!(py, frame, "simulated", |data| {
+        let src = Source { data, rows, cols, valid: mask };
+        Ok(py.detach(|| register::warp(&src, to_source, interp, shape.0, shape.1, f64::NAN)))
+    })
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(register_frames, m)?)?;
+    m.add_function(wrap_pyfunction!(warp_frame, m)?)?;
+    m.add("REGISTRATION_LOW_CONFIDENCE", register::LOW_CONFIDENCE)?;
+    m.add("REGISTRATION_AMBIGUOUS", register::AMBIGUOUS)?;
+    m.add("REGISTRATION_MIN_OVERLAP", register::MIN_OVERLAP)?;
+    Ok(())
+}

@@ -1,0 +1,266 @@
+//! The working image of registration: a frame converted once to float64, with a mask of
+//! the pixels that take part (not masked by the caller, finite). Excluded pixels hold 0
+//! and are skipped by every step, never propagated.
+
+use super::bands;
+use crate::error::{Error, Result};
+use crate::kernel::Sample;
+
+/// A 2-D float64 image in row-major order with its valid-pixel mask.
+#[derive(Clone, Debug)]
+pub struct Plane {
+    pub rows: usize,
+    pub cols: usize,
+    pub values: Vec<f64>,
+    pub valid: Vec<bool>,
+    pub n_valid: usize,
+}
+
+impl Plane {
+    /// A plane from values and mask (`values[i]` is ignored where `valid[i]` is false).
+    pub fn new(rows: usize, cols: usize, mut values: Vec<f64>, valid: Vec<bool>) -> Plane {
+        debug_assert!(values.len() == rows * cols && valid.len() == rows * cols);
+        let mut n_valid = 0;
+        for (v, &ok) in values.iter_mut().zip(&valid) {
+            if ok {
+                n_valid += 1;
+            } else {
+                *v = 0.0;
+            }
+        }
+        Plane { rows, cols, values, valid, n_valid }
+    }
+
+    /// Convert a frame of any supported sample type; `mask` false and non-finite values are
+    /// excluded. `what` names the frame in errors.
+    pub fn from_samples<T: Sample>(
+        data: &[T],
+        rows: usize,
+        cols: usize,
+        mask: Option<&[bool]>,
+        what: &str,
+    ) -> Result<Plane> {
+        if data.len() != rows * cols {
+            return Err(Error::Shape(format!("{what} frame has {} pixels, expected {rows}×{cols}", data.len())));
+        }
+        if let Some(m) = mask {
+            if m.len() != data.len() {
+                return Err(Error::Shape(format!("mask has {} elements, frames have {}", m.len(), data.len())));
+            }
+        }
+        let values: Vec<f64> = data.iter().map(|v| v.to_f64()).collect();
+        let valid: Vec<bool> = match mask {
+            Some(m) => values.iter().zip(m).map(|(v, &keep)| keep && v.is_finite()).collect(),
+            None => values.iter().map(|v| v.is_finite()).collect(),
+        };
+        Ok(Plane::new(rows, cols, values, valid))
+    }
+
+    /// Mean of the valid pixels (0 if none).
+    pub fn mean(&self) -> f64 {
+        let sum: f64 = self.values.iter().zip(&self.valid).map(|(&v, &ok)| if ok { v } else { 0.0 }).sum();
+        if self.n_valid == 0 {
+            0.0
+        } else {
+            sum / self.n_valid as f64
+        }
+    }
+
+    /// Mean and population standard deviation of the valid pixels (two passes).
+    pub fn mean_std(&self) -> (f64, f64) {
+        if self.n_valid == 0 {
+            return (0.0, 0.0);
+        }
+        let n = self.n_valid as f64;
+        let mean = self.valid_values().sum::<f64>() / n;
+        let var = self.valid_values().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n;
+        (mean, var.sqrt())
+    }
+
+    /// Smallest and largest valid value.
+    pub fn range(&self) -> (f64, f64) {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (&v, &ok) in self.values.iter().zip(&self.valid) {
+            if ok {
+                lo = if v < lo { v } else { lo };
+                hi = if v > hi { v } else { hi };
+            }
+        }
+        (lo, hi)
+    }
+
+    fn valid_values(&self) -> impl Iterator<Item = f64> + '_ {
+        self.values.iter().zip(&self.valid).filter(|(_, &ok)| ok).map(|(&v, _)| v)
+    }
+
+    /// Gaussian smoothing of standard deviation `sigma` px by normalised convolution: only
+    /// valid pixels contribute, each output weighted by the valid part of its kernel (at the
+    /// border too). The mask is unchanged.
+    pub fn smoothed(&self, sigma: f64) -> Plane {
+        let radius = (3.0 * sigma).ceil() as usize;
+        let kernel: Vec<f64> = (0..=2 * radius)
+            .map(|i| {
+                let d = i as f64 - radius as f64;
+                (-0.5 * d * d / (sigma * sigma)).exp()
+            })
+            .collect();
+        let (rows, cols) = (self.rows, self.cols);
+        // invalid pixels hold 0, so the numerator is a plain convolution of the values
+        let mut values = convolve_separable(&self.values, rows, cols, &kernel);
+        if self.n_valid == rows * cols {
+            // all valid: the weight image is separable
+            let along = |n: usize| convolve_separable(&vec![1.0; n], 1, n, &kernel);
+            let (wr, wc) = (along(rows), along(cols));
+            for (line, &w) in values.chunks_exact_mut(cols).zip(&wr) {
+                line.iter_mut().zip(&wc).for_each(|(v, &u)| *v /= w * u);
+            }
+        } else {
+            let weights: Vec<f64> = self.valid.iter().map(|&ok| if ok { 1.0 } else { 0.0 }).collect();
+            let den = convolve_separable(&weights, rows, cols, &kernel);
+            for ((v, &d), &ok) in values.iter_mut().zip(&den).zip(&self.valid) {
+                *v = if ok && d > 0.0 { *v / d } else { 0.0 };
+            }
+        }
+        Plane { rows, cols, values, valid: self.valid.clone(), n_valid: self.n_valid }
+    }
+
+    /// Half the resolution: the mean of each 2×2 block whose four pixels are valid.
+    pub fn halved(&self) -> Plane {
+        let (rows, cols) = (self.rows / 2, self.cols / 2);
+        let mut values = vec![0.0; rows * cols];
+        let mut valid = vec![false; rows * cols];
+        for r in 0..rows {
+            for c in 0..cols {
+                let idx = [(2 * r) * self.cols + 2 * c, (2 * r) * self.cols + 2 * c + 1];
+                let idx = [idx[0], idx[1], idx[0] + self.cols, idx[1] + self.cols];
+                if idx.iter().all(|&i| self.valid[i]) {
+                    values[r * cols + c] = idx.iter().map(|&i| self.values[i]).sum::<f64>() / 4.0;
+                    valid[r * cols + c] = true;
+                }
+            }
+        }
+        Plane::new(rows, cols, values, valid)
+    }
+
+    /// Valid values mapped to [0, 1] between their `q`-th and `(1 − q)`-th quantiles,
+    /// clamped: one scale for a joint histogram whatever the gain, offset and outliers.
+    pub fn unit_range(&self, q: f64) -> Plane {
+        let mut sorted: Vec<f64> = self.valid_values().collect();
+        if sorted.is_empty() {
+            return self.clone();
+        }
+        let at = |frac: f64| ((sorted.len() - 1) as f64 * frac).round() as usize;
+        let (ilo, ihi) = (at(q), at(1.0 - q));
+        let lo = *sorted.select_nth_unstable_by(ilo, f64::total_cmp).1;
+        let hi = *sorted.select_nth_unstable_by(ihi, f64::total_cmp).1;
+        let (lo, hi) = if hi > lo { (lo, hi) } else { self.range() };
+        let scale = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
+        let values = self.values.iter().map(|&v| ((v - lo) * scale).clamp(0.0, 1.0)).collect();
+        Plane::new(self.rows, self.cols, values, self.valid.clone())
+    }
+
+    /// Central-difference gradients `(d/dx, d/dy)` and their mask (a pixel and its four
+    /// neighbours valid).
+    pub fn gradient(&self) -> (Vec<f64>, Vec<f64>, Vec<bool>) {
+        let (rows, cols) = (self.rows, self.cols);
+        let mut gx = vec![0.0; rows * cols];
+        let mut gy = vec![0.0; rows * cols];
+        let mut ok = vec![false; rows * cols];
+        for r in 1..rows.saturating_sub(1) {
+            for c in 1..cols.saturating_sub(1) {
+                let i = r * cols + c;
+                if self.valid[i]
+                    && self.valid[i - 1]
+                    && self.valid[i + 1]
+                    && self.valid[i - cols]
+                    && self.valid[i + cols]
+                {
+                    gx[i] = 0.5 * (self.values[i + 1] - self.values[i - 1]);
+                    gy[i] = 0.5 * (self.values[i + cols] - self.values[i - cols]);
+                    ok[i] = true;
+                }
+            }
+        }
+        (gx, gy, ok)
+    }
+}
+
+/// Convolve rows then columns with a symmetric kernel; outside the image counts as 0.
+fn convolve_separable(values: &[f64], rows: usize, cols: usize, kernel: &[f64]) -> Vec<f64> {
+    let radius = kernel.len() / 2;
+    let mut tmp = vec![0.0; rows * cols];
+    bands::fill_rows(&mut tmp, cols, |first, band| {
+        for (k, out) in band.chunks_exact_mut(cols).enumerate() {
+            let line = &values[(first + k) * cols..(first + k + 1) * cols];
+            for (c, o) in out.iter_mut().enumerate() {
+                if c >= radius && c + radius < cols {
+                    // interior: the whole kernel
+                    *o = line[c - radius..=c + radius].iter().zip(kernel).map(|(v, k)| v * k).sum();
+                } else {
+                    let lo = c.saturating_sub(radius);
+                    let hi = (c + radius).min(cols - 1);
+                    *o = (lo..=hi).map(|k| line[k] * kernel[k + radius - c]).sum();
+                }
+            }
+        }
+    });
+    let mut out = vec![0.0; rows * cols];
+    bands::fill_rows(&mut out, cols, |first, band| {
+        for (k, dst) in band.chunks_exact_mut(cols).enumerate() {
+            let r = first + k;
+            let lo = r.saturating_sub(radius);
+            let hi = (r + radius).min(rows - 1);
+            for j in lo..=hi {
+                let w = kernel[j + radius - r];
+                for (d, s) in dst.iter_mut().zip(&tmp[j * cols..(j + 1) * cols]) {
+                    *d += w * s;
+                }
+            }
+        }
+    });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nonfinite_and_masked_pixels_are_excluded() {
+        let data = [1.0f32, f32::NAN, 3.0, f32::INFINITY, 5.0, 6.0];
+        let mask = [true, true, true, true, true, false];
+        let p = Plane::from_samples(&data, 2, 3, Some(&mask), "real").unwrap();
+        assert_eq!(p.valid, vec![true, false, true, false, true, false]);
+        assert_eq!(p.n_valid, 3);
+        assert_eq!(p.values[1], 0.0);
+        let (mean, std) = p.mean_std();
+        assert!((mean - 3.0).abs() < 1e-15 && (std - (8.0f64 / 3.0).sqrt()).abs() < 1e-15);
+        assert!(Plane::from_samples(&data, 3, 3, None, "real").is_err());
+    }
+
+    #[test]
+    fn smoothing_ignores_invalid_pixels_and_keeps_constants() {
+        let mut values = vec![7.0; 100];
+        let mut valid = vec![true; 100];
+        values[55] = 1e9; // excluded: must not leak into its neighbours
+        valid[55] = false;
+        let p = Plane::new(10, 10, values, valid).smoothed(1.0);
+        assert!(p.values.iter().zip(&p.valid).all(|(&v, &ok)| !ok || (v - 7.0).abs() < 1e-12));
+        assert!(!p.valid[55]);
+    }
+
+    #[test]
+    fn unit_range_and_halving() {
+        let values: Vec<f64> = (0..16).map(|i| i as f64).collect();
+        let p = Plane::new(4, 4, values, vec![true; 16]);
+        let u = p.unit_range(0.0);
+        assert_eq!(u.values[0], 0.0);
+        assert_eq!(u.values[15], 1.0);
+        let h = p.halved();
+        assert_eq!((h.rows, h.cols), (2, 2));
+        assert_eq!(h.values, vec![2.5, 4.5, 10.5, 12.5]);
+        let (gx, gy, ok) = p.gradient();
+        assert!(ok[5] && !ok[0]);
+        assert_eq!((gx[5], gy[5]), (1.0, 4.0));
+    }
+}

@@ -1,0 +1,421 @@
+//! Fourier phase correlation.
+//!
+//! The cross-power spectrum `X = F_real · conj(F_sim)` of the tapered frames encodes the
+//! shift `d` of `real(p) = sim(p − d)` as the phase `e^{−i k·d}`. Two surfaces come from it:
+//!
+//! - the **fully whitened** surface `IFFT(X/|X|)` — a sharp peak over a flat floor — gives
+//!   the integer peak (taken by absolute value: a negative peak means inverted grey levels)
+//!   and the confidence: a rival peak elsewhere (a periodic pattern, an unrelated pair)
+//!   shows as a second peak of comparable height.
+//! - the **half-whitened** spectrum `X/|X|^½` gives the subpixel shift
+//!   ([`super::subpixel`]); for log-polar spectra its surface also locates the peak. Half
+//!   whitening weights frequencies between plain correlation (the lowest frequencies
+//!   dominate: a broad peak) and phase correlation (noise at high frequencies weighted like
+//!   signal); on real thermal frames with noise and blur it gave the smallest error
+//!   (docs/registration.md).
+//!
+//! The apodisation window favours small shifts and the FFT cannot tell `d` from
+//! `d ± frame size`; both are settled on the pixels ([`super::shifts`]).
+
+use super::fft::{self, Spectrum, C64};
+use super::image::Plane;
+use super::shifts::{resolve_alias, shifted_gradient_correlation};
+use super::subpixel::newton_peak;
+use super::window::{tapered, tukey, TUKEY_ALPHA};
+use crate::error::Result;
+
+/// Half width, in pixels, of the box around the peak that no rival may come from.
+pub const EXCLUSION: isize = 3;
+
+/// Rival peaks below this many standard deviations of the whitened surface are noise.
+const NOISE_SIGMAS: f64 = 4.0;
+
+/// Rivals at least this high (relative to the peak, on the whitened surface) are checked on
+/// the pixels; at most this many of them.
+const CREDIBLE_RIVAL: f64 = 0.2;
+const RIVALS_CHECKED: usize = 4;
+
+/// A peak outside the max_shift window this much higher than the best inside it means the
+/// shift lies beyond max_shift.
+const BEYOND_RATIO: f64 = 1.5;
+
+/// The correlation peak between two frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Peak {
+    /// Subpixel shift `(dy, dx)`: `real(p) ≈ sim(p − d)`.
+    pub dy: f64,
+    pub dx: f64,
+    /// +1, or −1 when the frames correlate negatively (inverted grey levels).
+    pub sign: f64,
+    /// Height of the whitened correlation surface at the peak, in (0, 1].
+    pub height: f64,
+    /// Distinctness of the peak in [0, 1] (see [`surface_confidence`] and [`correlate`]).
+    pub confidence: f64,
+    /// Integer shift `(dy, dx)` of the strongest rival.
+    pub rival: (isize, isize),
+    /// The best match lies outside the max_shift window: the in-window peak sits on its edge
+    /// with the correlation still rising, or a far higher peak lies outside.
+    pub beyond_limit: bool,
+}
+
+/// Which peaks may be taken.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Polarity {
+    /// Only positive correlation (magnitude spectra, log-polar images).
+    Positive,
+    /// The larger of the positive and negative peaks.
+    Either,
+}
+
+/// Largest integer shift searched along each axis: `(max_dy, max_dx)`.
+pub fn search_limits(rows: usize, cols: usize, max_shift: Option<f64>) -> (usize, usize) {
+    let cap = |n: usize| {
+        let half = n / 2;
+        match max_shift {
+            Some(m) => (m.floor().max(0.0) as usize).min(half),
+            None => half,
+        }
+    };
+    (cap(rows), cap(cols))
+}
+
+/// Phase correlation of two frames of the same shape, Tukey-windowed, peak searched within
+/// `|dy|, |dx| ≤ max_shift`. The peak's alias one frame away is taken if its overlap
+/// correlates better, and credible rivals are judged on the pixels too: a rival whose
+/// gradients correlate nearly as well as the peak's (a periodic pattern) lowers the
+/// confidence to `1 − r_rival/r_peak`.
+pub fn correlate(real: &Plane, sim: &Plane, max_shift: Option<f64>) -> Result<Peak> {
+    let (rows, cols) = (real.rows, real.cols);
+    let (wr, wc) = (tukey(rows, TUKEY_ALPHA), tukey(cols, TUKEY_ALPHA));
+    let a = tapered(real, &wr, &wc);
+    let b = tapered(sim, &wr, &wc);
+    let (mut peak, rivals) = correlate_tapered(
+        &a,
+        &b,
+        rows,
+        cols,
+        search_limits(rows, cols, max_shift),
+        Polarity::Either,
+        Locate::Whitened,
+    )?;
+    let canonical = (peak.dy.round() as isize, peak.dx.round() as isize);
+    let chosen = resolve_alias(real, sim, canonical, peak.sign, max_shift);
+    peak.dy += (chosen.0 - canonical.0) as f64;
+    peak.dx += (chosen.1 - canonical.1) as f64;
+    let min_pairs = rows * cols / 8;
+    let r_peak = if rivals.is_empty() { None } else { shifted_gradient_correlation(real, sim, chosen, min_pairs) };
+    if let Some(r_peak) = r_peak.map(|r| peak.sign * r) {
+        for rival in rivals {
+            if let Some(r) = shifted_gradient_correlation(real, sim, rival, min_pairs) {
+                let c = if r_peak > 0.0 { (1.0 - peak.sign * r / r_peak).clamp(0.0, 1.0) } else { 0.0 };
+                if c < peak.confidence {
+                    peak.confidence = c;
+                    peak.rival = rival;
+                }
+            }
+        }
+    }
+    Ok(peak)
+}
+
+/// Which surface the integer peak is taken on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Locate {
+    /// The fully whitened surface (sharp): frames, whose spectra are broad.
+    Whitened,
+    /// The half-whitened surface (smoother): log-polar spectra, whose fully whitened surface
+    /// is too noisy to locate the peak reliably.
+    HalfWhitened,
+}
+
+/// Phase correlation of two already tapered, mean-free images: the peak, and the credible
+/// rivals (local maxima outside the peak's box, at least [`CREDIBLE_RIVAL`] of its height).
+pub fn correlate_tapered(
+    a: &[f64],
+    b: &[f64],
+    rows: usize,
+    cols: usize,
+    limits: (usize, usize),
+    polarity: Polarity,
+    locate: Locate,
+) -> Result<(Peak, Vec<(isize, isize)>)> {
+    let fa = fft::forward(a, rows, cols)?;
+    let fb = fft::forward(b, rows, cols)?;
+    // X = A·conj(B), then X/|X|^½ (kept for the subpixel step) and X/|X| in one sweep
+    let largest = fa.data.iter().zip(&fb.data).map(|(x, y)| x.norm_sqr() * y.norm_sqr()).fold(0.0, f64::max).sqrt();
+    let floor = largest * 1e-12;
+    let mut half = fa;
+    let mut full = Vec::with_capacity(half.data.len());
+    for (x, y) in half.data.iter_mut().zip(&fb.data) {
+        let z = *x * y.conj();
+        let m = z.norm_sqr().sqrt(); // no overflow here; `norm` calls libm's slow hypot
+        if m > floor {
+            let inv = 1.0 / m;
+            *x = z * inv.sqrt();
+            full.push(z * inv);
+        } else {
+            *x = C64::default();
+            full.push(C64::default());
+        }
+    }
+    drop(fb);
+    let surface = fft::inverse(Spectrum { rows, cols, data: full })?;
+    let half_surface = match locate {
+        Locate::Whitened => None,
+        Locate::HalfWhitened => Some(fft::inverse(half.clone())?),
+    };
+    let locate = half_surface.as_deref().unwrap_or(&surface);
+    let (iy, ix, sign) = integer_peak(locate, rows, cols, limits, polarity);
+    let at = |s: &[f64], y: isize, x: isize| sign * s[wrap(y, rows) * cols + wrap(x, cols)];
+    let height = at(&surface, iy, ix);
+    let (confidence, rival, rivals) = surface_confidence(&surface, rows, cols, (iy, ix), sign, limits, polarity);
+    let outside = (rows / 2, cols / 2);
+    let beyond_limit = limits != outside && {
+        let (gy, gx, gsign) = integer_peak(locate, rows, cols, outside, polarity);
+        let far = gy.unsigned_abs() > limits.0 || gx.unsigned_abs() > limits.1;
+        (far && gsign * locate[wrap(gy, rows) * cols + wrap(gx, cols)] > BEYOND_RATIO * at(locate, iy, ix))
+            || rises_beyond(locate, rows, cols, (iy, ix), sign, limits)
+    };
+    let start = parabolic_start(locate, rows, cols, (iy, ix), sign);
+    let (dy, dx) = newton_peak(&half, start, (iy as f64, ix as f64), sign);
+    Ok((Peak { dy, dx, sign, height, confidence, rival, beyond_limit }, rivals))
+}
+
+/// `i` in `0..n` as a signed shift in `(−n/2, n/2]`.
+pub(super) fn signed(i: usize, n: usize) -> isize {
+    if i <= n / 2 {
+        i as isize
+    } else {
+        i as isize - n as isize
+    }
+}
+
+fn wrap(s: isize, n: usize) -> usize {
+    s.rem_euclid(n as isize) as usize
+}
+
+fn within(sy: isize, sx: isize, limits: (usize, usize)) -> bool {
+    sy.unsigned_abs() <= limits.0 && sx.unsigned_abs() <= limits.1
+}
+
+/// Integer shift of the highest peak within the limits, and its sign.
+fn integer_peak(
+    surface: &[f64],
+    rows: usize,
+    cols: usize,
+    limits: (usize, usize),
+    polarity: Polarity,
+) -> (isize, isize, f64) {
+    let mut best = (0isize, 0isize, f64::NEG_INFINITY, 1.0);
+    for r in 0..rows {
+        for c in 0..cols {
+            let (sy, sx) = (signed(r, rows), signed(c, cols));
+            if !within(sy, sx, limits) {
+                continue;
+            }
+            let v = surface[r * cols + c];
+            let (score, sign) = match polarity {
+                Polarity::Positive => (v, 1.0),
+                Polarity::Either => (v.abs(), if v < 0.0 { -1.0 } else { 1.0 }),
+            };
+            if score > best.2 {
+                best = (sy, sx, score, sign);
+            }
+        }
+    }
+    (best.0, best.1, best.3)
+}
+
+/// Distinctness of the peak on the whitened surface: `1 − max(rival, noise)/height`, where
+/// `rival` is the highest value (either sign, if both polarities are allowed) within the
+/// search limits but outside a ±[`EXCLUSION`] box around the peak, and `noise` is
+/// [`NOISE_SIGMAS`] standard deviations of the surface outside that box (so a small search
+/// window over noise cannot look distinct). Returns it with the rival's shift and the
+/// credible rivals to check on the pixels.
+fn surface_confidence(
+    surface: &[f64],
+    rows: usize,
+    cols: usize,
+    peak: (isize, isize),
+    sign: f64,
+    limits: (usize, usize),
+    polarity: Polarity,
+) -> (f64, (isize, isize), Vec<(isize, isize)>) {
+    let value = |r: usize, c: usize| {
+        let v = sign * surface[r * cols + c];
+        if polarity == Polarity::Either {
+            v.abs()
+        } else {
+            v
+        }
+    };
+    let height = sign * surface[wrap(peak.0, rows) * cols + wrap(peak.1, cols)];
+    let near = |d: isize, n: usize| {
+        let d = d.rem_euclid(n as isize);
+        d.min(n as isize - d) <= EXCLUSION
+    };
+    let col_near: Vec<bool> = (0..cols).map(|c| near(signed(c, cols) - peak.1, cols)).collect();
+    let (mut rival, mut at) = (f64::NEG_INFINITY, (0isize, 0isize));
+    let (mut sum_sq, mut count) = (0.0f64, 0usize);
+    let mut credible: Vec<(f64, (isize, isize))> = Vec::new();
+    for r in 0..rows {
+        let sy = signed(r, rows);
+        let row_near = near(sy - peak.0, rows);
+        for c in 0..cols {
+            if row_near && col_near[c] {
+                continue;
+            }
+            let sx = signed(c, cols);
+            let v = value(r, c);
+            sum_sq += v * v;
+            count += 1;
+            if !within(sy, sx, limits) {
+                continue;
+            }
+            if v > rival {
+                rival = v;
+                at = (sy, sx);
+            }
+            if v >= CREDIBLE_RIVAL * height && is_local_max(&value, r, c, rows, cols) {
+                credible.push((v, (sy, sx)));
+            }
+        }
+    }
+    credible.sort_by(|x, y| y.0.total_cmp(&x.0));
+    let rivals = credible.into_iter().take(RIVALS_CHECKED).map(|(_, s)| s).collect();
+    let noise = if count > 0 { NOISE_SIGMAS * (sum_sq / count as f64).sqrt() } else { 0.0 };
+    if height <= 0.0 {
+        return (0.0, at, rivals);
+    }
+    ((1.0 - rival.max(noise) / height).clamp(0.0, 1.0), at, rivals)
+}
+
+fn is_local_max(value: &impl Fn(usize, usize) -> f64, r: usize, c: usize, rows: usize, cols: usize) -> bool {
+    let v = value(r, c);
+    (-1isize..=1).all(|dy| {
+        (-1isize..=1)
+            .all(|dx| (dy == 0 && dx == 0) || value(wrap(r as isize + dy, rows), wrap(c as isize + dx, cols)) <= v)
+    })
+}
+
+/// Whether the peak sits on an edge of a window narrower than the frame with a higher value
+/// just outside it.
+fn rises_beyond(
+    surface: &[f64],
+    rows: usize,
+    cols: usize,
+    peak: (isize, isize),
+    sign: f64,
+    limits: (usize, usize),
+) -> bool {
+    let at = |y: isize, x: isize| sign * surface[wrap(y, rows) * cols + wrap(x, cols)];
+    let here = at(peak.0, peak.1);
+    let on_edge = |p: isize, limit: usize, n: usize| limit < n / 2 && p.unsigned_abs() == limit;
+    let outward = |p: isize| -> [isize; 2] {
+        match p.signum() {
+            0 => [1, -1],
+            s => [s, s],
+        }
+    };
+    (on_edge(peak.0, limits.0, rows) && outward(peak.0).iter().any(|&o| at(peak.0 + o, peak.1) > here))
+        || (on_edge(peak.1, limits.1, cols) && outward(peak.1).iter().any(|&o| at(peak.0, peak.1 + o) > here))
+}
+
+/// The integer peak moved by a parabola through it and its neighbours on each axis (at most
+/// half a pixel): where Newton's method starts.
+fn parabolic_start(surface: &[f64], rows: usize, cols: usize, peak: (isize, isize), sign: f64) -> (f64, f64) {
+    let at = |dy: isize, dx: isize| sign * surface[wrap(peak.0 + dy, rows) * cols + wrap(peak.1 + dx, cols)];
+    let vertex = |minus: f64, centre: f64, plus: f64| {
+        let curvature = minus - 2.0 * centre + plus;
+        if curvature < 0.0 {
+            (0.5 * (minus - plus) / curvature).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        }
+    };
+    let c = at(0, 0);
+    let oy = if rows > 2 { vertex(at(-1, 0), c, at(1, 0)) } else { 0.0 };
+    let ox = if cols > 2 { vertex(at(0, -1), c, at(0, 1)) } else { 0.0 };
+    (peak.0 as f64 + oy, peak.1 as f64 + ox)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A smooth periodic test pattern shifted exactly by `(dy, dx)` (band-limited: a few
+    /// low-frequency cosines), so the true shift is known to machine precision.
+    fn pattern(rows: usize, cols: usize, dy: f64, dx: f64) -> Plane {
+        let tau = 2.0 * std::f64::consts::PI;
+        let waves = [(1.0, 2.0, 0.3, 1.0), (3.0, 1.0, 1.1, 0.7), (2.0, 5.0, 2.0, 0.5), (7.0, 3.0, 0.4, 0.3)];
+        let mut values = vec![0.0; rows * cols];
+        for r in 0..rows {
+            for c in 0..cols {
+                let (y, x) = (r as f64 - dy, c as f64 - dx);
+                values[r * cols + c] = waves
+                    .iter()
+                    .map(|&(ky, kx, ph, amp)| amp * (tau * (ky * y / rows as f64 + kx * x / cols as f64) + ph).cos())
+                    .sum();
+            }
+        }
+        Plane::new(rows, cols, values, vec![true; rows * cols])
+    }
+
+    fn untapered(p: &Plane) -> Vec<f64> {
+        tapered(p, &vec![1.0; p.rows], &vec![1.0; p.cols])
+    }
+
+    #[test]
+    fn recovers_exact_subpixel_shifts_of_periodic_patterns() {
+        for &(rows, cols) in &[(64usize, 80usize), (45, 50)] {
+            let real = pattern(rows, cols, 0.0, 0.0);
+            for &(dy, dx) in &[(2.3, -1.7), (0.5, 0.5), (-3.25, 4.75), (0.0, 0.0)] {
+                let sim = pattern(rows, cols, -dy, -dx); // real(p) = sim(p − d)
+                let limits = search_limits(rows, cols, None);
+                let (pk, _) = correlate_tapered(
+                    &untapered(&real),
+                    &untapered(&sim),
+                    rows,
+                    cols,
+                    limits,
+                    Polarity::Either,
+                    Locate::Whitened,
+                )
+                .unwrap();
+                assert!((pk.dy - dy).abs() < 1e-6 && (pk.dx - dx).abs() < 1e-6, "{rows}x{cols} {dy},{dx}: {pk:?}");
+                assert_eq!(pk.sign, 1.0);
+            }
+        }
+    }
+
+    #[test]
+    fn inverted_frames_give_a_negative_peak() {
+        let real = pattern(48, 64, 0.0, 0.0);
+        let mut sim = pattern(48, 64, 1.5, -2.25);
+        sim.values.iter_mut().for_each(|v| *v = 100.0 - 3.0 * *v);
+        let limits = search_limits(48, 64, None);
+        let (pk, _) =
+            correlate_tapered(&untapered(&real), &untapered(&sim), 48, 64, limits, Polarity::Either, Locate::Whitened)
+                .unwrap();
+        assert_eq!(pk.sign, -1.0);
+        assert!((pk.dy + 1.5).abs() < 1e-6 && (pk.dx - 2.25).abs() < 1e-6, "{pk:?}");
+        let (pos, _) = correlate_tapered(
+            &untapered(&real),
+            &untapered(&sim),
+            48,
+            64,
+            limits,
+            Polarity::Positive,
+            Locate::HalfWhitened,
+        )
+        .unwrap();
+        assert_eq!(pos.sign, 1.0);
+    }
+
+    #[test]
+    fn limits_confine_the_search() {
+        assert_eq!(search_limits(120, 160, None), (60, 80));
+        assert_eq!(search_limits(120, 160, Some(4.9)), (4, 4));
+        assert_eq!(search_limits(10, 10, Some(99.0)), (5, 5));
+    }
+}
