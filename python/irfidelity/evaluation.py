@@ -52,6 +52,39 @@ def real_range(real: np.ndarray, mask: Any, nonfinite: str) -> float | None:
     return float(values.max()) - float(values.min())
 
 
+def _check_levels(frame: np.ndarray, valid: tuple[int, int] | None, which: str) -> None:
+    """Integer samples within the bit depth (what the kernel checks on unregistered frames)."""
+    if valid is None or frame.size == 0:
+        return
+    lo, hi = int(frame.min()), int(frame.max())
+    if lo < valid[0] or hi > valid[1]:
+        bad = lo if lo < valid[0] else hi
+        raise RangeError(f"{which} frame: value {bad} outside the valid range {valid[0]} .. {valid[1]} (set bits to "
+                         f"the camera's bit depth, or leave it unset)", option="bits")
+
+
+def _registered(r: np.ndarray, s: np.ndarray, mask: Any, config: ScoringConfig, sources: dict
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
+    """Register the simulated frame onto the real one and resample it (docs/registration.md).
+
+    Returns float64 frames, the mask of the overlap (and of ``mask``), and the PSNR peak of
+    the original sample type, since a bit depth applies to the integer frames only.
+    """
+    from .registration import register
+
+    r, s = np.asarray(r), np.asarray(s)
+    numeric_peak = config.peak if isinstance(config.peak, float) else None
+    peak, valid = _stats.peak_and_valid(r.dtype, config.bits, numeric_peak)
+    for frame, which in ((r, "real"), (s, "sim")):
+        _check_levels(frame, valid, which)
+    reg = register(r, s, model=config.register, method=config.register_method,
+                   mask=None if mask is None else np.asarray(mask, dtype=bool))
+    aligned, overlap = reg.apply(s, mask=None if mask is None else np.asarray(mask, dtype=bool))
+    sources["registration"] = reg
+    keep = overlap if mask is None else overlap & np.asarray(mask, dtype=bool)
+    return r.astype(np.float64), aligned, keep, peak
+
+
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any,
                  inputs: dict, sources: dict) -> _stats.PairStats:
     r = _load(real, "real", config.real_channel)
@@ -59,9 +92,15 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
     sources.update(real=r, sim=s, mask=mask)
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
                   dtype=np.asarray(r).dtype.name)
+    bits = config.bits
     numeric_peak = config.peak if isinstance(config.peak, float) else None
+    default_peak = None
+    if config.register is not None:
+        r, s, mask, default_peak = _registered(r, s, mask, config, sources)
+        sources.update(sim=s, mask=mask)
+        bits, numeric_peak = None, default_peak
     try:
-        st = _stats.pair_stats(r, s, bits=config.bits, peak=numeric_peak, bins=config.bins,
+        st = _stats.pair_stats(r, s, bits=bits, peak=numeric_peak, bins=config.bins,
                                hist_range=config.hist_range, mask=mask, need=components, nonfinite=config.nonfinite)
     except (ShapeError, RangeError) as exc:
         paths = [f"{which} {inputs[which]}" for which, x in (("real", real), ("sim", sim))
@@ -71,7 +110,7 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
         raise type(exc)(f"{' / '.join(paths)}: {exc}", option=getattr(exc, "option", None)) from None
     if "psnr" in components:
         dtype = np.asarray(r).dtype
-        default = _stats.peak_and_valid(dtype, config.bits, None)[0]
+        default = default_peak if default_peak is not None else _stats.peak_and_valid(dtype, config.bits, None)[0]
         peak = psnr_peak(config, default, real_range(r, mask, config.nonfinite), where="real frame")
         if peak != st.peak:
             st = st.with_peak(peak)
@@ -150,8 +189,10 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
             components.update(image)
             metrics.update(image_metrics)
     score = score_components(components, metrics, weights, cfg)
+    registration = sources.get("registration")
     return FidelityReport(fidelity=score.fidelity, grade=score.grade, components=score.components,
                           weights=weights, metrics=score.metrics,
                           component_grades=dict(score.grading.component_grades),
                           membership=dict(score.grading.membership), skipped=skipped, config=cfg,
-                          grading=score.grading.to_dict(), notes=notes, inputs=inputs, sources=sources)
+                          grading=score.grading.to_dict(), notes=notes, inputs=inputs, sources=sources,
+                          registration=None if registration is None else registration.to_dict())

@@ -123,6 +123,10 @@ class FidelityReport:
         Warnings raised while computing.
     inputs : dict
         Short descriptions of the inputs (paths, shapes).
+    registration : dict or None
+        The registration applied before the image components (``config.register``):
+        :meth:`irfidelity.Registration.to_dict` — model, method, matrix, shift, angle, scale,
+        confidence, overlap. The image components then count the overlap only.
     """
 
     fidelity: float
@@ -138,6 +142,7 @@ class FidelityReport:
     grading: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
     inputs: dict = field(default_factory=dict)
+    registration: dict | None = None
     sources: dict = field(default_factory=dict, repr=False, compare=False)
 
     def to_html(self, path: str | os.PathLike | None = None) -> str:
@@ -178,6 +183,7 @@ class FidelityReport:
             "grading": dict(self.grading),
             "notes": list(self.notes),
             "inputs": dict(self.inputs),
+            "registration": self.registration,
         })
 
     @classmethod
@@ -190,7 +196,8 @@ class FidelityReport:
                        membership=dict(d.get("membership", {})), skipped=dict(d.get("skipped", {})),
                        config=ScoringConfig.from_dict(d.get("config", {})),
                        version=str(d.get("irfidelity", "unknown")), grading=dict(d.get("grading", {})),
-                       notes=list(d.get("notes", [])), inputs=dict(d.get("inputs", {})))
+                       notes=list(d.get("notes", [])), inputs=dict(d.get("inputs", {})),
+                       registration=_registration_dict(d.get("registration")))
 
     @property
     def grades(self) -> tuple:
@@ -203,12 +210,34 @@ class FidelityReport:
         lines.append(f"{'fidelity':<10} {'':>7} {self.fidelity:>8.4f}  (eq. 15, Σ k_i·f_i)")
         b = ", ".join(f"{g} {v:.3f}" for g, v in self.membership.items())
         lines.append(f"{'grade':<10} {'':>7} {self.grade:>8}  membership B = K·R: {b}")
+        if self.registration:
+            lines.append(registration_line(self.registration))
         lines.append(settings_line(self.config, self.version))
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
 
     def __str__(self) -> str:
         return self.summary_text()
+
+
+def _registration_dict(value: Any) -> dict | None:
+    if value is None:
+        return None
+    if not isinstance(value, Mapping):
+        raise FidelityError(f"registration must be a mapping or null, got {type(value).__name__}")
+    return dict(value)
+
+
+def registration_line(reg: Mapping[str, Any]) -> str:
+    """One line: the transform found, how distinct the match was and the overlap scored."""
+    dy, dx = reg["shift"]
+    parts = [f"registration ({reg['model']}, {reg['method']}): shift dy {dy:+.3f} px, dx {dx:+.3f} px"]
+    if reg["model"] != "translation":
+        parts.append(f"angle {reg['angle']:+.3f}°")
+    if reg["model"] == "similarity":
+        parts.append(f"scale {reg['scale']:.5f}")
+    parts.append(f"confidence {reg['confidence']:.3f}, overlap {100 * reg['overlap']:.1f} % of the real frame")
+    return ", ".join(parts)
 
 
 def _peak_text(config: ScoringConfig) -> str:

@@ -17,7 +17,7 @@ import numpy as np
 
 from .fuzzy import COMPONENTS
 
-__all__ = ["METRICS", "FRAME_COLUMNS", "metric_names", "csv_columns", "to_json", "from_json"]
+__all__ = ["METRICS", "FRAME_COLUMNS", "REGISTRATION", "metric_names", "csv_columns", "to_json", "from_json"]
 
 #: Raw metrics behind each component: (key, unit, meaning), in report and CSV order.
 METRICS: dict[str, tuple[tuple[str, str, str], ...]] = {
@@ -103,6 +103,21 @@ RESULT_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("error", "", "why the frame could not be scored (empty when it was)"),
 )
 
+#: A single pair's ``registration`` (``evaluate(..., register=MODEL)``; JSON only):
+#: :meth:`irfidelity.Registration.to_dict`.
+REGISTRATION: tuple[tuple[str, str, str], ...] = (
+    ("model", "", "'translation', 'rigid' or 'similarity'"),
+    ("method", "", "the method whose result was kept: 'phase' or 'nmi'"),
+    ("matrix", "px", "2×3 affine matrix, simulated → real pixel coordinates (x = column, y = row)"),
+    ("shift", "px", "(dy, dx) of the frame centre: real ≈ shift(sim, (dy, dx)), scikit-image's sign"),
+    ("angle", "degree", "rotation, counter-clockwise as displayed (cv2.getRotationMatrix2D's sense)"),
+    ("scale", "1", "uniform scale"),
+    ("confidence", "1", "distinctness of the match, 1 − best rival / best (a warning below registration.LOW_CONFIDENCE)"),
+    ("overlap", "1", "fraction of the real frame the warped simulated frame covers"),
+    ("shape", "px", "(rows, cols) registered"),
+    ("inverted", "", "the frames' grey levels correlate negatively"),
+)
+
 IMAGE_COMPONENTS = ("psnr", "nmi", "ssim")
 CURVE_COMPONENTS = ("mtf", "sitf")
 
@@ -160,4 +175,6 @@ def markdown_table() -> str:
         lines.append(f"| `components.{comp}` | `f_{comp}` | 1 | fidelity component f_i in [0, 1] |")
     for key, unit, meaning in RESULT_COLUMNS:
         lines.append(f"| `{key}` | `{key}` | {unit} | {meaning} |")
+    for key, unit, meaning in REGISTRATION:
+        lines.append(f"| `registration.{key}` | – | {unit} | {meaning} |")
     return "\n".join(lines)

@@ -42,6 +42,17 @@ def _positive(name: str, value: Any, allow_none: bool = False) -> Any:
     return int(value)
 
 
+def _refuse_sequence_registration(cfg: ScoringConfig) -> None:
+    """Registration of sequences (once, per frame, and the frame delay) is not built yet: a
+    clear error, never settings silently ignored."""
+    for option, asked in (("register", cfg.register is not None), ("register_each", cfg.register_each),
+                          ("max_delay", cfg.max_delay > 0)):
+        if asked:
+            raise FidelityError(f"{option} is not available for sequences yet: frames are scored unregistered "
+                                f"or not at all; register single pairs with irfidelity.evaluate(real, sim, "
+                                f"register=...), or leave {option} unset", option=option)
+
+
 def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
                    sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
                    config: ScoringConfig | None = None, workers: int | None = None,
@@ -91,6 +102,7 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     (3, 84.29)
     """
     cfg = ScoringConfig.resolve(config, **options)
+    _refuse_sequence_registration(cfg)
     if resume and csv is None:
         raise FidelityError("resuming needs the CSV of the interrupted run", option="csv")
     run = RunOptions(workers=_positive("workers", workers, allow_none=True), progress=progress, client=client,
