@@ -139,13 +139,16 @@ class ScoringConfig:
     grades : GradeScale
         Grade names and boundaries of the fuzzy evaluation.
     register : "translation", "rigid", "similarity" or None
-        Align the simulated frames to the real ones before the image metrics.
+        Register the simulated frame onto the real one before the image metrics, which then
+        count the overlap only (:func:`irfidelity.register`; single pairs — sequences refuse
+        it until sequence registration is built).
     register_method : "auto", "phase" or "nmi"
+        :func:`irfidelity.register`'s method.
     register_each : bool
-        Sequences: register every frame pair instead of once.
+        Sequences: register every frame pair instead of once (not built yet: refused).
     max_delay : int
         Sequences: search the frame offset between the two sequences in ``[-max_delay,
-        max_delay]``.
+        max_delay]`` (not built yet: refused when above 0).
     pair_by : "auto", "name" or "order"
         Sequences: pair frames by file name (``"auto"`` does when both sides are named
         files) or by position.
