@@ -31,6 +31,8 @@ use std::time::{Duration, Instant};
 
 use crate::hist::Entropies;
 use crate::io::{self, DecodeOptions, Frame, FrameData};
+use crate::kernel::Sample;
+use crate::register::{self, Affine, Interp, Source as WarpSource};
 use crate::stats::{self, HistRequest, PairStats, Request};
 use crate::{Error, Result};
 
@@ -75,6 +77,79 @@ pub struct SeqRequest {
     pub max_pixels: u64,
     /// Decoding budget per frame, in bytes (`DecodeOptions::max_bytes`); `None` = the default.
     pub max_bytes: Option<u64>,
+    /// A registration found once, applied to every pair: the simulated frame is resampled
+    /// onto the real one and only the overlap is scored (both frames as float64).
+    pub warp: Option<FixedWarp>,
+}
+
+/// A fixed registration: real → simulated pixel coordinates (the inverse of the
+/// registration's matrix) and the interpolation.
+#[derive(Clone, Debug)]
+pub struct FixedWarp {
+    pub to_source: Affine,
+    pub interp: Interp,
+}
+
+impl FixedWarp {
+    /// From a registration's matrix (simulated → real, 6 floats row-major) and an
+    /// interpolation order (1 or 3).
+    pub fn from_matrix(matrix: [f64; 6], order: u32) -> Result<FixedWarp> {
+        let interp = Interp::from_order(order)
+            .ok_or_else(|| Error::Value(format!("warp order must be 1 (bilinear) or 3 (bicubic), got {order}")))?;
+        let m = Affine([[matrix[0], matrix[1], matrix[2]], [matrix[3], matrix[4], matrix[5]]]);
+        let to_source = m
+            .inverse()
+            .filter(Affine::is_finite)
+            .ok_or_else(|| Error::Value(format!("the registration matrix {matrix:?} cannot be inverted")))?;
+        Ok(FixedWarp { to_source, interp })
+    }
+
+    /// The real frame as float64, and the simulated frame resampled onto it with the mask of
+    /// the pixels it covers (NaN elsewhere).
+    fn align(&self, real: &FrameData, sim: &FrameData, rows: usize, cols: usize) -> (Vec<f64>, Vec<f64>, Vec<bool>) {
+        macro_rules! on_samples {
+            ($data:expr, |$v:ident| $body:expr) => {
+                match $data {
+                    FrameData::U8($v) => $body,
+                    FrameData::U16($v) => $body,
+                    FrameData::I16($v) => $body,
+                    FrameData::U32($v) => $body,
+                    FrameData::F16($v) => $body,
+                    FrameData::F32($v) => $body,
+                    FrameData::F64($v) => $body,
+                }
+            };
+        }
+        let real = on_samples!(real, |v| v.iter().map(|x| x.to_f64()).collect::<Vec<f64>>());
+        let (aligned, valid) = on_samples!(sim, |v| {
+            let src = WarpSource { data: v.as_slice(), rows, cols, valid: None };
+            register::warp(&src, &self.to_source, self.interp, rows, cols, f64::NAN)
+        });
+        (real, aligned, valid)
+    }
+}
+
+/// Integer samples within `[lo, hi]` (the kernel's check, made before a warp turns the
+/// frames into floats).
+fn check_levels(data: &FrameData, (lo, hi): (i64, i64), which: &str) -> Result<()> {
+    let (min, max) = match data {
+        FrameData::U8(v) => fold_range(v.iter().map(|&x| x as i64)),
+        FrameData::U16(v) => fold_range(v.iter().map(|&x| x as i64)),
+        FrameData::I16(v) => fold_range(v.iter().map(|&x| x as i64)),
+        FrameData::U32(v) => fold_range(v.iter().map(|&x| x as i64)),
+        _ => return Ok(()),
+    };
+    match [min, max].into_iter().find(|&x| x < lo || x > hi) {
+        Some(bad) => Err(Error::Range(format!(
+            "{which} frame: value {bad} outside the valid range {lo} .. {hi} (set bits to the camera's bit depth, or \
+             leave it unset)"
+        ))),
+        None => Ok(()),
+    }
+}
+
+fn fold_range(values: impl Iterator<Item = i64>) -> (i64, i64) {
+    values.fold((i64::MAX, i64::MIN), |(a, b), x| (a.min(x), b.max(x)))
 }
 
 impl Default for SeqRequest {
@@ -90,6 +165,7 @@ impl Default for SeqRequest {
             real_extent: false,
             max_pixels: io::DEFAULT_MAX_PIXELS,
             max_bytes: None,
+            warp: None,
         }
     }
 }
@@ -139,12 +215,16 @@ fn run_kernel(r: FrameData, s: FrameData, req: &Request) -> Result<PairStats> {
         (F16(a), F16(b)) => stats::pair_stats(&a, &b, &Request { valid: None, ..req.clone() }),
         (F32(a), F32(b)) => stats::pair_stats(&a, &b, &Request { valid: None, ..req.clone() }),
         (F64(a), F64(b)) => stats::pair_stats(&a, &b, &Request { valid: None, ..req.clone() }),
-        (a, b) => Err(Error::Shape(format!(
-            "real and sim frames differ in dtype: {} vs {}; convert one so no silent rounding happens",
-            a.dtype_name(),
-            b.dtype_name()
-        ))),
+        (a, b) => Err(dtype_mismatch(&a, &b)),
     }
+}
+
+fn dtype_mismatch(a: &FrameData, b: &FrameData) -> Error {
+    Error::Shape(format!(
+        "real and sim frames differ in dtype: {} vs {}; convert one so no silent rounding happens",
+        a.dtype_name(),
+        b.dtype_name()
+    ))
 }
 
 fn prefix(err: Error, what: &str) -> Error {
@@ -166,6 +246,19 @@ fn decode(src: &Source, channel: &Option<String>, req: &SeqRequest) -> Result<Fr
         page: src.page,
     };
     io::decode_frame(&src.path, &opts)
+}
+
+/// Score a pair through a fixed registration: the overlap only, both frames as float64.
+fn score_aligned(r: &Frame, s: &Frame, warp: &FixedWarp, kreq: &Request) -> Result<PairStats> {
+    if r.data.dtype_name() != s.data.dtype_name() {
+        return Err(dtype_mismatch(&r.data, &s.data));
+    }
+    if let Some(valid) = kreq.valid {
+        check_levels(&r.data, valid, "real")?;
+        check_levels(&s.data, valid, "sim")?;
+    }
+    let (real, aligned, overlap) = warp.align(&r.data, &s.data, r.rows, r.cols);
+    stats::pair_stats(&real, &aligned, &Request { mask: Some(&overlap), valid: None, ..kreq.clone() })
 }
 
 /// Decode and score one pair on the current thread (and the current rayon pool).
@@ -207,7 +300,11 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
             shape: (r.rows, r.cols),
             fortran: false,
         };
-        let st = run_kernel(r.data, s.data, &kreq).map_err(|e| prefix(e, &what()))?;
+        let st = match &req.warp {
+            None => run_kernel(r.data, s.data, &kreq),
+            Some(warp) => score_aligned(&r, &s, warp, &kreq),
+        }
+        .map_err(|e| prefix(e, &what()))?;
         out.entropies = st.entropies();
         Ok(st)
     };

@@ -112,12 +112,50 @@ def test_an_ambiguous_pair_is_an_error_not_an_identity():
         quiet_evaluate(*bars, peak=1000.0, register="translation")
 
 
-@pytest.mark.parametrize("option", [{"register": "translation"}, {"register_each": True}, {"max_delay": 2}])
-def test_sequences_refuse_registration_options_instead_of_ignoring_them(option):
+@pytest.mark.parametrize("option", [{"register_each": True}, {"max_delay": 2}])
+def test_sequences_refuse_the_options_not_built_instead_of_ignoring_them(option):
     frames = np.stack([irf.load_frame(DATA / f"cptv_v2_frame{i:03d}.png") for i in range(3)])
     with pytest.raises(FidelityError, match="not available for sequences yet") as err:
-        irf.score_sequence(frames, frames, progress=False, **option)
+        irf.score_sequence(frames, frames, progress=False, register="translation", **option)
     assert err.value.option == next(iter(option))
+
+
+def test_a_sequence_is_registered_once_and_every_pair_scored_as_evaluate_scores_it(tmp_path):
+    real, sim, moved = simulated_views()
+    rng = np.random.default_rng(7)
+    sims = [moved, np.clip(moved.astype(int) + rng.integers(-20, 20, moved.shape), 0, 65535).astype(np.uint16)]
+    for side, frames in (("real", [real, real]), ("sim", sims)):
+        (tmp_path / side).mkdir()
+        for i, frame in enumerate(frames):
+            cv2.imwrite(str(tmp_path / side / f"f{i}.png"), frame)
+    for peak in ("range", None):
+        options = dict(bits=16, register="rigid", progress=False, **({} if peak is None else {"peak": peak}))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", irf.FidelityWarning)
+            from_files = irf.score_sequence(tmp_path / "real", tmp_path / "sim", **options)  # the Rust engine
+            from_arrays = irf.score_sequence(np.stack([real, real]), np.stack(sims), **options)
+        first = quiet_evaluate(real, moved, bits=16, register="rigid", **({} if peak is None else {"peak": peak}))
+        assert from_files.registration == from_arrays.registration == first.registration
+        reg = irf.Registration.from_dict(first.registration)
+        for i, s in enumerate(sims):
+            aligned, valid = reg.apply(s)
+            st = irf.pair_stats(real.astype(np.float64), aligned, peak=65535.0, mask=valid)
+            for rep in (from_files, from_arrays):
+                frame = rep.frames[i]
+                assert frame["error"] is None and frame["metrics"]["n"] == st.n == int(valid.sum())
+                assert frame["metrics"]["mse"] == st.mse() and frame["metrics"]["nmi"] == st.nmi().value
+            assert from_files.frames[0]["fidelity"] == first.fidelity
+        assert "found on the first pair" in from_files.summary_text()
+    back = irf.SequenceReport.from_dict(json.loads(json.dumps(from_files.to_dict())))
+    assert back.registration == from_files.registration
+
+
+def test_a_sequence_whose_first_pair_cannot_be_registered_fails_before_scoring():
+    x = np.arange(128)
+    bars = [np.tile(1000 + 200 * (0.5 - np.abs(((x - shift) / 8.0) % 1.0 - 0.5)), (96, 1)) for shift in (0.0, -3.0)]
+    with pytest.raises(irf.RegistrationError, match=r"registering the first readable pair \(\[0\] and \[0\]\)"):
+        irf.score_sequence(np.stack([bars[0]] * 2), np.stack([bars[1]] * 2), peak=1000.0, register="translation",
+                           progress=False)
 
 
 def cli(*args):
@@ -125,7 +163,7 @@ def cli(*args):
                           timeout=180)
 
 
-def test_cli_registers_a_pair_and_refuses_a_registered_sequence(tmp_path):
+def test_cli_registers_pairs_and_sequences(tmp_path):
     real, _, moved = simulated_views()
     cv2.imwrite(str(tmp_path / "real.png"), real)
     cv2.imwrite(str(tmp_path / "moved.png"), moved)
@@ -136,10 +174,15 @@ def test_cli_registers_a_pair_and_refuses_a_registered_sequence(tmp_path):
     assert "registration (rigid" in p.stdout
     d = json.loads(out.read_text())
     assert d["registration"]["model"] == "rigid" and d["metrics"]["n"] < real.size
-    p = cli("score", DATA / "cptv_v2_all100frames_uint16.tif", DATA / "cptv_v2_all100frames_uint16.tif",
-            "--pages", "0:3", "--register", "translation")
+    stack = DATA / "cptv_v2_all100frames_uint16.tif"
+    p = cli("score", stack, stack, "--pages", "0:3", "--register", "translation", "--json", out, "--csv",
+            tmp_path / "f.csv")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(out.read_text())
+    assert d["registration"]["shift"] == [0.0, 0.0] and len(d["frames"]) == 3  # the same frames: no shift
+    p = cli("score", stack, stack, "--pages", "0:3", "--register", "translation", "--max-delay", "2")
     assert p.returncode == 2 and "Traceback" not in p.stderr
-    assert "--register" in p.stderr and "not available for sequences yet" in p.stderr
+    assert "--max-delay" in p.stderr and "not available for sequences yet" in p.stderr
 
 
 def test_the_schema_lists_every_registration_field():

@@ -16,6 +16,7 @@ import numpy as np
 
 from . import stats as _stats
 from .camera import CameraInputs, camera_components, describe_input
+from .alignment import aligned_pair, check_levels, find_registration
 from .config import ScoringConfig
 from .errors import FidelityError, RangeError, ShapeError
 from .results import FidelityReport, recorded_warnings
@@ -52,37 +53,19 @@ def real_range(real: np.ndarray, mask: Any, nonfinite: str) -> float | None:
     return float(values.max()) - float(values.min())
 
 
-def _check_levels(frame: np.ndarray, valid: tuple[int, int] | None, which: str) -> None:
-    """Integer samples within the bit depth (what the kernel checks on unregistered frames)."""
-    if valid is None or frame.size == 0:
-        return
-    lo, hi = int(frame.min()), int(frame.max())
-    if lo < valid[0] or hi > valid[1]:
-        bad = lo if lo < valid[0] else hi
-        raise RangeError(f"{which} frame: value {bad} outside the valid range {valid[0]} .. {valid[1]} (set bits to "
-                         f"the camera's bit depth, or leave it unset)", option="bits")
-
-
 def _registered(r: np.ndarray, s: np.ndarray, mask: Any, config: ScoringConfig, sources: dict
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
-    """Register the simulated frame onto the real one and resample it (docs/registration.md).
-
-    Returns float64 frames, the mask of the overlap (and of ``mask``), and the PSNR peak of
-    the original sample type, since a bit depth applies to the integer frames only.
-    """
-    from .registration import register
-
+    """Register the simulated frame onto the real one and resample it (docs/registration.md):
+    float64 frames, the scored mask, and the PSNR peak of the original sample type (a bit
+    depth applies to the integer frames only)."""
     r, s = np.asarray(r), np.asarray(s)
     numeric_peak = config.peak if isinstance(config.peak, float) else None
     peak, valid = _stats.peak_and_valid(r.dtype, config.bits, numeric_peak)
-    for frame, which in ((r, "real"), (s, "sim")):
-        _check_levels(frame, valid, which)
-    reg = register(r, s, model=config.register, method=config.register_method,
-                   mask=None if mask is None else np.asarray(mask, dtype=bool))
-    aligned, overlap = reg.apply(s, mask=None if mask is None else np.asarray(mask, dtype=bool))
+    check_levels(r, valid, "real")
+    check_levels(s, valid, "sim")
+    reg = find_registration(r, s, config, mask)
     sources["registration"] = reg
-    keep = overlap if mask is None else overlap & np.asarray(mask, dtype=bool)
-    return r.astype(np.float64), aligned, keep, peak
+    return (*aligned_pair(r, s, reg, mask), peak)
 
 
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any,

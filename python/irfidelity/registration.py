@@ -173,10 +173,10 @@ class Registration:
             mask = np.ascontiguousarray(mask, dtype=bool)
             if mask.shape != frame.shape:
                 raise ShapeError(f"mask has shape {mask.shape}, sim has {frame.shape}")
-        m = self._applied_matrix()
+        m = self.applied_matrix()
         return _core.warp_frame(frame, tuple(m.ravel()), int(order), tuple(self.shape), mask)
 
-    def _applied_matrix(self) -> np.ndarray:
+    def applied_matrix(self) -> np.ndarray:
         """The matrix :meth:`apply` uses: integer-snapped for near-whole-pixel translations."""
         m = self.matrix
         linear_identity = np.array_equal(m[:, :2], np.eye(2))

@@ -79,6 +79,9 @@ class KernelRequest:
         Sequences: report each real frame's (min, max) over its finite values.
     max_pixels, max_bytes : int or None
         Sequences: the decode limits per frame (``None``: the defaults).
+    warp : ((6 floats), int) or None
+        Sequences: a registration applied to every pair — its matrix (simulated → real,
+        row-major) and interpolation order; the overlap is scored, both frames as float64.
     """
 
     sse: bool = True
@@ -93,6 +96,7 @@ class KernelRequest:
     real_extent: bool = False
     max_pixels: int | None = None
     max_bytes: int | None = None
+    warp: tuple[tuple[float, ...], int] | None = None
 
 
 class PairStats:

@@ -5,7 +5,7 @@
 use pyo3::exceptions::PyOverflowError;
 use pyo3::prelude::*;
 
-use crate::sequence::SeqRequest;
+use crate::sequence::{FixedWarp, SeqRequest};
 use crate::stats::{HistRequest, Request};
 use crate::Error;
 
@@ -25,6 +25,7 @@ pub(crate) struct KernelRequest {
     real_extent: bool,
     max_pixels: Option<u64>,
     max_bytes: Option<u64>,
+    warp: Option<([f64; 6], u32)>,
 }
 
 impl KernelRequest {
@@ -56,8 +57,9 @@ impl KernelRequest {
     }
 
     /// The request for every pair of a sequence, decode options included.
-    pub(crate) fn sequence_request(self) -> SeqRequest {
-        SeqRequest {
+    pub(crate) fn sequence_request(self) -> crate::Result<SeqRequest> {
+        let warp = self.warp.map(|(matrix, order)| FixedWarp::from_matrix(matrix, order)).transpose()?;
+        Ok(SeqRequest {
             hist: self.hist(),
             sse: self.sse,
             moments: self.moments,
@@ -68,7 +70,8 @@ impl KernelRequest {
             real_extent: self.real_extent,
             max_pixels: self.max_pixels.unwrap_or(crate::io::DEFAULT_MAX_PIXELS),
             max_bytes: self.max_bytes,
-        }
+            warp,
+        })
     }
 }
 

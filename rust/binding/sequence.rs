@@ -142,7 +142,7 @@ fn score_pairs<'py>(
     let real = sources(real_paths, real_pages, "real")?;
     let sim = sources(sim_paths, sim_pages, "sim")?;
     let n = real.len();
-    let mut stream = sequence::stream_pairs(real, sim, request.sequence_request(), workers)?;
+    let mut stream = sequence::stream_pairs(real, sim, request.sequence_request()?, workers)?;
     let mut delivery = match on_result {
         Some(cb) => Delivery::Stream(cb),
         None => Delivery::Collect((0..n).map(|_| None).collect()),

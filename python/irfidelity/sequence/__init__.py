@@ -43,14 +43,12 @@ def _positive(name: str, value: Any, allow_none: bool = False) -> Any:
 
 
 def _refuse_sequence_registration(cfg: ScoringConfig) -> None:
-    """Registration of sequences (once, per frame, and the frame delay) is not built yet: a
-    clear error, never settings silently ignored."""
-    for option, asked in (("register", cfg.register is not None), ("register_each", cfg.register_each),
-                          ("max_delay", cfg.max_delay > 0)):
+    """Registration per frame and the frame delay are not built yet: a clear error, never
+    settings silently ignored (``register`` alone registers once, on the first pair)."""
+    for option, asked in (("register_each", cfg.register_each), ("max_delay", cfg.max_delay > 0)):
         if asked:
-            raise FidelityError(f"{option} is not available for sequences yet: frames are scored unregistered "
-                                f"or not at all; register single pairs with irfidelity.evaluate(real, sim, "
-                                f"register=...), or leave {option} unset", option=option)
+            raise FidelityError(f"{option} is not available for sequences yet; register=MODEL registers the "
+                                f"first pair and applies that registration to every pair", option=option)
 
 
 def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
@@ -113,5 +111,5 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError("empty sequences: nothing to score")
     pairing = pair_frames(real_seq, sim_seq, cfg.pair_by)
-    plan = make_plan(real_seq, pairing, CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise), cfg)
+    plan = make_plan(real_seq, sim_seq, pairing, CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise), cfg)
     return execute(real_seq, sim_seq, pairing, plan, run)

@@ -23,7 +23,8 @@ from typing import Any, Protocol
 import numpy as np
 
 from .. import _core
-from ..errors import FidelityError
+from ..alignment import aligned_pair
+from ..errors import FidelityError, ShapeError
 from ..frames import FrameSequence
 from ..stats import KernelRequest, PairStats, pair_stats
 from .outcomes import Outcome
@@ -138,8 +139,16 @@ class ArrayLoop:
         try:
             real, sim = np.asarray(self.real[r]), np.asarray(self.sim[s])
             numeric_peak = cfg.peak if isinstance(cfg.peak, float) else None
-            st = pair_stats(real, sim, bits=cfg.bits, peak=numeric_peak, bins=cfg.bins, hist_range=cfg.hist_range,
-                            need=self.plan.image, nonfinite=cfg.nonfinite)
+            bits, mask, hist_range = cfg.bits, None, cfg.hist_range
+            scored_real, scored_sim = real, sim
+            if self.plan.registration is not None:  # the frames as the Rust engine scores them
+                if real.shape != sim.shape:
+                    raise ShapeError(f"real and sim frames differ in shape: {real.shape} vs {sim.shape}")
+                scored_real, scored_sim, mask = aligned_pair(real, sim, self.plan.registration, valid=self.plan.valid)
+                bits, numeric_peak = None, numeric_peak or self.plan.default_peak
+                hist_range = self.plan.hist_range if self.plan.hist_range is not None else hist_range
+            st = pair_stats(scored_real, scored_sim, bits=bits, peak=numeric_peak, bins=cfg.bins, hist_range=hist_range,
+                            mask=mask, need=self.plan.image, nonfinite=cfg.nonfinite)
         except FidelityError as exc:
             return Outcome(index, None, str(exc))
         return Outcome(index, st, None, real.shape, real.dtype.name,

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..alignment import find_registration
 from ..camera import CameraInputs, camera_components
 from ..config import ScoringConfig
 from ..errors import FidelityError
@@ -46,6 +47,7 @@ class SequencePlan:
     bins: int | None
     levels: bool
     hist_range: tuple[float, float] | None
+    registration: Any = None  # found once on the first readable pair (config.register)
 
     @property
     def bin_label(self) -> Any:
@@ -67,13 +69,23 @@ class SequencePlan:
                              levels=self.levels, hist_range=self.hist_range, valid=self.valid,
                              mask_nonfinite=cfg.nonfinite == "mask", real_channel=cfg.real_channel,
                              sim_channel=cfg.sim_channel, real_extent=cfg.peak == "range" and "psnr" in self.image,
-                             max_pixels=max_pixels, max_bytes=max_bytes)
+                             max_pixels=max_pixels, max_bytes=max_bytes, warp=self.warp)
+
+    @property
+    def warp(self) -> tuple[tuple[float, ...], int] | None:
+        """The registration as the engine applies it: matrix (6 floats) and interpolation order."""
+        if self.registration is None:
+            return None
+        from ..registration import DEFAULT_ORDER
+
+        return tuple(float(v) for v in self.registration.applied_matrix().ravel()), DEFAULT_ORDER
 
     def settings(self) -> dict:
         """What a resumed run must share with the one it continues (beyond the config)."""
         return {"dtype": None if self.dtype is None else self.dtype.name, "peak": self.peak,
                 "bins": self.bin_label, "hist_range": None if self.hist_range is None else list(self.hist_range),
-                "curves": {k: float(v) for k, v in self.camera_components.items()}}
+                "curves": {k: float(v) for k, v in self.camera_components.items()},
+                "registration": None if self.registration is None else self.registration.to_dict()}
 
 
 def _first_readable(real: FrameSequence, pairing: Pairing) -> np.ndarray | None:
@@ -88,12 +100,36 @@ def _first_readable(real: FrameSequence, pairing: Pairing) -> np.ndarray | None:
     return None
 
 
+def _registration(real: FrameSequence, sim: FrameSequence, pairing: Pairing, config: ScoringConfig) -> Any:
+    """With ``config.register``: the registration of the first pair whose frames both decode
+    (the camera geometry is fixed, so one registration serves every pair)."""
+    if config.register is None:
+        return None
+    if config.bins == "levels":
+        raise FidelityError("bins='levels' counts integer levels, and registered frames are resampled to floats: "
+                            "give a number of bins", option="bins")
+    for r, s in pairing.pairs:
+        if r is None or s is None:
+            continue
+        try:
+            real_frame, sim_frame = np.asarray(real[r]), np.asarray(sim[s])
+        except FidelityError:
+            continue
+        try:
+            return find_registration(real_frame, sim_frame, config)
+        except FidelityError as exc:
+            raise type(exc)(f"registering the first readable pair ({real.names[r]} and {sim.names[s]}): {exc}",
+                            option="register") from None
+    return None
+
+
 def _scene_range(frame: np.ndarray) -> float | None:
     values = frame[np.isfinite(frame)] if frame.dtype.kind == "f" else frame
     return float(values.max()) - float(values.min()) if values.size else None
 
 
-def make_plan(real: FrameSequence, pairing: Pairing, camera: CameraInputs, config: ScoringConfig) -> SequencePlan:
+def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera: CameraInputs,
+              config: ScoringConfig) -> SequencePlan:
     """Plan a sequence run (raises before any pair is scored when the plan cannot work)."""
     given = camera.given()
     weights, image, skipped = plan_components(config.weights, config.missing, have_images=True,
@@ -104,6 +140,7 @@ def make_plan(real: FrameSequence, pairing: Pairing, camera: CameraInputs, confi
                             "to compare curves alone, score a single pair without frames", option="weights")
     with recorded_warnings() as notes:
         fixed, fixed_metrics, inputs, compared = camera_components(camera, weights, config)
+        registration = _registration(real, sim, pairing, config)
         first = _first_readable(real, pairing)
         dtype = None if first is None else first.dtype
         default_peak = valid = None
@@ -120,4 +157,4 @@ def make_plan(real: FrameSequence, pairing: Pairing, camera: CameraInputs, confi
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,
                         camera_metrics=fixed_metrics, inputs=inputs, camera_objects=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
-                        else None, bins=bins, levels=levels, hist_range=hist_range)
+                        else None, bins=bins, levels=levels, hist_range=hist_range, registration=registration)

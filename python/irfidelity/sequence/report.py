@@ -14,7 +14,7 @@ from typing import Any, Mapping
 
 from ..config import ScoringConfig
 from ..fuzzy import Weights
-from ..results import component_lines, reading_report, settings_line, version
+from ..results import component_lines, reading_report, registration_line, settings_line, version
 from ..schema import csv_columns, to_json
 from .log import csv_line
 from .outcomes import flat_row
@@ -50,6 +50,9 @@ class SequenceReport:
     run : dict
         How the run went: ``pair_by`` (how frames were paired), ``workers``, ``csv``,
         ``resumed`` (frames taken from an earlier run).
+    registration : dict or None
+        With ``config.register``: the registration found on the first readable pair and
+        applied to every pair (as :attr:`FidelityReport.registration`).
     """
 
     frames: list
@@ -69,6 +72,7 @@ class SequenceReport:
     notes: list = field(default_factory=list)
     inputs: dict = field(default_factory=dict)
     run: dict = field(default_factory=dict)
+    registration: dict | None = None
     sources: dict = field(default_factory=dict, repr=False, compare=False)
 
     def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10) -> str:
@@ -102,7 +106,7 @@ class SequenceReport:
             fh.writelines(csv_line(flat_row(f, cols)) for f in self.frames)
 
     _FIELDS = ("fidelity", "grade", "components", "component_grades", "membership", "metrics", "failed",
-               "frame_stats", "pooling", "skipped", "notes", "inputs", "run")
+               "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration")
 
     def to_dict(self) -> dict:
         """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""
@@ -143,6 +147,8 @@ class SequenceReport:
             lines.append(f"failed frames: {shown}")
             first = next(f for f in self.frames if f["error"])
             lines.append(f"  first error (frame {first['index']}): {first['error']}")
+        if self.registration:
+            lines.append(registration_line(self.registration) + " (found on the first pair, applied to every pair)")
         lines.append(settings_line(self.config, self.version))
         lines += [f"note: {note}" for note in self.notes]
         return "\n".join(lines)

@@ -161,6 +161,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
         frames=frames, weights=plan.weights, failed=[f["index"] for f in frames if f["error"]],
         frame_stats=frame_statistics(frames), pooling=pooling, skipped=dict(plan.skipped), config=plan.config,
         notes=notes, inputs=dict(plan.inputs),
+        registration=None if plan.registration is None else plan.registration.to_dict(),
         run={"pair_by": pairing.rule, "workers": options.workers,
              "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed},
         sources={"frames": _loader(real, sim, pairing), "curves": plan.camera_objects}, **pooled)
