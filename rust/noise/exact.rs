@@ -14,8 +14,6 @@
 //! weights `w = (V·H, T·H, T·V, H, V, T)`, and `N²·SS_total = N·(N·Σx² − G²)`. The
 //! remaining part is `N²·SS_tvh = N²·SS_total − Σ others`: all exact, in 256 bits.
 
-use std::ops::{AddAssign, Range};
-
 use super::wide::U256;
 use super::{Decomposition, FrameSample, Region, Shape};
 use crate::{Error, Result};
@@ -123,9 +121,9 @@ impl IntAcc {
             && small(region.cols)
             && small(frames.len());
         let result = if narrow {
-            self.add_batch::<Narrow, S>(frames, region, base_rows, base_cols, label)
+            self.add_narrow(frames, region, base_rows, base_cols, label)
         } else {
-            self.add_batch::<General, S>(frames, region, base_rows, base_cols, label)
+            self.add_general(frames, region, base_rows, base_cols, label)
         };
         if result.is_err() {
             self.row_sums.truncate(base_rows);
@@ -163,11 +161,8 @@ impl IntAcc {
         Ok(())
     }
 
-    /// Add a batch with the scratch sums of `L`: each frame's rows into its row sums, its
-    /// column sums (scratch, copied out once the batch is in) and the batch's per-row sums;
-    /// the per-pixel sums once per row of the batch.
     #[inline(always)]
-    fn add_batch<L: Lanes, S: FrameSample>(
+    fn add_narrow<S: FrameSample>(
         &mut self,
         frames: &[&[S]],
         region: &Region,
@@ -176,23 +171,55 @@ impl IntAcc {
         label: &dyn Fn(usize) -> String,
     ) -> Result<()> {
         let (rows, cols) = (region.rows, region.cols);
-        let mut batch_sum = vec![L::Sum::default(); cols];
-        let mut batch_sq = vec![L::Sq::default(); cols];
-        let mut col_sums = vec![L::Sum::default(); frames.len() * cols];
+        let mut batch_sum = vec![0i32; cols];
+        let mut batch_sq = vec![0u64; cols];
+        let mut col_sums = vec![0i32; frames.len() * cols];
         for r in 0..rows {
-            batch_sum.fill(L::Sum::default());
-            batch_sq.fill(L::Sq::default());
+            batch_sum.fill(0);
+            batch_sq.fill(0);
             for (k, data) in frames.iter().enumerate() {
                 let row = region.row(data, r);
                 self.check_row(row, r, &|| label(k))?;
-                let sum = scan_row::<L, S>(row, &mut batch_sum, &mut batch_sq, &mut col_sums[k * cols..(k + 1) * cols]);
-                self.row_sums[base_rows + k * rows + r] = sum.into();
+                let sum = scan_narrow(row, &mut batch_sum, &mut batch_sq, &mut col_sums[k * cols..(k + 1) * cols]);
+                self.row_sums[base_rows + k * rows + r] = sum as i64;
             }
             let span = r * cols..(r + 1) * cols;
-            self.pixel_sum[span.clone()].iter_mut().zip(&batch_sum).for_each(|(a, &b)| *a += b.into());
-            L::add_sq(&mut self.pixel_sq, span, &batch_sq);
+            self.pixel_sum[span.clone()].iter_mut().zip(&batch_sum).for_each(|(a, &b)| *a += b as i64);
+            let PixelSq::Narrow(sq) = &mut self.pixel_sq else { unreachable!("narrow sums") };
+            sq[span].iter_mut().zip(&batch_sq).for_each(|(a, b)| *a += b);
         }
-        self.col_sums[base_cols..].iter_mut().zip(&col_sums).for_each(|(a, &b)| *a = b.into());
+        self.col_sums[base_cols..].iter_mut().zip(&col_sums).for_each(|(a, &b)| *a = b as i64);
+        Ok(())
+    }
+
+    #[inline(always)]
+    fn add_general<S: FrameSample>(
+        &mut self,
+        frames: &[&[S]],
+        region: &Region,
+        base_rows: usize,
+        base_cols: usize,
+        label: &dyn Fn(usize) -> String,
+    ) -> Result<()> {
+        let (rows, cols) = (region.rows, region.cols);
+        let mut batch_sum = vec![0i64; cols];
+        let mut batch_sq = vec![0u128; cols];
+        for r in 0..rows {
+            batch_sum.fill(0);
+            batch_sq.fill(0);
+            for (k, data) in frames.iter().enumerate() {
+                let row = region.row(data, r);
+                self.check_row(row, r, &|| label(k))?;
+                let col_sums = &mut self.col_sums[base_cols + k * cols..base_cols + (k + 1) * cols];
+                self.row_sums[base_rows + k * rows + r] = scan_general(row, &mut batch_sum, &mut batch_sq, col_sums);
+            }
+            let span = r * cols..(r + 1) * cols;
+            self.pixel_sum[span.clone()].iter_mut().zip(&batch_sum).for_each(|(a, b)| *a += b);
+            match &mut self.pixel_sq {
+                PixelSq::Narrow(sq) => sq[span].iter_mut().zip(&batch_sq).for_each(|(a, &b)| *a += b as u64),
+                PixelSq::Wide(sq) => sq[span].iter_mut().zip(&batch_sq).for_each(|(a, b)| *a += b),
+            }
+        }
         Ok(())
     }
 
@@ -355,75 +382,36 @@ fn ratio_i128(a: i128, b: u128) -> f64 {
     q as f64 + r as f64 / b as f64
 }
 
-/// The integer types of a batch's scratch sums, and how a sample enters them.
-trait Lanes {
-    /// Row, column and per-pixel batch sums.
-    type Sum: Copy + Default + AddAssign + Into<i64>;
-    /// Per-pixel batch sums of squares.
-    type Sq: Copy + Default + AddAssign;
-    fn sample<S: FrameSample>(x: S) -> Self::Sum;
-    fn square(x: Self::Sum) -> Self::Sq;
-    /// Add the batch's sums of squares of one row (`span`) to the per-pixel sums.
-    fn add_sq(pixel_sq: &mut PixelSq, span: Range<usize>, batch_sq: &[Self::Sq]);
-}
-
-/// 8/16-bit samples in a batch the caller bounds (rows, columns and frames ≤ 2^15): sums in
-/// i32, squares (≤ 65535²) in u64; half the lanes' width of [`General`].
-struct Narrow;
-
-/// Any integer samples (32-bit, or batches too large for i32 sums): i64 sums, u128 squares.
-struct General;
-
-impl Lanes for Narrow {
-    type Sum = i32;
-    type Sq = u64;
-    #[inline(always)]
-    fn sample<S: FrameSample>(x: S) -> i32 {
-        x.to_i32()
-    }
-    #[inline(always)]
-    fn square(x: i32) -> u64 {
-        let a = x.unsigned_abs() as u64;
-        a * a
-    }
-    #[inline(always)]
-    fn add_sq(pixel_sq: &mut PixelSq, span: Range<usize>, batch_sq: &[u64]) {
-        let PixelSq::Narrow(sq) = pixel_sq else { unreachable!("narrow sums") };
-        sq[span].iter_mut().zip(batch_sq).for_each(|(a, b)| *a += b);
-    }
-}
-
-impl Lanes for General {
-    type Sum = i64;
-    type Sq = u128;
-    #[inline(always)]
-    fn sample<S: FrameSample>(x: S) -> i64 {
-        x.to_i64()
-    }
-    #[inline(always)]
-    fn square(x: i64) -> u128 {
-        let a = x.unsigned_abs() as u128;
-        a * a
-    }
-    #[inline(always)]
-    fn add_sq(pixel_sq: &mut PixelSq, span: Range<usize>, batch_sq: &[u128]) {
-        match pixel_sq {
-            PixelSq::Narrow(sq) => sq[span].iter_mut().zip(batch_sq).for_each(|(a, &b)| *a += b as u64),
-            PixelSq::Wide(sq) => sq[span].iter_mut().zip(batch_sq).for_each(|(a, b)| *a += b),
-        }
-    }
-}
-
-/// One row into the batch's scratch sums and the frame's column sums; returns the row's sum.
+/// One row of 8/16-bit samples into the batch's scratch sums and the frame's column sums
+/// (i32: the caller bounds the rows and columns); returns the row's sum. Squares fit u32
+/// (|x| ≤ 65535) and are summed in u64.
 #[inline(always)]
-fn scan_row<L: Lanes, S: FrameSample>(row: &[S], sums: &mut [L::Sum], sq: &mut [L::Sq], col_sums: &mut [L::Sum]) -> L::Sum {
+fn scan_narrow<S: FrameSample>(row: &[S], sums: &mut [i32], sq: &mut [u64], col_sums: &mut [i32]) -> i32 {
     let n = row.len();
     let (sums, sq, col_sums) = (&mut sums[..n], &mut sq[..n], &mut col_sums[..n]);
-    let mut total = L::Sum::default();
+    let mut total = 0i32;
     for i in 0..n {
-        let x = L::sample(row[i]);
+        let x = row[i].to_i32();
+        let a = x.unsigned_abs() as u64;
         sums[i] += x;
-        sq[i] += L::square(x);
+        sq[i] += a * a;
+        col_sums[i] += x;
+        total += x;
+    }
+    total
+}
+
+/// One row of any integer samples (32-bit, or frames too large for i32 sums); returns its sum.
+#[inline(always)]
+fn scan_general<S: FrameSample>(row: &[S], sums: &mut [i64], sq: &mut [u128], col_sums: &mut [i64]) -> i64 {
+    let n = row.len();
+    let (sums, sq, col_sums) = (&mut sums[..n], &mut sq[..n], &mut col_sums[..n]);
+    let mut total = 0i64;
+    for i in 0..n {
+        let x = row[i].to_i64();
+        let a = x.unsigned_abs() as u128;
+        sums[i] += x;
+        sq[i] += a * a;
         col_sums[i] += x;
         total += x;
     }
