@@ -5,8 +5,10 @@
 /// Calls `$m!($args … list)` with the list of supported `Rust sample type => numpy dtype name`.
 macro_rules! frame_dtypes {
     ($m:ident, $($args:tt)*) => {
-        $m!($($args)* u8 => "uint8", u16 => "uint16", i16 => "int16", u32 => "uint32",
-            half::f16 => "float16", f32 => "float32", f64 => "float64")
+        $m! {
+            $($args)* u8 => "uint8", u16 => "uint16", i16 => "int16", u32 => "uint32",
+            half::f16 => "float16", f32 => "float32", f64 => "float64"
+        }
     };
 }
 
