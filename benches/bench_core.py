@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 
 
 def parse():
@@ -31,16 +30,7 @@ import numpy as np  # noqa: E402
 from skimage.metrics import normalized_mutual_information, peak_signal_noise_ratio  # noqa: E402
 
 import irfidelity as irf  # noqa: E402
-
-
-def best(fn, repeat):
-    fn()  # warm up
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
+from _common import best  # noqa: E402
 
 
 def numpy_ssim(r, s):

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import time
 from pathlib import Path
 
 
@@ -39,20 +38,11 @@ from scipy.ndimage import gaussian_filter  # noqa: E402
 from skimage.metrics import structural_similarity  # noqa: E402
 
 import irfidelity as irf  # noqa: E402
+from _common import best  # noqa: E402
 from irfidelity.demo import simulate_camera  # noqa: E402
 
 DATA = Path(__file__).resolve().parent.parent / "tests" / "data" / "thermal"
 WEIGHTS = np.array([0.0448, 0.2856, 0.3001, 0.2363, 0.1333])
-
-
-def best(fn, repeat):
-    fn()
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def skimage_map(r, s, peak):

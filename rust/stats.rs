@@ -389,6 +389,37 @@ pub(crate) fn two_sum(a: f64, b: f64) -> (f64, f64) {
     (s, (a - (s - bb)) + (b - bb))
 }
 
+/// Neumaier-compensated running sum: `sum` plus the rounding errors collected in `comp`.
+#[derive(Clone, Copy, Default)]
+pub(crate) struct Neumaier {
+    pub(crate) sum: f64,
+    pub(crate) comp: f64,
+}
+
+impl Neumaier {
+    #[inline(always)]
+    pub(crate) fn add(&mut self, x: f64) {
+        let (s, e) = two_sum(self.sum, x);
+        self.sum = s;
+        self.comp += e;
+    }
+    pub(crate) fn value(&self) -> f64 {
+        self.sum + self.comp
+    }
+    /// Add another compensated total (both parts).
+    pub(crate) fn merge(&mut self, other: &Neumaier) {
+        self.add(other.sum);
+        self.add(other.comp);
+    }
+}
+
+/// Neumaier-compensated sum of a sequence.
+pub(crate) fn compensated_sum(values: impl Iterator<Item = f64>) -> f64 {
+    let mut acc = Neumaier::default();
+    values.for_each(|v| acc.add(v));
+    acc.value()
+}
+
 /// Chan et al.'s pairwise update of centred sums.
 pub(crate) fn merge_float(a: &FloatSums, na: u64, b: &FloatSums, nb: u64) -> FloatSums {
     if na == 0 {

@@ -8,16 +8,14 @@ the test instead of killing pytest.
 from __future__ import annotations
 
 import json
-import os
 import struct
-import subprocess
-import sys
 import textwrap
 import zlib
 from pathlib import Path
 
 import numpy as np
 import pytest
+from child_process import run_python
 
 DATA = Path(__file__).parent / "data"
 HOSTILE_DIRS = ["exr/damaged", "png/corrupt", "tiff/corrupt"]
@@ -57,19 +55,7 @@ CHILD = textwrap.dedent(
 
 
 def run_batch(jobs: list[dict], memory_limit: int = MEMORY_LIMIT) -> list[dict]:
-    env = dict(os.environ)
-    env.setdefault("RAYON_NUM_THREADS", "2")
-    proc = subprocess.run(
-        [sys.executable, "-c", CHILD, str(memory_limit)],
-        input=json.dumps(jobs),
-        capture_output=True,
-        text=True,
-        timeout=TIMEOUT,
-        env=env,
-    )
-    assert proc.returncode == 0, f"child died (status {proc.returncode}): {proc.stderr[-3000:]}"
-    assert "PanicException" not in proc.stderr, proc.stderr[-3000:]
-    recs = json.loads(proc.stdout.strip().splitlines()[-1])
+    recs = run_python(CHILD, [str(memory_limit)], timeout=TIMEOUT, stdin=json.dumps(jobs))
     assert len(recs) == len(jobs)
     return recs
 

@@ -12,8 +12,6 @@ from __future__ import annotations
 import json
 import os
 import struct
-import subprocess
-import sys
 import textwrap
 import time
 import zlib
@@ -21,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from child_process import run_python
 
 import irfidelity as irf
 from irfidelity import _core
@@ -71,18 +70,7 @@ CHILD = textwrap.dedent(
 
 def run_child(**job) -> dict:
     """Run one job in a fresh interpreter; its record, with `maxrss` in bytes."""
-    env = dict(os.environ)
-    env.setdefault("RAYON_NUM_THREADS", "2")
-    proc = subprocess.run(
-        [sys.executable, "-c", CHILD, json.dumps(job)],
-        capture_output=True,
-        text=True,
-        timeout=TIMEOUT,
-        env=env,
-    )
-    assert proc.returncode == 0, f"child died (status {proc.returncode}): {proc.stderr[-3000:]}"
-    assert "PanicException" not in proc.stderr, proc.stderr[-3000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return run_python(CHILD, [json.dumps(job)], timeout=TIMEOUT)
 
 
 # ------------------------------------------------------------------------ crafting helpers

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _core
-from .errors import FidelityError, ShapeError
-from .stats import _as_frame, peak_and_valid
+from .errors import FidelityError
+from .stats import _frame_pair, peak_and_valid
 
 __all__ = ["SSIMMap", "ssim_map", "ms_ssim", "MS_SSIM_WEIGHTS"]
 
@@ -56,15 +56,7 @@ class SSIMMap:
 
 def _frames(real, sim, bits, peak):
     """Both frames as C-contiguous 2-D arrays of one dtype, the data range and the valid range."""
-    r = _as_frame(real, "real")
-    s = _as_frame(sim, "sim")
-    if r.shape != s.shape:
-        raise ShapeError(f"real and sim frames differ in shape: {r.shape} vs {s.shape}")
-    if r.dtype != s.dtype:
-        raise ShapeError(
-            f"real and sim frames differ in dtype: {r.dtype} vs {s.dtype}; convert one explicitly "
-            "(e.g. sim.astype(real.dtype)) so no silent rounding happens"
-        )
+    r, s = _frame_pair(real, sim)
     data_range, valid = peak_and_valid(r.dtype, bits, peak)
     if data_range is None:
         raise FidelityError(

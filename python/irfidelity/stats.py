@@ -370,6 +370,20 @@ def _as_frame(x, name: str) -> np.ndarray:
     return arr
 
 
+def _frame_pair(real, sim) -> tuple[np.ndarray, np.ndarray]:
+    """``real`` and ``sim`` as 2-D frames of one shape and one dtype (else a ShapeError)."""
+    r = _as_frame(real, "real")
+    s = _as_frame(sim, "sim")
+    if r.shape != s.shape:
+        raise ShapeError(f"real and sim frames differ in shape: {r.shape} vs {s.shape}")
+    if r.dtype != s.dtype:
+        raise ShapeError(
+            f"real and sim frames differ in dtype: {r.dtype} vs {s.dtype}; convert one explicitly "
+            "(e.g. sim.astype(real.dtype)) so no silent rounding happens"
+        )
+    return r, s
+
+
 def peak_and_valid(dtype: np.dtype, bits, peak):
     """The PSNR peak and (for integer frames) the allowed value range."""
     if bits is not None and peak is not None:
@@ -480,15 +494,7 @@ def pair_stats(
         NaN/Inf in float frames: a :class:`RangeError` with counts and the first position,
         or exclude those pairs (counted in ``PairStats.nonfinite``).
     """
-    r = _as_frame(real, "real")
-    s = _as_frame(sim, "sim")
-    if r.shape != s.shape:
-        raise ShapeError(f"real and sim frames differ in shape: {r.shape} vs {s.shape}")
-    if r.dtype != s.dtype:
-        raise ShapeError(
-            f"real and sim frames differ in dtype: {r.dtype} vs {s.dtype}; convert one explicitly "
-            "(e.g. sim.astype(real.dtype)) so no silent rounding happens"
-        )
+    r, s = _frame_pair(real, sim)
     if nonfinite not in ("raise", "mask"):
         raise FidelityError(f"nonfinite must be 'raise' or 'mask', got {nonfinite!r}")
     wanted = plan_need(need)

@@ -6,22 +6,19 @@ use numpy::ndarray::Array2;
 use numpy::{PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
+use super::dtypes::SUPPORTED_DTYPES;
 use crate::maps::{self, SsimParams};
 
-/// Evaluate `$body` with `$r`, `$s` bound to both frames as slices of their element type,
-/// for the first supported dtype the frames have; fall through when none matches.
-macro_rules! with_frames {
-    ($py:expr, $real:expr, $sim:expr, |$r:ident, $s:ident| $body:expr, $($t:ty),*) => {{
-        let dt = $real.dtype();
-        $(
-            if dt.is_equiv_to(&numpy::dtype::<$t>($py)) {
-                if let (Ok(ra), Ok(sa)) = ($real.extract::<PyReadonlyArrayDyn<$t>>(), $sim.extract::<PyReadonlyArrayDyn<$t>>()) {
-                    let ($r, $s) = (contiguous(&ra)?, contiguous(&sa)?);
-                    return $body;
-                }
-            }
-        )*
-    }};
+/// `run` on both frames as slices of `T`, or `None` when either is not a readable `T` array.
+fn on_slices<T: numpy::Element, R>(
+    real: &Bound<'_, PyUntypedArray>,
+    sim: &Bound<'_, PyUntypedArray>,
+    run: impl FnOnce(&[T], &[T]) -> PyResult<R>,
+) -> Option<PyResult<R>> {
+    let (Ok(ra), Ok(sa)) = (real.extract::<PyReadonlyArrayDyn<T>>(), sim.extract::<PyReadonlyArrayDyn<T>>()) else {
+        return None;
+    };
+    Some(contiguous(&ra).and_then(|r| run(r, contiguous(&sa)?)))
 }
 
 fn contiguous<'a, T: numpy::Element>(a: &'a PyReadonlyArrayDyn<'_, T>) -> PyResult<&'a [T]> {
@@ -45,10 +42,10 @@ fn frame_shape(real: &Bound<'_, PyUntypedArray>, sim: &Bound<'_, PyUntypedArray>
 
 fn unsupported(real: &Bound<'_, PyUntypedArray>, sim: &Bound<'_, PyUntypedArray>) -> PyErr {
     PyErr::from(crate::Error::Shape(format!(
-        "unsupported frame dtype pair ({}, {}): expected two frames of the same dtype among uint8, uint16, \
-         int16, uint32, float16, float32, float64",
+        "unsupported frame dtype pair ({}, {}): expected two frames of the same dtype among {}",
         real.dtype(),
-        sim.dtype()
+        sim.dtype(),
+        SUPPORTED_DTYPES.join(", ")
     )))
 }
 
@@ -75,20 +72,11 @@ fn ssim_map<'py>(
             .map_err(|e| crate::Error::Value(format!("internal: map shape: {e}")))?;
         Ok((PyArray2::from_owned_array(py, map), m.mean))
     };
-    with_frames!(
-        py,
-        real,
-        sim,
-        |r, s| finish(py.detach(|| maps::ssim_map(r, s, rows, cols, &params, valid))?),
-        u8,
-        u16,
-        i16,
-        u32,
-        half::f16,
-        f32,
-        f64
-    );
-    Err(unsupported(real, sim))
+    with_frame_dtype!(py, real.dtype(), |T| on_slices::<T, _>(real, sim, |r, s| {
+        finish(py.detach(|| maps::ssim_map(r, s, rows, cols, &params, valid))?)
+    }))
+    .flatten()
+    .unwrap_or_else(|| Err(unsupported(real, sim)))
 }
 
 /// `ms_ssim(real, sim, *, peak, sigma, win_size, k1, k2, valid, scales)` ->
@@ -111,23 +99,12 @@ fn ms_ssim(
 ) -> PyResult<(f64, Vec<f64>, Vec<f64>, Vec<f64>)> {
     let (rows, cols) = frame_shape(real, sim)?;
     let params = SsimParams { sigma, win_size, k1, k2, peak };
-    with_frames!(
-        py,
-        real,
-        sim,
-        |r, s| {
-            let m = py.detach(|| maps::ms_ssim(r, s, rows, cols, &params, valid, scales))?;
-            Ok((m.value, m.weights, m.ssim, m.cs))
-        },
-        u8,
-        u16,
-        i16,
-        u32,
-        half::f16,
-        f32,
-        f64
-    );
-    Err(unsupported(real, sim))
+    with_frame_dtype!(py, real.dtype(), |T| on_slices::<T, _>(real, sim, |r, s| {
+        let m = py.detach(|| maps::ms_ssim(r, s, rows, cols, &params, valid, scales))?;
+        Ok((m.value, m.weights, m.ssim, m.cs))
+    }))
+    .flatten()
+    .unwrap_or_else(|| Err(unsupported(real, sim)))
 }
 
 /// `max_scales(rows, cols, win_size)`: see `crate::maps::max_scales`.

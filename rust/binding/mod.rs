@@ -5,6 +5,8 @@
 
 use pyo3::prelude::*;
 
+#[macro_use]
+mod dtypes;
 mod args;
 mod fingerprint;
 mod io;

@@ -10,8 +10,9 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
 use super::args;
+use super::dtypes::SUPPORTED_DTYPES;
 use crate::io::{self, DecodeOptions};
-use crate::noise::{self, NoiseSums, PassOptions, Samples, Window, PARTS};
+use crate::noise::{self, FrameSample, NoiseSums, PassOptions, Window, PARTS};
 
 /// Sufficient statistics of a recording for the 3-D noise decomposition (see
 /// `irfidelity.noise` for the public face). Mergeable and serialisable.
@@ -144,22 +145,18 @@ fn noise_sums_array(
     let (frames, rows, cols) = (cube.shape()[0], cube.shape()[1], cube.shape()[2]);
     let opts = pass_options(limits, window, workers);
     let dt = cube.dtype();
-    macro_rules! dispatch {
-        ($($t:ty => $v:ident),*) => {$(
-            if dt.is_equiv_to(&numpy::dtype::<$t>(py)) {
-                let arr = cube.extract::<PyReadonlyArrayDyn<'_, $t>>()?;
-                let data = arr.as_slice().map_err(|_| PyTypeError::new_err("internal: the cube must be contiguous"))?;
-                let sums = py
-                    .detach(|| noise::noise_sums_from_array(Samples::$v(data), frames, rows, cols, &opts))
-                    ?;
-                return Ok(PyNoiseSums { inner: sums });
-            }
-        )*};
+    let pass = with_frame_dtype!(py, &dt, |T| {
+        let arr = cube.extract::<PyReadonlyArrayDyn<'_, T>>()?;
+        let data = arr.as_slice().map_err(|_| PyTypeError::new_err("internal: the cube must be contiguous"))?;
+        py.detach(|| noise::noise_sums_from_array(T::samples(data), frames, rows, cols, &opts))?
+    });
+    match pass {
+        Some(sums) => Ok(PyNoiseSums { inner: sums }),
+        None => Err(PyTypeError::new_err(format!(
+            "unsupported frame dtype {dt}: expected one of {}",
+            SUPPORTED_DTYPES.join(", ")
+        ))),
     }
-    dispatch!(u8 => U8, u16 => U16, i16 => I16, u32 => U32, half::f16 => F16, f32 => F32, f64 => F64);
-    Err(PyTypeError::new_err(format!(
-        "unsupported frame dtype {dt}: expected one of uint8, uint16, int16, uint32, float16, float32, float64"
-    )))
 }
 
 /// `noise_sums_paths(paths, pages, *, channel=None, max_pixels=None, max_bytes=None,

@@ -11,6 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
 use super::args::{self, KernelRequest};
+use super::dtypes::SUPPORTED_DTYPES;
 use crate::hist::{Entropies, HistSpec, JointTable};
 use crate::stats::{self, Request, Sample, Sums};
 
@@ -143,42 +144,17 @@ impl PyPairStats {
     }
 }
 
-/// Defines, from one list of (Rust sample type, numpy dtype name), `SUPPORTED_DTYPES` and
-/// `frame_stats`, the kernel on two arrays of one of those types.
-macro_rules! frame_types {
-    ($($t:ty => $name:literal),* $(,)?) => {
-        /// The frame dtypes the kernel accepts (exposed as `_core.SUPPORTED_DTYPES`).
-        const SUPPORTED_DTYPES: &[&str] = &[$($name),*];
-
-        /// The kernel on `real` and `sim` (same dtype, aligned, contiguous in `req`'s order),
-        /// or `None` when `real`'s dtype is not supported. The dtype is compared first: a
-        /// failed `extract` builds a Python exception, which costs microseconds on small frames.
-        fn frame_stats(
-            py: Python<'_>,
-            real: &Bound<'_, PyUntypedArray>,
-            sim: &Bound<'_, PyUntypedArray>,
-            req: &Request<'_>,
-        ) -> Option<crate::Result<stats::PairStats>> {
-            let dtype = real.dtype();
-            $(
-                if dtype.is_equiv_to(&numpy::dtype::<$t>(py)) {
-                    return Some(typed_stats::<$t>(py, real, sim, req));
-                }
-            )*
-            None
-        }
-    };
+/// The kernel on `real` and `sim` (same dtype, aligned, contiguous in `req`'s order), or
+/// `None` when `real`'s dtype is not supported. The dtype is compared first: a failed
+/// `extract` builds a Python exception, which costs microseconds on small frames.
+fn frame_stats(
+    py: Python<'_>,
+    real: &Bound<'_, PyUntypedArray>,
+    sim: &Bound<'_, PyUntypedArray>,
+    req: &Request<'_>,
+) -> Option<crate::Result<stats::PairStats>> {
+    with_frame_dtype!(py, real.dtype(), |T| typed_stats::<T>(py, real, sim, req))
 }
-
-frame_types!(
-    u8 => "uint8",
-    u16 => "uint16",
-    i16 => "int16",
-    u32 => "uint32",
-    half::f16 => "float16",
-    f32 => "float32",
-    f64 => "float64",
-);
 
 fn typed_stats<T: numpy::Element + Sample>(
     py: Python<'_>,

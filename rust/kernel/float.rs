@@ -11,31 +11,7 @@ use super::dispatch::Pass;
 use super::parallel::{cost, map_chunks};
 use super::request::Request;
 use super::sample::Sample;
-use crate::stats::{merge_float, two_sum, FloatSums};
-
-/// Neumaier-compensated running sum: totals of per-block lane sums.
-#[derive(Clone, Copy, Default)]
-pub(super) struct Neumaier {
-    sum: f64,
-    comp: f64,
-}
-
-impl Neumaier {
-    #[inline(always)]
-    fn add(&mut self, x: f64) {
-        let (s, e) = two_sum(self.sum, x);
-        self.sum = s;
-        self.comp += e;
-    }
-    pub(super) fn value(&self) -> f64 {
-        self.sum + self.comp
-    }
-    /// Add another compensated total (both parts).
-    pub(super) fn merge(&mut self, other: &Neumaier) {
-        self.add(other.sum);
-        self.add(other.comp);
-    }
-}
+use crate::stats::{merge_float, two_sum, FloatSums, Neumaier};
 
 /// On AVX2 CPUs, return `$call` with `$r`, `$s` bound to the runs as float32 or float64
 /// slices (the explicit loops in `avx2`); other types and CPUs fall through to the portable

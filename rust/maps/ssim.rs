@@ -19,7 +19,7 @@ use super::filter::{Band, Scratch, Window};
 use super::frame::{check_shape, BandCheck, SsimParams};
 use crate::error::Result;
 use crate::kernel::{map_units, Sample};
-use crate::stats::two_sum;
+use crate::stats::Neumaier;
 
 /// Output rows per band: a band's input (its rows and a window radius either side) as four
 /// float64 moment images stays in L2 for frames up to ~1000 columns.
@@ -73,29 +73,11 @@ pub(crate) fn ssim_means<T: Sample>(
     run::<T, true>(real, sim, rows, cols, params, valid, None)
 }
 
-/// A compensated (Neumaier) sum, for adding row sums in frame order.
-#[derive(Clone, Copy, Default)]
-struct Total {
-    sum: f64,
-    comp: f64,
-}
-
-impl Total {
-    fn add(&mut self, x: f64) {
-        let (s, e) = two_sum(self.sum, x);
-        self.sum = s;
-        self.comp += e;
-    }
-    fn value(self) -> f64 {
-        self.sum + self.comp
-    }
-}
-
 /// What one band contributes: its pixel checks and its sums of SSIM and cs over the crop.
 struct BandResult {
     check: BandCheck,
-    ssim: Total,
-    cs: Total,
+    ssim: Neumaier,
+    cs: Neumaier,
 }
 
 thread_local! {
@@ -132,12 +114,10 @@ fn run<T: Sample, const CS: bool>(
     let Ok(bands) = bands;
     let check = bands.iter().fold(BandCheck::default(), |acc, b| acc.then(&b.check));
     check.result(cols, valid)?;
-    let (mut ssim, mut cs) = (Total::default(), Total::default());
+    let (mut ssim, mut cs) = (Neumaier::default(), Neumaier::default());
     for b in &bands {
-        ssim.add(b.ssim.sum);
-        ssim.add(b.ssim.comp);
-        cs.add(b.cs.sum);
-        cs.add(b.cs.comp);
+        ssim.merge(&b.ssim);
+        cs.merge(&b.cs);
     }
     let pad = params.radius();
     let count = ((rows - 2 * pad) * (cols - 2 * pad)) as f64;
@@ -165,7 +145,7 @@ fn band_sums<T: Sample, const CS: bool>(
     valid: Option<(i64, i64)>,
     out: Option<&mut [f64]>,
     scratch: &mut Scratch,
-) -> (BandCheck, Total, Total) {
+) -> (BandCheck, Neumaier, Neumaier) {
     #[cfg(target_arch = "x86_64")]
     if crate::kernel::use_avx2() {
         // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
@@ -183,7 +163,7 @@ fn band_sums_avx2<T: Sample, const CS: bool>(
     valid: Option<(i64, i64)>,
     out: Option<&mut [f64]>,
     scratch: &mut Scratch,
-) -> (BandCheck, Total, Total) {
+) -> (BandCheck, Neumaier, Neumaier) {
     band_sums_impl::<T, CS>(band, window, params, valid, out, scratch)
 }
 
@@ -195,11 +175,11 @@ fn band_sums_impl<T: Sample, const CS: bool>(
     valid: Option<(i64, i64)>,
     mut out: Option<&mut [f64]>,
     scratch: &mut Scratch,
-) -> (BandCheck, Total, Total) {
+) -> (BandCheck, Neumaier, Neumaier) {
     let (rows, cols, pad) = (band.rows, band.cols, window.radius());
     let check = BandCheck::rows(band.real, band.sim, cols, band.y0, band.y1, valid);
     let constants = (params.c1(), params.c2());
-    let (mut ssim, mut cs) = (Total::default(), Total::default());
+    let (mut ssim, mut cs) = (Neumaier::default(), Neumaier::default());
     let mut row_buf = vec![0.0; if out.is_some() { 0 } else { cols }];
     let mut cs_row = vec![0.0; if CS { cols } else { 0 }];
     band.filter_columns(window, scratch);

@@ -12,6 +12,7 @@
 use std::sync::Arc;
 
 use super::{Decomposition, FrameSample, Region, Shape};
+use crate::stats::{compensated_sum, two_sum, Neumaier};
 use crate::{Error, Result};
 
 /// Compensated sums of a float recording.
@@ -41,38 +42,6 @@ const COL_BLOCK: usize = 64;
 const TOO_LARGE: f64 = 1e150;
 /// Largest |x| below this: every square underflows f64's normal range.
 const TOO_SMALL: f64 = 1e-140;
-
-#[inline(always)]
-fn two_sum(a: f64, b: f64) -> (f64, f64) {
-    let s = a + b;
-    let bb = s - a;
-    (s, (a - (s - bb)) + (b - bb))
-}
-
-/// Neumaier-compensated sum of a sequence.
-#[derive(Clone, Copy, Default)]
-struct Compensated {
-    sum: f64,
-    c: f64,
-}
-
-impl Compensated {
-    #[inline(always)]
-    fn add(&mut self, x: f64) {
-        let (s, e) = two_sum(self.sum, x);
-        self.sum = s;
-        self.c += e;
-    }
-    fn value(self) -> f64 {
-        self.sum + self.c
-    }
-}
-
-fn compensated_sum(values: impl Iterator<Item = f64>) -> f64 {
-    let mut acc = Compensated::default();
-    values.for_each(|v| acc.add(v));
-    acc.value()
-}
 
 impl Default for FloatAcc {
     fn default() -> Self {
@@ -128,7 +97,7 @@ impl FloatAcc {
         let base_rows = self.row_sums.len();
         self.row_sums.resize(base_rows + frames.len() * rows, 0.0);
         // column sums: plain over blocks of COL_BLOCK rows, folded into compensated totals
-        let mut col = vec![Compensated::default(); frames.len() * cols];
+        let mut col = vec![Neumaier::default(); frames.len() * cols];
         let mut col_block = vec![0.0; frames.len() * cols];
         let (mut batch_sum, mut batch_sq) = (vec![0.0; cols], vec![0.0; cols]);
         for r in 0..rows {
@@ -295,7 +264,7 @@ impl FloatAcc {
 
 /// For `values` laid out as `count`-wide records, the per-position sums divided by `divisor`.
 fn column_means(values: &[f64], width: usize, divisor: f64) -> Vec<f64> {
-    let mut acc = vec![Compensated::default(); width];
+    let mut acc = vec![Neumaier::default(); width];
     for rec in values.chunks_exact(width) {
         acc.iter_mut().zip(rec).for_each(|(a, &x)| a.add(x));
     }
@@ -331,7 +300,7 @@ fn add_compensated(sum: &mut [f64], comp: &mut [f64], add: &[f64]) {
 /// Σ (x − p) over a row: eight lanes, folded every 128 values into a compensated total.
 #[inline(always)]
 fn row_sum<S: FrameSample>(row: &[S], pivot: &[f64]) -> f64 {
-    let mut total = Compensated::default();
+    let mut total = Neumaier::default();
     for (block, pblock) in row.chunks(128).zip(pivot.chunks(128)) {
         let mut lanes = [0.0f64; 8];
         let mut xs = block.chunks_exact(8);

@@ -356,6 +356,8 @@ pub trait FrameSample: Copy + Send + Sync + 'static {
     const DTYPE: Dtype;
     fn to_i64(self) -> i64;
     fn to_f64(self) -> f64;
+    /// A frame of this type as the pass's input.
+    fn samples(data: &[Self]) -> Samples<'_>;
     /// 8- and 16-bit integer types: values fit i32 (and their squares u32).
     const NARROW: bool = false;
     /// The value as i32: exact for the `NARROW` types (the only ones it is used for).
@@ -374,6 +376,7 @@ macro_rules! frame_sample {
             fn to_i64(self) -> i64 { let $v = self; $int }
             #[inline(always)]
             fn to_f64(self) -> f64 { let $v = self; $flt }
+            fn samples(data: &[Self]) -> Samples<'_> { Samples::$d(data) }
         }
     )*};
 }

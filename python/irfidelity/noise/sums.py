@@ -18,14 +18,13 @@ import numpy as np
 
 from .. import _core
 from ..errors import FidelityError, FrameError, ShapeError
-from ..frames import FrameSequence
+from ..frames import FRAME_DTYPES, FrameSequence
 from ..stats import peak_and_valid
 
 __all__ = ["NoiseSums", "noise_sums", "Region"]
 
 PARTS = ("t", "v", "h", "tv", "th", "vh", "tvh")
 
-_SUPPORTED = tuple(np.dtype(n) for n in ("uint8", "uint16", "int16", "uint32", "float16", "float32", "float64"))
 
 #: ``(row_start, row_stop, col_start, col_stop)``, Python slice bounds of a region.
 Region = tuple[int, int, int, int]
@@ -151,9 +150,9 @@ def _window(region: Region | None, rows: int, cols: int) -> tuple[int, int, int,
 
 
 def _check_dtype(dtype: np.dtype, what: str) -> None:
-    if dtype not in _SUPPORTED:
+    if dtype not in FRAME_DTYPES:
         raise ShapeError(f"{what}: unsupported dtype {dtype}; frames are one of "
-                         + ", ".join(str(d) for d in _SUPPORTED))
+                         + ", ".join(str(d) for d in FRAME_DTYPES))
 
 
 def _workers(workers: int | None) -> int:
