@@ -77,9 +77,25 @@ pub struct SeqRequest {
     pub max_pixels: u64,
     /// Decoding budget per frame, in bytes (`DecodeOptions::max_bytes`); `None` = the default.
     pub max_bytes: Option<u64>,
-    /// A registration found once, applied to every pair: the simulated frame is resampled
-    /// onto the real one and only the overlap is scored (both frames as float64).
-    pub warp: Option<FixedWarp>,
+    /// Registration: the simulated frame is resampled onto the real one and only the
+    /// overlap is scored (both frames as float64).
+    pub warp: Option<Warp>,
+}
+
+/// How pairs are registered before scoring.
+#[derive(Clone, Debug)]
+pub enum Warp {
+    /// One registration, found beforehand, applied to every pair (fixed camera geometry).
+    Fixed(FixedWarp),
+    /// Every pair registered on its own, on its worker.
+    Each(EachWarp),
+}
+
+/// What a registration of every pair searches for, and how the simulated frame is resampled.
+#[derive(Clone, Debug)]
+pub struct EachWarp {
+    pub options: register::Options,
+    pub interp: Interp,
 }
 
 /// A fixed registration: real → simulated pixel coordinates (the inverse of the
@@ -94,13 +110,18 @@ impl FixedWarp {
     /// From a registration's matrix (simulated → real, 6 floats row-major) and an
     /// interpolation order (1 or 3).
     pub fn from_matrix(matrix: [f64; 6], order: u32) -> Result<FixedWarp> {
-        let interp = Interp::from_order(order)
-            .ok_or_else(|| Error::Value(format!("warp order must be 1 (bilinear) or 3 (bicubic), got {order}")))?;
         let m = Affine([[matrix[0], matrix[1], matrix[2]], [matrix[3], matrix[4], matrix[5]]]);
-        let to_source = m
+        FixedWarp::new(&m, interp_of(order)?)
+    }
+
+    /// The warp that applies `matrix` (simulated → real), integer-snapped
+    /// ([`Affine::snapped`]).
+    pub fn new(matrix: &Affine, interp: Interp) -> Result<FixedWarp> {
+        let to_source = matrix
+            .snapped()
             .inverse()
             .filter(Affine::is_finite)
-            .ok_or_else(|| Error::Value(format!("the registration matrix {matrix:?} cannot be inverted")))?;
+            .ok_or_else(|| Error::Value(format!("the registration matrix {:?} cannot be inverted", matrix.0)))?;
         Ok(FixedWarp { to_source, interp })
     }
 
@@ -120,12 +141,43 @@ impl FixedWarp {
                 }
             };
         }
-        let real = on_samples!(real, |v| v.iter().map(|x| x.to_f64()).collect::<Vec<f64>>());
-        let (aligned, valid) = on_samples!(sim, |v| {
-            let src = WarpSource { data: v.as_slice(), rows, cols, valid: None };
-            register::warp(&src, &self.to_source, self.interp, rows, cols, f64::NAN)
-        });
+        let real = real.to_f64();
+        let (aligned, valid) = on_samples!(sim, |v| self.resample(v, rows, cols));
         (real, aligned, valid)
+    }
+
+    /// The simulated frame resampled onto the real frame's pixels, with the mask of the
+    /// pixels it covers (NaN elsewhere).
+    fn resample<T: Sample>(&self, sim: &[T], rows: usize, cols: usize) -> (Vec<f64>, Vec<bool>) {
+        let src = WarpSource { data: sim, rows, cols, valid: None };
+        register::warp(&src, &self.to_source, self.interp, rows, cols, f64::NAN)
+    }
+}
+
+fn interp_of(order: u32) -> Result<Interp> {
+    Interp::from_order(order)
+        .ok_or_else(|| Error::Value(format!("warp order must be 1 (bilinear) or 3 (bicubic), got {order}")))
+}
+
+impl EachWarp {
+    pub fn new(options: register::Options, order: u32) -> Result<EachWarp> {
+        Ok(EachWarp { options, interp: interp_of(order)? })
+    }
+
+    /// Register the pair, then score it through that registration as [`score_aligned`]
+    /// does. The frames are converted to float64 once, for the search and the statistics.
+    fn score(&self, r: &Frame, s: &Frame, kreq: &Request) -> Result<(register::Registration, PairStats)> {
+        check_pair(r, s, kreq)?;
+        let (rows, cols) = (r.rows, r.cols);
+        let real = r.data.to_f64();
+        let sim = s.data.to_f64();
+        let real_plane = register::Plane::from_samples(&real, rows, cols, None, "real")?;
+        let sim_plane = register::Plane::from_samples(&sim, rows, cols, None, "simulated")?;
+        let reg = register::register_planes(&real_plane, &sim_plane, &self.options)?;
+        drop((real_plane, sim_plane));
+        let (aligned, overlap) = FixedWarp::new(&reg.matrix, self.interp)?.resample(&sim, rows, cols);
+        let st = stats::pair_stats(&real, &aligned, &Request { mask: Some(&overlap), valid: None, ..kreq.clone() })?;
+        Ok((reg, st))
     }
 }
 
@@ -184,6 +236,8 @@ pub struct PairOutcome {
     pub entropies: Option<Entropies>,
     /// The real frame's (min, max) over its finite values, when asked for.
     pub real_extent: Option<(f64, f64)>,
+    /// The pair's own registration ([`Warp::Each`]), when it was found.
+    pub registration: Option<register::Registration>,
 }
 
 /// (min, max) over the finite values of a frame; None when it has none.
@@ -248,8 +302,9 @@ fn decode(src: &Source, channel: &Option<String>, req: &SeqRequest) -> Result<Fr
     io::decode_frame(&src.path, &opts)
 }
 
-/// Score a pair through a fixed registration: the overlap only, both frames as float64.
-fn score_aligned(r: &Frame, s: &Frame, warp: &FixedWarp, kreq: &Request) -> Result<PairStats> {
+/// What every registered pair must satisfy before its frames become floats: one sample type,
+/// and integer levels within the valid range.
+fn check_pair(r: &Frame, s: &Frame, kreq: &Request) -> Result<()> {
     if r.data.dtype_name() != s.data.dtype_name() {
         return Err(dtype_mismatch(&r.data, &s.data));
     }
@@ -257,6 +312,12 @@ fn score_aligned(r: &Frame, s: &Frame, warp: &FixedWarp, kreq: &Request) -> Resu
         check_levels(&r.data, valid, "real")?;
         check_levels(&s.data, valid, "sim")?;
     }
+    Ok(())
+}
+
+/// Score a pair through a fixed registration: the overlap only, both frames as float64.
+fn score_aligned(r: &Frame, s: &Frame, warp: &FixedWarp, kreq: &Request) -> Result<PairStats> {
+    check_pair(r, s, kreq)?;
     let (real, aligned, overlap) = warp.align(&r.data, &s.data, r.rows, r.cols);
     stats::pair_stats(&real, &aligned, &Request { mask: Some(&overlap), valid: None, ..kreq.clone() })
 }
@@ -270,6 +331,7 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
         dtype: None,
         entropies: None,
         real_extent: None,
+        registration: None,
     };
     let body = || -> Result<PairStats> {
         let r = decode(real, &req.real_channel, req)?;
@@ -302,7 +364,11 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
         };
         let st = match &req.warp {
             None => run_kernel(r.data, s.data, &kreq),
-            Some(warp) => score_aligned(&r, &s, warp, &kreq),
+            Some(Warp::Fixed(warp)) => score_aligned(&r, &s, warp, &kreq),
+            Some(Warp::Each(each)) => each.score(&r, &s, &kreq).map(|(reg, st)| {
+                out.registration = Some(reg);
+                st
+            }),
         }
         .map_err(|e| prefix(e, &what()))?;
         out.entropies = st.entropies();

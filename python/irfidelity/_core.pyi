@@ -14,9 +14,11 @@ __all__ = [
     "NoiseSums",
     "PairStats",
     "REGISTRATION_AMBIGUOUS",
+    "REGISTRATION_INTEGER_SNAP",
     "REGISTRATION_LOW_CONFIDENCE",
     "REGISTRATION_MIN_OVERLAP",
     "SUPPORTED_DTYPES",
+    "applied_matrix",
     "default_max_bytes",
     "default_max_pixels",
     "file_digests",
@@ -103,6 +105,13 @@ def default_max_bytes() -> int: ...
 
 # ---- sequences (rust/binding/sequence.rs) ---------------------------------------------------
 
+#: A pair's own registration (``request.register_each``): matrix (6 floats, row-major),
+#: method used, confidence, overlap, inverted.
+PairRegistration = tuple[tuple[float, float, float, float, float, float], str, float, float, bool]
+#: ``(index, stats, error, shape, dtype, real extent, registration)``.
+PairOutcome = tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None,
+                    tuple[float, float] | None, PairRegistration | None]
+
 def score_pairs(
     real_paths: list[str | os.PathLike[str]],
     sim_paths: list[str | os.PathLike[str]],
@@ -113,7 +122,7 @@ def score_pairs(
     workers: int = 0,
     progress: Callable[[int], Any] | None = None,
     on_result: Callable[[list[Any]], Any] | None = None,
-) -> list[tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None, tuple[float, float] | None]] | None: ...
+) -> list[PairOutcome] | None: ...
 def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats | None, bool]: ...
 
 # ---- file fingerprints (rust/binding/fingerprint.rs) -------------------------------------
@@ -199,6 +208,11 @@ def noise_sums_paths(
 REGISTRATION_LOW_CONFIDENCE: float
 REGISTRATION_AMBIGUOUS: float
 REGISTRATION_MIN_OVERLAP: float
+REGISTRATION_INTEGER_SNAP: float
+
+def applied_matrix(
+    matrix: tuple[float, float, float, float, float, float],
+) -> tuple[float, float, float, float, float, float]: ...
 
 def register_frames(
     real: npt.NDArray[Any],

@@ -140,18 +140,20 @@ class ScoringConfig:
         Grade names and boundaries of the fuzzy evaluation.
     register : "translation", "rigid", "similarity" or None
         Register the simulated frame onto the real one before the image metrics, which then
-        count the overlap only (:func:`irfidelity.register`; single pairs — sequences refuse
-        it until sequence registration is built).
+        count the overlap only (:func:`irfidelity.register`). A sequence is registered once,
+        on its first readable pair (fixed camera geometry), unless ``register_each``.
     register_method : "auto", "phase" or "nmi"
         :func:`irfidelity.register`'s method.
     register_each : bool
-        Sequences: register every frame pair instead of once (not built yet: refused).
+        Sequences: register every frame pair on its own (a moving simulated viewpoint),
+        with the model of ``register``; each frame's transform is in its row.
     max_delay : int
-        Sequences: search the frame offset between the two sequences in ``[-max_delay,
-        max_delay]`` (not built yet: refused when above 0).
+        Sequences: find the frame offset ``d`` in ``[-max_delay, max_delay]`` between the
+        two sequences (real frame ``i`` shows what simulated frame ``i + d`` shows) and pair
+        frames by position offset by it (``report.delay``); 0: no search.
     pair_by : "auto", "name" or "order"
         Sequences: pair frames by file name (``"auto"`` does when both sides are named
-        files) or by position.
+        files) or by position. With ``max_delay``, by position (``"name"`` is refused).
     """
 
     weights: Weights = field(default_factory=Weights)
@@ -224,8 +226,14 @@ class ScoringConfig:
         out["register_method"] = _choice("register_method", self.register_method, REGISTRATION_METHODS)
         if not isinstance(self.register_each, bool):
             raise ConfigError("register_each", f"expected true or false; got {self.register_each!r}")
+        if self.register_each and out["register"] is None:
+            raise ConfigError("register_each", "registers every pair with the model of register; set register to "
+                                               "translation, rigid or similarity")
         out["max_delay"] = _optional_int("max_delay", self.max_delay, 0, 1 << 20)
         out["pair_by"] = _choice("pair_by", self.pair_by, PAIRING_RULES)
+        if out["max_delay"] and out["pair_by"] == "name":
+            raise ConfigError("pair_by", "frames paired by name have no delay to search; with max_delay the frames "
+                                         "are paired by position, offset by the delay found (pair_by = auto or order)")
         return out
 
     # -- construction ---------------------------------------------------------------

@@ -50,7 +50,7 @@ DEFAULT_ORDER = 3
 #: shift (values copied). Measured, snapping a subpixel part f misaligns by f and biases
 #: PSNR more than bicubic resampling does for f ≥ 0.02 px on a clean frame, so only
 #: shifts whole to within the registration's own precision are snapped (docs/registration.md).
-INTEGER_SNAP = 0.01
+INTEGER_SNAP: float = _core.REGISTRATION_INTEGER_SNAP
 
 
 class RegistrationWarning(FidelityWarning):
@@ -178,12 +178,7 @@ class Registration:
 
     def applied_matrix(self) -> np.ndarray:
         """The matrix :meth:`apply` uses: integer-snapped for near-whole-pixel translations."""
-        m = self.matrix
-        linear_identity = np.array_equal(m[:, :2], np.eye(2))
-        t = m[:, 2]
-        if linear_identity and np.all(np.abs(t - np.round(t)) <= INTEGER_SNAP):
-            m[:, 2] = np.round(t)
-        return m
+        return np.reshape(_core.applied_matrix(tuple(float(v) for v in self.matrix.ravel())), (2, 3))
 
     # -- serialisation --------------------------------------------------------------
     def to_dict(self) -> dict:
@@ -228,6 +223,15 @@ class Registration:
         if self.inverted:
             parts.append("inverted=True")
         return f"Registration({', '.join(parts)})"
+
+
+def from_engine(found: tuple, model: str, shape: tuple) -> Registration:
+    """A :class:`Registration` from the engine's ``(matrix, method, confidence, overlap,
+    inverted)`` (``_core.register_frames``, or a sequence pair's own registration)."""
+    matrix, used, confidence, overlap, inverted = found
+    return Registration(_matrix=_matrix_tuple(np.reshape(matrix, (2, 3))), model=model, method=used,
+                        confidence=float(confidence), overlap=float(overlap),
+                        shape=(int(shape[0]), int(shape[1])), inverted=bool(inverted))
 
 
 def _check_choice(value: Any, name: str, choices: tuple) -> str:
@@ -325,10 +329,7 @@ def register(real: Any, sim: Any, *, model: str = "translation", method: str = "
         mask = np.ascontiguousarray(mask, dtype=bool)
         if mask.shape != r.shape:
             raise ShapeError(f"mask has shape {mask.shape}, frames have {r.shape}")
-    matrix, used, confidence, overlap, inverted = _core.register_frames(r, s, model, method, max_shift, mask)
-    reg = Registration(_matrix=_matrix_tuple(np.reshape(matrix, (2, 3))), model=model, method=used,
-                       confidence=float(confidence), overlap=float(overlap), shape=tuple(r.shape),
-                       inverted=bool(inverted))
+    reg = from_engine(_core.register_frames(r, s, model, method, max_shift, mask), model, r.shape)
     if reg.confidence < LOW_CONFIDENCE:
         warnings.warn(RegistrationWarning(
             f"unsure registration: confidence {reg.confidence:.3f} < {LOW_CONFIDENCE} (another transform matches "

@@ -229,7 +229,10 @@ def _registration_dict(value: Any) -> dict | None:
 
 
 def registration_line(reg: Mapping[str, Any]) -> str:
-    """One line: the transform found, how distinct the match was and the overlap scored."""
+    """One line: the transform found, how distinct the match was and the overlap scored (or,
+    for a sequence registered per frame, the spread of the frames' transforms)."""
+    if reg.get("each"):
+        return _per_frame_registration_line(reg)
     dy, dx = reg["shift"]
     parts = [f"registration ({reg['model']}, {reg['method']}): shift dy {dy:+.3f} px, dx {dx:+.3f} px"]
     if reg["model"] != "translation":
@@ -237,6 +240,27 @@ def registration_line(reg: Mapping[str, Any]) -> str:
     if reg["model"] == "similarity":
         parts.append(f"scale {reg['scale']:.5f}")
     parts.append(f"confidence {reg['confidence']:.3f}, overlap {100 * reg['overlap']:.1f} % of the real frame")
+    return ", ".join(parts)
+
+
+def _per_frame_registration_line(reg: Mapping[str, Any]) -> str:
+    def spread(key: str, unit: str, fmt: str) -> str:
+        s = reg.get(key) or {}
+        if not s:
+            return f"{key} –"
+        return f"{key} {s['min']:{fmt}} .. {s['max']:{fmt}}{unit} (median {s['p50']:{fmt}})"
+
+    parts = [f"registration per frame ({reg['model']}, {reg['method']}): {reg['frames']} frames",
+             spread("shift_dy", " px", "+.3f"), spread("shift_dx", " px", "+.3f")]
+    if reg["model"] != "translation":
+        parts.append(spread("angle", "°", "+.3f"))
+    if reg["model"] == "similarity":
+        parts.append(spread("scale", "", ".5f"))
+    parts.append(spread("confidence", "", ".3f"))
+    unsure = reg.get("unsure") or []
+    if unsure:
+        shown = ", ".join(str(i) for i in unsure[:10]) + (", ..." if len(unsure) > 10 else "")
+        parts.append(f"{len(unsure)} unsure (confidence < {reg.get('low_confidence')}): frames {shown}")
     return ", ".join(parts)
 
 

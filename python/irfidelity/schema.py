@@ -17,7 +17,8 @@ import numpy as np
 
 from .fuzzy import COMPONENTS
 
-__all__ = ["METRICS", "FRAME_COLUMNS", "REGISTRATION", "metric_names", "csv_columns", "to_json", "from_json"]
+__all__ = ["METRICS", "FRAME_COLUMNS", "REGISTRATION", "REGISTRATION_COLUMNS", "metric_names", "csv_columns",
+           "registration_values", "to_json", "from_json"]
 
 #: Raw metrics behind each component: (key, unit, meaning), in report and CSV order.
 METRICS: dict[str, tuple[tuple[str, str, str], ...]] = {
@@ -118,6 +119,18 @@ REGISTRATION: tuple[tuple[str, str, str], ...] = (
     ("inverted", "", "the frames' grey levels correlate negatively"),
 )
 
+#: With registration (``config.register``), a row's registration as CSV columns, after the
+#: frame columns: (column, key of ``registration``, unit, meaning). A sequence registered per
+#: frame (``register_each``) has each frame's own; otherwise every row has the one applied.
+REGISTRATION_COLUMNS: tuple[tuple[str, str, str, str], ...] = (
+    ("reg_dy", "shift[0]", "px", "registration shift along rows (real ≈ shift(sim, (dy, dx)))"),
+    ("reg_dx", "shift[1]", "px", "registration shift along columns"),
+    ("reg_angle", "angle", "degree", "registration rotation (counter-clockwise as displayed)"),
+    ("reg_scale", "scale", "1", "registration scale"),
+    ("reg_confidence", "confidence", "1", "distinctness of the registration's match"),
+    ("reg_overlap", "overlap", "1", "fraction of the real frame the warped simulated frame covers"),
+)
+
 IMAGE_COMPONENTS = ("psnr", "nmi", "ssim")
 CURVE_COMPONENTS = ("mtf", "sitf")
 
@@ -128,11 +141,21 @@ def metric_names(components: Iterable[str]) -> list[str]:
     return [key for comp in COMPONENTS if comp in wanted for key, _, _ in METRICS.get(comp, ())]
 
 
-def csv_columns(components: Iterable[str]) -> list[str]:
-    """CSV columns of a frame row (single pair or sequence) scoring ``components``."""
+def csv_columns(components: Iterable[str], registered: bool = False) -> list[str]:
+    """CSV columns of a frame row (single pair or sequence) scoring ``components``, with the
+    registration's columns when ``registered``."""
     comps = [c for c in COMPONENTS if c in set(components)]
-    return ([k for k, _, _ in FRAME_COLUMNS] + metric_names(comps) + [f"f_{c}" for c in comps]
-            + [k for k, _, _ in RESULT_COLUMNS])
+    return ([k for k, _, _ in FRAME_COLUMNS] + ([k for k, _, _, _ in REGISTRATION_COLUMNS] if registered else [])
+            + metric_names(comps) + [f"f_{c}" for c in comps] + [k for k, _, _ in RESULT_COLUMNS])
+
+
+def registration_values(registration: dict | None) -> dict[str, Any]:
+    """The :data:`REGISTRATION_COLUMNS` values of a registration dict (None when absent)."""
+    if not registration:
+        return {}
+    dy, dx = registration["shift"]
+    return {"reg_dy": dy, "reg_dx": dx, "reg_angle": registration["angle"], "reg_scale": registration["scale"],
+            "reg_confidence": registration["confidence"], "reg_overlap": registration["overlap"]}
 
 
 def to_json(value: Any) -> Any:
@@ -168,6 +191,8 @@ def markdown_table() -> str:
     lines = ["| JSON key | CSV column | unit | meaning |", "|---|---|---|---|"]
     for key, unit, meaning in FRAME_COLUMNS:
         lines.append(f"| `frames[].{key}` | `{key}` | {unit} | {meaning} |")
+    for column, key, unit, meaning in REGISTRATION_COLUMNS:
+        lines.append(f"| `frames[].registration.{key}` | `{column}` | {unit} | {meaning} |")
     for comp in COMPONENTS:
         for key, unit, meaning in METRICS[comp]:
             lines.append(f"| `metrics.{key}` | `{key}` | {unit} | {meaning} |")

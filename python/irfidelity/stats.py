@@ -82,6 +82,9 @@ class KernelRequest:
     warp : ((6 floats), int) or None
         Sequences: a registration applied to every pair — its matrix (simulated → real,
         row-major) and interpolation order; the overlap is scored, both frames as float64.
+    register_each : (model, method, max_shift, order) or None
+        Sequences: register every pair on its own (:func:`irfidelity.register`'s model,
+        method and max_shift), then score it as with ``warp``; excludes ``warp``.
     """
 
     sse: bool = True
@@ -97,6 +100,7 @@ class KernelRequest:
     max_pixels: int | None = None
     max_bytes: int | None = None
     warp: tuple[tuple[float, ...], int] | None = None
+    register_each: tuple[str, str, float | None, int] | None = None
 
 
 class PairStats:

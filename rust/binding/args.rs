@@ -5,7 +5,8 @@
 use pyo3::exceptions::PyOverflowError;
 use pyo3::prelude::*;
 
-use crate::sequence::{FixedWarp, SeqRequest};
+use crate::register::{Method, Model, Options};
+use crate::sequence::{EachWarp, FixedWarp, SeqRequest, Warp};
 use crate::stats::{HistRequest, Request};
 use crate::Error;
 
@@ -26,6 +27,7 @@ pub(crate) struct KernelRequest {
     max_pixels: Option<u64>,
     max_bytes: Option<u64>,
     warp: Option<([f64; 6], u32)>,
+    register_each: Option<(String, String, Option<f64>, u32)>,
 }
 
 impl KernelRequest {
@@ -58,9 +60,20 @@ impl KernelRequest {
 
     /// The request for every pair of a sequence, decode options included.
     pub(crate) fn sequence_request(self) -> crate::Result<SeqRequest> {
-        let warp = self.warp.map(|(matrix, order)| FixedWarp::from_matrix(matrix, order)).transpose()?;
+        let hist = self.hist();
+        let warp = match (self.warp, self.register_each) {
+            (Some((matrix, order)), None) => Some(Warp::Fixed(FixedWarp::from_matrix(matrix, order)?)),
+            (None, Some((model, method, max_shift, order))) => {
+                let options = Options { model: Model::parse(&model)?, method: Method::parse(&method)?, max_shift };
+                Some(Warp::Each(EachWarp::new(options, order)?))
+            }
+            (None, None) => None,
+            (Some(_), Some(_)) => {
+                return Err(Error::Value("request: warp and register_each exclude each other".into()));
+            }
+        };
         Ok(SeqRequest {
-            hist: self.hist(),
+            hist,
             sse: self.sse,
             moments: self.moments,
             valid: self.valid,

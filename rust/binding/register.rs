@@ -1,4 +1,5 @@
-//! Python wrappers of registration (`crate::register`): `register_frames` and `warp_frame`.
+//! Python wrappers of registration (`crate::register`): `register_frames`, `warp_frame` and
+//! `applied_matrix`.
 //! Arrays arrive 2-D and C-contiguous (the Python layer decides the layout), each in any
 //! supported sample type; conversion and search run with the GIL released.
 
@@ -16,24 +17,20 @@ fn shape_of(a: &Bound<'_, PyUntypedArray>, what: &str) -> PyResult<(usize, usize
     }
 }
 
-/// Run `$body` with `$s` bound to the array's contiguous data as `&[T]` for its sample type.
+/// `$body` (a `PyResult`) with `$s` bound to the array's contiguous samples as `&[T]` for
+/// its sample type (`with_frame_dtype!`).
 macro_rules! with_samples {
     ($py:expr, $arr:expr, $what:expr, |$s:ident| $body:expr) => {{
         let dt = $arr.dtype();
-        with_samples!(@try $py, $arr, dt, $s, $body, u8, u16, i16, u32, half::f16, f32, f64);
-        Err(PyTypeError::new_err(format!("{} frame: unsupported dtype {}", $what, dt)))
+        let out = with_frame_dtype!($py, &dt, |T| {
+            let array = $arr.extract::<PyReadonlyArrayDyn<'_, T>>()?;
+            let $s = array.as_slice().map_err(|_| {
+                PyTypeError::new_err("internal: frames must be contiguous (the Python layer copies them)")
+            })?;
+            $body
+        });
+        out.unwrap_or_else(|| Err(PyTypeError::new_err(format!("{} frame: unsupported dtype {}", $what, dt))))
     }};
-    (@try $py:expr, $arr:expr, $dt:expr, $s:ident, $body:expr, $($t:ty),*) => {
-        $(
-            if $dt.is_equiv_to(&numpy::dtype::<$t>($py)) {
-                let array = $arr.extract::<PyReadonlyArrayDyn<$t>>()?;
-                let $s = array
-                    .as_slice()
-                    .map_err(|_| PyTypeError::new_err("internal: frames must be contiguous (the Python layer copies them)"))?;
-                return $body;
-            }
-        )*
-    };
 }
 
 /// The frame as a registration plane (float64 and its valid mask), converted without the GIL.
@@ -48,7 +45,7 @@ fn matrix_of(m: [f64; 6]) -> Affine {
     Affine([[m[0], m[1], m[2]], [m[3], m[4], m[5]]])
 }
 
-fn flat(m: &Affine) -> [f64; 6] {
+pub(crate) fn flat(m: &Affine) -> [f64; 6] {
     let a = &m.0;
     [a[0][0], a[0][1], a[0][2], a[1][0], a[1][1], a[1][2]]
 }
@@ -81,6 +78,13 @@ fn register_frames(
     let sim = plane_of(py, sim, mask, "simulated")?;
     let reg = py.detach(|| register::register_planes(&real, &sim, &opts)).map_err(PyErr::from)?;
     Ok((flat(&reg.matrix), reg.method.name(), reg.confidence, reg.overlap, reg.inverted))
+}
+
+/// The matrix a warp applies (6 floats row-major, simulated → real): a translation within
+/// `REGISTRATION_INTEGER_SNAP` px of whole pixels snapped to them, any other map unchanged.
+#[pyfunction]
+fn applied_matrix(matrix: [f64; 6]) -> [f64; 6] {
+    flat(&matrix_of(matrix).snapped())
 }
 
 /// Resample `frame` (the simulated frame) onto the real frame's `shape` through `matrix`
@@ -138,6 +142,8 @@ fn warped(
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(register_frames, m)?)?;
     m.add_function(wrap_pyfunction!(warp_frame, m)?)?;
+    m.add_function(wrap_pyfunction!(applied_matrix, m)?)?;
+    m.add("REGISTRATION_INTEGER_SNAP", register::INTEGER_SNAP)?;
     m.add("REGISTRATION_LOW_CONFIDENCE", register::LOW_CONFIDENCE)?;
     m.add("REGISTRATION_AMBIGUOUS", register::AMBIGUOUS)?;
     m.add("REGISTRATION_MIN_OVERLAP", register::MIN_OVERLAP)?;

@@ -34,7 +34,10 @@ fn outcome_tuple<'py>(py: Python<'py>, o: PairOutcome) -> PyResult<Bound<'py, Py
         Ok(s) => (Some(Py::new(py, PyPairStats::with_entropies(s, o.entropies))?), None),
         Err(e) => (None, Some(e.to_string())),
     };
-    (o.index, stats, err, o.shape, o.dtype, o.real_extent).into_pyobject(py)
+    let registration = o
+        .registration
+        .map(|r| (super::register::flat(&r.matrix), r.method.name(), r.confidence, r.overlap, r.inverted));
+    (o.index, stats, err, o.shape, o.dtype, o.real_extent, registration).into_pyobject(py)
 }
 
 /// Where outcomes go: a Python callback (streaming), or slots in index order (collecting).

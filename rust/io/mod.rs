@@ -62,6 +62,22 @@ impl FrameData {
         self.len() == 0
     }
 
+    /// The samples as float64 (exact for every sample type).
+    pub fn to_f64(&self) -> Vec<f64> {
+        fn convert<T: Copy>(v: &[T], f: impl Fn(T) -> f64) -> Vec<f64> {
+            v.iter().map(|&x| f(x)).collect()
+        }
+        match self {
+            FrameData::U8(v) => convert(v, f64::from),
+            FrameData::U16(v) => convert(v, f64::from),
+            FrameData::I16(v) => convert(v, f64::from),
+            FrameData::U32(v) => convert(v, f64::from),
+            FrameData::F16(v) => convert(v, f64::from),
+            FrameData::F32(v) => convert(v, f64::from),
+            FrameData::F64(v) => v.clone(),
+        }
+    }
+
     /// numpy-style name of the sample type ("uint16", "float16", ...).
     pub fn dtype_name(&self) -> &'static str {
         match self {

@@ -34,7 +34,7 @@ mod subpixel;
 mod warp;
 mod window;
 
-pub use affine::Affine;
+pub use affine::{Affine, INTEGER_SNAP};
 pub use image::Plane;
 pub use warp::{coverage, warp, Interp, Source};
 

@@ -45,7 +45,7 @@ def _positive(name: str, value: Any, allow_none: bool = False) -> Any:
 def _refuse_sequence_registration(cfg: ScoringConfig) -> None:
     """Registration per frame and the frame delay are not built yet: a clear error, never
     settings silently ignored (``register`` alone registers once, on the first pair)."""
-    for option, asked in (("register_each", cfg.register_each), ("max_delay", cfg.max_delay > 0)):
+    for option, asked in (("max_delay", cfg.max_delay > 0),):
         if asked:
             raise FidelityError(f"{option} is not available for sequences yet; register=MODEL registers the "
                                 f"first pair and applies that registration to every pair", option=option)

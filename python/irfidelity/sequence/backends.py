@@ -16,6 +16,7 @@ as pairs finish, in any order.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -23,9 +24,10 @@ from typing import Any, Protocol
 import numpy as np
 
 from .. import _core
-from ..alignment import aligned_pair
+from ..alignment import aligned_pair, find_registration
 from ..errors import FidelityError, ShapeError
 from ..frames import FrameSequence
+from ..registration import RegistrationWarning, from_engine
 from ..stats import KernelRequest, PairStats, pair_stats
 from .outcomes import Outcome
 from .plan import SequencePlan
@@ -60,12 +62,14 @@ def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
 
 
 def _outcomes(todo: Todo, rows: list, plan: SequencePlan) -> list[Outcome]:
-    """Outcomes from the engine's ``(k, stats, error, shape, dtype, real extent)`` tuples (k
-    indexes ``todo``)."""
+    """Outcomes from the engine's ``(k, stats, error, shape, dtype, real extent,
+    registration)`` tuples (k indexes ``todo``)."""
     out = []
-    for k, raw, err, shape, dtype, extent in rows:
+    for k, raw, err, shape, dtype, extent, found in rows:
         stats = None if raw is None else PairStats(raw, bins=plan.bin_label)
-        out.append(Outcome(todo[k][0], stats, err, None if shape is None else tuple(shape), dtype, extent))
+        registration = None if found is None else from_engine(found, str(plan.config.register), shape)
+        out.append(Outcome(todo[k][0], stats, err, None if shape is None else tuple(shape), dtype, extent,
+                           registration))
     return out
 
 
@@ -136,15 +140,15 @@ class ArrayLoop:
 
     def _one(self, index: int, r: int, s: int) -> Outcome:
         cfg = self.plan.config
+        registration = None
         try:
             real, sim = np.asarray(self.real[r]), np.asarray(self.sim[s])
             numeric_peak = cfg.peak if isinstance(cfg.peak, float) else None
             bits, mask, hist_range = cfg.bits, None, cfg.hist_range
             scored_real, scored_sim = real, sim
-            if self.plan.registration is not None:  # the frames as the Rust engine scores them
-                if real.shape != sim.shape:
-                    raise ShapeError(f"real and sim frames differ in shape: {real.shape} vs {sim.shape}")
-                scored_real, scored_sim, mask = aligned_pair(real, sim, self.plan.registration, valid=self.plan.valid)
+            if cfg.register is not None:  # the frames as the Rust engine scores them
+                registration = self._registration(real, sim)
+                scored_real, scored_sim, mask = aligned_pair(real, sim, registration, valid=self.plan.valid)
                 bits, numeric_peak = None, numeric_peak or self.plan.default_peak
                 hist_range = self.plan.hist_range if self.plan.hist_range is not None else hist_range
             st = pair_stats(scored_real, scored_sim, bits=bits, peak=numeric_peak, bins=cfg.bins, hist_range=hist_range,
@@ -152,7 +156,19 @@ class ArrayLoop:
         except FidelityError as exc:
             return Outcome(index, None, str(exc))
         return Outcome(index, st, None, real.shape, real.dtype.name,
-                       _extent(real) if cfg.peak == "range" else None)
+                       _extent(real) if cfg.peak == "range" else None,
+                       registration if cfg.register_each else None)
+
+    def _registration(self, real: np.ndarray, sim: np.ndarray) -> Any:
+        """The plan's registration, or with ``register_each`` the pair's own (its confidence
+        is in the pair's row; the run counts the unsure ones instead of warning per pair)."""
+        if real.shape != sim.shape:
+            raise ShapeError(f"real and sim frames differ in shape: {real.shape} vs {sim.shape}")
+        if not self.plan.config.register_each:
+            return self.plan.registration
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RegistrationWarning)
+            return find_registration(real, sim, self.plan.config)
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
         for index, r, s in todo:

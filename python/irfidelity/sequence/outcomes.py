@@ -2,8 +2,9 @@
 
 A frame entry has the keys of a single-pair result (:mod:`irfidelity.schema`): ``index``,
 ``real``, ``sim``, ``rows``, ``cols``, ``dtype``, ``fidelity``, ``grade``, ``components``,
-``component_grades``, ``membership``, ``metrics`` and ``error`` (None, or why the pair
-could not be scored — then the values are None and the dicts empty).
+``component_grades``, ``membership``, ``metrics``, ``registration`` (the one applied to the
+pair, or None) and ``error`` (None, or why the pair could not be scored — then the values
+are None and the dicts empty).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..errors import FidelityError
+from ..schema import registration_values
 from ..scoring import image_components, psnr_peak, score_components
 from ..stats import PairStats
 from .plan import SequencePlan
@@ -24,7 +26,8 @@ class Outcome:
     """What a backend reports for the pair at ``index``: its statistics or an error.
 
     ``real_extent`` is the real frame's (min, max) over the scored pixels, when the backend
-    measured it (needed for ``peak="range"``).
+    measured it (needed for ``peak="range"``); ``registration`` the pair's own
+    :class:`~irfidelity.Registration` (``register_each``).
     """
 
     index: int
@@ -33,12 +36,13 @@ class Outcome:
     shape: tuple[int, int] | None = None
     dtype: str | None = None
     real_extent: tuple[float, float] | None = None
+    registration: Any = None
 
 
 def _blank(index: int, real: str | None, sim: str | None) -> dict:
     return {"index": index, "real": real, "sim": sim, "rows": None, "cols": None, "dtype": None,
             "fidelity": None, "grade": None, "components": {}, "component_grades": {}, "membership": {},
-            "metrics": {}, "error": None}
+            "metrics": {}, "registration": None, "error": None}
 
 
 def error_entry(index: int, real: str | None, sim: str | None, error: str) -> dict:
@@ -82,16 +86,22 @@ def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str
     except FidelityError as exc:
         return error_entry(outcome.index, real, sim, str(exc)), None
     entry.update(score.to_dict())
+    registration = outcome.registration if outcome.registration is not None else plan.registration
+    entry["registration"] = None if registration is None else registration.to_dict()
     return entry, stats
 
 
 def flat_row(entry: dict, columns: list[str]) -> list[Any]:
-    """The CSV values of an entry: frame keys, then metrics, then ``f_X`` = components.X."""
+    """The CSV values of an entry: frame keys, the registration's ``reg_*``, then metrics,
+    then ``f_X`` = components.X."""
     metrics, comps = entry.get("metrics") or {}, entry.get("components") or {}
+    registration = registration_values(entry.get("registration"))
     out = []
     for c in columns:
         if c.startswith("f_"):
             out.append(comps.get(c[2:]))
+        elif c.startswith("reg_"):
+            out.append(registration.get(c))
         elif c in entry and not isinstance(entry[c], dict):
             out.append(entry[c])
         else:

@@ -19,6 +19,7 @@ from ..config import ScoringConfig
 from ..errors import FidelityError
 from ..frames import FrameSequence
 from ..fuzzy import Weights
+from ..registration import DEFAULT_ORDER
 from ..results import recorded_warnings
 from ..scoring import plan_components, psnr_peak
 from ..stats import KernelRequest, full_range, hist_params, peak_and_valid
@@ -47,7 +48,7 @@ class SequencePlan:
     bins: int | None
     levels: bool
     hist_range: tuple[float, float] | None
-    registration: Any = None  # found once on the first readable pair (config.register)
+    registration: Any = None  # found once on the first readable pair (config.register, not register_each)
 
     @property
     def bin_label(self) -> Any:
@@ -69,16 +70,24 @@ class SequencePlan:
                              levels=self.levels, hist_range=self.hist_range, valid=self.valid,
                              mask_nonfinite=cfg.nonfinite == "mask", real_channel=cfg.real_channel,
                              sim_channel=cfg.sim_channel, real_extent=cfg.peak == "range" and "psnr" in self.image,
-                             max_pixels=max_pixels, max_bytes=max_bytes, warp=self.warp)
+                             max_pixels=max_pixels, max_bytes=max_bytes, warp=self.warp,
+                             register_each=self.register_each)
 
     @property
     def warp(self) -> tuple[tuple[float, ...], int] | None:
         """The registration as the engine applies it: matrix (6 floats) and interpolation order."""
         if self.registration is None:
             return None
-        from ..registration import DEFAULT_ORDER
-
         return tuple(float(v) for v in self.registration.applied_matrix().ravel()), DEFAULT_ORDER
+
+    @property
+    def register_each(self) -> tuple[str, str, None, int] | None:
+        """With ``config.register_each``: what the engine registers every pair with (model,
+        method, max_shift, interpolation order)."""
+        cfg = self.config
+        if not cfg.register_each:
+            return None
+        return str(cfg.register), cfg.register_method, None, DEFAULT_ORDER
 
     def settings(self) -> dict:
         """What a resumed run must share with the one it continues (beyond the config)."""
@@ -102,12 +111,15 @@ def _first_readable(real: FrameSequence, pairing: Pairing) -> np.ndarray | None:
 
 def _registration(real: FrameSequence, sim: FrameSequence, pairing: Pairing, config: ScoringConfig) -> Any:
     """With ``config.register``: the registration of the first pair whose frames both decode
-    (the camera geometry is fixed, so one registration serves every pair)."""
+    (the camera geometry is fixed, so one registration serves every pair). None with
+    ``register_each`` (every pair is registered as it is scored)."""
     if config.register is None:
         return None
     if config.bins == "levels":
         raise FidelityError("bins='levels' counts integer levels, and registered frames are resampled to floats: "
                             "give a number of bins", option="bins")
+    if config.register_each:
+        return None
     for r, s in pairing.pairs:
         if r is None or s is None:
             continue

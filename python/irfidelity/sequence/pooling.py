@@ -15,11 +15,12 @@ from typing import Any
 
 import numpy as np
 
+from ..registration import LOW_CONFIDENCE
 from ..scoring import Score, image_components, psnr_peak, score_components
 from ..stats import PairStats, merge_all
 from .plan import SequencePlan
 
-__all__ = ["Pool", "frame_statistics"]
+__all__ = ["Pool", "frame_statistics", "registration_summary"]
 
 _PERCENTILES = (5, 50, 95)
 
@@ -107,3 +108,22 @@ def frame_statistics(frames: list[dict]) -> dict:
             if stats:
                 out[group][k] = stats
     return out
+
+
+def registration_summary(plan: SequencePlan, frames: list[dict]) -> dict | None:
+    """``report.registration`` of a sequence: the one registration applied to every pair
+    (:meth:`~irfidelity.Registration.to_dict`), or with ``register_each`` the spread of the frames' own —
+    ``model``, ``method`` (asked), ``frames`` registered, ``unsure`` (indices below
+    ``low_confidence``), and mean/percentiles/min/max of
+    ``shift_dy``, ``shift_dx``, ``angle``, ``scale``, ``confidence``, ``overlap``."""
+    cfg = plan.config
+    if cfg.register is None:
+        return None
+    if not cfg.register_each:
+        return None if plan.registration is None else plan.registration.to_dict()
+    regs = [(f["index"], f["registration"]) for f in frames if f["error"] is None and f.get("registration")]
+    values = {"shift_dy": [r["shift"][0] for _, r in regs], "shift_dx": [r["shift"][1] for _, r in regs]}
+    values.update({k: [r[k] for _, r in regs] for k in ("angle", "scale", "confidence", "overlap")})
+    return {"model": cfg.register, "method": cfg.register_method, "each": True, "frames": len(regs),
+            "low_confidence": LOW_CONFIDENCE, "unsure": [i for i, r in regs if r["confidence"] < LOW_CONFIDENCE],
+            **{k: _percentiles(v) for k, v in values.items()}}

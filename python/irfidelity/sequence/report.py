@@ -52,7 +52,9 @@ class SequenceReport:
         ``resumed`` (frames taken from an earlier run).
     registration : dict or None
         With ``config.register``: the registration found on the first readable pair and
-        applied to every pair (as :attr:`FidelityReport.registration`).
+        applied to every pair (as :attr:`FidelityReport.registration`); with ``register_each``, the spread of the frames' own registrations
+        (``"each": True``, :func:`~irfidelity.sequence.pooling.registration_summary`; each
+        frame's is in ``frames[i]["registration"]``).
     """
 
     frames: list
@@ -96,7 +98,7 @@ class SequenceReport:
     @property
     def columns(self) -> list[str]:
         """The CSV columns (as in a single pair's CSV)."""
-        return csv_columns(self.weights.active())
+        return csv_columns(self.weights.active(), registered=self.config.register is not None)
 
     def to_csv(self, path: str | os.PathLike) -> None:
         """Write one row per frame, in index order (the columns of ``csv=``)."""
@@ -148,7 +150,8 @@ class SequenceReport:
             first = next(f for f in self.frames if f["error"])
             lines.append(f"  first error (frame {first['index']}): {first['error']}")
         if self.registration:
-            lines.append(registration_line(self.registration) + " (found on the first pair, applied to every pair)")
+            applied = "" if self.registration.get("each") else " (found on the first pair, applied to every pair)"
+            lines.append(registration_line(self.registration) + applied)
         lines.append(settings_line(self.config, self.version))
         lines += [f"note: {note}" for note in self.notes]
         return "\n".join(lines)

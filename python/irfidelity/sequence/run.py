@@ -9,6 +9,7 @@ from typing import Any, Callable
 
 from ..errors import FidelityError
 from ..frames import FrameSequence
+from ..registration import Registration
 from ..schema import csv_columns
 from ..stats import PairStats
 from .backends import Decoding, choose_backend
@@ -17,7 +18,7 @@ from .log import FrameLog, Record
 from .outcomes import Outcome, error_entry, flat_row, frame_entry
 from .pairing import Pairing
 from .plan import SequencePlan
-from .pooling import Pool, frame_statistics
+from .pooling import Pool, frame_statistics, registration_summary
 from .progress import Progress
 from .report import SequenceReport
 
@@ -75,8 +76,10 @@ class _Scorer:
                 self.log.distrust(index)
                 continue
             stats = PairStats.from_bytes(records[index].stats, bins=self.plan.bin_label)
+            registration = meta.get("registration")
             outcome = Outcome(index, stats, None, tuple(meta["shape"]), meta["dtype"],
-                              None if meta.get("extent") is None else tuple(meta["extent"]))
+                              None if meta.get("extent") is None else tuple(meta["extent"]),
+                              None if registration is None else Registration.from_dict(registration))
             self._add(outcome, resumed=True)
             taken += 1
         return taken
@@ -114,14 +117,15 @@ def _record(outcome: Outcome, stats: PairStats | None, fingerprint: Any) -> Reco
     if stats is None:
         return None
     meta = {"inputs": fingerprint, "shape": list(outcome.shape), "dtype": outcome.dtype,
-            "extent": None if outcome.real_extent is None else list(outcome.real_extent)}
+            "extent": None if outcome.real_extent is None else list(outcome.real_extent),
+            "registration": None if outcome.registration is None else outcome.registration.to_dict()}
     return Record(outcome.index, meta, stats.to_bytes())
 
 
 def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: SequencePlan,
             options: RunOptions) -> SequenceReport:
     """Score every pair of ``pairing`` (the module notes of :mod:`irfidelity.sequence`)."""
-    columns = csv_columns(plan.weights.active())
+    columns = csv_columns(plan.weights.active(), registered=plan.config.register is not None)
     log = None
     if options.csv is not None:
         log = FrameLog(options.csv, columns, _log_settings(plan, pairing, real, sim, columns), options.resume)
@@ -161,7 +165,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
         frames=frames, weights=plan.weights, failed=[f["index"] for f in frames if f["error"]],
         frame_stats=frame_statistics(frames), pooling=pooling, skipped=dict(plan.skipped), config=plan.config,
         notes=notes, inputs=dict(plan.inputs),
-        registration=None if plan.registration is None else plan.registration.to_dict(),
+        registration=registration_summary(plan, frames),
         run={"pair_by": pairing.rule, "workers": options.workers,
              "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed},
         sources={"frames": _loader(real, sim, pairing), "curves": plan.camera_objects}, **pooled)
