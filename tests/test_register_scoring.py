@@ -1,6 +1,7 @@
 """Registration inside scoring (paper §2.4): ``evaluate(..., register=MODEL)`` aligns the
 simulated frame to the real one and scores the overlap only; the CLI's ``--register``; and
-sequences refuse the registration options they cannot honour yet instead of ignoring them."""
+sequences registered once on their first pair (tests/test_sequence_alignment.py: per frame, and
+the frame delay)."""
 
 from __future__ import annotations
 
@@ -112,14 +113,6 @@ def test_an_ambiguous_pair_is_an_error_not_an_identity():
         quiet_evaluate(*bars, peak=1000.0, register="translation")
 
 
-@pytest.mark.parametrize("option", [{"register_each": True}, {"max_delay": 2}])
-def test_sequences_refuse_the_options_not_built_instead_of_ignoring_them(option):
-    frames = np.stack([irf.load_frame(DATA / f"cptv_v2_frame{i:03d}.png") for i in range(3)])
-    with pytest.raises(FidelityError, match="not available for sequences yet") as err:
-        irf.score_sequence(frames, frames, progress=False, register="translation", **option)
-    assert err.value.option == next(iter(option))
-
-
 def test_a_sequence_is_registered_once_and_every_pair_scored_as_evaluate_scores_it(tmp_path):
     real, sim, moved = simulated_views()
     rng = np.random.default_rng(7)
@@ -181,8 +174,8 @@ def test_cli_registers_pairs_and_sequences(tmp_path):
     d = json.loads(out.read_text())
     assert d["registration"]["shift"] == [0.0, 0.0] and len(d["frames"]) == 3  # the same frames: no shift
     p = cli("score", stack, stack, "--pages", "0:3", "--register", "translation", "--max-delay", "2")
-    assert p.returncode == 2 and "Traceback" not in p.stderr
-    assert "--max-delay" in p.stderr and "not available for sequences yet" in p.stderr
+    assert p.returncode == 2 and "Traceback" not in p.stderr  # 3 frames cannot show a delay of 2
+    assert "--max-delay" in p.stderr and "too large for sequences of 3 and 3 frames" in p.stderr
 
 
 def test_the_schema_lists_every_registration_field():

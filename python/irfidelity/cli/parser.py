@@ -155,13 +155,13 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
     n.add_argument("--sim-noise", metavar="DIR|TIF", help="the same from the simulator")
     r = s.add_argument_group("registration and sequences")
     r.add_argument("--register", choices=REGISTRATION_MODELS, metavar="MODEL",
-                   help="align the simulated frame to the real one first: translation, rigid or similarity "
-                        "(single pairs; sequences refuse it until sequence registration is built)")
+                   help="align the simulated frame to the real one first and score the overlap: translation, "
+                        "rigid or similarity (a sequence is registered once, on its first pair)")
     r.add_argument("--register-each", action="store_true", default=None,
-                   help="sequences: register every frame pair (not built yet: refused)")
+                   help="sequences: register every frame pair on its own (with --register's model)")
     r.add_argument("--max-delay", type=_non_negative_int, metavar="N",
-                   help="sequences: find the frame offset between the sequences within +-N frames (not built yet: "
-                        "refused)")
+                   help="sequences: find the frame offset between the sequences within +-N frames and pair "
+                        "frames by position offset by it")
     r.add_argument("--pair-by", choices=PAIRING_RULES,
                    help="sequences: pair frames by file name (auto, the default, when names match) or by order")
     r.add_argument("--pages", metavar="SEL",

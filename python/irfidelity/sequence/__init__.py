@@ -5,6 +5,7 @@ frame and pooled. The package, in the order a run goes through it:
 
 * :mod:`.sources` — inputs as :class:`~irfidelity.FrameSequence`;
 * :mod:`.pairing` — which simulated frame goes with which real frame (by name, or order);
+* :mod:`.delay` — with ``max_delay``, the frame offset between the two sequences;
 * :mod:`.plan` — what is computed, fixed before any pair is scored;
 * :mod:`.backends` — where pairs are scored: the Rust engine, Dask, or an array loop;
 * :mod:`.outcomes` — a scored pair as a report entry (the same functions as ``evaluate``);
@@ -15,13 +16,17 @@ frame and pooled. The package, in the order a run goes through it:
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from typing import Any, Callable
 
 from ..camera import CameraInputs
 from ..config import ScoringConfig
 from ..errors import FidelityError
-from .pairing import pair_frames
+from ..frames import FrameSequence
+from ..results import recorded_warnings
+from .delay import find_delay
+from .pairing import Pairing, pair_frames, pair_with_delay
 from .plan import make_plan
 from .report import SequenceReport
 from .run import RunOptions, execute
@@ -42,13 +47,15 @@ def _positive(name: str, value: Any, allow_none: bool = False) -> Any:
     return int(value)
 
 
-def _refuse_sequence_registration(cfg: ScoringConfig) -> None:
-    """Registration per frame and the frame delay are not built yet: a clear error, never
-    settings silently ignored (``register`` alone registers once, on the first pair)."""
-    for option, asked in (("max_delay", cfg.max_delay > 0),):
-        if asked:
-            raise FidelityError(f"{option} is not available for sequences yet; register=MODEL registers the "
-                                f"first pair and applies that registration to every pair", option=option)
+def _pairing(real: FrameSequence, sim: FrameSequence, cfg: ScoringConfig) -> Pairing:
+    """By name or position (``pair_by``), or with ``max_delay`` by position offset by the
+    delay found (its warnings become notes of the pairing)."""
+    if not cfg.max_delay:
+        return pair_frames(real, sim, cfg.pair_by)
+    with recorded_warnings() as notes:
+        delay = find_delay(real, sim, cfg.max_delay)
+    pairing = pair_with_delay(real, sim, delay)
+    return dataclasses.replace(pairing, notes=pairing.notes + tuple(notes))
 
 
 def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
@@ -100,7 +107,6 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     (3, 84.29)
     """
     cfg = ScoringConfig.resolve(config, **options)
-    _refuse_sequence_registration(cfg)
     if resume and csv is None:
         raise FidelityError("resuming needs the CSV of the interrupted run", option="csv")
     run = RunOptions(workers=_positive("workers", workers, allow_none=True), progress=progress, client=client,
@@ -110,6 +116,6 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     sim_seq = as_sequence(sim, "sim", cfg.sim_channel, max_pixels, max_bytes)
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError("empty sequences: nothing to score")
-    pairing = pair_frames(real_seq, sim_seq, cfg.pair_by)
+    pairing = _pairing(real_seq, sim_seq, cfg)
     plan = make_plan(real_seq, sim_seq, pairing, CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise), cfg)
     return execute(real_seq, sim_seq, pairing, plan, run)

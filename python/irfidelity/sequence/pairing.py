@@ -14,6 +14,7 @@ import os
 import re
 from collections import Counter
 from dataclasses import dataclass, field
+from typing import Any
 
 from ..errors import FidelityError
 from ..frames import FrameSequence
@@ -28,12 +29,16 @@ class Pairing:
     """Pairs of (real index, sim index) into the two sequences, in scoring order.
 
     One side is None for a frame without a partner (it is scored as an error row).
-    ``rule`` says how the pairs were made: "order", "name", "number" or "page".
+    ``rule`` says how the pairs were made: "order", "name", "number", "page" or "delay"
+    (by position, offset by ``delay``: the :class:`~irfidelity.sequence.delay.Delay` found,
+    and ``unpaired`` the frames at the ends that the offset leaves without a partner).
     """
 
     pairs: tuple[tuple[int | None, int | None], ...]
     rule: str
     notes: tuple[str, ...] = field(default=())
+    delay: Any = None
+    unpaired: dict = field(default_factory=dict)
 
     @property
     def unmatched(self) -> int:
@@ -104,3 +109,24 @@ def pair_frames(real: FrameSequence, sim: FrameSequence, rule: str) -> Pairing:
     notes = ("paired by position: the frame names do not match (by file name, frame number or page)",) \
         if named and rule == "auto" else ()
     return Pairing(tuple((i, i) for i in range(len(real))), "order", notes)
+
+
+def _names_text(names: list[str]) -> str:
+    return ", ".join(names[:5]) + (", ..." if len(names) > 5 else "")
+
+
+def pair_with_delay(real: FrameSequence, sim: FrameSequence, delay: Any) -> Pairing:
+    """Real frame ``i`` with simulated frame ``i + delay.frames``, over the frames both sides
+    have; the frames the offset leaves at the ends are listed (``unpaired``), not scored."""
+    d = delay.frames
+    pairs = tuple((i, i + d) for i in range(len(real)) if 0 <= i + d < len(sim))
+    taken_real, taken_sim = {r for r, _ in pairs}, {s for _, s in pairs}
+    unpaired = {"real": [real.names[i] for i in range(len(real)) if i not in taken_real],
+                "sim": [sim.names[j] for j in range(len(sim)) if j not in taken_sim]}
+    note = (f"paired by position with a delay of {d:+d} frames (real frame i with simulated frame "
+            f"i{f'{d:+d}' if d else ''}; confidence {delay.confidence:.3f})")
+    lonely = [f"{len(v)} {side} frame(s) ({_names_text(v)})" for side, v in
+              (("real", unpaired["real"]), ("simulated", unpaired["sim"])) if v]
+    if lonely:
+        note += f"; {' and '.join(lonely)} at the ends have no partner at this delay and are not scored"
+    return Pairing(pairs, "delay", (note,), delay, unpaired)

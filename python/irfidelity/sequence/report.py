@@ -55,6 +55,12 @@ class SequenceReport:
         applied to every pair (as :attr:`FidelityReport.registration`); with ``register_each``, the spread of the frames' own registrations
         (``"each": True``, :func:`~irfidelity.sequence.pooling.registration_summary`; each
         frame's is in ``frames[i]["registration"]``).
+    delay : dict or None
+        With ``config.max_delay``: the frame offset found — ``frames`` (real frame ``i``
+        pairs with simulated frame ``i + frames``), ``confidence``, ``window`` (frames of
+        each side compared), ``max_delay``, ``correlation`` (per candidate delay) and
+        ``unpaired`` (``{"real": [...], "sim": [...]}``: the frames at the ends without a
+        partner at this delay, not scored).
     """
 
     frames: list
@@ -75,6 +81,7 @@ class SequenceReport:
     inputs: dict = field(default_factory=dict)
     run: dict = field(default_factory=dict)
     registration: dict | None = None
+    delay: dict | None = None
     sources: dict = field(default_factory=dict, repr=False, compare=False)
 
     def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10) -> str:
@@ -108,7 +115,7 @@ class SequenceReport:
             fh.writelines(csv_line(flat_row(f, cols)) for f in self.frames)
 
     _FIELDS = ("fidelity", "grade", "components", "component_grades", "membership", "metrics", "failed",
-               "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration")
+               "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration", "delay")
 
     def to_dict(self) -> dict:
         """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""
@@ -149,6 +156,8 @@ class SequenceReport:
             lines.append(f"failed frames: {shown}")
             first = next(f for f in self.frames if f["error"])
             lines.append(f"  first error (frame {first['index']}): {first['error']}")
+        if self.delay:
+            lines.append(_delay_line(self.delay))
         if self.registration:
             applied = "" if self.registration.get("each") else " (found on the first pair, applied to every pair)"
             lines.append(registration_line(self.registration) + applied)
@@ -158,3 +167,15 @@ class SequenceReport:
 
     def __str__(self) -> str:
         return self.summary_text()
+
+
+def _delay_line(delay: Mapping[str, Any]) -> str:
+    d = int(delay["frames"])
+    unpaired = delay.get("unpaired") or {}
+    lonely = [f"{len(unpaired[k])} {side}" for k, side in (("real", "real"), ("sim", "simulated")) if unpaired.get(k)]
+    pairing = f"real frame i with simulated frame i{d:+d}" if d else "real frame i with simulated frame i"
+    text = (f"delay: {d:+d} frames ({pairing}), confidence {delay['confidence']:.3f}, "
+            f"searched ±{delay.get('max_delay')} over the first {delay.get('window')} frames")
+    if lonely:
+        text += f"; {' and '.join(lonely)} frame(s) at the ends have no partner and are not scored"
+    return text

@@ -166,6 +166,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
         frame_stats=frame_statistics(frames), pooling=pooling, skipped=dict(plan.skipped), config=plan.config,
         notes=notes, inputs=dict(plan.inputs),
         registration=registration_summary(plan, frames),
+        delay=None if pairing.delay is None else {**pairing.delay.to_dict(), "unpaired": pairing.unpaired},
         run={"pair_by": pairing.rule, "workers": options.workers,
              "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed},
         sources={"frames": _loader(real, sim, pairing), "curves": plan.camera_objects}, **pooled)
