@@ -120,6 +120,13 @@ def test_a_bad_request_is_a_fidelity_error():
         _core.pair_stats(real, sim, KernelRequest(bins="many"))
     with pytest.raises(FidelityError, match=r"KernelRequest\.hist_range"):
         _core.score_pairs(["a"], ["b"], request=KernelRequest(hist_range=(0.0, 1.0, 2.0)))
+    with pytest.raises(FidelityError, match="model must be 'translation', 'rigid' or 'similarity', got \"affine\""):
+        _core.score_pairs(["a"], ["b"], request=KernelRequest(register_each=("affine", "auto", None, 3)))
+    with pytest.raises(FidelityError, match="warp order must be 1 .* got 2"):
+        _core.score_pairs(["a"], ["b"], request=KernelRequest(register_each=("rigid", "auto", None, 2)))
+    with pytest.raises(FidelityError, match="warp and register_each exclude each other"):
+        _core.score_pairs(["a"], ["b"], request=KernelRequest(warp=((1.0, 0.0, 0.0, 0.0, 1.0, 0.0), 3),
+                                                              register_each=("rigid", "auto", None, 3)))
 
 
 # --------------------------------------------------------------------------- request and errors

@@ -17,6 +17,7 @@ import scipy.ndimage as ndi
 
 import irfidelity as irf
 from irfidelity.errors import FidelityError
+from irfidelity.report import render_sequence_html
 
 DATA = pathlib.Path(__file__).parent / "data" / "thermal"
 LEPTON_STACK = DATA / "cptv_v2_all100frames_uint16.tif"
@@ -83,6 +84,8 @@ def test_every_pair_is_registered_on_its_own_and_scored_as_evaluate_scores_it(tm
     assert all(float(r["reg_confidence"]) > 0.5 for r in rows)
     back = irf.SequenceReport.from_dict(json.loads(json.dumps(from_files.to_dict())))
     assert back.registration == summary and back.frames[2]["registration"] == from_files.frames[2]["registration"]
+    page = render_sequence_html(back.to_dict())
+    assert '<section id="registration"><h2>Registration per frame</h2>' in page and "6 frames registered" in page
 
 
 def test_a_pair_that_cannot_be_registered_is_its_own_error_row(tmp_path, moving_view):
@@ -165,6 +168,8 @@ def test_the_delay_between_two_sequences_is_found_and_frames_paired_by_it(delay,
         unaligned = quietly(irf.score_sequence, real, sim, peak="range", progress=False)
         assert unaligned.fidelity < rep.fidelity - 0.03
     assert "delay: " in rep.summary_text() and "paired by delay" in rep.summary_text()
+    page = render_sequence_html(rep.to_dict())
+    assert '<section id="delay"><h2>Frame delay</h2>' in page and f"confidence {rep.delay['confidence']:.3f}" in page
 
 
 def test_a_sequence_that_shows_no_delay_is_an_error_naming_why():

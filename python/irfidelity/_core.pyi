@@ -107,10 +107,10 @@ def default_max_bytes() -> int: ...
 
 #: A pair's own registration (``request.register_each``): matrix (6 floats, row-major),
 #: method used, confidence, overlap, inverted.
-PairRegistration = tuple[tuple[float, float, float, float, float, float], str, float, float, bool]
+_PairRegistration = tuple[tuple[float, float, float, float, float, float], str, float, float, bool]
 #: ``(index, stats, error, shape, dtype, real extent, registration)``.
-PairOutcome = tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None,
-                    tuple[float, float] | None, PairRegistration | None]
+_PairOutcome = tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None,
+                    tuple[float, float] | None, _PairRegistration | None]
 
 def score_pairs(
     real_paths: list[str | os.PathLike[str]],
@@ -122,7 +122,7 @@ def score_pairs(
     workers: int = 0,
     progress: Callable[[int], Any] | None = None,
     on_result: Callable[[list[Any]], Any] | None = None,
-) -> list[PairOutcome] | None: ...
+) -> list[_PairOutcome] | None: ...
 def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats | None, bool]: ...
 
 # ---- file fingerprints (rust/binding/fingerprint.rs) -------------------------------------

@@ -41,6 +41,10 @@ def _write_json(data: Any, dest: str) -> None:
             fh.write(text + "\n")
 
 
+def _columns(report: Any) -> list[str]:
+    return csv_columns(report.components, registered=report.registration is not None)
+
+
 def _single_row(report: Any) -> list[Any]:
     """The CSV row of a single pair: the columns of a sequence's frame rows."""
     from ..sequence.outcomes import flat_row
@@ -49,14 +53,14 @@ def _single_row(report: Any) -> list[Any]:
     shape = inputs.get("shape") or (None, None)
     entry = {"index": 0, "real": inputs.get("real"), "sim": inputs.get("sim"), "rows": shape[0], "cols": shape[1],
              "dtype": inputs.get("dtype"), "error": None, **report.to_dict()}
-    return flat_row(entry, csv_columns(report.components))
+    return flat_row(entry, _columns(report))
 
 
 def _write_csv(report: Any, dest: str) -> None:
     from ..sequence.log import csv_line
 
     with open(dest, "w", newline="", encoding="utf-8") as fh:
-        fh.write(csv_line(csv_columns(report.components)))
+        fh.write(csv_line(_columns(report)))
         fh.write(csv_line(_single_row(report)))
 
 

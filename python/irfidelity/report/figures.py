@@ -255,6 +255,31 @@ def timeline_figure(index: np.ndarray, series: dict[str, np.ndarray], failed: np
     return _png(fig)
 
 
+def delay_figure(delays: np.ndarray, correlation: np.ndarray, best: int) -> bytes:
+    """|correlation| of the two sequences' changes at each candidate delay; the delay found
+    marked."""
+    fig = _figure(7.0, 3.4)
+    ax = fig.add_subplot()
+    ax.bar(delays, correlation, color=[PALETTE[1] if d == best else PALETTE[0] for d in delays], width=0.7)
+    ax.set_xticks(delays)
+    ax.set_xlabel("delay d (real frame i with simulated frame i + d)")
+    ax.set_ylabel("|correlation| of the changes")
+    ax.grid(True, axis="y", alpha=0.3)
+    return _png(fig)
+
+
+def registration_figure(index: np.ndarray, series: dict[str, np.ndarray]) -> bytes:
+    """Each frame's registration parameters (one panel each) against the frame index."""
+    fig = _figure(10.0, 1.6 + 1.3 * len(series), left=0.09)
+    axes = fig.subplots(len(series), 1, sharex=True, squeeze=False)[:, 0]
+    for i, (ax, (name, values)) in enumerate(zip(axes, series.items())):
+        ax.plot(index, values, color=PALETTE[i % 6], marker="o", markersize=3, lw=1.0)
+        ax.set_ylabel(name, fontsize="small")
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("frame index")
+    return _png(fig)
+
+
 def distribution_figure(values: np.ndarray) -> bytes:
     """Histogram of per-frame fidelity with its 5th, 50th and 95th percentiles."""
     fig = _figure(7.0, 3.6)

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FidelityError
-from . import figures, sections
+from . import alignment, figures, sections
 from .noise import noise as noise_section
 from .html import Missing, Raw, image, key_values, missing, number, page, paragraph, section, table, text
 
@@ -93,6 +93,8 @@ def render_sequence_html(
         _worst(rows, worst, frames, thumbnails),
         _failed(d, rows),
         _frame_stats(d),
+        alignment.delay(d),
+        alignment.registration(d, rows),
         sections.mtf(curves, curve_metrics),
         sections.sitf(curves, curve_metrics),
         noise_section(curves, curve_metrics),
