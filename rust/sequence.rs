@@ -166,7 +166,13 @@ impl EachWarp {
 
     /// Register the pair, then score it through that registration as [`score_aligned`]
     /// does. The frames are converted to float64 once, for the search and the statistics.
-    fn score(&self, r: &Frame, s: &Frame, kreq: &Request) -> Result<(register::Registration, PairStats)> {
+    fn score(
+        &self,
+        r: &Frame,
+        s: &Frame,
+        kreq: &Request,
+        want_extent: bool,
+    ) -> Result<(register::Registration, Scored)> {
         check_pair(r, s, kreq)?;
         let (rows, cols) = (r.rows, r.cols);
         let real = r.data.to_f64();
@@ -176,8 +182,7 @@ impl EachWarp {
         let reg = register::register_planes(&real_plane, &sim_plane, &self.options)?;
         drop((real_plane, sim_plane));
         let (aligned, overlap) = FixedWarp::new(&reg.matrix, self.interp)?.resample(&sim, rows, cols);
-        let st = stats::pair_stats(&real, &aligned, &Request { mask: Some(&overlap), valid: None, ..kreq.clone() })?;
-        Ok((reg, st))
+        Ok((reg, overlap_stats(&real, &aligned, &overlap, kreq, want_extent)?))
     }
 }
 
@@ -240,13 +245,18 @@ pub struct PairOutcome {
     pub registration: Option<register::Registration>,
 }
 
+/// (min, max) over the finite values; None when there are none.
+fn finite_extent(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+    values.filter(|x| x.is_finite()).fold(None, |acc, x| match acc {
+        None => Some((x, x)),
+        Some((lo, hi)) => Some((lo.min(x), hi.max(x))),
+    })
+}
+
 /// (min, max) over the finite values of a frame; None when it has none.
 fn extent(data: &FrameData) -> Option<(f64, f64)> {
     fn fold<T: Copy>(v: &[T], to_f64: impl Fn(T) -> f64) -> Option<(f64, f64)> {
-        v.iter().map(|&x| to_f64(x)).filter(|x| x.is_finite()).fold(None, |acc, x| match acc {
-            None => Some((x, x)),
-            Some((lo, hi)) => Some((lo.min(x), hi.max(x))),
-        })
+        finite_extent(v.iter().map(|&x| to_f64(x)))
     }
     match data {
         FrameData::U8(v) => fold(v, f64::from),
@@ -315,11 +325,27 @@ fn check_pair(r: &Frame, s: &Frame, kreq: &Request) -> Result<()> {
     Ok(())
 }
 
+/// A pair's statistics, and the real frame's (min, max) over the pixels scored when asked.
+type Scored = (PairStats, Option<(f64, f64)>);
+
 /// Score a pair through a fixed registration: the overlap only, both frames as float64.
-fn score_aligned(r: &Frame, s: &Frame, warp: &FixedWarp, kreq: &Request) -> Result<PairStats> {
+fn score_aligned(r: &Frame, s: &Frame, warp: &FixedWarp, kreq: &Request, want_extent: bool) -> Result<Scored> {
     check_pair(r, s, kreq)?;
     let (real, aligned, overlap) = warp.align(&r.data, &s.data, r.rows, r.cols);
-    stats::pair_stats(&real, &aligned, &Request { mask: Some(&overlap), valid: None, ..kreq.clone() })
+    overlap_stats(&real, &aligned, &overlap, kreq, want_extent)
+}
+
+/// The statistics of a registered pair over its overlap and, when `want_extent`, the real
+/// frame's (min, max) over the same pixels (the PSNR peak "range" of what is scored, as
+/// `evaluate` takes it).
+fn overlap_stats(real: &[f64], aligned: &[f64], overlap: &[bool], kreq: &Request, want_extent: bool) -> Result<Scored> {
+    let st = stats::pair_stats(real, aligned, &Request { mask: Some(overlap), valid: None, ..kreq.clone() })?;
+    let extent = if want_extent {
+        finite_extent(real.iter().zip(overlap).filter(|&(_, &keep)| keep).map(|(&v, _)| v))
+    } else {
+        None
+    };
+    Ok((st, extent))
 }
 
 /// Decode and score one pair on the current thread (and the current rayon pool).
@@ -337,7 +363,7 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
         let r = decode(real, &req.real_channel, req)?;
         out.shape = Some((r.rows, r.cols));
         out.dtype = Some(r.data.dtype_name());
-        if req.real_extent {
+        if req.real_extent && req.warp.is_none() {
             out.real_extent = extent(&r.data);
         }
         let s = decode(sim, &req.sim_channel, req)?;
@@ -364,9 +390,13 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
         };
         let st = match &req.warp {
             None => run_kernel(r.data, s.data, &kreq),
-            Some(Warp::Fixed(warp)) => score_aligned(&r, &s, warp, &kreq),
-            Some(Warp::Each(each)) => each.score(&r, &s, &kreq).map(|(reg, st)| {
+            Some(Warp::Fixed(warp)) => score_aligned(&r, &s, warp, &kreq, req.real_extent).map(|(st, extent)| {
+                out.real_extent = extent;
+                st
+            }),
+            Some(Warp::Each(each)) => each.score(&r, &s, &kreq, req.real_extent).map(|(reg, (st, extent))| {
                 out.registration = Some(reg);
+                out.real_extent = extent;
                 st
             }),
         }

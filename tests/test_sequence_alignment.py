@@ -88,6 +88,26 @@ def test_every_pair_is_registered_on_its_own_and_scored_as_evaluate_scores_it(tm
     assert '<section id="registration"><h2>Registration per frame</h2>' in page and "6 frames registered" in page
 
 
+@pytest.mark.parametrize("each", [False, True], ids=["registered-once", "registered-each"])
+def test_the_peak_range_is_that_of_the_pixels_scored(tmp_path, moving_view, each):
+    real, sims, _ = moving_view
+    real = real.copy()
+    real[:, :2, :] = real.max() + 500  # a hot border outside the overlap (the views move ≥ 3 px up)
+    sims = [ndi.shift(s, (-6, 0), order=0, mode="nearest") for s in sims]
+    write_pngs(tmp_path / "real", real)
+    write_pngs(tmp_path / "sim", sims)
+    options = dict(register="translation", register_each=each, bits=16, peak="range", progress=False)
+    for source in ((tmp_path / "real", tmp_path / "sim"), (real, np.stack(sims))):
+        rep = quietly(irf.score_sequence, *source, **options)
+        for i in (0, 3):
+            reg = irf.Registration.from_dict(rep.frames[i]["registration"])
+            assert not reg.apply(sims[i])[1][:2].any()  # the hot border is not scored
+            alone = quietly(irf.evaluate, real[i], sims[i], register="translation", bits=16, peak="range")
+            if each:
+                assert rep.frames[i]["metrics"] == alone.metrics
+            assert rep.frames[i]["metrics"]["psnr_peak"] <= float(real[i, 2:].max()) - float(real[i, 2:].min())
+
+
 def test_a_pair_that_cannot_be_registered_is_its_own_error_row(tmp_path, moving_view):
     real, sims, _ = moving_view
     sims = list(sims)

@@ -155,8 +155,8 @@ class ArrayLoop:
                             mask=mask, need=self.plan.image, nonfinite=cfg.nonfinite)
         except FidelityError as exc:
             return Outcome(index, None, str(exc))
-        return Outcome(index, st, None, real.shape, real.dtype.name,
-                       _extent(real) if cfg.peak == "range" else None,
+        extent = _extent(scored_real if mask is None else scored_real[mask]) if cfg.peak == "range" else None
+        return Outcome(index, st, None, real.shape, real.dtype.name, extent,
                        registration if cfg.register_each else None)
 
     def _registration(self, real: np.ndarray, sim: np.ndarray) -> Any:
