@@ -14,7 +14,12 @@ Measured in the same run:
   thread for EXR) + scikit-image ``peak_signal_noise_ratio`` and
   ``normalized_mutual_information(bins=256)`` + a numpy float64 global SSIM;
 * the PSNR-only plan (``weights="psnr=1"``) vs ffmpeg's ``psnr`` filter on the same PNG
-  sequence (skipped with a message if ffmpeg is not installed).
+  sequence (skipped with a message if ffmpeg is not installed);
+* registered sequences, on a PNG workload whose simulated frames are also displaced by
+  (1.3, −0.7) px: registered once (``register="translation"``), every pair registered
+  (``register_each``, translation and rigid), against a Python pipeline registering every
+  pair: decode + scikit-image ``phase_cross_correlation(upsample_factor=100)`` + scipy
+  ``ndimage.shift`` (cubic spline) + the same metrics over the overlap.
 
 Usage: ``python benches/bench_sequence.py [--pairs N] [--quick] [--keep DIR]``
 (default 200 pairs cycling over 100 distinct frames; ``--quick``: 40 pairs, PNG and
@@ -47,6 +52,8 @@ HERE = pathlib.Path(__file__).resolve().parent
 STACK = HERE.parent / "tests" / "data" / "thermal" / "cptv_v2_all100frames_uint16.tif"
 ROWS, COLS = 512, 640
 PEAK = 65535.0
+#: (dy, dx) by which the "png16-moved" workload displaces the simulated view.
+MOVED = (1.3, -0.7)
 # the 16-bit peak, as ffmpeg's psnr filter uses: the warning that it pins the psnr component
 # near 1 on these frames is expected here
 warnings.filterwarnings("ignore", category=PeakWarning)
@@ -87,7 +94,7 @@ def generate(root: pathlib.Path, pairs: int, exr_kinds) -> dict:
     import OpenEXR
 
     comp = {"zip": OpenEXR.ZIP_COMPRESSION, "piz": OpenEXR.PIZ_COMPRESSION}
-    names = ["png16"] + [f"exr-{dt}-{c}" for dt, c in exr_kinds]
+    names = ["png16", "png16-moved"] + [f"exr-{dt}-{c}" for dt, c in exr_kinds]
     for name in names:
         for side in ("real", "sim"):
             (root / name / side).mkdir(parents=True, exist_ok=True)
@@ -95,6 +102,11 @@ def generate(root: pathlib.Path, pairs: int, exr_kinds) -> dict:
 
     def write(item):
         i, real, sim = item
+        moved = cv2.warpAffine(sim.astype(np.float32), np.float32([[1, 0, MOVED[1]], [0, 1, MOVED[0]]]),
+                               (COLS, ROWS), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+        cv2.imwrite(str(root / "png16-moved" / "real" / f"f_{i:04d}.png"), real)
+        cv2.imwrite(str(root / "png16-moved" / "sim" / f"f_{i:04d}.png"), np.clip(np.rint(moved), 0, 16383)
+                    .astype(np.uint16))
         for side, img in (("real", real), ("sim", sim)):
             cv2.imwrite(str(root / "png16" / side / f"f_{i:04d}.png"), img)
             for dt, c in exr_kinds:
@@ -105,7 +117,7 @@ def generate(root: pathlib.Path, pairs: int, exr_kinds) -> dict:
         list(ex.map(write, _frames(unique)))
     out = {}
     for name in names:
-        ext = "png" if name == "png16" else "exr"
+        ext = "png" if name.startswith("png16") else "exr"
         out[name] = tuple([str(root / name / side / f"f_{i % unique:04d}.{ext}") for i in range(pairs)]
                           for side in ("real", "sim"))
     return out
@@ -170,25 +182,64 @@ def baseline(paths, png: bool) -> tuple[float, float]:
     return len(real) / tm.wall, tm.cpu / len(real) * 1e3
 
 
-def irf_rate(paths, workers: int, weights=None) -> tuple[float, float]:
+def irf_rate(paths, workers: int, weights=None, **options) -> tuple[float, float]:
     """(frames/s, CPU ms/frame) of score_sequence on lists of paths (no CSV, no bar)."""
     real, sim = paths
     n = len(real)
     with Timer() as tm:
-        rep = score_sequence(real, sim, peak=PEAK, workers=workers, weights=weights, progress=False)
+        rep = score_sequence(real, sim, peak=PEAK, workers=workers, weights=weights, progress=False, **options)
     assert not rep.failed, rep.summary_text()
     return n / tm.wall, tm.cpu / n * 1e3
 
 
-def best_of(paths, weights=None, runs: int = 2) -> tuple[float, float, float, float]:
+def best_of(paths, weights=None, runs: int = 2, **options) -> tuple[float, float, float, float]:
     """Best of `runs` interleaved 1-worker / 2-worker runs:
     (fps 1w, CPU ms/frame 1w, fps 2w, CPU ms/frame 2w)."""
     one, two, cpu1, cpu2 = 0.0, 0.0, math.inf, math.inf
     for _ in range(runs):
-        f1, c1 = irf_rate(paths, 1, weights)
-        f2, c2 = irf_rate(paths, 2, weights)
+        f1, c1 = irf_rate(paths, 1, weights, **options)
+        f2, c2 = irf_rate(paths, 2, weights, **options)
         one, two, cpu1, cpu2 = max(one, f1), max(two, f2), min(cpu1, c1), min(cpu2, c2)
     return one, cpu1, two, cpu2
+
+
+def baseline_registered(paths) -> tuple[float, float]:
+    """(frames/s, CPU ms/frame) of decode + scikit-image phase correlation (×100) + a cubic
+    spline shift + PSNR, NMI(256 bins) and global SSIM over the overlap, for every pair."""
+    import cv2
+    import scipy.ndimage as ndi
+    from skimage.metrics import normalized_mutual_information, peak_signal_noise_ratio
+    from skimage.registration import phase_cross_correlation
+
+    real, sim = paths
+    with Timer() as tm:
+        for rp, sp in zip(real, sim):
+            r = cv2.imread(rp, cv2.IMREAD_UNCHANGED).astype(np.float64)
+            s = cv2.imread(sp, cv2.IMREAD_UNCHANGED).astype(np.float64)
+            shift, _, _ = phase_cross_correlation(r, s, upsample_factor=100)
+            aligned = ndi.shift(s, shift, order=3, mode="constant", cval=np.nan)
+            keep = np.isfinite(aligned)
+            r, aligned = r[keep], aligned[keep]
+            peak_signal_noise_ratio(r, aligned, data_range=PEAK)
+            normalized_mutual_information(r, aligned, bins=256)
+            _ssim_global(r, aligned)
+    return len(real) / tm.wall, tm.cpu / len(real) * 1e3
+
+
+def registered_rows(paths) -> None:
+    """Registered sequences: once, and every pair (translation, rigid), against the Python
+    pipeline registering every pair."""
+    py, cpu_py = baseline_registered(paths)
+    print(f"{'registration':<22} {'irf 1w':>7} {'irf 2w':>7} {'2w/1w':>6} {'2w/py':>6}   CPU ms/frame: "
+          f"{'irf 1w':>6} {'py/irf':>6}")
+    for label, options in (("none", {}), ("once, translation", {"register": "translation"}),
+                           ("each, translation", {"register": "translation", "register_each": True}),
+                           ("each, rigid", {"register": "rigid", "register_each": True})):
+        one, cpu_one, two, _ = best_of(paths, **options)
+        print(f"{label:<22} {one:7.1f} {two:7.1f} {two / one:6.2f} {two / py:6.1f}                {cpu_one:6.2f} "
+              f"{cpu_py / cpu_one:6.1f}")
+    print(f"{'python, each':<22} {py:7.1f}   (CPU {cpu_py:.1f} ms/frame: decode + skimage pcc ×100 + ndimage.shift "
+          f"+ metrics)")
 
 
 def ffmpeg_rate(d: pathlib.Path, pairs: int) -> tuple[float, float] | None:
@@ -232,6 +283,8 @@ def main(argv=None) -> int:
         print(f"{'workload':<13} {'irf 1w':>7} {'irf 2w':>7} {'2w/1w':>6} {'python':>7} {'2w/py':>6} {'1w/py':>6}"
               f"   CPU ms/frame: {'irf 1w':>6} {'irf 2w':>6} {'python':>6} {'py/irf':>6}")
         for name, paths in dirs.items():
+            if name == "png16-moved":
+                continue
             one, cpu_one, two, cpu_two = best_of(paths)
             py, cpu_py = baseline(paths, png=name == "png16")
             print(f"{name:<13} {one:7.1f} {two:7.1f} {two / one:6.2f} {py:7.1f} {two / py:6.1f} {one / py:6.1f}"
@@ -248,6 +301,8 @@ def main(argv=None) -> int:
         else:
             print(line + f"  ffmpeg psnr {ff[0]:.1f} frames/s ({ff[1]:.1f} CPU ms/frame)  "
                   f"irf2w/ffmpeg {two / ff[0]:.2f}  irf1w/ffmpeg {one / ff[0]:.2f}")
+        print(f"\nregistered sequences: 16-bit PNG, the simulated view displaced by {MOVED} px, all image components")
+        registered_rows(dirs["png16-moved"])
     finally:
         if args.keep is None:
             shutil.rmtree(root, ignore_errors=True)
