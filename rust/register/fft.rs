@@ -49,6 +49,12 @@ const ROW_BLOCK: usize = 16;
 /// Forward transform of a `rows × cols` real image (row-major).
 pub fn forward(values: &[f64], rows: usize, cols: usize) -> Result<Spectrum> {
     debug_assert_eq!(values.len(), rows * cols);
+    forward_rows(rows, cols, |r, line| line.copy_from_slice(&values[r * cols..(r + 1) * cols]))
+}
+
+/// Forward transform of a `rows × cols` real image whose row `r` `fill_row(r, line)` writes
+/// into `line` (so an image computed row by row, such as a tapered frame, is never stored).
+pub fn forward_rows(rows: usize, cols: usize, mut fill_row: impl FnMut(usize, &mut [f64])) -> Result<Spectrum> {
     let (r2c, col_fft): (Arc<dyn RealToComplex<f64>>, Arc<dyn Fft<f64>>) = PLANNERS.with(|p| {
         let mut p = p.borrow_mut();
         (p.real.plan_fft_forward(cols), p.complex.plan_fft_forward(rows))
@@ -61,7 +67,7 @@ pub fn forward(values: &[f64], rows: usize, cols: usize) -> Result<Spectrum> {
     for r0 in (0..rows).step_by(ROW_BLOCK) {
         let n = ROW_BLOCK.min(rows - r0);
         for k in 0..n {
-            line.copy_from_slice(&values[(r0 + k) * cols..(r0 + k + 1) * cols]);
+            fill_row(r0 + k, &mut line);
             r2c.process_with_scratch(&mut line, &mut block[k * width..(k + 1) * width], &mut scratch)
                 .map_err(fft_error)?;
         }

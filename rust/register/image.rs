@@ -48,22 +48,31 @@ impl Plane {
                 return Err(Error::Shape(format!("mask has {} elements, frames have {}", m.len(), data.len())));
             }
         }
-        let values: Vec<f64> = data.iter().map(|v| v.to_f64()).collect();
+        let mut values: Vec<f64> = data.iter().map(|v| v.to_f64()).collect();
         let valid: Vec<bool> = match mask {
             Some(m) => values.iter().zip(m).map(|(v, &keep)| keep && v.is_finite()).collect(),
             None => values.iter().map(|v| v.is_finite()).collect(),
         };
-        Ok(Plane::new(rows, cols, values, valid))
+        let n_valid = valid.iter().filter(|&&ok| ok).count();
+        if n_valid < valid.len() {
+            values.iter_mut().zip(&valid).filter(|(_, &ok)| !ok).for_each(|(v, _)| *v = 0.0);
+        }
+        Ok(Plane { rows, cols, values, valid, n_valid })
     }
 
     /// Mean of the valid pixels (0 if none).
     pub fn mean(&self) -> f64 {
-        let sum: f64 = self.values.iter().zip(&self.valid).map(|(&v, &ok)| if ok { v } else { 0.0 }).sum();
         if self.n_valid == 0 {
-            0.0
-        } else {
-            sum / self.n_valid as f64
+            return 0.0;
         }
+        // excluded pixels hold 0: the plain sum is that of the valid pixels
+        let mut lanes = [0.0f64; 4];
+        let chunks = self.values.chunks_exact(4);
+        let tail: f64 = chunks.remainder().iter().sum();
+        for chunk in chunks {
+            lanes.iter_mut().zip(chunk).for_each(|(acc, v)| *acc += v);
+        }
+        (lanes.iter().sum::<f64>() + tail) / self.n_valid as f64
     }
 
     /// Mean and population standard deviation of the valid pixels (two passes).
@@ -79,14 +88,22 @@ impl Plane {
 
     /// Smallest and largest valid value.
     pub fn range(&self) -> (f64, f64) {
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for (&v, &ok) in self.values.iter().zip(&self.valid) {
-            if ok {
-                lo = if v < lo { v } else { lo };
-                hi = if v > hi { v } else { hi };
+        let (mut lo, mut hi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+        let chunks = self.values.chunks_exact(4).zip(self.valid.chunks_exact(4));
+        let tail = self.values.len() - self.values.len() % 4;
+        for (v, ok) in chunks {
+            for k in 0..4 {
+                lo[k] = if ok[k] && v[k] < lo[k] { v[k] } else { lo[k] };
+                hi[k] = if ok[k] && v[k] > hi[k] { v[k] } else { hi[k] };
             }
         }
-        (lo, hi)
+        for i in tail..self.values.len() {
+            if self.valid[i] {
+                lo[0] = lo[0].min(self.values[i]);
+                hi[0] = hi[0].max(self.values[i]);
+            }
+        }
+        (lo.into_iter().fold(f64::INFINITY, f64::min), hi.into_iter().fold(f64::NEG_INFINITY, f64::max))
     }
 
     fn valid_values(&self) -> impl Iterator<Item = f64> + '_ {
