@@ -17,7 +17,7 @@
 //! The apodisation window favours small shifts and the FFT cannot tell `d` from
 //! `d ± frame size`; both are settled on the pixels ([`super::shifts`]).
 
-use super::fft::{self, Spectrum, C64};
+use super::fft::{self, Spectrum, C32, C64};
 use super::image::Plane;
 use super::shifts::{resolve_alias, shifted_gradient_correlation};
 use super::subpixel::newton_peak;
@@ -172,20 +172,19 @@ fn correlate_spectra(
 }
 
 /// The cross-power spectrum `X = a·conj(b)` whitened in place: `a` becomes `X/|X|^½`, `b`
-/// becomes `X/|X|` (both 0 where `|X|` is below 1e-12 of its largest value).
-fn whiten(a: &mut [C64], b: &mut [C64]) {
-    let mut largest_sq = 0.0f64;
-    for (x, y) in a.iter().zip(b.iter_mut()) {
-        *y = *x * y.conj();
-        largest_sq = largest_sq.max(y.norm_sqr());
-    }
+/// becomes `X/|X|` (both 0 where `|X|` is below 1e-12 of its largest value). Computed in
+/// float64: `|X|²` can exceed the float32 range.
+fn whiten(a: &mut [C32], b: &mut [C32]) {
+    let wide = |z: C32| C64::new(z.re as f64, z.im as f64);
+    let narrow = |z: C64| C32::new(z.re as f32, z.im as f32);
+    let largest_sq = a.iter().zip(b.iter()).map(|(x, y)| wide(*x).norm_sqr() * wide(*y).norm_sqr()).fold(0.0, f64::max);
     let floor = largest_sq.sqrt() * 1e-12;
     for (x, y) in a.iter_mut().zip(b.iter_mut()) {
-        let z = *y;
+        let z = wide(*x) * wide(*y).conj();
         let m = z.norm_sqr().sqrt(); // no overflow here; `norm` calls libm's slow hypot
         let inv = if m > floor { 1.0 / m } else { 0.0 };
-        *x = z * inv.sqrt();
-        *y = z * inv;
+        *x = narrow(z * inv.sqrt());
+        *y = narrow(z * inv);
     }
 }
 

@@ -9,7 +9,7 @@
 //! reaches its maximum to machine precision in a few evaluations instead, and its accuracy
 //! does not depend on an upsampling factor.
 
-use super::fft::{Spectrum, C64};
+use super::fft::{Spectrum, C32, C64};
 use super::phase::signed;
 
 /// Value, gradient and Hessian of the band-limited correlation at `(py, px)`.
@@ -73,12 +73,13 @@ impl<'a> Interpolant<'a> {
 
 /// `Σ x·p·a^m` for m = 0, 1, 2 over one column `x` of the spectrum, its phasors `p` and
 /// frequencies `a`. Summed in four independent lanes, which the compiler can vectorise.
-fn column_moments(column: &[C64], phasor: &[C64], freq: &[f64]) -> [C64; 3] {
+fn column_moments(column: &[C32], phasor: &[C64], freq: &[f64]) -> [C64; 3] {
     const LANES: usize = 4;
     // re and im of the three sums, one partial sum per lane
     let mut acc = [[0.0f64; LANES]; 6];
-    let mut add = |lane: usize, x: &C64, p: &C64, a: f64| {
-        let (tr, ti) = (x.re * p.re - x.im * p.im, x.re * p.im + x.im * p.re);
+    let mut add = |lane: usize, x: &C32, p: &C64, a: f64| {
+        let (xr, xi) = (x.re as f64, x.im as f64);
+        let (tr, ti) = (xr * p.re - xi * p.im, xr * p.im + xi * p.re);
         let (ur, ui) = (tr * a, ti * a);
         acc[0][lane] += tr;
         acc[1][lane] += ti;
