@@ -21,12 +21,60 @@ pub type C64 = Complex<f64>;
 /// A coefficient of a [`Spectrum`].
 pub type C32 = Complex<f32>;
 
-/// The half spectrum of a real `rows × cols` image, column-major.
+/// The half spectrum of a real `rows × cols` image, column-major. Its storage goes back to
+/// the thread's [`SPARE`] buffers when it is dropped.
 #[derive(Clone, Debug)]
 pub struct Spectrum {
     pub rows: usize,
     pub cols: usize,
     pub data: Vec<C32>,
+}
+
+impl Drop for Spectrum {
+    fn drop(&mut self) {
+        give_back(std::mem::take(&mut self.data));
+    }
+}
+
+/// Bytes of spectrum storage a thread keeps for reuse. A fresh multi-megabyte buffer costs
+/// the kernel a page fault per 4 KiB page on first touch; registering a sequence of frames
+/// of one size reuses the same few buffers instead.
+const SPARE_BYTES: usize = 16 << 20;
+
+thread_local! {
+    static SPARE: RefCell<Vec<Vec<C32>>> = const { RefCell::new(Vec::new()) };
+}
+
+/// A zeroed buffer of `len` coefficients, reused from [`SPARE`] when one is large enough.
+fn zeroed_buffer(len: usize) -> Vec<C32> {
+    let reused = SPARE.with(|s| {
+        let mut spare = s.borrow_mut();
+        let i = spare.iter().position(|b| b.capacity() >= len)?;
+        Some(spare.swap_remove(i))
+    });
+    match reused {
+        Some(mut buffer) => {
+            buffer.clear();
+            buffer.resize(len, C32::default());
+            buffer
+        }
+        None => vec![C32::default(); len],
+    }
+}
+
+/// Keep `buffer` for reuse while the thread's spare storage stays within [`SPARE_BYTES`].
+fn give_back(buffer: Vec<C32>) {
+    let bytes = |b: &Vec<C32>| b.capacity() * std::mem::size_of::<C32>();
+    if bytes(&buffer) == 0 {
+        return;
+    }
+    // `try_with`: a spectrum dropped while the thread exits finds the store gone
+    let _ = SPARE.try_with(|s| {
+        let mut spare = s.borrow_mut();
+        if spare.iter().map(bytes).sum::<usize>() + bytes(&buffer) <= SPARE_BYTES {
+            spare.push(buffer);
+        }
+    });
 }
 
 impl Spectrum {
@@ -67,7 +115,7 @@ pub fn forward_rows(rows: usize, cols: usize, mut fill_row: impl FnMut(usize, &m
         (p.real.plan_fft_forward(cols), p.complex.plan_fft_forward(rows))
     });
     let width = cols / 2 + 1;
-    let mut data = vec![C32::default(); width * rows];
+    let mut data = zeroed_buffer(width * rows);
     let mut line = vec![0.0; cols];
     let mut line32 = vec![0.0f32; cols];
     let mut block = vec![C32::default(); ROW_BLOCK * width];
@@ -154,7 +202,8 @@ mod tests {
                 assert!((C64::new(got.re as f64, got.im as f64) - want).norm() < 1e-4);
             }
         }
-        for (rows, cols) in [(6, 5), (8, 8), (1, 4), (17, 16)] {
+        // sizes in turn, so the later ones reuse the earlier ones' storage
+        for (rows, cols) in [(6, 5), (8, 8), (1, 4), (17, 16), (6, 5)] {
             let values: Vec<f64> = (0..rows * cols).map(|i| ((i * 31) % 11) as f64).collect();
             let back = inverse(forward(&values, rows, cols).unwrap()).unwrap();
             assert!(back.iter().zip(&values).all(|(a, b)| (a - b).abs() < 1e-5), "{rows}x{cols}");

@@ -88,6 +88,9 @@ impl Plane {
 
     /// Smallest and largest valid value.
     pub fn range(&self) -> (f64, f64) {
+        if self.n_valid == self.values.len() {
+            return min_max(&self.values);
+        }
         let (mut lo, mut hi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
         let chunks = self.values.chunks_exact(4).zip(self.valid.chunks_exact(4));
         let tail = self.values.len() - self.values.len() % 4;
@@ -202,6 +205,22 @@ impl Plane {
     }
 }
 
+/// Smallest and largest of `values` (infinities when empty), in four lanes.
+fn min_max(values: &[f64]) -> (f64, f64) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+    let chunks = values.chunks_exact(4);
+    let tail = chunks.remainder();
+    for v in chunks {
+        for k in 0..4 {
+            lo[k] = if v[k] < lo[k] { v[k] } else { lo[k] };
+            hi[k] = if v[k] > hi[k] { v[k] } else { hi[k] };
+        }
+    }
+    let fold =
+        |x: [f64; 4], f: fn(f64, f64) -> f64| x.into_iter().chain(tail.iter().copied()).reduce(f).unwrap_or(x[0]);
+    (fold(lo, f64::min), fold(hi, f64::max))
+}
+
 /// Convolve rows then columns with a symmetric kernel; outside the image counts as 0.
 fn convolve_separable(values: &[f64], rows: usize, cols: usize, kernel: &[f64]) -> Vec<f64> {
     let radius = kernel.len() / 2;
@@ -209,16 +228,7 @@ fn convolve_separable(values: &[f64], rows: usize, cols: usize, kernel: &[f64]) 
     bands::fill_rows(&mut tmp, cols, |first, band| {
         for (k, out) in band.chunks_exact_mut(cols).enumerate() {
             let line = &values[(first + k) * cols..(first + k + 1) * cols];
-            for (c, o) in out.iter_mut().enumerate() {
-                if c >= radius && c + radius < cols {
-                    // interior: the whole kernel
-                    *o = line[c - radius..=c + radius].iter().zip(kernel).map(|(v, k)| v * k).sum();
-                } else {
-                    let lo = c.saturating_sub(radius);
-                    let hi = (c + radius).min(cols - 1);
-                    *o = (lo..=hi).map(|k| line[k] * kernel[k + radius - c]).sum();
-                }
-            }
+            convolve_line(line, kernel, out);
         }
     });
     let mut out = vec![0.0; rows * cols];
@@ -236,6 +246,30 @@ fn convolve_separable(values: &[f64], rows: usize, cols: usize, kernel: &[f64]) 
         }
     });
     out
+}
+
+/// One row convolved with a symmetric kernel (outside the row counts as 0). The interior,
+/// where the whole kernel fits, is summed tap by tap over the row (vectorised).
+fn convolve_line(line: &[f64], kernel: &[f64], out: &mut [f64]) {
+    let (cols, radius) = (line.len(), kernel.len() / 2);
+    let edge = |c: usize| {
+        let lo = c.saturating_sub(radius);
+        let hi = (c + radius).min(cols - 1);
+        (lo..=hi).map(|k| line[k] * kernel[k + radius - c]).sum()
+    };
+    if cols <= 2 * radius {
+        out.iter_mut().enumerate().for_each(|(c, o)| *o = edge(c));
+        return;
+    }
+    let inner = cols - 2 * radius;
+    let interior = &mut out[radius..radius + inner];
+    interior.iter_mut().for_each(|o| *o = 0.0);
+    for (k, &w) in kernel.iter().enumerate() {
+        interior.iter_mut().zip(&line[k..k + inner]).for_each(|(o, v)| *o += v * w);
+    }
+    for c in (0..radius).chain(cols - radius..cols) {
+        out[c] = edge(c);
+    }
 }
 
 #[cfg(test)]
@@ -264,6 +298,20 @@ mod tests {
         let p = Plane::new(10, 10, values, valid).smoothed(1.0);
         assert!(p.values.iter().zip(&p.valid).all(|(&v, &ok)| !ok || (v - 7.0).abs() < 1e-12));
         assert!(!p.valid[55]);
+    }
+
+    #[test]
+    fn row_convolution_matches_the_direct_sum() {
+        let kernel = [0.25, 0.5, 1.0, 0.5, 0.25];
+        for cols in [1usize, 3, 4, 5, 9] {
+            let line: Vec<f64> = (0..cols).map(|i| (i * i) as f64 - 3.0).collect();
+            let mut out = vec![f64::NAN; cols];
+            convolve_line(&line, &kernel, &mut out);
+            for (c, &o) in out.iter().enumerate() {
+                let want: f64 = (0..cols).filter(|&k| k.abs_diff(c) <= 2).map(|k| line[k] * kernel[k + 2 - c]).sum();
+                assert!((o - want).abs() < 1e-12, "{cols} {c}");
+            }
+        }
     }
 
     #[test]
