@@ -357,15 +357,19 @@ fn rises_beyond(
 }
 
 /// The integer peak moved by a parabola through it and its neighbours on each axis (at most
-/// half a pixel): where Newton's method starts.
+/// half a pixel): where Newton's method starts. A move below [`ON_THE_INTEGER`] is rounding
+/// in the surface (float32 transforms are not exactly symmetric): Newton's method starts on
+/// the integer, where the gradient of a symmetric peak (identical frames) is exactly zero.
 fn parabolic_start(surface: &[f64], rows: usize, cols: usize, peak: (isize, isize), sign: f64) -> (f64, f64) {
+    const ON_THE_INTEGER: f64 = 1e-6;
     let at = |dy: isize, dx: isize| sign * surface[wrap(peak.0 + dy, rows) * cols + wrap(peak.1 + dx, cols)];
     let vertex = |minus: f64, centre: f64, plus: f64| {
         let curvature = minus - 2.0 * centre + plus;
-        if curvature < 0.0 {
-            (0.5 * (minus - plus) / curvature).clamp(-0.5, 0.5)
-        } else {
+        let offset = if curvature < 0.0 { (0.5 * (minus - plus) / curvature).clamp(-0.5, 0.5) } else { 0.0 };
+        if offset.abs() < ON_THE_INTEGER {
             0.0
+        } else {
+            offset
         }
     };
     let c = at(0, 0);
@@ -423,6 +427,14 @@ mod tests {
                 assert_eq!(pk.sign, 1.0);
             }
         }
+    }
+
+    #[test]
+    fn identical_frames_give_exactly_no_shift() {
+        let frame = untapered(&pattern(48, 64, 0.3, -0.2));
+        let limits = search_limits(48, 64, None);
+        let (pk, _) = correlate_tapered(&frame, &frame, 48, 64, limits, Polarity::Either, Locate::Whitened).unwrap();
+        assert_eq!((pk.dy, pk.dx, pk.sign), (0.0, 0.0, 1.0));
     }
 
     #[test]
