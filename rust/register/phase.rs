@@ -357,7 +357,7 @@ fn rises_beyond(
 }
 
 /// The integer peak moved by a parabola through it and its neighbours on each axis (at most
-/// half a pixel): where Newton's method starts. A move below [`ON_THE_INTEGER`] is rounding
+/// half a pixel): where Newton's method starts. A move below `ON_THE_INTEGER` is rounding
 /// in the surface (float32 transforms are not exactly symmetric): Newton's method starts on
 /// the integer, where the gradient of a symmetric peak (identical frames) is exactly zero.
 fn parabolic_start(surface: &[f64], rows: usize, cols: usize, peak: (isize, isize), sign: f64) -> (f64, f64) {
