@@ -48,22 +48,31 @@ impl Plane {
                 return Err(Error::Shape(format!("mask has {} elements, frames have {}", m.len(), data.len())));
             }
         }
-        let values: Vec<f64> = data.iter().map(|v| v.to_f64()).collect();
+        let mut values: Vec<f64> = data.iter().map(|v| v.to_f64()).collect();
         let valid: Vec<bool> = match mask {
             Some(m) => values.iter().zip(m).map(|(v, &keep)| keep && v.is_finite()).collect(),
             None => values.iter().map(|v| v.is_finite()).collect(),
         };
-        Ok(Plane::new(rows, cols, values, valid))
+        let n_valid = valid.iter().filter(|&&ok| ok).count();
+        if n_valid < valid.len() {
+            values.iter_mut().zip(&valid).filter(|(_, &ok)| !ok).for_each(|(v, _)| *v = 0.0);
+        }
+        Ok(Plane { rows, cols, values, valid, n_valid })
     }
 
     /// Mean of the valid pixels (0 if none).
     pub fn mean(&self) -> f64 {
-        let sum: f64 = self.values.iter().zip(&self.valid).map(|(&v, &ok)| if ok { v } else { 0.0 }).sum();
         if self.n_valid == 0 {
-            0.0
-        } else {
-            sum / self.n_valid as f64
+            return 0.0;
         }
+        // excluded pixels hold 0: the plain sum is that of the valid pixels
+        let mut lanes = [0.0f64; 4];
+        let chunks = self.values.chunks_exact(4);
+        let tail: f64 = chunks.remainder().iter().sum();
+        for chunk in chunks {
+            lanes.iter_mut().zip(chunk).for_each(|(acc, v)| *acc += v);
+        }
+        (lanes.iter().sum::<f64>() + tail) / self.n_valid as f64
     }
 
     /// Mean and population standard deviation of the valid pixels (two passes).
@@ -79,14 +88,25 @@ impl Plane {
 
     /// Smallest and largest valid value.
     pub fn range(&self) -> (f64, f64) {
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for (&v, &ok) in self.values.iter().zip(&self.valid) {
-            if ok {
-                lo = if v < lo { v } else { lo };
-                hi = if v > hi { v } else { hi };
+        if self.n_valid == self.values.len() {
+            return min_max(&self.values);
+        }
+        let (mut lo, mut hi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+        let chunks = self.values.chunks_exact(4).zip(self.valid.chunks_exact(4));
+        let tail = self.values.len() - self.values.len() % 4;
+        for (v, ok) in chunks {
+            for k in 0..4 {
+                lo[k] = if ok[k] && v[k] < lo[k] { v[k] } else { lo[k] };
+                hi[k] = if ok[k] && v[k] > hi[k] { v[k] } else { hi[k] };
             }
         }
-        (lo, hi)
+        for i in tail..self.values.len() {
+            if self.valid[i] {
+                lo[0] = lo[0].min(self.values[i]);
+                hi[0] = hi[0].max(self.values[i]);
+            }
+        }
+        (lo.into_iter().fold(f64::INFINITY, f64::min), hi.into_iter().fold(f64::NEG_INFINITY, f64::max))
     }
 
     fn valid_values(&self) -> impl Iterator<Item = f64> + '_ {
@@ -185,6 +205,22 @@ impl Plane {
     }
 }
 
+/// Smallest and largest of `values` (infinities when empty), in four lanes.
+fn min_max(values: &[f64]) -> (f64, f64) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+    let chunks = values.chunks_exact(4);
+    let tail = chunks.remainder();
+    for v in chunks {
+        for k in 0..4 {
+            lo[k] = if v[k] < lo[k] { v[k] } else { lo[k] };
+            hi[k] = if v[k] > hi[k] { v[k] } else { hi[k] };
+        }
+    }
+    let fold =
+        |x: [f64; 4], f: fn(f64, f64) -> f64| x.into_iter().chain(tail.iter().copied()).reduce(f).unwrap_or(x[0]);
+    (fold(lo, f64::min), fold(hi, f64::max))
+}
+
 /// Convolve rows then columns with a symmetric kernel; outside the image counts as 0.
 fn convolve_separable(values: &[f64], rows: usize, cols: usize, kernel: &[f64]) -> Vec<f64> {
     let radius = kernel.len() / 2;
@@ -192,16 +228,7 @@ fn convolve_separable(values: &[f64], rows: usize, cols: usize, kernel: &[f64]) 
     bands::fill_rows(&mut tmp, cols, |first, band| {
         for (k, out) in band.chunks_exact_mut(cols).enumerate() {
             let line = &values[(first + k) * cols..(first + k + 1) * cols];
-            for (c, o) in out.iter_mut().enumerate() {
-                if c >= radius && c + radius < cols {
-                    // interior: the whole kernel
-                    *o = line[c - radius..=c + radius].iter().zip(kernel).map(|(v, k)| v * k).sum();
-                } else {
-                    let lo = c.saturating_sub(radius);
-                    let hi = (c + radius).min(cols - 1);
-                    *o = (lo..=hi).map(|k| line[k] * kernel[k + radius - c]).sum();
-                }
-            }
+            convolve_line(line, kernel, out);
         }
     });
     let mut out = vec![0.0; rows * cols];
@@ -219,6 +246,30 @@ fn convolve_separable(values: &[f64], rows: usize, cols: usize, kernel: &[f64]) 
         }
     });
     out
+}
+
+/// One row convolved with a symmetric kernel (outside the row counts as 0). The interior,
+/// where the whole kernel fits, is summed tap by tap over the row (vectorised).
+fn convolve_line(line: &[f64], kernel: &[f64], out: &mut [f64]) {
+    let (cols, radius) = (line.len(), kernel.len() / 2);
+    let edge = |c: usize| {
+        let lo = c.saturating_sub(radius);
+        let hi = (c + radius).min(cols - 1);
+        (lo..=hi).map(|k| line[k] * kernel[k + radius - c]).sum()
+    };
+    if cols <= 2 * radius {
+        out.iter_mut().enumerate().for_each(|(c, o)| *o = edge(c));
+        return;
+    }
+    let inner = cols - 2 * radius;
+    let interior = &mut out[radius..radius + inner];
+    interior.iter_mut().for_each(|o| *o = 0.0);
+    for (k, &w) in kernel.iter().enumerate() {
+        interior.iter_mut().zip(&line[k..k + inner]).for_each(|(o, v)| *o += v * w);
+    }
+    for c in (0..radius).chain(cols - radius..cols) {
+        out[c] = edge(c);
+    }
 }
 
 #[cfg(test)]
@@ -247,6 +298,20 @@ mod tests {
         let p = Plane::new(10, 10, values, valid).smoothed(1.0);
         assert!(p.values.iter().zip(&p.valid).all(|(&v, &ok)| !ok || (v - 7.0).abs() < 1e-12));
         assert!(!p.valid[55]);
+    }
+
+    #[test]
+    fn row_convolution_matches_the_direct_sum() {
+        let kernel = [0.25, 0.5, 1.0, 0.5, 0.25];
+        for cols in [1usize, 3, 4, 5, 9] {
+            let line: Vec<f64> = (0..cols).map(|i| (i * i) as f64 - 3.0).collect();
+            let mut out = vec![f64::NAN; cols];
+            convolve_line(&line, &kernel, &mut out);
+            for (c, &o) in out.iter().enumerate() {
+                let want: f64 = (0..cols).filter(|&k| k.abs_diff(c) <= 2).map(|k| line[k] * kernel[k + 2 - c]).sum();
+                assert!((o - want).abs() < 1e-12, "{cols} {c}");
+            }
+        }
     }
 
     #[test]

@@ -67,7 +67,7 @@ pub fn rotation_scale(real: &Plane, sim: &Plane, with_scale: bool) -> Result<Rot
 fn magnitude(plane: &Plane) -> Result<Vec<f64>> {
     let windowed = tapered(plane, &tukey(plane.rows, 1.0), &tukey(plane.cols, 1.0));
     let spec = fft::forward(&windowed, plane.rows, plane.cols)?;
-    Ok(spec.data.iter().map(|z| z.norm_sqr().sqrt()).collect())
+    Ok(spec.data.iter().map(|z| (z.re as f64 * z.re as f64 + z.im as f64 * z.im as f64).sqrt()).collect())
 }
 
 /// Where one log-polar sample reads the half spectrum: the offsets of its four bilinear taps

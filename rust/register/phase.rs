@@ -17,11 +17,11 @@
 //! The apodisation window favours small shifts and the FFT cannot tell `d` from
 //! `d ± frame size`; both are settled on the pixels ([`super::shifts`]).
 
-use super::fft::{self, Spectrum, C64};
+use super::fft::{self, Spectrum, C32, C64};
 use super::image::Plane;
 use super::shifts::{resolve_alias, shifted_gradient_correlation};
 use super::subpixel::newton_peak;
-use super::window::{tapered, tukey, TUKEY_ALPHA};
+use super::window::{taper_row, tukey, TUKEY_ALPHA};
 use crate::error::Result;
 
 /// Half width, in pixels, of the box around the peak that no rival may come from.
@@ -87,17 +87,13 @@ pub fn search_limits(rows: usize, cols: usize, max_shift: Option<f64>) -> (usize
 pub fn correlate(real: &Plane, sim: &Plane, max_shift: Option<f64>) -> Result<Peak> {
     let (rows, cols) = (real.rows, real.cols);
     let (wr, wc) = (tukey(rows, TUKEY_ALPHA), tukey(cols, TUKEY_ALPHA));
-    let a = tapered(real, &wr, &wc);
-    let b = tapered(sim, &wr, &wc);
-    let (mut peak, rivals) = correlate_tapered(
-        &a,
-        &b,
-        rows,
-        cols,
-        search_limits(rows, cols, max_shift),
-        Polarity::Either,
-        Locate::Whitened,
-    )?;
+    let spectrum = |plane: &Plane| {
+        let mean = plane.mean();
+        fft::forward_rows(rows, cols, |r, line| taper_row(plane, r, mean, wr[r], &wc, line))
+    };
+    let (fa, fb) = (spectrum(real)?, spectrum(sim)?);
+    let (mut peak, rivals) =
+        correlate_spectra(fa, fb, search_limits(rows, cols, max_shift), Polarity::Either, Locate::Whitened)?;
     let canonical = (peak.dy.round() as isize, peak.dx.round() as isize);
     let chosen = resolve_alias(real, sim, canonical, peak.sign, max_shift);
     peak.dy += (chosen.0 - canonical.0) as f64;
@@ -139,27 +135,21 @@ pub fn correlate_tapered(
     polarity: Polarity,
     locate: Locate,
 ) -> Result<(Peak, Vec<(isize, isize)>)> {
-    let fa = fft::forward(a, rows, cols)?;
-    let fb = fft::forward(b, rows, cols)?;
-    // X = A·conj(B), then X/|X|^½ (kept for the subpixel step) and X/|X| in one sweep
-    let largest = fa.data.iter().zip(&fb.data).map(|(x, y)| x.norm_sqr() * y.norm_sqr()).fold(0.0, f64::max).sqrt();
-    let floor = largest * 1e-12;
-    let mut half = fa;
-    let mut full = Vec::with_capacity(half.data.len());
-    for (x, y) in half.data.iter_mut().zip(&fb.data) {
-        let z = *x * y.conj();
-        let m = z.norm_sqr().sqrt(); // no overflow here; `norm` calls libm's slow hypot
-        if m > floor {
-            let inv = 1.0 / m;
-            *x = z * inv.sqrt();
-            full.push(z * inv);
-        } else {
-            *x = C64::default();
-            full.push(C64::default());
-        }
-    }
-    drop(fb);
-    let surface = fft::inverse(Spectrum { rows, cols, data: full })?;
+    correlate_spectra(fft::forward(a, rows, cols)?, fft::forward(b, rows, cols)?, limits, polarity, locate)
+}
+
+/// [`correlate_tapered`] from the images' spectra.
+fn correlate_spectra(
+    mut fa: Spectrum,
+    mut fb: Spectrum,
+    limits: (usize, usize),
+    polarity: Polarity,
+    locate: Locate,
+) -> Result<(Peak, Vec<(isize, isize)>)> {
+    let (rows, cols) = (fa.rows, fa.cols);
+    whiten(&mut fa.data, &mut fb.data);
+    let (half, full) = (fa, fb);
+    let surface = fft::inverse(full)?;
     let half_surface = match locate {
         Locate::Whitened => None,
         Locate::HalfWhitened => Some(fft::inverse(half.clone())?),
@@ -181,6 +171,23 @@ pub fn correlate_tapered(
     Ok((Peak { dy, dx, sign, height, confidence, rival, beyond_limit }, rivals))
 }
 
+/// The cross-power spectrum `X = a·conj(b)` whitened in place: `a` becomes `X/|X|^½`, `b`
+/// becomes `X/|X|` (both 0 where `|X|` is below 1e-12 of its largest value). Computed in
+/// float64: `|X|²` can exceed the float32 range.
+fn whiten(a: &mut [C32], b: &mut [C32]) {
+    let wide = |z: C32| C64::new(z.re as f64, z.im as f64);
+    let narrow = |z: C64| C32::new(z.re as f32, z.im as f32);
+    let largest_sq = a.iter().zip(b.iter()).map(|(x, y)| wide(*x).norm_sqr() * wide(*y).norm_sqr()).fold(0.0, f64::max);
+    let floor = largest_sq.sqrt() * 1e-12;
+    for (x, y) in a.iter_mut().zip(b.iter_mut()) {
+        let z = wide(*x) * wide(*y).conj();
+        let m = z.norm_sqr().sqrt(); // no overflow here; `norm` calls libm's slow hypot
+        let inv = if m > floor { 1.0 / m } else { 0.0 };
+        *x = narrow(z * inv.sqrt());
+        *y = narrow(z * inv);
+    }
+}
+
 /// `i` in `0..n` as a signed shift in `(−n/2, n/2]`.
 pub(super) fn signed(i: usize, n: usize) -> isize {
     if i <= n / 2 {
@@ -194,8 +201,11 @@ fn wrap(s: isize, n: usize) -> usize {
     s.rem_euclid(n as isize) as usize
 }
 
-fn within(sy: isize, sx: isize, limits: (usize, usize)) -> bool {
-    sy.unsigned_abs() <= limits.0 && sx.unsigned_abs() <= limits.1
+/// The indices `0..n` whose signed shift is at most `limit` in magnitude, in increasing
+/// order: `0..=limit` and the negative shifts at the end.
+fn within_indices(n: usize, limit: usize) -> [std::ops::Range<usize>; 2] {
+    let limit = limit.min(n / 2);
+    [0..(limit + 1).min(n), (n - limit).max(n / 2 + 1)..n]
 }
 
 /// Integer shift of the highest peak within the limits, and its sign.
@@ -206,24 +216,24 @@ fn integer_peak(
     limits: (usize, usize),
     polarity: Polarity,
 ) -> (isize, isize, f64) {
-    let mut best = (0isize, 0isize, f64::NEG_INFINITY, 1.0);
-    for r in 0..rows {
-        for c in 0..cols {
-            let (sy, sx) = (signed(r, rows), signed(c, cols));
-            if !within(sy, sx, limits) {
-                continue;
-            }
-            let v = surface[r * cols + c];
-            let (score, sign) = match polarity {
-                Polarity::Positive => (v, 1.0),
-                Polarity::Either => (v.abs(), if v < 0.0 { -1.0 } else { 1.0 }),
-            };
-            if score > best.2 {
-                best = (sy, sx, score, sign);
+    let mut best = (0usize, 0usize, f64::NEG_INFINITY);
+    for r in within_indices(rows, limits.0).into_iter().flatten() {
+        let line = &surface[r * cols..(r + 1) * cols];
+        for span in within_indices(cols, limits.1) {
+            let first = span.start;
+            for (k, &v) in line[span].iter().enumerate() {
+                let score = match polarity {
+                    Polarity::Positive => v,
+                    Polarity::Either => v.abs(),
+                };
+                if score > best.2 {
+                    best = (r, first + k, score);
+                }
             }
         }
     }
-    (best.0, best.1, best.3)
+    let sign = if polarity == Polarity::Either && surface[best.0 * cols + best.1] < 0.0 { -1.0 } else { 1.0 };
+    (signed(best.0, rows), signed(best.1, cols), sign)
 }
 
 /// Distinctness of the peak on the whitened surface: `1 − max(rival, noise)/height`, where
@@ -255,39 +265,64 @@ fn surface_confidence(
         d.min(n as isize - d) <= EXCLUSION
     };
     let col_near: Vec<bool> = (0..cols).map(|c| near(signed(c, cols) - peak.1, cols)).collect();
+    let row_near: Vec<bool> = (0..rows).map(|r| near(signed(r, rows) - peak.0, rows)).collect();
+    let noise = NOISE_SIGMAS * rms_outside_box(surface, cols, &row_near, &col_near);
     let (mut rival, mut at) = (f64::NEG_INFINITY, (0isize, 0isize));
-    let (mut sum_sq, mut count) = (0.0f64, 0usize);
     let mut credible: Vec<(f64, (isize, isize))> = Vec::new();
-    for r in 0..rows {
-        let sy = signed(r, rows);
-        let row_near = near(sy - peak.0, rows);
-        for c in 0..cols {
-            if row_near && col_near[c] {
+    let threshold = CREDIBLE_RIVAL * height;
+    for r in within_indices(rows, limits.0).into_iter().flatten() {
+        for c in within_indices(cols, limits.1).into_iter().flatten() {
+            if row_near[r] && col_near[c] {
                 continue;
             }
-            let sx = signed(c, cols);
             let v = value(r, c);
-            sum_sq += v * v;
-            count += 1;
-            if !within(sy, sx, limits) {
-                continue;
-            }
             if v > rival {
                 rival = v;
-                at = (sy, sx);
+                at = (signed(r, rows), signed(c, cols));
             }
-            if v >= CREDIBLE_RIVAL * height && is_local_max(&value, r, c, rows, cols) {
-                credible.push((v, (sy, sx)));
+            if v >= threshold && is_local_max(&value, r, c, rows, cols) {
+                credible.push((v, (signed(r, rows), signed(c, cols))));
             }
         }
     }
     credible.sort_by(|x, y| y.0.total_cmp(&x.0));
     let rivals = credible.into_iter().take(RIVALS_CHECKED).map(|(_, s)| s).collect();
-    let noise = if count > 0 { NOISE_SIGMAS * (sum_sq / count as f64).sqrt() } else { 0.0 };
     if height <= 0.0 {
         return (0.0, at, rivals);
     }
     ((1.0 - rival.max(noise) / height).clamp(0.0, 1.0), at, rivals)
+}
+
+/// Root mean square of the surface outside the box of rows `row_near` × columns `col_near`
+/// (0 if the box covers it all).
+fn rms_outside_box(surface: &[f64], cols: usize, row_near: &[bool], col_near: &[bool]) -> f64 {
+    let sum_sq = |line: &[f64]| {
+        let mut lanes = [0.0f64; 4];
+        let chunks = line.chunks_exact(4);
+        let tail: f64 = chunks.remainder().iter().map(|v| v * v).sum();
+        for chunk in chunks {
+            for (acc, v) in lanes.iter_mut().zip(chunk) {
+                *acc += v * v;
+            }
+        }
+        lanes.iter().sum::<f64>() + tail
+    };
+    let (mut total, mut count) = (0.0, 0usize);
+    for (line, &near) in surface.chunks_exact(cols).zip(row_near) {
+        total += sum_sq(line);
+        count += cols;
+        if near {
+            for (v, _) in line.iter().zip(col_near).filter(|(_, &n)| n) {
+                total -= v * v;
+                count -= 1;
+            }
+        }
+    }
+    if count == 0 {
+        0.0
+    } else {
+        (total.max(0.0) / count as f64).sqrt()
+    }
 }
 
 fn is_local_max(value: &impl Fn(usize, usize) -> f64, r: usize, c: usize, rows: usize, cols: usize) -> bool {
@@ -322,15 +357,19 @@ fn rises_beyond(
 }
 
 /// The integer peak moved by a parabola through it and its neighbours on each axis (at most
-/// half a pixel): where Newton's method starts.
+/// half a pixel): where Newton's method starts. A move below `ON_THE_INTEGER` is rounding
+/// in the surface (float32 transforms are not exactly symmetric): Newton's method starts on
+/// the integer, where the gradient of a symmetric peak (identical frames) is exactly zero.
 fn parabolic_start(surface: &[f64], rows: usize, cols: usize, peak: (isize, isize), sign: f64) -> (f64, f64) {
+    const ON_THE_INTEGER: f64 = 1e-6;
     let at = |dy: isize, dx: isize| sign * surface[wrap(peak.0 + dy, rows) * cols + wrap(peak.1 + dx, cols)];
     let vertex = |minus: f64, centre: f64, plus: f64| {
         let curvature = minus - 2.0 * centre + plus;
-        if curvature < 0.0 {
-            (0.5 * (minus - plus) / curvature).clamp(-0.5, 0.5)
-        } else {
+        let offset = if curvature < 0.0 { (0.5 * (minus - plus) / curvature).clamp(-0.5, 0.5) } else { 0.0 };
+        if offset.abs() < ON_THE_INTEGER {
             0.0
+        } else {
+            offset
         }
     };
     let c = at(0, 0);
@@ -361,6 +400,8 @@ mod tests {
         Plane::new(rows, cols, values, vec![true; rows * cols])
     }
 
+    use super::super::window::tapered;
+
     fn untapered(p: &Plane) -> Vec<f64> {
         tapered(p, &vec![1.0; p.rows], &vec![1.0; p.cols])
     }
@@ -386,6 +427,14 @@ mod tests {
                 assert_eq!(pk.sign, 1.0);
             }
         }
+    }
+
+    #[test]
+    fn identical_frames_give_exactly_no_shift() {
+        let frame = untapered(&pattern(48, 64, 0.3, -0.2));
+        let limits = search_limits(48, 64, None);
+        let (pk, _) = correlate_tapered(&frame, &frame, 48, 64, limits, Polarity::Either, Locate::Whitened).unwrap();
+        assert_eq!((pk.dy, pk.dx, pk.sign), (0.0, 0.0, 1.0));
     }
 
     #[test]

@@ -9,7 +9,7 @@
 //! reaches its maximum to machine precision in a few evaluations instead, and its accuracy
 //! does not depend on an upsampling factor.
 
-use super::fft::{Spectrum, C64};
+use super::fft::{Spectrum, C32, C64};
 use super::phase::signed;
 
 /// Value, gradient and Hessian of the band-limited correlation at `(py, px)`.
@@ -56,13 +56,7 @@ impl<'a> Interpolant<'a> {
                 continue;
             }
             let column = &self.spec.data[kx * rows..(kx + 1) * rows];
-            let (mut s0, mut s1, mut s2) = (C64::default(), C64::default(), C64::default());
-            for ((x, p), &a) in column.iter().zip(&phasor_y).zip(&self.freq_y) {
-                let t = x * p;
-                s0 += t;
-                s1 += t * a;
-                s2 += t * (a * a);
-            }
+            let [s0, s1, s2] = column_moments(column, &phasor_y, &self.freq_y);
             let ax = tau * kx as f64 / cols as f64;
             let rot = C64::from_polar(weight, ax * px);
             let (z0, z1, z2) = (s0 * rot, s1 * rot, s2 * rot);
@@ -75,6 +69,37 @@ impl<'a> Interpolant<'a> {
         }
         Local { value: f, grad: [gy, gx], hess: [[hyy, hxy], [hxy, hxx]] }
     }
+}
+
+/// `Σ x·p·a^m` for m = 0, 1, 2 over one column `x` of the spectrum, its phasors `p` and
+/// frequencies `a`. Summed in four independent lanes, which the compiler can vectorise.
+fn column_moments(column: &[C32], phasor: &[C64], freq: &[f64]) -> [C64; 3] {
+    const LANES: usize = 4;
+    // re and im of the three sums, one partial sum per lane
+    let mut acc = [[0.0f64; LANES]; 6];
+    let mut add = |lane: usize, x: &C32, p: &C64, a: f64| {
+        let (xr, xi) = (x.re as f64, x.im as f64);
+        let (tr, ti) = (xr * p.re - xi * p.im, xr * p.im + xi * p.re);
+        let (ur, ui) = (tr * a, ti * a);
+        acc[0][lane] += tr;
+        acc[1][lane] += ti;
+        acc[2][lane] += ur;
+        acc[3][lane] += ui;
+        acc[4][lane] += ur * a;
+        acc[5][lane] += ui * a;
+    };
+    let (xs, ps, fs) = (column.chunks_exact(LANES), phasor.chunks_exact(LANES), freq.chunks_exact(LANES));
+    let tail = (xs.remainder(), ps.remainder(), fs.remainder());
+    for ((x, p), a) in xs.zip(ps).zip(fs) {
+        for lane in 0..LANES {
+            add(lane, &x[lane], &p[lane], a[lane]);
+        }
+    }
+    for ((x, p), &a) in tail.0.iter().zip(tail.1).zip(tail.2) {
+        add(0, x, p, a);
+    }
+    let sum = |k: usize| acc[k].iter().sum::<f64>();
+    [C64::new(sum(0), sum(1)), C64::new(sum(2), sum(3)), C64::new(sum(4), sum(5))]
 }
 
 /// Maximise `sign·f` from `start`, staying within ±1 px of `centre` on each axis.

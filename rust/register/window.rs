@@ -36,15 +36,19 @@ pub fn tukey(n: usize, alpha: f64) -> Vec<f64> {
 pub fn tapered(plane: &Plane, w_rows: &[f64], w_cols: &[f64]) -> Vec<f64> {
     let mean = plane.mean();
     let mut out = vec![0.0; plane.rows * plane.cols];
-    for (r, &wr) in w_rows.iter().enumerate() {
-        let base = r * plane.cols;
-        for (c, &wc) in w_cols.iter().enumerate() {
-            if plane.valid[base + c] {
-                out[base + c] = (plane.values[base + c] - mean) * wr * wc;
-            }
-        }
+    for (r, line) in out.chunks_exact_mut(plane.cols.max(1)).enumerate() {
+        taper_row(plane, r, mean, w_rows[r], w_cols, line);
     }
     out
+}
+
+/// Row `r` of [`tapered`] written into `line`, given the plane's mean.
+pub fn taper_row(plane: &Plane, r: usize, mean: f64, w_row: f64, w_cols: &[f64], line: &mut [f64]) {
+    let span = r * plane.cols..(r + 1) * plane.cols;
+    let (values, valid) = (&plane.values[span.clone()], &plane.valid[span]);
+    for (((out, &v), &ok), &wc) in line.iter_mut().zip(values).zip(valid).zip(w_cols) {
+        *out = if ok { (v - mean) * w_row * wc } else { 0.0 };
+    }
 }
 
 #[cfg(test)]
