@@ -15,6 +15,13 @@
 //! Coarse to fine: the iterations run on the frames halved (while they stay at least
 //! [`COARSE_MIN_SIDE`] pixels on their shorter side), where each costs a quarter, and end
 //! at full resolution, where typically one or two remain.
+//!
+//! Robust: each iteration weighs the pixels by Huber's function of their residual (iteratively
+//! reweighted least squares), with the scale from the median absolute residual. Pixels that
+//! no transform of the model can match — a black border a simulator rendered, a burned-in
+//! overlay, a hot object present on one side only — would otherwise pull the least-squares
+//! optimum away (a 2-px zero border moved a translation by 0.7 px); with the weights they
+//! count for little.
 
 use super::affine::Affine;
 use super::bands::map_bands;
@@ -28,6 +35,14 @@ const CONVERGED: f64 = 1e-3;
 const MAX_ITERATIONS: usize = 30;
 /// Levels are halved while their shorter side stays at least this long.
 const COARSE_MIN_SIDE: usize = 96;
+/// Huber's tuning constant, in robust standard deviations of the residuals (95 % efficiency
+/// for Gaussian residuals).
+const HUBER: f64 = 1.345;
+/// The standard deviation of a Gaussian over its median absolute deviation.
+const MAD_TO_SIGMA: f64 = 1.482_6;
+/// The median absolute residual is taken over every this-many-th pixel (a sample of tens of
+/// thousands at the usual frame sizes: a scale, not a statistic reported).
+const SCALE_STRIDE: usize = 5;
 
 /// A refined transform.
 #[derive(Clone, Debug, PartialEq)]
@@ -95,10 +110,11 @@ fn refine_level(
             Some(go) => go,
             None => fit_photometric(real, &warped)?,
         };
+        let fit = Photometric { gain, offset, huber: huber_threshold(real, &warped, gain, offset) };
         let step = match model {
-            Model::Translation => solve_step::<2>(real, &real_grad, &warped, gain, offset),
-            Model::Rigid => solve_step::<3>(real, &real_grad, &warped, gain, offset),
-            Model::Similarity => solve_step::<4>(real, &real_grad, &warped, gain, offset),
+            Model::Translation => solve_step::<2>(real, &real_grad, &warped, &fit),
+            Model::Rigid => solve_step::<3>(real, &real_grad, &warped, &fit),
+            Model::Similarity => solve_step::<4>(real, &real_grad, &warped, &fit),
         }?;
         let matrix = to_sim.inverse()?;
         if best.as_ref().is_none_or(|b| step.rms <= b.rms) {
@@ -130,13 +146,55 @@ fn fit_photometric(real: &Plane, warped: &Plane) -> Option<(f64, f64)> {
     (sww > 0.0).then(|| (swr / sww, mr - swr / sww * mw))
 }
 
+/// `real ≈ gain·warped + offset`, and the residual beyond which a pixel's weight falls.
+#[derive(Clone, Copy)]
+struct Photometric {
+    gain: f64,
+    offset: f64,
+    /// Huber threshold; infinite when the residuals have no spread (every weight 1).
+    huber: f64,
+}
+
+/// [`HUBER`] robust standard deviations of the residuals `real − gain·warped − offset` over
+/// the pixels valid in both (the median absolute residual of every [`SCALE_STRIDE`]-th pixel;
+/// the offset centres them).
+fn huber_threshold(real: &Plane, warped: &Plane, gain: f64, offset: f64) -> f64 {
+    let mut residuals: Vec<f64> = (0..real.values.len())
+        .step_by(SCALE_STRIDE)
+        .filter(|&i| real.valid[i] && warped.valid[i])
+        .map(|i| (real.values[i] - gain * warped.values[i] - offset).abs())
+        .collect();
+    if residuals.is_empty() {
+        return f64::INFINITY;
+    }
+    let middle = residuals.len() / 2;
+    let (_, median, _) = residuals.select_nth_unstable_by(middle, f64::total_cmp);
+    let scale = HUBER * MAD_TO_SIGMA * *median;
+    if scale > 0.0 {
+        scale
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Huber's weight of a residual and its loss (doubled, so that it is `e²` within the threshold).
+#[inline(always)]
+fn huber(e: f64, threshold: f64) -> (f64, f64) {
+    let a = e.abs();
+    if a <= threshold {
+        (1.0, e * e)
+    } else {
+        (threshold / a, threshold * (2.0 * a - threshold))
+    }
+}
+
 /// One linearised least-squares step.
 struct Step {
     /// Parameter increments: tx, ty, then rotation and scale (scaled by the half size).
     params: [f64; 4],
     gain: f64,
     offset: f64,
-    /// Root-mean-square residual before the step.
+    /// Root-mean-square residual before the step (Huber's loss in place of the square).
     rms: f64,
 }
 
@@ -159,13 +217,15 @@ fn centre(rows: usize, cols: usize) -> (f64, f64, f64) {
     ((cols as f64 - 1.0) / 2.0, (rows as f64 - 1.0) / 2.0, rows.max(cols) as f64 / 2.0)
 }
 
-/// Sums of one band of rows for the normal equations.
+/// Weighted sums of one band of rows for the normal equations.
 #[derive(Clone, Copy, Default)]
 struct Sums {
     normal: [[f64; 6]; 6],
     rhs: [f64; 6],
-    sse: f64,
+    /// Σ Huber loss (doubled).
+    loss: f64,
     n: usize,
+    /// Σ weight · warped value (the weighted mean of the gain column is this over Σ weight).
     sum_w: f64,
 }
 
@@ -176,11 +236,10 @@ fn solve_step<const G: usize>(
     real: &Plane,
     real_grad: &(Vec<f64>, Vec<f64>, Vec<bool>),
     warped: &Plane,
-    gain: f64,
-    offset: f64,
+    fit: &Photometric,
 ) -> Option<Step> {
     let (rows, cols) = (real.rows, real.cols);
-    let parts = map_bands(rows, cols, |lo, hi| band_sums::<G>(real, real_grad, warped, gain, offset, (lo, hi)));
+    let parts = map_bands(rows, cols, |lo, hi| band_sums::<G>(real, real_grad, warped, fit, (lo, hi)));
     let mut total = Sums::default();
     for p in parts {
         for a in 0..G + 2 {
@@ -189,16 +248,17 @@ fn solve_step<const G: usize>(
                 total.normal[a][b] += p.normal[a][b];
             }
         }
-        total.sse += p.sse;
+        total.loss += p.loss;
         total.n += p.n;
         total.sum_w += p.sum_w;
     }
-    let Sums { mut normal, mut rhs, sse, n, sum_w } = total;
+    let Sums { mut normal, mut rhs, loss, n, sum_w } = total;
     if n < 16 {
         return None;
     }
-    // The gain column is centred (w − w̄) before solving: same solution, better conditioned.
-    let mean_w = sum_w / n as f64;
+    // The gain column is centred (w − w̄, weighted mean) before solving: same solution,
+    // better conditioned. The offset column is all ones: its diagonal is Σ weight.
+    let mean_w = sum_w / normal[G + 1][G + 1];
     centre_column(&mut normal, &mut rhs, G, G + 1, mean_w);
     for a in 0..G + 2 {
         for b in 0..a {
@@ -211,9 +271,9 @@ fn solve_step<const G: usize>(
     let gain_step = delta[G];
     Some(Step {
         params,
-        gain: gain + gain_step,
-        offset: offset + delta[G + 1] - gain_step * mean_w,
-        rms: (sse / n as f64).sqrt(),
+        gain: fit.gain + gain_step,
+        offset: fit.offset + delta[G + 1] - gain_step * mean_w,
+        rms: (loss / n as f64).sqrt(),
     })
 }
 
@@ -222,10 +282,10 @@ fn band_sums<const G: usize>(
     real: &Plane,
     real_grad: &(Vec<f64>, Vec<f64>, Vec<bool>),
     warped: &Plane,
-    gain: f64,
-    offset: f64,
+    fit: &Photometric,
     (lo, hi): (usize, usize),
 ) -> Sums {
+    let Photometric { gain, offset, huber: threshold } = *fit;
     let (gxr, gyr, okr) = real_grad;
     let (rows, cols) = (real.rows, real.cols);
     let (cx, cy, half) = centre(rows, cols);
@@ -253,13 +313,15 @@ fn band_sums<const G: usize>(
             jac[G] = w[i];
             jac[G + 1] = 1.0;
             let e = real.values[i] - gain * w[i] - offset;
-            s.sse += e * e;
+            let (weight, loss) = huber(e, threshold);
+            s.loss += loss;
             s.n += 1;
-            s.sum_w += w[i];
+            s.sum_w += weight * w[i];
             for a in 0..G + 2 {
-                s.rhs[a] += jac[a] * e;
+                let wa = weight * jac[a];
+                s.rhs[a] += wa * e;
                 for b in 0..=a {
-                    s.normal[a][b] += jac[a] * jac[b];
+                    s.normal[a][b] += wa * jac[b];
                 }
             }
         }
