@@ -145,6 +145,22 @@ impl Kernel<4> for Cubic {
     }
 }
 
+/// `Σ_j wy[j] Σ_i wx[i]·src[start + j·cols + i]`: the taps of an N×N block whose top-left
+/// sample is `start`, all inside the frame.
+#[inline(always)]
+fn block_sum<T: Sample, const N: usize>(src: &Source<'_, T>, start: usize, wx: &[f64; N], wy: &[f64; N]) -> f64 {
+    let mut acc = 0.0;
+    for (j, &w) in wy.iter().enumerate() {
+        let row = &src.data[start + j * src.cols..start + j * src.cols + N];
+        let mut line = 0.0;
+        for (v, &u) in row.iter().zip(wx) {
+            line += u * v.to_f64();
+        }
+        acc += w * line;
+    }
+    acc
+}
+
 /// One interpolated value at source position `(x, y)`, or `None` if a tap with a non-zero
 /// weight is missing. Taps within the clean spans of their rows need no other check.
 #[inline(always)]
@@ -159,17 +175,7 @@ fn sample<T: Sample, K: Kernel<N>, const N: usize>(
     let (x0, y0) = (ix + K::FIRST, iy + K::FIRST);
     if block_clean(clean, x0, y0, N) {
         // every tap present: no per-tap checks
-        let start = y0 as usize * src.cols + x0 as usize;
-        let mut acc = 0.0;
-        for (j, &w) in wy.iter().enumerate() {
-            let row = &src.data[start + j * src.cols..start + j * src.cols + N];
-            let mut line = 0.0;
-            for (v, &u) in row.iter().zip(&wx) {
-                line += u * v.to_f64();
-            }
-            acc += w * line;
-        }
-        return Some(acc);
+        return Some(block_sum(src, y0 as usize * src.cols + x0 as usize, &wx, &wy));
     }
     let mut acc = 0.0;
     for (j, &w) in wy.iter().enumerate() {
@@ -292,16 +298,7 @@ fn inside_row<T: Sample, K: Kernel<N>, const N: usize>(
         let ((ix, tx), (iy, ty)) = (split(x0 + a * c as f64), split(y0 + b * c as f64));
         let (wx, wy) = (K::weights(tx), K::weights(ty));
         let start = (iy + K::FIRST) as usize * src.cols + (ix + K::FIRST) as usize;
-        let mut acc = 0.0;
-        for (j, &w) in wy.iter().enumerate() {
-            let row = &src.data[start + j * src.cols..start + j * src.cols + N];
-            let mut line = 0.0;
-            for (v, &u) in row.iter().zip(&wx) {
-                line += u * v.to_f64();
-            }
-            acc += w * line;
-        }
-        out[c] = acc;
+        out[c] = block_sum(src, start, &wx, &wy);
     }
     ok[lo..hi].iter_mut().for_each(|f| *f = true);
     (lo, hi)
