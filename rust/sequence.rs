@@ -239,7 +239,8 @@ pub struct PairOutcome {
     /// The histogram's entropies, computed on the worker (not on the thread that hands
     /// outcomes to Python, which all workers share).
     pub entropies: Option<Entropies>,
-    /// The real frame's (min, max) over its finite values, when asked for.
+    /// The real frame's (min, max) over its finite scored values (the overlap, when
+    /// registered), when asked for.
     pub real_extent: Option<(f64, f64)>,
     /// The pair's own registration ([`Warp::Each`]), when it was found.
     pub registration: Option<register::Registration>,

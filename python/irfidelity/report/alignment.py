@@ -5,6 +5,7 @@ with ``register_each``, each frame's transform and confidence over the sequence.
 from __future__ import annotations
 
 from collections.abc import Mapping
+
 import numpy as np
 
 from . import figures, sections

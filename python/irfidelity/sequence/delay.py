@@ -58,12 +58,13 @@ class Delay:
 
     frames: int
     confidence: float
-    correlation: dict[int, float]  # |correlation of the changes| per candidate delay
+    correlation: dict[int, float]  # |correlation of the changes| per candidate delay compared
     window: int  # frames of each side compared
+    max_delay: int  # the search range asked for
 
     def to_dict(self) -> dict:
         return {"frames": self.frames, "confidence": self.confidence, "window": self.window,
-                "max_delay": max(abs(d) for d in self.correlation),
+                "max_delay": self.max_delay,
                 "correlation": {str(d): c for d, c in sorted(self.correlation.items())}}
 
 
@@ -88,8 +89,8 @@ def _thumbnail(frame: np.ndarray) -> np.ndarray:
 
 
 def _changes(seq: FrameSequence, count: int, which: str) -> list[np.ndarray | None]:
-    """The standardised thumbnails of the first ``count`` frames less their mean (None for a
-    frame that does not decode)."""
+    """The changes of the first ``count`` frames: differences of consecutive standardised
+    thumbnails (None where either frame does not decode)."""
     thumbs: list[np.ndarray | None] = []
     for i in range(count):
         try:
@@ -125,8 +126,8 @@ def find_delay(real: FrameSequence, sim: FrameSequence, max_delay: int) -> Delay
                             f"frames: every delay must leave at least {MIN_PAIRS} frame pairs to compare (at most "
                             f"{max(count - 1 - MIN_PAIRS, 0)} here)", option="max_delay")
     real_changes, sim_changes = _changes(real, count, "real"), _changes(sim, count, "simulated")
-    if real_changes[0] is not None and sim_changes[0] is not None and \
-            real_changes[0].shape != sim_changes[0].shape:
+    shapes = {c.shape for c in real_changes + sim_changes if c is not None}
+    if len(shapes) > 1:
         raise FidelityError("cannot search the delay: the real and simulated frames differ in shape",
                             option="max_delay")
     found = {d: _correlation(real_changes, sim_changes, d) for d in range(-max_delay, max_delay + 1)}
@@ -138,7 +139,7 @@ def find_delay(real: FrameSequence, sim: FrameSequence, max_delay: int) -> Delay
     rival = max((c for d, c in scored.items() if abs(d - best) > 1), default=0.0)
     peak = scored[best]
     confidence = min(1.0, max(0.0, 1.0 - rival / peak)) if peak > 0 else 0.0
-    delay = Delay(best, confidence, scored, count)
+    delay = Delay(best, confidence, scored, count, max_delay)
     others = [c for d, c in scored.items() if abs(d - best) > 1]
     unrelated = max(math.sqrt(np.mean(np.square(others))) if others else 0.0, 1.0 / math.sqrt(found[best][1]))
     _check(delay, count, NOISE_FLOOR * unrelated)
