@@ -17,66 +17,19 @@ use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
+use super::pool::Buffer;
 use crate::error::{Error, Result};
 
 pub type C64 = Complex<f64>;
 /// A coefficient of a [`Spectrum`].
 pub type C32 = Complex<f32>;
 
-/// The half spectrum of a real `rows × cols` image, column-major. Its storage goes back to
-/// the thread's [`SPARE`] buffers when it is dropped.
+/// The half spectrum of a real `rows × cols` image, column-major.
 #[derive(Clone, Debug)]
 pub struct Spectrum {
     pub rows: usize,
     pub cols: usize,
-    pub data: Vec<C32>,
-}
-
-impl Drop for Spectrum {
-    fn drop(&mut self) {
-        give_back(std::mem::take(&mut self.data));
-    }
-}
-
-/// Bytes of spectrum storage a thread keeps for reuse. A fresh multi-megabyte buffer costs
-/// the kernel a page fault per 4 KiB page on first touch; registering a sequence of frames
-/// of one size reuses the same few buffers instead.
-const SPARE_BYTES: usize = 16 << 20;
-
-thread_local! {
-    static SPARE: RefCell<Vec<Vec<C32>>> = const { RefCell::new(Vec::new()) };
-}
-
-/// A zeroed buffer of `len` coefficients, reused from [`SPARE`] when one is large enough.
-fn zeroed_buffer(len: usize) -> Vec<C32> {
-    let reused = SPARE.with(|s| {
-        let mut spare = s.borrow_mut();
-        let i = spare.iter().position(|b| b.capacity() >= len)?;
-        Some(spare.swap_remove(i))
-    });
-    match reused {
-        Some(mut buffer) => {
-            buffer.clear();
-            buffer.resize(len, C32::default());
-            buffer
-        }
-        None => vec![C32::default(); len],
-    }
-}
-
-/// Keep `buffer` for reuse while the thread's spare storage stays within [`SPARE_BYTES`].
-fn give_back(buffer: Vec<C32>) {
-    let bytes = |b: &Vec<C32>| b.capacity() * std::mem::size_of::<C32>();
-    if bytes(&buffer) == 0 {
-        return;
-    }
-    // `try_with`: a spectrum dropped while the thread exits finds the store gone
-    let _ = SPARE.try_with(|s| {
-        let mut spare = s.borrow_mut();
-        if spare.iter().map(bytes).sum::<usize>() + bytes(&buffer) <= SPARE_BYTES {
-            spare.push(buffer);
-        }
-    });
+    pub data: Buffer<C32>,
 }
 
 impl Spectrum {
@@ -104,30 +57,28 @@ fn fft_error(e: impl std::fmt::Display) -> Error {
 const ROW_BLOCK: usize = 16;
 
 /// Forward transform of a `rows × cols` real image (row-major).
-pub fn forward(values: &[f64], rows: usize, cols: usize) -> Result<Spectrum> {
+pub fn forward(values: &[f32], rows: usize, cols: usize) -> Result<Spectrum> {
     debug_assert_eq!(values.len(), rows * cols);
     forward_rows(rows, cols, |r, line| line.copy_from_slice(&values[r * cols..(r + 1) * cols]))
 }
 
 /// Forward transform of a `rows × cols` real image whose row `r` `fill_row(r, line)` writes
 /// into `line` (so an image computed row by row, such as a tapered frame, is never stored).
-pub fn forward_rows(rows: usize, cols: usize, mut fill_row: impl FnMut(usize, &mut [f64])) -> Result<Spectrum> {
+pub fn forward_rows(rows: usize, cols: usize, mut fill_row: impl FnMut(usize, &mut [f32])) -> Result<Spectrum> {
     let (r2c, col_fft): (Arc<dyn RealToComplex<f32>>, Arc<dyn Fft<f32>>) = PLANNERS.with(|p| {
         let mut p = p.borrow_mut();
         (p.real.plan_fft_forward(cols), p.complex.plan_fft_forward(rows))
     });
     let width = cols / 2 + 1;
-    let mut data = zeroed_buffer(width * rows);
-    let mut line = vec![0.0; cols];
-    let mut line32 = vec![0.0f32; cols];
+    let mut data = Buffer::filled(width * rows, C32::default());
+    let mut line = vec![0.0f32; cols];
     let mut block = vec![C32::default(); ROW_BLOCK * width];
     let mut scratch = r2c.make_scratch_vec();
     for r0 in (0..rows).step_by(ROW_BLOCK) {
         let n = ROW_BLOCK.min(rows - r0);
         for k in 0..n {
             fill_row(r0 + k, &mut line);
-            line32.iter_mut().zip(&line).for_each(|(x, &v)| *x = v as f32);
-            r2c.process_with_scratch(&mut line32, &mut block[k * width..(k + 1) * width], &mut scratch)
+            r2c.process_with_scratch(&mut line, &mut block[k * width..(k + 1) * width], &mut scratch)
                 .map_err(fft_error)?;
         }
         for kx in 0..width {
@@ -142,9 +93,9 @@ pub fn forward_rows(rows: usize, cols: usize, mut fill_row: impl FnMut(usize, &m
     Ok(Spectrum { rows, cols, data })
 }
 
-/// Inverse transform, normalised (`inverse(forward(x)) == x` up to rounding). `spec` is
-/// consumed as scratch space.
-pub fn inverse(mut spec: Spectrum) -> Result<Vec<f64>> {
+/// Inverse transform, normalised (`inverse(forward(x)) == x` up to rounding), in float32:
+/// the precision the transforms carry. `spec` is consumed as scratch space.
+pub fn inverse(mut spec: Spectrum) -> Result<Buffer<f32>> {
     let (rows, cols) = (spec.rows, spec.cols);
     let (c2r, col_ifft): (Arc<dyn ComplexToReal<f32>>, Arc<dyn Fft<f32>>) = PLANNERS.with(|p| {
         let mut p = p.borrow_mut();
@@ -153,9 +104,8 @@ pub fn inverse(mut spec: Spectrum) -> Result<Vec<f64>> {
     let width = cols / 2 + 1;
     let mut col_scratch = vec![C32::default(); col_ifft.get_inplace_scratch_len()];
     col_ifft.process_with_scratch(&mut spec.data, &mut col_scratch);
-    let norm = 1.0 / (rows * cols) as f64;
-    let mut out = vec![0.0; rows * cols];
-    let mut line32 = vec![0.0f32; cols];
+    let norm = 1.0 / (rows * cols) as f32;
+    let mut out = Buffer::filled(rows * cols, 0.0f32);
     let mut block = vec![C32::default(); ROW_BLOCK * width];
     let mut scratch = c2r.make_scratch_vec();
     for r0 in (0..rows).step_by(ROW_BLOCK) {
@@ -173,9 +123,9 @@ pub fn inverse(mut spec: Spectrum) -> Result<Vec<f64>> {
             if cols % 2 == 0 {
                 half[width - 1].im = 0.0;
             }
-            c2r.process_with_scratch(half, &mut line32, &mut scratch).map_err(fft_error)?;
             let row = &mut out[(r0 + k) * cols..(r0 + k + 1) * cols];
-            row.iter_mut().zip(&line32).for_each(|(v, &x)| *v = x as f64 * norm);
+            c2r.process_with_scratch(half, row, &mut scratch).map_err(fft_error)?;
+            row.iter_mut().for_each(|v| *v *= norm);
         }
     }
     Ok(out)
@@ -188,7 +138,7 @@ mod tests {
     #[test]
     fn matches_a_direct_dft_and_round_trips() {
         let (rows, cols) = (6, 5);
-        let values: Vec<f64> = (0..rows * cols).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
+        let values: Vec<f32> = (0..rows * cols).map(|i| ((i * 7919) % 13) as f32 - 6.0).collect();
         let spec = forward(&values, rows, cols).unwrap();
         for kx in 0..spec.width() {
             for ky in 0..rows {
@@ -197,7 +147,7 @@ mod tests {
                     for c in 0..cols {
                         let phase = -2.0 * std::f64::consts::PI * (ky * r) as f64 / rows as f64
                             - 2.0 * std::f64::consts::PI * (kx * c) as f64 / cols as f64;
-                        want += C64::from_polar(values[r * cols + c], phase);
+                        want += C64::from_polar(values[r * cols + c] as f64, phase);
                     }
                 }
                 let got = spec.data[kx * rows + ky];
@@ -206,9 +156,9 @@ mod tests {
         }
         // sizes in turn, so the later ones reuse the earlier ones' storage
         for (rows, cols) in [(6, 5), (8, 8), (1, 4), (17, 16), (6, 5)] {
-            let values: Vec<f64> = (0..rows * cols).map(|i| ((i * 31) % 11) as f64).collect();
+            let values: Vec<f32> = (0..rows * cols).map(|i| ((i * 31) % 11) as f32).collect();
             let back = inverse(forward(&values, rows, cols).unwrap()).unwrap();
-            assert!(back.iter().zip(&values).all(|(a, b)| (a - b).abs() < 1e-5), "{rows}x{cols}");
+            assert!(back.iter().zip(&values).all(|(&a, b)| (a - b).abs() < 1e-5), "{rows}x{cols}");
         }
     }
 }

@@ -3,6 +3,7 @@
 //! and are skipped by every step, never propagated.
 
 use super::bands;
+use super::pool::Buffer;
 use crate::error::{Error, Result};
 use crate::kernel::Sample;
 
@@ -11,14 +12,15 @@ use crate::kernel::Sample;
 pub struct Plane {
     pub rows: usize,
     pub cols: usize,
-    pub values: Vec<f64>,
-    pub valid: Vec<bool>,
+    pub values: Buffer<f64>,
+    pub valid: Buffer<bool>,
     pub n_valid: usize,
 }
 
 impl Plane {
     /// A plane from values and mask (`values[i]` is ignored where `valid[i]` is false).
-    pub fn new(rows: usize, cols: usize, mut values: Vec<f64>, valid: Vec<bool>) -> Plane {
+    pub fn new(rows: usize, cols: usize, values: impl Into<Buffer<f64>>, valid: impl Into<Buffer<bool>>) -> Plane {
+        let (mut values, valid) = (values.into(), valid.into());
         debug_assert!(values.len() == rows * cols && valid.len() == rows * cols);
         let mut n_valid = 0;
         for (v, &ok) in values.iter_mut().zip(&valid) {
@@ -48,15 +50,17 @@ impl Plane {
                 return Err(Error::Shape(format!("mask has {} elements, frames have {}", m.len(), data.len())));
             }
         }
-        let mut values: Vec<f64> = data.iter().map(|v| v.to_f64()).collect();
-        let valid: Vec<bool> = match mask {
-            Some(m) => values.iter().zip(m).map(|(v, &keep)| keep && v.is_finite()).collect(),
-            None => values.iter().map(|v| v.is_finite()).collect(),
+        let n = data.len();
+        let valid = match mask {
+            Some(m) => Buffer::collect_exact(n, data.iter().zip(m).map(|(v, &keep)| keep && v.to_f64().is_finite())),
+            None => Buffer::collect_exact(n, data.iter().map(|v| v.to_f64().is_finite())),
         };
-        let n_valid = valid.iter().filter(|&&ok| ok).count();
-        if n_valid < valid.len() {
-            values.iter_mut().zip(&valid).filter(|(_, &ok)| !ok).for_each(|(v, _)| *v = 0.0);
-        }
+        let n_valid = valid.iter().map(|&ok| ok as usize).sum();
+        let values = if n_valid == n {
+            Buffer::collect_exact(n, data.iter().map(|v| v.to_f64()))
+        } else {
+            Buffer::collect_exact(n, data.iter().zip(valid.iter()).map(|(v, &ok)| if ok { v.to_f64() } else { 0.0 }))
+        };
         Ok(Plane { rows, cols, values, valid, n_valid })
     }
 
@@ -107,6 +111,20 @@ impl Plane {
             }
         }
         (lo.into_iter().fold(f64::INFINITY, f64::min), hi.into_iter().fold(f64::NEG_INFINITY, f64::max))
+    }
+
+    /// The value of a flat plane (its valid values within 1e-12 of each other, relative to
+    /// their magnitude), or None. Stops at the first pair of values that differ enough, which
+    /// in a real frame comes within a few pixels.
+    pub fn flat_level(&self) -> Option<f64> {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for v in self.valid_values() {
+            (lo, hi) = (lo.min(v), hi.max(v));
+            if hi - lo > 1e-12 * lo.abs().max(hi.abs()) {
+                return None;
+            }
+        }
+        Some(lo)
     }
 
     fn valid_values(&self) -> impl Iterator<Item = f64> + '_ {
@@ -175,7 +193,8 @@ impl Plane {
         let hi = *sorted.select_nth_unstable_by(ihi, f64::total_cmp).1;
         let (lo, hi) = if hi > lo { (lo, hi) } else { self.range() };
         let scale = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
-        let values = self.values.iter().map(|&v| ((v - lo) * scale).clamp(0.0, 1.0)).collect();
+        let values =
+            Buffer::collect_exact(self.values.len(), self.values.iter().map(|&v| ((v - lo) * scale).clamp(0.0, 1.0)));
         Plane::new(self.rows, self.cols, values, self.valid.clone())
     }
 
@@ -222,16 +241,16 @@ fn min_max(values: &[f64]) -> (f64, f64) {
 }
 
 /// Convolve rows then columns with a symmetric kernel; outside the image counts as 0.
-fn convolve_separable(values: &[f64], rows: usize, cols: usize, kernel: &[f64]) -> Vec<f64> {
+fn convolve_separable(values: &[f64], rows: usize, cols: usize, kernel: &[f64]) -> Buffer<f64> {
     let radius = kernel.len() / 2;
-    let mut tmp = vec![0.0; rows * cols];
+    let mut tmp = Buffer::filled(rows * cols, 0.0);
     bands::fill_rows(&mut tmp, cols, |first, band| {
         for (k, out) in band.chunks_exact_mut(cols).enumerate() {
             let line = &values[(first + k) * cols..(first + k + 1) * cols];
             convolve_line(line, kernel, out);
         }
     });
-    let mut out = vec![0.0; rows * cols];
+    let mut out = Buffer::filled(rows * cols, 0.0);
     bands::fill_rows(&mut out, cols, |first, band| {
         for (k, dst) in band.chunks_exact_mut(cols).enumerate() {
             let r = first + k;
@@ -281,7 +300,7 @@ mod tests {
         let data = [1.0f32, f32::NAN, 3.0, f32::INFINITY, 5.0, 6.0];
         let mask = [true, true, true, true, true, false];
         let p = Plane::from_samples(&data, 2, 3, Some(&mask), "real").unwrap();
-        assert_eq!(p.valid, vec![true, false, true, false, true, false]);
+        assert_eq!(&p.valid[..], &[true, false, true, false, true, false]);
         assert_eq!(p.n_valid, 3);
         assert_eq!(p.values[1], 0.0);
         let (mean, std) = p.mean_std();
@@ -323,7 +342,7 @@ mod tests {
         assert_eq!(u.values[15], 1.0);
         let h = p.halved();
         assert_eq!((h.rows, h.cols), (2, 2));
-        assert_eq!(h.values, vec![2.5, 4.5, 10.5, 12.5]);
+        assert_eq!(&h.values[..], &[2.5, 4.5, 10.5, 12.5]);
         let (gx, gy, ok) = p.gradient();
         assert!(ok[5] && !ok[0]);
         assert_eq!((gx[5], gy[5]), (1.0, 4.0));

@@ -13,6 +13,7 @@ use super::fft;
 
 use super::image::Plane;
 use super::phase::{correlate_tapered, Locate, Polarity};
+use super::pool::Buffer;
 use super::window::{tapered, tukey};
 use crate::error::Result;
 
@@ -148,9 +149,9 @@ fn log_polar_pair(real: &Plane, sim: &Plane, r_min: f64, step: f64) -> Result<(P
         let v = |k: usize| m[t.at[k]];
         ((1.0 - t.ty) * ((1.0 - t.tx) * v(0) + t.tx * v(1)) + t.ty * ((1.0 - t.tx) * v(2) + t.tx * v(3))) * t.emphasis
     };
-    let va = taps.iter().map(|t| sample(&ma, t)).collect();
-    let vb = taps.iter().map(|t| sample(&mb, t)).collect();
-    let all = || vec![true; ANGLES * RADII];
+    let log_polar = |m: &[f64]| Buffer::collect_exact(taps.len(), taps.iter().map(|t| sample(m, t)));
+    let (va, vb) = (log_polar(&ma), log_polar(&mb));
+    let all = || Buffer::filled(ANGLES * RADII, true);
     Ok((Plane::new(ANGLES, RADII, va, all()), Plane::new(ANGLES, RADII, vb, all())))
 }
 

@@ -28,6 +28,7 @@ mod image;
 mod logpolar;
 mod nmi;
 mod phase;
+mod pool;
 mod refine;
 mod shifts;
 mod subpixel;
@@ -214,10 +215,9 @@ fn check_content(plane: &Plane, what: &str) -> Result<()> {
             plane.n_valid
         )));
     }
-    let (lo, hi) = plane.range();
-    if hi - lo <= 1e-12 * lo.abs().max(hi.abs()) {
+    if let Some(level) = plane.flat_level() {
         return Err(Error::Registration(format!(
-            "cannot register: the {what} frame is flat (its {} valid pixels all equal {lo}); \
+            "cannot register: the {what} frame is flat (its {} valid pixels all equal {level}); \
              there is nothing to align",
             plane.n_valid
         )));

@@ -279,7 +279,7 @@ mod tests {
         let src = Source { data: &values[..], rows, cols, valid: None };
         let (warped, valid) = warp(&src, &truth, Interp::Bicubic, rows, cols, 0.0);
         // inverted and squashed: a monotone decreasing, non-linear grey-level relation
-        let sim_values = warped.iter().map(|v| 1.0 / (1.5 + v)).collect();
+        let sim_values: Vec<f64> = warped.iter().map(|v| 1.0 / (1.5 + v)).collect();
         let sim = Plane::new(rows, cols, sim_values, valid);
         let fit = register_nmi(&real, &sim, &Affine::IDENTITY, Model::Translation, None).unwrap();
         let err = fit.matrix.corner_distance(&truth, rows, cols);

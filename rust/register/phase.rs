@@ -17,7 +17,7 @@
 //! The apodisation window favours small shifts and the FFT cannot tell `d` from
 //! `d ± frame size`; both are settled on the pixels ([`super::shifts`]).
 
-use super::fft::{self, Spectrum, C32, C64};
+use super::fft::{self, Spectrum, C32};
 use super::image::Plane;
 use super::shifts::{resolve_alias, shifted_gradient_correlation};
 use super::subpixel::newton_peak;
@@ -127,8 +127,8 @@ pub enum Locate {
 /// Phase correlation of two already tapered, mean-free images: the peak, and the credible
 /// rivals (local maxima outside the peak's box, at least [`CREDIBLE_RIVAL`] of its height).
 pub fn correlate_tapered(
-    a: &[f64],
-    b: &[f64],
+    a: &[f32],
+    b: &[f32],
     rows: usize,
     cols: usize,
     limits: (usize, usize),
@@ -156,14 +156,14 @@ fn correlate_spectra(
     };
     let locate = half_surface.as_deref().unwrap_or(&surface);
     let (iy, ix, sign) = integer_peak(locate, rows, cols, limits, polarity);
-    let at = |s: &[f64], y: isize, x: isize| sign * s[wrap(y, rows) * cols + wrap(x, cols)];
+    let at = |s: &[f32], y: isize, x: isize| sign * s[wrap(y, rows) * cols + wrap(x, cols)] as f64;
     let height = at(&surface, iy, ix);
     let (confidence, rival, rivals) = surface_confidence(&surface, rows, cols, (iy, ix), sign, limits, polarity);
     let outside = (rows / 2, cols / 2);
     let beyond_limit = limits != outside && {
         let (gy, gx, gsign) = integer_peak(locate, rows, cols, outside, polarity);
         let far = gy.unsigned_abs() > limits.0 || gx.unsigned_abs() > limits.1;
-        (far && gsign * locate[wrap(gy, rows) * cols + wrap(gx, cols)] > BEYOND_RATIO * at(locate, iy, ix))
+        (far && gsign * locate[wrap(gy, rows) * cols + wrap(gx, cols)] as f64 > BEYOND_RATIO * at(locate, iy, ix))
             || rises_beyond(locate, rows, cols, (iy, ix), sign, limits)
     };
     let start = parabolic_start(locate, rows, cols, (iy, ix), sign);
@@ -172,19 +172,45 @@ fn correlate_spectra(
 }
 
 /// The cross-power spectrum `X = a·conj(b)` whitened in place: `a` becomes `X/|X|^½`, `b`
-/// becomes `X/|X|` (both 0 where `|X|` is below 1e-12 of its largest value). Computed in
-/// float64: `|X|²` can exceed the float32 range.
+/// becomes `X/|X|` (both 0 where `|X|` is below 1e-12 of its largest value).
+///
+/// Computed in float32, eight coefficients per vector instruction. Each spectrum is first
+/// scaled by a power of two (exact) to a largest component of about 1, so `|X|²` can neither
+/// overflow nor, above the floor, underflow. The scale changes `X/|X|` not at all and
+/// `X/|X|^½` by a constant factor, which moves no peak.
 fn whiten(a: &mut [C32], b: &mut [C32]) {
-    let wide = |z: C32| C64::new(z.re as f64, z.im as f64);
-    let narrow = |z: C64| C32::new(z.re as f32, z.im as f32);
-    let largest_sq = a.iter().zip(b.iter()).map(|(x, y)| wide(*x).norm_sqr() * wide(*y).norm_sqr()).fold(0.0, f64::max);
-    let floor = largest_sq.sqrt() * 1e-12;
+    let (sa, sb) = (unit_scale(a), unit_scale(b));
+    let scaled = |x: C32, y: C32| C32::new(x.re * sa, x.im * sa) * C32::new(y.re * sb, -y.im * sb);
+    let largest_sq = a.iter().zip(b.iter()).map(|(&x, &y)| scaled(x, y).norm_sqr()).fold(0.0f32, f32::max);
+    let floor_sq = largest_sq * 1e-24;
     for (x, y) in a.iter_mut().zip(b.iter_mut()) {
-        let z = wide(*x) * wide(*y).conj();
-        let m = z.norm_sqr().sqrt(); // no overflow here; `norm` calls libm's slow hypot
-        let inv = if m > floor { 1.0 / m } else { 0.0 };
-        *x = narrow(z * inv.sqrt());
-        *y = narrow(z * inv);
+        let z = scaled(*x, *y);
+        let m_sq = z.norm_sqr();
+        let root = m_sq.sqrt().sqrt(); // |X|^½
+        let inv_root = if m_sq > floor_sq { 1.0 / root } else { 0.0 };
+        *x = z * inv_root;
+        *y = z * (inv_root * inv_root);
+    }
+}
+
+/// The power of two that brings the largest real or imaginary part of `z` to [0.5, 1)
+/// (1 if all are 0 or the largest is not finite).
+fn unit_scale(z: &[C32]) -> f32 {
+    let mut lanes = [0.0f32; 8];
+    let parts = z.chunks_exact(4);
+    let tail = parts.remainder().iter().fold(0.0f32, |m, v| m.max(v.re.abs()).max(v.im.abs()));
+    for chunk in parts {
+        for (k, v) in chunk.iter().enumerate() {
+            let (re, im) = (v.re.abs(), v.im.abs());
+            lanes[2 * k] = if re > lanes[2 * k] { re } else { lanes[2 * k] };
+            lanes[2 * k + 1] = if im > lanes[2 * k + 1] { im } else { lanes[2 * k + 1] };
+        }
+    }
+    let largest = lanes.into_iter().fold(tail, f32::max);
+    if largest > 0.0 && largest.is_finite() {
+        (-(largest.log2().floor()) - 1.0).clamp(-126.0, 126.0).exp2()
+    } else {
+        1.0
     }
 }
 
@@ -208,27 +234,65 @@ fn within_indices(n: usize, limit: usize) -> [std::ops::Range<usize>; 2] {
     [0..(limit + 1).min(n), (n - limit).max(n / 2 + 1)..n]
 }
 
-/// Integer shift of the highest peak within the limits, and its sign.
+/// How a surface value scores as a peak: `sign·v`, or `|v|` when both polarities count.
+#[derive(Clone, Copy)]
+struct Score {
+    sign: f32,
+    absolute: bool,
+}
+
+impl Score {
+    fn new(sign: f64, polarity: Polarity) -> Score {
+        Score { sign: sign as f32, absolute: polarity == Polarity::Either }
+    }
+
+    #[inline(always)]
+    fn of(self, v: f32) -> f32 {
+        if self.absolute {
+            v.abs()
+        } else {
+            self.sign * v
+        }
+    }
+
+    /// The highest score over `line` (−∞ if empty), in eight lanes (vectorised).
+    fn top(self, line: &[f32]) -> f32 {
+        let mut lanes = [f32::NEG_INFINITY; 8];
+        let chunks = line.chunks_exact(8);
+        let tail = chunks.remainder().iter().fold(f32::NEG_INFINITY, |m, &v| m.max(self.of(v)));
+        for chunk in chunks {
+            for (m, &v) in lanes.iter_mut().zip(chunk) {
+                let s = self.of(v);
+                *m = if s > *m { s } else { *m };
+            }
+        }
+        lanes.into_iter().fold(tail, f32::max)
+    }
+
+    /// Index of the first value of `line` scoring `top`.
+    fn first_at(self, line: &[f32], top: f32) -> usize {
+        line.iter().position(|&v| self.of(v) == top).unwrap_or(0)
+    }
+}
+
+/// Integer shift of the highest peak within the limits (the first in row-major order of
+/// equal ones), and its sign.
 fn integer_peak(
-    surface: &[f64],
+    surface: &[f32],
     rows: usize,
     cols: usize,
     limits: (usize, usize),
     polarity: Polarity,
 ) -> (isize, isize, f64) {
-    let mut best = (0usize, 0usize, f64::NEG_INFINITY);
+    let score = Score::new(1.0, polarity);
+    let mut best = (0usize, 0usize, f32::NEG_INFINITY);
     for r in within_indices(rows, limits.0).into_iter().flatten() {
         let line = &surface[r * cols..(r + 1) * cols];
         for span in within_indices(cols, limits.1) {
-            let first = span.start;
-            for (k, &v) in line[span].iter().enumerate() {
-                let score = match polarity {
-                    Polarity::Positive => v,
-                    Polarity::Either => v.abs(),
-                };
-                if score > best.2 {
-                    best = (r, first + k, score);
-                }
+            let (first, part) = (span.start, &line[span]);
+            let top = score.top(part);
+            if top > best.2 {
+                best = (r, first + score.first_at(part, top), top);
             }
         }
     }
@@ -242,8 +306,9 @@ fn integer_peak(
 /// [`NOISE_SIGMAS`] standard deviations of the surface outside that box (so a small search
 /// window over noise cannot look distinct). Returns it with the rival's shift and the
 /// credible rivals to check on the pixels.
+#[inline(never)]
 fn surface_confidence(
-    surface: &[f64],
+    surface: &[f32],
     rows: usize,
     cols: usize,
     peak: (isize, isize),
@@ -251,15 +316,9 @@ fn surface_confidence(
     limits: (usize, usize),
     polarity: Polarity,
 ) -> (f64, (isize, isize), Vec<(isize, isize)>) {
-    let value = |r: usize, c: usize| {
-        let v = sign * surface[r * cols + c];
-        if polarity == Polarity::Either {
-            v.abs()
-        } else {
-            v
-        }
-    };
-    let height = sign * surface[wrap(peak.0, rows) * cols + wrap(peak.1, cols)];
+    let score = Score::new(sign, polarity);
+    let value = |r: usize, c: usize| score.of(surface[r * cols + c]) as f64;
+    let height = sign * surface[wrap(peak.0, rows) * cols + wrap(peak.1, cols)] as f64;
     let near = |d: isize, n: usize| {
         let d = d.rem_euclid(n as isize);
         d.min(n as isize - d) <= EXCLUSION
@@ -271,17 +330,28 @@ fn surface_confidence(
     let mut credible: Vec<(f64, (isize, isize))> = Vec::new();
     let threshold = CREDIBLE_RIVAL * height;
     for r in within_indices(rows, limits.0).into_iter().flatten() {
-        for c in within_indices(cols, limits.1).into_iter().flatten() {
-            if row_near[r] && col_near[c] {
+        for span in within_indices(cols, limits.1) {
+            // Rows clear of the peak's box: their highest value first (vectorised); most
+            // of them hold no credible rival, and their pixels need no closer look.
+            let part = &surface[r * cols + span.start..r * cols + span.end];
+            let top = if row_near[r] { f64::INFINITY } else { score.top(part) as f64 };
+            if !row_near[r] && top > rival {
+                (rival, at) = (top, (signed(r, rows), signed(span.start + score.first_at(part, top as f32), cols)));
+            }
+            if top < threshold {
                 continue;
             }
-            let v = value(r, c);
-            if v > rival {
-                rival = v;
-                at = (signed(r, rows), signed(c, cols));
-            }
-            if v >= threshold && is_local_max(&value, r, c, rows, cols) {
-                credible.push((v, (signed(r, rows), signed(c, cols))));
+            for c in span {
+                if row_near[r] && col_near[c] {
+                    continue;
+                }
+                let v = value(r, c);
+                if row_near[r] && v > rival {
+                    (rival, at) = (v, (signed(r, rows), signed(c, cols)));
+                }
+                if v >= threshold && is_local_max(&value, r, c, rows, cols) {
+                    credible.push((v, (signed(r, rows), signed(c, cols))));
+                }
             }
         }
     }
@@ -295,14 +365,16 @@ fn surface_confidence(
 
 /// Root mean square of the surface outside the box of rows `row_near` × columns `col_near`
 /// (0 if the box covers it all).
-fn rms_outside_box(surface: &[f64], cols: usize, row_near: &[bool], col_near: &[bool]) -> f64 {
-    let sum_sq = |line: &[f64]| {
-        let mut lanes = [0.0f64; 4];
-        let chunks = line.chunks_exact(4);
-        let tail: f64 = chunks.remainder().iter().map(|v| v * v).sum();
+#[inline(never)]
+fn rms_outside_box(surface: &[f32], cols: usize, row_near: &[bool], col_near: &[bool]) -> f64 {
+    let square = |v: &f32| (*v as f64) * (*v as f64);
+    let sum_sq = |line: &[f32]| {
+        let mut lanes = [0.0f64; 8];
+        let chunks = line.chunks_exact(8);
+        let tail: f64 = chunks.remainder().iter().map(square).sum();
         for chunk in chunks {
             for (acc, v) in lanes.iter_mut().zip(chunk) {
-                *acc += v * v;
+                *acc += square(v);
             }
         }
         lanes.iter().sum::<f64>() + tail
@@ -313,7 +385,7 @@ fn rms_outside_box(surface: &[f64], cols: usize, row_near: &[bool], col_near: &[
         count += cols;
         if near {
             for (v, _) in line.iter().zip(col_near).filter(|(_, &n)| n) {
-                total -= v * v;
+                total -= square(v);
                 count -= 1;
             }
         }
@@ -336,14 +408,14 @@ fn is_local_max(value: &impl Fn(usize, usize) -> f64, r: usize, c: usize, rows: 
 /// Whether the peak sits on an edge of a window narrower than the frame with a higher value
 /// just outside it.
 fn rises_beyond(
-    surface: &[f64],
+    surface: &[f32],
     rows: usize,
     cols: usize,
     peak: (isize, isize),
     sign: f64,
     limits: (usize, usize),
 ) -> bool {
-    let at = |y: isize, x: isize| sign * surface[wrap(y, rows) * cols + wrap(x, cols)];
+    let at = |y: isize, x: isize| sign * surface[wrap(y, rows) * cols + wrap(x, cols)] as f64;
     let here = at(peak.0, peak.1);
     let on_edge = |p: isize, limit: usize, n: usize| limit < n / 2 && p.unsigned_abs() == limit;
     let outward = |p: isize| -> [isize; 2] {
@@ -360,9 +432,9 @@ fn rises_beyond(
 /// half a pixel): where Newton's method starts. A move below `ON_THE_INTEGER` is rounding
 /// in the surface (float32 transforms are not exactly symmetric): Newton's method starts on
 /// the integer, where the gradient of a symmetric peak (identical frames) is exactly zero.
-fn parabolic_start(surface: &[f64], rows: usize, cols: usize, peak: (isize, isize), sign: f64) -> (f64, f64) {
+fn parabolic_start(surface: &[f32], rows: usize, cols: usize, peak: (isize, isize), sign: f64) -> (f64, f64) {
     const ON_THE_INTEGER: f64 = 1e-6;
-    let at = |dy: isize, dx: isize| sign * surface[wrap(peak.0 + dy, rows) * cols + wrap(peak.1 + dx, cols)];
+    let at = |dy: isize, dx: isize| sign * surface[wrap(peak.0 + dy, rows) * cols + wrap(peak.1 + dx, cols)] as f64;
     let vertex = |minus: f64, centre: f64, plus: f64| {
         let curvature = minus - 2.0 * centre + plus;
         let offset = if curvature < 0.0 { (0.5 * (minus - plus) / curvature).clamp(-0.5, 0.5) } else { 0.0 };
@@ -400,9 +472,10 @@ mod tests {
         Plane::new(rows, cols, values, vec![true; rows * cols])
     }
 
+    use super::super::pool::Buffer;
     use super::super::window::tapered;
 
-    fn untapered(p: &Plane) -> Vec<f64> {
+    fn untapered(p: &Plane) -> Buffer<f32> {
         tapered(p, &vec![1.0; p.rows], &vec![1.0; p.cols])
     }
 

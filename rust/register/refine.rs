@@ -388,7 +388,7 @@ mod tests {
             let truth = Affine::rotation_scale(1.5, scale, c).compose(&Affine::translation(0.7, -1.2));
             let src = Source { data: &values[..], rows, cols, valid: None };
             let (warped, valid) = warp(&src, &truth, Interp::Bicubic, rows, cols, 0.0);
-            let sim_values = warped.iter().map(|v| v / gain + 10.0).collect();
+            let sim_values: Vec<f64> = warped.iter().map(|v| v / gain + 10.0).collect();
             let sim = Plane::new(rows, cols, sim_values, valid);
             let start = truth.compose(&Affine::translation(0.8, 0.6));
             let out = refine(&real.smoothed(1.0), &sim.smoothed(1.0), &start, model, true).unwrap();

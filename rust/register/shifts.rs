@@ -121,7 +121,7 @@ mod tests {
         let real = Plane::new(
             rows,
             cols,
-            (0..rows * cols).map(|i| f((i / cols) as isize, (i % cols) as isize)).collect(),
+            (0..rows * cols).map(|i| f((i / cols) as isize, (i % cols) as isize)).collect::<Vec<f64>>(),
             vec![true; rows * cols],
         );
         // sim(p) = real(p + d) → real(p) = sim(p − d)
@@ -129,7 +129,7 @@ mod tests {
         let sim = Plane::new(
             rows,
             cols,
-            (0..rows * cols).map(|i| f((i / cols) as isize + d.0, (i % cols) as isize + d.1)).collect(),
+            (0..rows * cols).map(|i| f((i / cols) as isize + d.0, (i % cols) as isize + d.1)).collect::<Vec<f64>>(),
             vec![true; rows * cols],
         );
         let r = shifted_correlation(&real, &sim, d, 10).unwrap();

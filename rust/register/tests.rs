@@ -32,7 +32,7 @@ fn simulate(real: &Plane, m: &Affine, gain: f64, offset: f64, noise_amp: f64) ->
     let src = Source { data: &real.values[..], rows: real.rows, cols: real.cols, valid: None };
     let (values, valid) = warp(&src, m, Interp::Bicubic, real.rows, real.cols, 0.0);
     let n = noise(values.len(), 42);
-    let values = values.iter().zip(&n).map(|(v, e)| gain * v + offset + noise_amp * e).collect();
+    let values: Vec<f64> = values.iter().zip(&n).map(|(v, e)| gain * v + offset + noise_amp * e).collect();
     Plane::new(real.rows, real.cols, values, valid)
 }
 
@@ -120,7 +120,7 @@ fn flat_and_empty_frames_are_refused() {
     assert!(refusal(&flat, &real, opts(Model::Rigid, Method::Nmi)).contains("real frame is flat"));
     let empty = Plane::new(real.rows, real.cols, vec![0.0; real.values.len()], vec![false; real.values.len()]);
     assert!(refusal(&real, &empty, opts(Model::Translation, Method::Phase)).contains("0 valid pixels"));
-    let tiny = Plane::new(4, 4, (0..16).map(f64::from).collect(), vec![true; 16]);
+    let tiny = Plane::new(4, 4, (0..16).map(f64::from).collect::<Vec<f64>>(), vec![true; 16]);
     assert!(refusal(&tiny, &tiny, opts(Model::Translation, Method::Phase)).contains("too small"));
 }
 
@@ -129,7 +129,7 @@ fn periodic_bars_are_ambiguous_unless_max_shift_resolves_them() {
     // a four-bar target filling the frame: 8-px period along x, uniform along y
     let (rows, cols) = (96, 128);
     let bars = |shift: f64| -> Plane {
-        let values = (0..rows * cols)
+        let values: Vec<f64> = (0..rows * cols)
             .map(|i| {
                 let x = (i % cols) as f64 - shift;
                 let phase = (x / 8.0).rem_euclid(1.0);

@@ -63,6 +63,9 @@ impl<T: Sample> Source<'_, T> {
     /// For each source row, the longest run `[lo, hi)` of usable pixels (not masked and, for
     /// floats, finite): taps within it need no check beyond the bounds.
     fn clean_spans(&self) -> Vec<(usize, usize)> {
+        if self.valid.is_none() && T::IS_INT {
+            return vec![(0, self.cols); self.rows];
+        }
         (0..self.rows)
             .map(|r| {
                 let usable = |c: usize| {

@@ -7,6 +7,7 @@
 //! the smaller subpixel error (docs/registration.md).
 
 use super::image::Plane;
+use super::pool::Buffer;
 
 /// Fraction of each axis covered by the two cosine tapers of [`tukey`].
 pub const TUKEY_ALPHA: f64 = 0.5;
@@ -32,10 +33,10 @@ pub fn tukey(n: usize, alpha: f64) -> Vec<f64> {
 }
 
 /// `(v − mean)·w_rows[r]·w_cols[c]` at valid pixels, 0 elsewhere (the mean of the valid
-/// pixels: an excluded pixel contributes nothing).
-pub fn tapered(plane: &Plane, w_rows: &[f64], w_cols: &[f64]) -> Vec<f64> {
+/// pixels: an excluded pixel contributes nothing), in float32: the input of a transform.
+pub fn tapered(plane: &Plane, w_rows: &[f64], w_cols: &[f64]) -> Buffer<f32> {
     let mean = plane.mean();
-    let mut out = vec![0.0; plane.rows * plane.cols];
+    let mut out = Buffer::filled(plane.rows * plane.cols, 0.0);
     for (r, line) in out.chunks_exact_mut(plane.cols.max(1)).enumerate() {
         taper_row(plane, r, mean, w_rows[r], w_cols, line);
     }
@@ -43,11 +44,17 @@ pub fn tapered(plane: &Plane, w_rows: &[f64], w_cols: &[f64]) -> Vec<f64> {
 }
 
 /// Row `r` of [`tapered`] written into `line`, given the plane's mean.
-pub fn taper_row(plane: &Plane, r: usize, mean: f64, w_row: f64, w_cols: &[f64], line: &mut [f64]) {
+pub fn taper_row(plane: &Plane, r: usize, mean: f64, w_row: f64, w_cols: &[f64], line: &mut [f32]) {
     let span = r * plane.cols..(r + 1) * plane.cols;
-    let (values, valid) = (&plane.values[span.clone()], &plane.valid[span]);
-    for (((out, &v), &ok), &wc) in line.iter_mut().zip(values).zip(valid).zip(w_cols) {
-        *out = if ok { (v - mean) * w_row * wc } else { 0.0 };
+    let values = &plane.values[span.clone()];
+    if plane.n_valid == plane.values.len() {
+        for ((out, &v), &wc) in line.iter_mut().zip(values).zip(w_cols) {
+            *out = ((v - mean) * w_row * wc) as f32;
+        }
+        return;
+    }
+    for (((out, &v), &ok), &wc) in line.iter_mut().zip(values).zip(&plane.valid[span]).zip(w_cols) {
+        *out = if ok { ((v - mean) * w_row * wc) as f32 } else { 0.0 };
     }
 }
 
