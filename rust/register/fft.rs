@@ -4,7 +4,8 @@
 //! thread (the planners keep them by length).
 //!
 //! The transforms run in float32, twice as many values per vector instruction as float64 and
-//! half the memory traffic; images and surfaces stay float64 on either side. Their relative
+//! half the memory traffic: their input is the tapered image in float32 (the frames stay
+//! float64), their output a float32 spectrum or surface. Their relative
 //! rounding (about 1e-7 of the largest coefficient) is far below the noise of any frame that
 //! registration sees: exact shifts of noise-free patterns are still found to 1e-6 px (the
 //! `phase` tests), and the worst errors of `benches/bench_register.py` agree with float64
@@ -70,7 +71,7 @@ pub fn forward_rows(rows: usize, cols: usize, mut fill_row: impl FnMut(usize, &m
         (p.real.plan_fft_forward(cols), p.complex.plan_fft_forward(rows))
     });
     let width = cols / 2 + 1;
-    let mut data = Buffer::filled(width * rows, C32::default());
+    let mut data = Buffer::scratch(width * rows); // every coefficient is written below
     let mut line = vec![0.0f32; cols];
     let mut block = vec![C32::default(); ROW_BLOCK * width];
     let mut scratch = r2c.make_scratch_vec();
@@ -105,7 +106,7 @@ pub fn inverse(mut spec: Spectrum) -> Result<Buffer<f32>> {
     let mut col_scratch = vec![C32::default(); col_ifft.get_inplace_scratch_len()];
     col_ifft.process_with_scratch(&mut spec.data, &mut col_scratch);
     let norm = 1.0 / (rows * cols) as f32;
-    let mut out = Buffer::filled(rows * cols, 0.0f32);
+    let mut out = Buffer::scratch(rows * cols); // every row is written below
     let mut block = vec![C32::default(); ROW_BLOCK * width];
     let mut scratch = c2r.make_scratch_vec();
     for r0 in (0..rows).step_by(ROW_BLOCK) {

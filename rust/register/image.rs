@@ -51,16 +51,17 @@ impl Plane {
             }
         }
         let n = data.len();
+        let mut values = Buffer::collect_exact(n, data.iter().map(|v| v.to_f64()));
+        if mask.is_none() && (T::IS_INT || all_finite(&values)) {
+            // the common case, in vectorised passes
+            return Ok(Plane { rows, cols, values, valid: Buffer::filled(n, true), n_valid: n });
+        }
         let valid = match mask {
-            Some(m) => Buffer::collect_exact(n, data.iter().zip(m).map(|(v, &keep)| keep && v.to_f64().is_finite())),
-            None => Buffer::collect_exact(n, data.iter().map(|v| v.to_f64().is_finite())),
+            Some(m) => Buffer::collect_exact(n, values.iter().zip(m).map(|(v, &keep)| keep && v.is_finite())),
+            None => Buffer::collect_exact(n, values.iter().map(|v| v.is_finite())),
         };
-        let n_valid = valid.iter().map(|&ok| ok as usize).sum();
-        let values = if n_valid == n {
-            Buffer::collect_exact(n, data.iter().map(|v| v.to_f64()))
-        } else {
-            Buffer::collect_exact(n, data.iter().zip(valid.iter()).map(|(v, &ok)| if ok { v.to_f64() } else { 0.0 }))
-        };
+        let n_valid = valid.iter().filter(|&&ok| ok).count();
+        values.iter_mut().zip(valid.iter()).filter(|(_, &ok)| !ok).for_each(|(v, _)| *v = 0.0);
         Ok(Plane { rows, cols, values, valid, n_valid })
     }
 
@@ -224,6 +225,23 @@ impl Plane {
     }
 }
 
+/// Whether every value is finite: `v − v` is 0 for a finite value and NaN otherwise, and a
+/// NaN survives any sum (summed in eight lanes, vectorised).
+fn all_finite(values: &[f64]) -> bool {
+    let chunks = values.chunks_exact(8);
+    let tail = chunks.remainder();
+    let mut lanes = [0.0f64; 8];
+    for chunk in chunks {
+        for (acc, v) in lanes.iter_mut().zip(chunk) {
+            #[allow(clippy::eq_op)] // the point: 0 unless v is NaN or infinite
+            {
+                *acc += v - v;
+            }
+        }
+    }
+    lanes.iter().chain(tail).all(|v| v.is_finite())
+}
+
 /// Smallest and largest of `values` (infinities when empty), in four lanes.
 fn min_max(values: &[f64]) -> (f64, f64) {
     let (mut lo, mut hi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
@@ -306,6 +324,21 @@ mod tests {
         let (mean, std) = p.mean_std();
         assert!((mean - 3.0).abs() < 1e-15 && (std - (8.0f64 / 3.0).sqrt()).abs() < 1e-15);
         assert!(Plane::from_samples(&data, 3, 3, None, "real").is_err());
+    }
+
+    #[test]
+    fn any_nonfinite_value_is_found() {
+        for n in [1usize, 7, 8, 9, 100] {
+            let clean: Vec<f64> = (0..n).map(|i| i as f64 * 1e300).collect();
+            assert!(all_finite(&clean), "{n}");
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                for at in [0, n / 2, n - 1] {
+                    let mut v = clean.clone();
+                    v[at] = bad;
+                    assert!(!all_finite(&v), "{n} {at} {bad}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -306,7 +306,6 @@ fn integer_peak(
 /// [`NOISE_SIGMAS`] standard deviations of the surface outside that box (so a small search
 /// window over noise cannot look distinct). Returns it with the rival's shift and the
 /// credible rivals to check on the pixels.
-#[inline(never)]
 fn surface_confidence(
     surface: &[f32],
     rows: usize,
@@ -365,7 +364,6 @@ fn surface_confidence(
 
 /// Root mean square of the surface outside the box of rows `row_near` × columns `col_near`
 /// (0 if the box covers it all).
-#[inline(never)]
 fn rms_outside_box(surface: &[f32], cols: usize, row_near: &[bool], col_near: &[bool]) -> f64 {
     let square = |v: &f32| (*v as f64) * (*v as f64);
     let sum_sq = |line: &[f32]| {
@@ -532,6 +530,57 @@ mod tests {
         )
         .unwrap();
         assert_eq!(pos.sign, 1.0);
+    }
+
+    #[test]
+    fn extreme_grey_levels_give_the_same_shift() {
+        // whitening in float32 scales each spectrum first: 1e±30 grey levels neither
+        // overflow nor underflow
+        let (rows, cols) = (48, 64);
+        let limits = search_limits(rows, cols, None);
+        let find = |scale: f64| {
+            let scaled = |p: Plane| {
+                let values: Vec<f64> = p.values.iter().map(|v| v * scale).collect();
+                Plane::new(rows, cols, values, vec![true; rows * cols])
+            };
+            let (real, sim) = (scaled(pattern(rows, cols, 0.0, 0.0)), scaled(pattern(rows, cols, -1.25, 2.5)));
+            let (pk, _) = correlate_tapered(
+                &untapered(&real),
+                &untapered(&sim),
+                rows,
+                cols,
+                limits,
+                Polarity::Either,
+                Locate::Whitened,
+            )
+            .unwrap();
+            (pk.dy, pk.dx, pk.height)
+        };
+        let reference = find(1.0);
+        assert!((reference.0 - 1.25).abs() < 1e-6 && (reference.1 + 2.5).abs() < 1e-6, "{reference:?}");
+        for scale in [1e-30, 1e30] {
+            let (dy, dx, height) = find(scale);
+            assert!((dy - reference.0).abs() < 1e-6 && (dx - reference.1).abs() < 1e-6, "{scale}: {dy} {dx}");
+            assert!((height - reference.2).abs() < 1e-6, "{scale}: {height}");
+        }
+    }
+
+    #[test]
+    fn vectorised_scans_match_a_plain_scan() {
+        // the highest score and its first position, ties included, for every polarity
+        let line: Vec<f32> = (0..37).map(|i| (((i * 7919) % 23) as f32 - 11.0) * 0.5).collect();
+        for (sign, polarity) in [(1.0, Polarity::Positive), (-1.0, Polarity::Positive), (1.0, Polarity::Either)] {
+            let score = Score::new(sign, polarity);
+            for len in [0usize, 1, 7, 8, 9, 16, 37] {
+                let part = &line[..len];
+                let plain = part.iter().map(|&v| score.of(v)).fold(f32::NEG_INFINITY, f32::max);
+                assert_eq!(score.top(part), plain, "{len}");
+                if len > 0 {
+                    let first = part.iter().position(|&v| score.of(v) == plain).unwrap();
+                    assert_eq!(score.first_at(part, plain), first);
+                }
+            }
+        }
     }
 
     #[test]

@@ -48,15 +48,19 @@ fn bytes<T>(v: &Vec<T>) -> usize {
     v.capacity() * std::mem::size_of::<T>()
 }
 
-/// An empty vector with room for `len` elements: the smallest spare that fits, or new.
-fn empty_with_capacity<T: Reusable>(len: usize) -> Vec<T> {
-    let reused = T::with_spare(|spare| {
+/// The smallest spare vector with room for `len` elements (its old contents kept).
+fn spare_with_capacity<T: Reusable>(len: usize) -> Option<Vec<T>> {
+    T::with_spare(|spare| {
         let fits = spare.iter().enumerate().filter(|(_, b)| b.capacity() >= len);
         let (i, _) = fits.min_by_key(|(_, b)| b.capacity())?;
         Some(spare.swap_remove(i))
     })
-    .flatten();
-    match reused {
+    .flatten()
+}
+
+/// An empty vector with room for `len` elements: the smallest spare that fits, or new.
+fn empty_with_capacity<T: Reusable>(len: usize) -> Vec<T> {
+    match spare_with_capacity(len) {
         Some(mut v) => {
             v.clear();
             v
@@ -70,6 +74,15 @@ impl<T: Reusable> Buffer<T> {
     pub fn filled(len: usize, value: T) -> Buffer<T> {
         let mut v = empty_with_capacity(len);
         v.resize(len, value);
+        Buffer(v)
+    }
+
+    /// `len` elements of unspecified (but initialised) value, for a caller that writes every
+    /// one of them: reused storage is not cleared first.
+    pub fn scratch(len: usize) -> Buffer<T> {
+        let mut v = spare_with_capacity(len).unwrap_or_default();
+        v.truncate(len);
+        v.resize(len, T::default());
         Buffer(v)
     }
 
@@ -153,6 +166,10 @@ mod tests {
         assert_ne!(third.as_ptr(), at);
         assert_eq!(&third[..], &[1.0, 2.0, 3.0]);
         assert_eq!(third.clone(), third);
+        drop(second);
+        let fourth: Buffer<f64> = Buffer::scratch(900);
+        assert_eq!(fourth.as_ptr(), at, "scratch storage is reused too");
+        assert_eq!(fourth.len(), 900);
     }
 
     #[test]

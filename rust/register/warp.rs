@@ -416,8 +416,11 @@ fn coverage_with<K: Kernel<N>, const N: usize>(
             let (outer_lo, outer_hi) = line(-1e-6, 1e-6 + 1.0);
             if inner_lo < inner_hi {
                 n += inner_hi - inner_lo;
+                n += (outer_lo..inner_lo.max(outer_lo)).filter(|&c| at(c)).count();
+                n += (inner_hi.min(outer_hi)..outer_hi).filter(|&c| at(c)).count();
+            } else {
+                n += (outer_lo..outer_hi).filter(|&c| at(c)).count();
             }
-            n += (outer_lo..outer_hi).filter(|&c| !(inner_lo..inner_hi).contains(&c) && at(c)).count();
         }
         n
     });
