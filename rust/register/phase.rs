@@ -477,23 +477,20 @@ mod tests {
         tapered(p, &vec![1.0; p.rows], &vec![1.0; p.cols])
     }
 
+    /// The peak of either polarity on the whitened surface of the untapered frames.
+    fn whitened_peak(real: &Plane, sim: &Plane) -> Peak {
+        let limits = search_limits(real.rows, real.cols, None);
+        let (a, b) = (untapered(real), untapered(sim));
+        correlate_tapered(&a, &b, real.rows, real.cols, limits, Polarity::Either, Locate::Whitened).unwrap().0
+    }
+
     #[test]
     fn recovers_exact_subpixel_shifts_of_periodic_patterns() {
         for &(rows, cols) in &[(64usize, 80usize), (45, 50)] {
             let real = pattern(rows, cols, 0.0, 0.0);
             for &(dy, dx) in &[(2.3, -1.7), (0.5, 0.5), (-3.25, 4.75), (0.0, 0.0)] {
                 let sim = pattern(rows, cols, -dy, -dx); // real(p) = sim(p − d)
-                let limits = search_limits(rows, cols, None);
-                let (pk, _) = correlate_tapered(
-                    &untapered(&real),
-                    &untapered(&sim),
-                    rows,
-                    cols,
-                    limits,
-                    Polarity::Either,
-                    Locate::Whitened,
-                )
-                .unwrap();
+                let pk = whitened_peak(&real, &sim);
                 assert!((pk.dy - dy).abs() < 1e-6 && (pk.dx - dx).abs() < 1e-6, "{rows}x{cols} {dy},{dx}: {pk:?}");
                 assert_eq!(pk.sign, 1.0);
             }
@@ -537,23 +534,13 @@ mod tests {
         // whitening in float32 scales each spectrum first: 1e±30 grey levels neither
         // overflow nor underflow
         let (rows, cols) = (48, 64);
-        let limits = search_limits(rows, cols, None);
         let find = |scale: f64| {
             let scaled = |p: Plane| {
                 let values: Vec<f64> = p.values.iter().map(|v| v * scale).collect();
                 Plane::new(rows, cols, values, vec![true; rows * cols])
             };
             let (real, sim) = (scaled(pattern(rows, cols, 0.0, 0.0)), scaled(pattern(rows, cols, -1.25, 2.5)));
-            let (pk, _) = correlate_tapered(
-                &untapered(&real),
-                &untapered(&sim),
-                rows,
-                cols,
-                limits,
-                Polarity::Either,
-                Locate::Whitened,
-            )
-            .unwrap();
+            let pk = whitened_peak(&real, &sim);
             (pk.dy, pk.dx, pk.height)
         };
         let reference = find(1.0);
