@@ -177,10 +177,11 @@ impl EachWarp {
         let (rows, cols) = (r.rows, r.cols);
         let real = r.data.to_f64();
         let sim = s.data.to_f64();
-        let real_plane = register::Plane::from_samples(&real, rows, cols, None, "real")?;
-        let sim_plane = register::Plane::from_samples(&sim, rows, cols, None, "simulated")?;
-        let reg = register::register_planes(&real_plane, &sim_plane, &self.options)?;
-        drop((real_plane, sim_plane));
+        let reg = register::register_frames(
+            &register::Frame::new(&real, rows, cols, None, "real")?,
+            &register::Frame::new(&sim, rows, cols, None, "simulated")?,
+            &self.options,
+        )?;
         let (aligned, overlap) = FixedWarp::new(&reg.matrix, self.interp)?.resample(&sim, rows, cols);
         Ok((reg, overlap_stats(&real, &aligned, &overlap, kreq, want_extent)?))
     }

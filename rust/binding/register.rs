@@ -8,7 +8,7 @@ use numpy::{IntoPyArray, PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUn
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 
-use crate::register::{self, Affine, Interp, Method, Model, Options, Plane, Source};
+use crate::register::{self, Affine, Frame, Interp, Method, Model, Options, Source};
 
 fn shape_of(a: &Bound<'_, PyUntypedArray>, what: &str) -> PyResult<(usize, usize)> {
     match a.shape() {
@@ -31,14 +31,6 @@ macro_rules! with_samples {
         });
         out.unwrap_or_else(|| Err(PyTypeError::new_err(format!("{} frame: unsupported dtype {}", $what, dt))))
     }};
-}
-
-/// The frame as a registration plane (float64 and its valid mask), converted without the GIL.
-fn plane_of(py: Python<'_>, arr: &Bound<'_, PyUntypedArray>, mask: Option<&[bool]>, what: &str) -> PyResult<Plane> {
-    let (rows, cols) = shape_of(arr, what)?;
-    with_samples!(py, arr, what, |data| py
-        .detach(|| Plane::from_samples(data, rows, cols, mask, what))
-        .map_err(PyErr::from))
 }
 
 fn matrix_of(m: [f64; 6]) -> Affine {
@@ -74,9 +66,22 @@ fn register_frames(
         .map(|m| m.as_slice())
         .transpose()
         .map_err(|_| PyTypeError::new_err("internal: mask must be contiguous"))?;
-    let real = plane_of(py, real, mask, "real")?;
-    let sim = plane_of(py, sim, mask, "simulated")?;
-    let reg = py.detach(|| register::register_planes(&real, &sim, &opts)).map_err(PyErr::from)?;
+    let (rows, cols) = shape_of(real, "real")?;
+    if shape_of(sim, "simulated")? != (rows, cols) {
+        return Err(crate::Error::Shape(format!(
+            "real and simulated frames differ in shape: {:?} vs {:?}",
+            real.shape(),
+            sim.shape()
+        )))
+        .map_err(PyErr::from);
+    }
+    let reg = with_samples!(py, real, "real", |real| with_samples!(py, sim, "simulated", |sim| py
+        .detach(|| {
+            let real = Frame::new(real, rows, cols, mask, "real")?;
+            let sim = Frame::new(sim, rows, cols, mask, "simulated")?;
+            register::register_frames(&real, &sim, &opts)
+        })
+        .map_err(PyErr::from)))?;
     Ok((flat(&reg.matrix), reg.method.name(), reg.confidence, reg.overlap, reg.inverted))
 }
 

@@ -42,14 +42,7 @@ impl Plane {
         mask: Option<&[bool]>,
         what: &str,
     ) -> Result<Plane> {
-        if data.len() != rows * cols {
-            return Err(Error::Shape(format!("{what} frame has {} pixels, expected {rows}×{cols}", data.len())));
-        }
-        if let Some(m) = mask {
-            if m.len() != data.len() {
-                return Err(Error::Shape(format!("mask has {} elements, frames have {}", m.len(), data.len())));
-            }
-        }
+        check_shape(data.len(), rows, cols, mask, what)?;
         let n = data.len();
         let mut values = Buffer::collect_exact(n, data.iter().map(|v| v.to_f64()));
         if mask.is_none() && (T::IS_INT || all_finite(&values)) {
@@ -65,19 +58,21 @@ impl Plane {
         Ok(Plane { rows, cols, values, valid, n_valid })
     }
 
+    /// A plane of `rows × cols` samples known to be all finite and unmasked.
+    pub fn from_clean<T: Sample>(data: &[T], rows: usize, cols: usize) -> Plane {
+        debug_assert_eq!(data.len(), rows * cols);
+        let n = data.len();
+        let values = Buffer::collect_exact(n, data.iter().map(|v| v.to_f64()));
+        Plane { rows, cols, values, valid: Buffer::filled(n, true), n_valid: n }
+    }
+
     /// Mean of the valid pixels (0 if none).
     pub fn mean(&self) -> f64 {
         if self.n_valid == 0 {
             return 0.0;
         }
         // excluded pixels hold 0: the plain sum is that of the valid pixels
-        let mut lanes = [0.0f64; 4];
-        let chunks = self.values.chunks_exact(4);
-        let tail: f64 = chunks.remainder().iter().sum();
-        for chunk in chunks {
-            lanes.iter_mut().zip(chunk).for_each(|(acc, v)| *acc += v);
-        }
-        (lanes.iter().sum::<f64>() + tail) / self.n_valid as f64
+        lane_sum(&self.values) / self.n_valid as f64
     }
 
     /// Mean and population standard deviation of the valid pixels (two passes).
@@ -114,18 +109,9 @@ impl Plane {
         (lo.into_iter().fold(f64::INFINITY, f64::min), hi.into_iter().fold(f64::NEG_INFINITY, f64::max))
     }
 
-    /// The value of a flat plane (its valid values within 1e-12 of each other, relative to
-    /// their magnitude), or None. Stops at the first pair of values that differ enough, which
-    /// in a real frame comes within a few pixels.
+    /// The value of a flat plane (see [`flat_level`]), or None.
     pub fn flat_level(&self) -> Option<f64> {
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for v in self.valid_values() {
-            (lo, hi) = (lo.min(v), hi.max(v));
-            if hi - lo > 1e-12 * lo.abs().max(hi.abs()) {
-                return None;
-            }
-        }
-        Some(lo)
+        flat_level(self.valid_values())
     }
 
     fn valid_values(&self) -> impl Iterator<Item = f64> + '_ {
@@ -223,6 +209,43 @@ impl Plane {
         }
         (gx, gy, ok)
     }
+}
+
+/// Frame data of `len` samples (and the mask, if any) must fit a `rows × cols` frame.
+pub fn check_shape(len: usize, rows: usize, cols: usize, mask: Option<&[bool]>, what: &str) -> Result<()> {
+    if len != rows * cols {
+        return Err(Error::Shape(format!("{what} frame has {len} pixels, expected {rows}×{cols}")));
+    }
+    match mask {
+        Some(m) if m.len() != len => Err(Error::Shape(format!("mask has {} elements, frames have {len}", m.len()))),
+        _ => Ok(()),
+    }
+}
+
+/// Sum of the values in float64, in eight lanes (vectorised). Not finite if a value is not
+/// (or, for float64 values beyond about 1e303, if the sum overflows).
+pub fn lane_sum<T: Sample>(values: &[T]) -> f64 {
+    let chunks = values.chunks_exact(8);
+    let tail: f64 = chunks.remainder().iter().map(|v| v.to_f64()).sum();
+    let mut lanes = [0.0f64; 8];
+    for chunk in chunks {
+        lanes.iter_mut().zip(chunk).for_each(|(acc, v)| *acc += v.to_f64());
+    }
+    lanes.iter().sum::<f64>() + tail
+}
+
+/// The common value of `values` if they are all within 1e-12 of each other (relative to
+/// their magnitude), else None. Stops at the first pair of values that differ enough, which
+/// in a real frame comes within a few pixels.
+pub fn flat_level(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values {
+        (lo, hi) = (lo.min(v), hi.max(v));
+        if hi - lo > 1e-12 * lo.abs().max(hi.abs()) {
+            return None;
+        }
+    }
+    Some(lo)
 }
 
 /// Whether every value is finite: `v − v` is 0 for a finite value and NaN otherwise, and a

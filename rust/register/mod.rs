@@ -24,6 +24,7 @@
 mod affine;
 mod bands;
 mod fft;
+mod frame;
 mod image;
 mod logpolar;
 mod nmi;
@@ -36,6 +37,7 @@ mod warp;
 mod window;
 
 pub use affine::{Affine, INTEGER_SNAP};
+pub use frame::Frame;
 pub use image::Plane;
 pub use warp::{coverage, warp, Interp, Source};
 
@@ -160,13 +162,13 @@ pub fn register<T: Sample, U: Sample>(
     opts: &Options,
 ) -> Result<Registration> {
     let (rows, cols) = shape;
-    let real = Plane::from_samples(real, rows, cols, mask, "real")?;
-    let sim = Plane::from_samples(sim, rows, cols, mask, "simulated")?;
-    register_planes(&real, &sim, opts)
+    let real = Frame::new(real, rows, cols, mask, "real")?;
+    let sim = Frame::new(sim, rows, cols, mask, "simulated")?;
+    register_frames(&real, &sim, opts)
 }
 
-/// [`register`] on frames already converted.
-pub fn register_planes(real: &Plane, sim: &Plane, opts: &Options) -> Result<Registration> {
+/// [`register`] on frames already wrapped.
+pub fn register_frames(real: &Frame, sim: &Frame, opts: &Options) -> Result<Registration> {
     if (real.rows, real.cols) != (sim.rows, sim.cols) {
         return Err(Error::Shape(format!(
             "real and simulated frames differ in shape: ({}, {}) vs ({}, {})",
@@ -207,19 +209,19 @@ pub fn register_planes(real: &Plane, sim: &Plane, opts: &Options) -> Result<Regi
 }
 
 /// A frame must have enough valid pixels and not be constant.
-fn check_content(plane: &Plane, what: &str) -> Result<()> {
-    if plane.n_valid < MIN_VALID {
+fn check_content(frame: &Frame, what: &str) -> Result<()> {
+    if frame.n_valid < MIN_VALID {
         return Err(Error::Registration(format!(
             "cannot register: the {what} frame has {} valid pixels (the others are NaN/Inf or masked); \
              need at least {MIN_VALID}",
-            plane.n_valid
+            frame.n_valid
         )));
     }
-    if let Some(level) = plane.flat_level() {
+    if let Some(level) = frame.flat_level() {
         return Err(Error::Registration(format!(
             "cannot register: the {what} frame is flat (its {} valid pixels all equal {level}); \
              there is nothing to align",
-            plane.n_valid
+            frame.n_valid
         )));
     }
     Ok(())
@@ -238,8 +240,9 @@ struct Fit {
     inverted: bool,
 }
 
-fn centre(plane: &Plane) -> (f64, f64) {
-    ((plane.cols as f64 - 1.0) / 2.0, (plane.rows as f64 - 1.0) / 2.0)
+/// The frame centre `(x, y)`.
+fn centre(rows: usize, cols: usize) -> (f64, f64) {
+    ((cols as f64 - 1.0) / 2.0, (rows as f64 - 1.0) / 2.0)
 }
 
 /// `out(q) = plane(to_source·q)`, bilinear, with its mask.
@@ -249,14 +252,14 @@ fn warp_plane(plane: &Plane, to_source: &Affine) -> Plane {
     Plane::new(plane.rows, plane.cols, values, valid)
 }
 
-fn phase_fit(real: &Plane, sim: &Plane, opts: &Options) -> Result<Fit> {
+fn phase_fit(real: &Frame, sim: &Frame, opts: &Options) -> Result<Fit> {
     let (start, peak) = match opts.model {
         Model::Translation => {
             let peak = phase::correlate(real, sim, opts.max_shift)?;
             (Affine::translation(peak.dx, peak.dy), peak)
         }
         Model::Rigid | Model::Similarity => {
-            let turn = logpolar::rotation_scale(real, sim, opts.model == Model::Similarity)?;
+            let turn = logpolar::rotation_scale(real.plane(), sim.plane(), opts.model == Model::Similarity)?;
             // a magnitude spectrum knows the angle modulo 180°: the other candidate is tried
             // unless the first gives a confident match, and the better kept
             let mut best: Option<(Affine, phase::Peak)> = None;
@@ -264,9 +267,9 @@ fn phase_fit(real: &Plane, sim: &Plane, opts: &Options) -> Result<Fit> {
                 if best.as_ref().is_some_and(|(_, b)| b.confidence >= CONFIDENT) {
                     break;
                 }
-                let rotation = Affine::rotation_scale(angle, turn.scale, centre(real));
+                let rotation = Affine::rotation_scale(angle, turn.scale, centre(real.rows, real.cols));
                 let Some(back) = rotation.inverse() else { continue };
-                let turned = warp_plane(sim, &back);
+                let turned = Frame::from(warp_plane(sim.plane(), &back));
                 if turned.n_valid < MIN_VALID {
                     continue;
                 }
@@ -286,7 +289,8 @@ fn phase_fit(real: &Plane, sim: &Plane, opts: &Options) -> Result<Fit> {
     let refine_it = opts.model != Model::Translation || opts.method == Method::Auto;
     let coarse = opts.model != Model::Translation;
     let refined = if refine_it {
-        refine::refine(&real.smoothed(REFINE_SMOOTHING), &sim.smoothed(REFINE_SMOOTHING), &start, opts.model, coarse)
+        let smoothed = |frame: &Frame| frame.plane().smoothed(REFINE_SMOOTHING);
+        refine::refine(&smoothed(real), &smoothed(sim), &start, opts.model, coarse)
     } else {
         None
     };
@@ -306,14 +310,15 @@ fn phase_fit(real: &Plane, sim: &Plane, opts: &Options) -> Result<Fit> {
     })
 }
 
-fn nmi_fit(real: &Plane, sim: &Plane, opts: &Options) -> Result<Fit> {
+fn nmi_fit(real: &Frame, sim: &Frame, opts: &Options) -> Result<Fit> {
+    let (real, sim) = (real.plane(), sim.plane());
     let starts = match opts.model {
         Model::Translation => vec![Affine::IDENTITY],
         Model::Rigid | Model::Similarity => {
             let turn = logpolar::rotation_scale(real, sim, opts.model == Model::Similarity)?;
             [turn.angle_deg, turn.angle_deg + 180.0]
                 .iter()
-                .map(|&a| Affine::rotation_scale(a, turn.scale, centre(real)))
+                .map(|&a| Affine::rotation_scale(a, turn.scale, centre(real.rows, real.cols)))
                 .collect()
         }
     };
@@ -348,7 +353,7 @@ fn max_axis_displacement(m: &Affine, rows: usize, cols: usize) -> f64 {
 }
 
 /// Check a candidate (max_shift, overlap, confidence) and measure its overlap and polarity.
-fn finish(real: &Plane, sim: &Plane, fit: Fit, opts: &Options) -> Result<Registration> {
+fn finish(real: &Frame, sim: &Frame, fit: Fit, opts: &Options) -> Result<Registration> {
     let (rows, cols) = (real.rows, real.cols);
     let to_sim = fit
         .matrix
@@ -365,9 +370,7 @@ fn finish(real: &Plane, sim: &Plane, fit: Fit, opts: &Options) -> Result<Registr
             )));
         }
     }
-    let all_valid = sim.n_valid == rows * cols;
-    let covered =
-        coverage((rows, cols), (!all_valid).then_some(&sim.valid[..]), &to_sim, Interp::Bilinear, (rows, cols));
+    let covered = coverage((rows, cols), sim.valid(), &to_sim, Interp::Bilinear, (rows, cols));
     let overlap = covered as f64 / (rows * cols) as f64;
     if overlap < MIN_OVERLAP {
         return Err(Error::Registration(format!(

@@ -18,10 +18,10 @@
 //! `d ± frame size`; both are settled on the pixels ([`super::shifts`]).
 
 use super::fft::{self, Spectrum, C32};
-use super::image::Plane;
+use super::frame::Frame;
 use super::shifts::{resolve_alias, shifted_gradient_correlation};
 use super::subpixel::newton_peak;
-use super::window::{taper_row, tukey, TUKEY_ALPHA};
+use super::window::{tukey, TUKEY_ALPHA};
 use crate::error::Result;
 
 /// Half width, in pixels, of the box around the peak that no rival may come from.
@@ -84,13 +84,10 @@ pub fn search_limits(rows: usize, cols: usize, max_shift: Option<f64>) -> (usize
 /// correlates better, and credible rivals are judged on the pixels too: a rival whose
 /// gradients correlate nearly as well as the peak's (a periodic pattern) lowers the
 /// confidence to `1 − r_rival/r_peak`.
-pub fn correlate(real: &Plane, sim: &Plane, max_shift: Option<f64>) -> Result<Peak> {
+pub fn correlate(real: &Frame, sim: &Frame, max_shift: Option<f64>) -> Result<Peak> {
     let (rows, cols) = (real.rows, real.cols);
     let (wr, wc) = (tukey(rows, TUKEY_ALPHA), tukey(cols, TUKEY_ALPHA));
-    let spectrum = |plane: &Plane| {
-        let mean = plane.mean();
-        fft::forward_rows(rows, cols, |r, line| taper_row(plane, r, mean, wr[r], &wc, line))
-    };
+    let spectrum = |frame: &Frame| fft::forward_rows(rows, cols, |r, line| frame.taper_row(r, wr[r], &wc, line));
     let (fa, fb) = (spectrum(real)?, spectrum(sim)?);
     let (mut peak, rivals) =
         correlate_spectra(fa, fb, search_limits(rows, cols, max_shift), Polarity::Either, Locate::Whitened)?;
@@ -99,8 +96,11 @@ pub fn correlate(real: &Plane, sim: &Plane, max_shift: Option<f64>) -> Result<Pe
     peak.dy += (chosen.0 - canonical.0) as f64;
     peak.dx += (chosen.1 - canonical.1) as f64;
     let min_pairs = rows * cols / 8;
-    let r_peak = if rivals.is_empty() { None } else { shifted_gradient_correlation(real, sim, chosen, min_pairs) };
-    if let Some(r_peak) = r_peak.map(|r| peak.sign * r) {
+    if rivals.is_empty() {
+        return Ok(peak);
+    }
+    let (real, sim) = (real.plane(), sim.plane());
+    if let Some(r_peak) = shifted_gradient_correlation(real, sim, chosen, min_pairs).map(|r| peak.sign * r) {
         for rival in rivals {
             if let Some(r) = shifted_gradient_correlation(real, sim, rival, min_pairs) {
                 let c = if r_peak > 0.0 { (1.0 - peak.sign * r / r_peak).clamp(0.0, 1.0) } else { 0.0 };
@@ -470,6 +470,7 @@ mod tests {
         Plane::new(rows, cols, values, vec![true; rows * cols])
     }
 
+    use super::super::image::Plane;
     use super::super::pool::Buffer;
     use super::super::window::tapered;
 

@@ -5,6 +5,7 @@
 //! gradients, which — unlike that of the values — falls quickly with the shift on smooth
 //! frames too).
 
+use super::frame::Frame;
 use super::image::Plane;
 
 /// Pearson correlation of `real(p)` and `sim(p − d)` over the pixels valid in both, if at
@@ -75,8 +76,8 @@ pub fn shifted_gradient_correlation(real: &Plane, sim: &Plane, d: (isize, isize)
 /// `max_shift` whose overlap is at least an eighth of the frame), the one whose overlap
 /// correlates best with the sign `sign`.
 pub fn resolve_alias(
-    real: &Plane,
-    sim: &Plane,
+    real: &Frame,
+    sim: &Frame,
     peak: (isize, isize),
     sign: f64,
     max_shift: Option<f64>,
@@ -99,6 +100,7 @@ pub fn resolve_alias(
     if candidates.len() < 2 {
         return peak;
     }
+    let (real, sim) = (real.plane(), sim.plane());
     let mut best = (peak, f64::NEG_INFINITY);
     for d in candidates {
         if let Some(r) = shifted_correlation(real, sim, d, min_pairs) {
@@ -140,6 +142,6 @@ mod tests {
         assert!(shifted_correlation(&real, &sim, (0, 0), 10).unwrap() < 0.99);
         assert!(shifted_correlation(&real, &sim, (19, 29), 10).is_none());
         // the alias one frame away along x overlaps too little: the peak stays
-        assert_eq!(resolve_alias(&real, &sim, d, 1.0, None), d);
+        assert_eq!(resolve_alias(&(&real).into(), &(&sim).into(), d, 1.0, None), d);
     }
 }

@@ -36,6 +36,11 @@ fn simulate(real: &Plane, m: &Affine, gain: f64, offset: f64, noise_amp: f64) ->
     Plane::new(real.rows, real.cols, values, valid)
 }
 
+/// [`register_frames`] on planes.
+fn register_planes(real: &Plane, sim: &Plane, opts: &Options) -> Result<Registration> {
+    register_frames(&real.into(), &sim.into(), opts)
+}
+
 fn opts(model: Model, method: Method) -> Options {
     Options { model, method, max_shift: None }
 }

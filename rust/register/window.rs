@@ -8,6 +8,7 @@
 
 use super::image::Plane;
 use super::pool::Buffer;
+use crate::kernel::Sample;
 
 /// Fraction of each axis covered by the two cosine tapers of [`tukey`].
 pub const TUKEY_ALPHA: f64 = 0.5;
@@ -36,25 +37,35 @@ pub fn tukey(n: usize, alpha: f64) -> Vec<f64> {
 /// pixels: an excluded pixel contributes nothing), in float32: the input of a transform.
 pub fn tapered(plane: &Plane, w_rows: &[f64], w_cols: &[f64]) -> Buffer<f32> {
     let mean = plane.mean();
+    let cols = plane.cols.max(1);
+    let all_valid = plane.n_valid == plane.values.len();
     let mut out = Buffer::filled(plane.rows * plane.cols, 0.0);
-    for (r, line) in out.chunks_exact_mut(plane.cols.max(1)).enumerate() {
-        taper_row(plane, r, mean, w_rows[r], w_cols, line);
+    for (r, line) in out.chunks_exact_mut(cols).enumerate() {
+        let span = r * cols..(r + 1) * cols;
+        let valid = (!all_valid).then(|| &plane.valid[span.clone()]);
+        taper_row(&plane.values[span], valid, mean, w_rows[r], w_cols, line);
     }
     out
 }
 
-/// Row `r` of [`tapered`] written into `line`, given the plane's mean.
-pub fn taper_row(plane: &Plane, r: usize, mean: f64, w_row: f64, w_cols: &[f64], line: &mut [f32]) {
-    let span = r * plane.cols..(r + 1) * plane.cols;
-    let values = &plane.values[span.clone()];
-    if plane.n_valid == plane.values.len() {
-        for ((out, &v), &wc) in line.iter_mut().zip(values).zip(w_cols) {
-            *out = ((v - mean) * w_row * wc) as f32;
+/// One row of a tapered image: `(v − mean)·w_row·w_cols[c]` into `line`, 0 where `valid`
+/// (None: all valid) is false.
+pub fn taper_row<T: Sample>(
+    values: &[T],
+    valid: Option<&[bool]>,
+    mean: f64,
+    w_row: f64,
+    w_cols: &[f64],
+    line: &mut [f32],
+) {
+    let Some(valid) = valid else {
+        for ((out, v), &wc) in line.iter_mut().zip(values).zip(w_cols) {
+            *out = ((v.to_f64() - mean) * w_row * wc) as f32;
         }
         return;
-    }
-    for (((out, &v), &ok), &wc) in line.iter_mut().zip(values).zip(&plane.valid[span]).zip(w_cols) {
-        *out = if ok { ((v - mean) * w_row * wc) as f32 } else { 0.0 };
+    };
+    for (((out, v), &ok), &wc) in line.iter_mut().zip(values).zip(valid).zip(w_cols) {
+        *out = if ok { ((v.to_f64() - mean) * w_row * wc) as f32 } else { 0.0 };
     }
 }
 
