@@ -15,7 +15,6 @@ use super::image::Plane;
 use super::phase::{correlate_tapered, Locate, Polarity};
 use super::pool::Buffer;
 use super::window::{tapered, tukey};
-use crate::error::Result;
 
 /// Samples of the angle axis over 180°: 0.35° per sample before subpixel refinement.
 const ANGLES: usize = 512;
@@ -39,10 +38,10 @@ pub struct RotationScale {
 }
 
 /// Estimate the rotation (and, if `with_scale`, the scale) taking `sim` onto `real`.
-pub fn rotation_scale(real: &Plane, sim: &Plane, with_scale: bool) -> Result<RotationScale> {
+pub fn rotation_scale(real: &Plane, sim: &Plane, with_scale: bool) -> RotationScale {
     let r_min = R_MIN_CYCLES / real.rows.min(real.cols) as f64;
     let step = (R_MAX / r_min).ln() / (RADII - 1) as f64;
-    let (a, b) = log_polar_pair(real, sim, r_min, step)?;
+    let (a, b) = log_polar_pair(real, sim, r_min, step);
     // log-radius is not periodic: Hann window along it; angle is periodic: no window
     let (w_angle, w_radius) = (vec![1.0; ANGLES], tukey(RADII, 1.0));
     let ta = tapered(&a, &w_angle, &w_radius);
@@ -56,19 +55,19 @@ pub fn rotation_scale(real: &Plane, sim: &Plane, with_scale: bool) -> Result<Rot
         (ANGLES / 2, radius_limit),
         Polarity::Positive,
         Locate::HalfWhitened,
-    )?;
+    );
     // real's spectrum at angle φ equals sim's at φ − dy samples: the real frame is the
     // simulated one turned by −dy samples; likewise its radii are scaled by e^{dx·step}.
     let angle_deg = -peak.dy * 180.0 / ANGLES as f64;
     let scale = if with_scale { (-peak.dx * step).exp() } else { 1.0 };
-    Ok(RotationScale { angle_deg, scale, confidence: peak.confidence })
+    RotationScale { angle_deg, scale, confidence: peak.confidence }
 }
 
 /// The magnitude of the Hann-windowed frame's half spectrum (column-major, as [`fft::Spectrum`]).
-fn magnitude(plane: &Plane) -> Result<Vec<f64>> {
+fn magnitude(plane: &Plane) -> Vec<f64> {
     let windowed = tapered(plane, &tukey(plane.rows, 1.0), &tukey(plane.cols, 1.0));
-    let spec = fft::forward(&windowed, plane.rows, plane.cols)?;
-    Ok(spec.data.iter().map(|z| (z.re as f64 * z.re as f64 + z.im as f64 * z.im as f64).sqrt()).collect())
+    let spec = fft::forward(&windowed, plane.rows, plane.cols);
+    spec.data.iter().map(|z| (z.re as f64 * z.re as f64 + z.im as f64 * z.im as f64).sqrt()).collect()
 }
 
 /// Where one log-polar sample reads the half spectrum: the offsets of its four bilinear taps
@@ -142,9 +141,9 @@ fn cached_grid(rows: usize, cols: usize, r_min: f64, step: f64) -> Rc<Vec<Tap>> 
 
 /// Both frames' Hann-windowed magnitude spectra, high-pass emphasised, on the log-polar
 /// [`grid`] (shared: the frames have one shape).
-fn log_polar_pair(real: &Plane, sim: &Plane, r_min: f64, step: f64) -> Result<(Plane, Plane)> {
+fn log_polar_pair(real: &Plane, sim: &Plane, r_min: f64, step: f64) -> (Plane, Plane) {
     let taps = cached_grid(real.rows, real.cols, r_min, step);
-    let (ma, mb) = (magnitude(real)?, magnitude(sim)?);
+    let (ma, mb) = (magnitude(real), magnitude(sim));
     let sample = |m: &[f64], t: &Tap| {
         let v = |k: usize| m[t.at[k]];
         ((1.0 - t.ty) * ((1.0 - t.tx) * v(0) + t.tx * v(1)) + t.ty * ((1.0 - t.tx) * v(2) + t.tx * v(3))) * t.emphasis
@@ -152,7 +151,7 @@ fn log_polar_pair(real: &Plane, sim: &Plane, r_min: f64, step: f64) -> Result<(P
     let log_polar = |m: &[f64]| Buffer::collect_exact(taps.len(), taps.iter().map(|t| sample(m, t)));
     let (va, vb) = (log_polar(&ma), log_polar(&mb));
     let all = || Buffer::filled(ANGLES * RADII, true);
-    Ok((Plane::new(ANGLES, RADII, va, all()), Plane::new(ANGLES, RADII, vb, all())))
+    (Plane::new(ANGLES, RADII, va, all()), Plane::new(ANGLES, RADII, vb, all()))
 }
 
 #[cfg(test)]
@@ -193,10 +192,10 @@ pub(crate) mod tests {
             let src = Source { data: &real_values[..], rows, cols, valid: None };
             let (values, valid) = warp(&src, &m, Interp::Bicubic, rows, cols, 0.0);
             let sim = Plane::new(rows, cols, values, valid);
-            let est = rotation_scale(&real, &sim, true).unwrap();
+            let est = rotation_scale(&real, &sim, true);
             assert!((est.angle_deg - angle).abs() < 0.25, "{angle}: {est:?}");
             assert!((est.scale - scale).abs() < 0.005, "{scale}: {est:?}");
-            let rigid = rotation_scale(&real, &sim, false).unwrap();
+            let rigid = rotation_scale(&real, &sim, false);
             assert_eq!(rigid.scale, 1.0);
         }
     }

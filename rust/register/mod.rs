@@ -255,11 +255,11 @@ fn warp_plane(plane: &Plane, to_source: &Affine) -> Plane {
 fn phase_fit(real: &Frame, sim: &Frame, opts: &Options) -> Result<Fit> {
     let (start, peak) = match opts.model {
         Model::Translation => {
-            let peak = phase::correlate(real, sim, opts.max_shift)?;
+            let peak = phase::correlate(real, sim, opts.max_shift);
             (Affine::translation(peak.dx, peak.dy), peak)
         }
         Model::Rigid | Model::Similarity => {
-            let turn = logpolar::rotation_scale(real.plane(), sim.plane(), opts.model == Model::Similarity)?;
+            let turn = logpolar::rotation_scale(real.plane(), sim.plane(), opts.model == Model::Similarity);
             // a magnitude spectrum knows the angle modulo 180°: the other candidate is tried
             // unless the first gives a confident match, and the better kept
             let mut best: Option<(Affine, phase::Peak)> = None;
@@ -273,7 +273,7 @@ fn phase_fit(real: &Frame, sim: &Frame, opts: &Options) -> Result<Fit> {
                 if turned.n_valid < MIN_VALID {
                     continue;
                 }
-                let peak = phase::correlate(real, &turned, opts.max_shift)?;
+                let peak = phase::correlate(real, &turned, opts.max_shift);
                 if best.as_ref().is_none_or(|(_, b)| peak.height > b.height) {
                     best = Some((Affine::translation(peak.dx, peak.dy).compose(&rotation), peak));
                 }
@@ -315,7 +315,7 @@ fn nmi_fit(real: &Frame, sim: &Frame, opts: &Options) -> Result<Fit> {
     let starts = match opts.model {
         Model::Translation => vec![Affine::IDENTITY],
         Model::Rigid | Model::Similarity => {
-            let turn = logpolar::rotation_scale(real, sim, opts.model == Model::Similarity)?;
+            let turn = logpolar::rotation_scale(real, sim, opts.model == Model::Similarity);
             [turn.angle_deg, turn.angle_deg + 180.0]
                 .iter()
                 .map(|&a| Affine::rotation_scale(a, turn.scale, centre(real.rows, real.cols)))

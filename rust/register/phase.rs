@@ -22,7 +22,6 @@ use super::frame::Frame;
 use super::shifts::{resolve_alias, shifted_gradient_correlation};
 use super::subpixel::newton_peak;
 use super::window::{tukey, TUKEY_ALPHA};
-use crate::error::Result;
 
 /// Half width, in pixels, of the box around the peak that no rival may come from.
 pub const EXCLUSION: isize = 3;
@@ -84,20 +83,20 @@ pub fn search_limits(rows: usize, cols: usize, max_shift: Option<f64>) -> (usize
 /// correlates better, and credible rivals are judged on the pixels too: a rival whose
 /// gradients correlate nearly as well as the peak's (a periodic pattern) lowers the
 /// confidence to `1 − r_rival/r_peak`.
-pub fn correlate(real: &Frame, sim: &Frame, max_shift: Option<f64>) -> Result<Peak> {
+pub fn correlate(real: &Frame, sim: &Frame, max_shift: Option<f64>) -> Peak {
     let (rows, cols) = (real.rows, real.cols);
     let (wr, wc) = (tukey(rows, TUKEY_ALPHA), tukey(cols, TUKEY_ALPHA));
     let spectrum = |frame: &Frame| fft::forward_rows(rows, cols, |r, line| frame.taper_row(r, wr[r], &wc, line));
-    let (fa, fb) = (spectrum(real)?, spectrum(sim)?);
+    let (fa, fb) = (spectrum(real), spectrum(sim));
     let (mut peak, rivals) =
-        correlate_spectra(fa, fb, search_limits(rows, cols, max_shift), Polarity::Either, Locate::Whitened)?;
+        correlate_spectra(fa, fb, search_limits(rows, cols, max_shift), Polarity::Either, Locate::Whitened);
     let canonical = (peak.dy.round() as isize, peak.dx.round() as isize);
     let chosen = resolve_alias(real, sim, canonical, peak.sign, max_shift);
     peak.dy += (chosen.0 - canonical.0) as f64;
     peak.dx += (chosen.1 - canonical.1) as f64;
     let min_pairs = rows * cols / 8;
     if rivals.is_empty() {
-        return Ok(peak);
+        return peak;
     }
     let (real, sim) = (real.plane(), sim.plane());
     if let Some(r_peak) = shifted_gradient_correlation(real, sim, chosen, min_pairs).map(|r| peak.sign * r) {
@@ -111,7 +110,7 @@ pub fn correlate(real: &Frame, sim: &Frame, max_shift: Option<f64>) -> Result<Pe
             }
         }
     }
-    Ok(peak)
+    peak
 }
 
 /// Which surface the integer peak is taken on.
@@ -134,8 +133,8 @@ pub fn correlate_tapered(
     limits: (usize, usize),
     polarity: Polarity,
     locate: Locate,
-) -> Result<(Peak, Vec<(isize, isize)>)> {
-    correlate_spectra(fft::forward(a, rows, cols)?, fft::forward(b, rows, cols)?, limits, polarity, locate)
+) -> (Peak, Vec<(isize, isize)>) {
+    correlate_spectra(fft::forward(a, rows, cols), fft::forward(b, rows, cols), limits, polarity, locate)
 }
 
 /// [`correlate_tapered`] from the images' spectra.
@@ -145,14 +144,14 @@ fn correlate_spectra(
     limits: (usize, usize),
     polarity: Polarity,
     locate: Locate,
-) -> Result<(Peak, Vec<(isize, isize)>)> {
+) -> (Peak, Vec<(isize, isize)>) {
     let (rows, cols) = (fa.rows, fa.cols);
     whiten(&mut fa.data, &mut fb.data);
     let (half, full) = (fa, fb);
-    let surface = fft::inverse(full)?;
+    let surface = fft::inverse(full);
     let half_surface = match locate {
         Locate::Whitened => None,
-        Locate::HalfWhitened => Some(fft::inverse(half.clone())?),
+        Locate::HalfWhitened => Some(fft::inverse(half.clone())),
     };
     let locate = half_surface.as_deref().unwrap_or(&surface);
     let (iy, ix, sign) = integer_peak(locate, rows, cols, limits, polarity);
@@ -168,23 +167,25 @@ fn correlate_spectra(
     };
     let start = parabolic_start(locate, rows, cols, (iy, ix), sign);
     let (dy, dx) = newton_peak(&half, start, (iy as f64, ix as f64), sign);
-    Ok((Peak { dy, dx, sign, height, confidence, rival, beyond_limit }, rivals))
+    (Peak { dy, dx, sign, height, confidence, rival, beyond_limit }, rivals)
 }
 
 /// The cross-power spectrum `X = a·conj(b)` whitened in place: `a` becomes `X/|X|^½`, `b`
-/// becomes `X/|X|` (both 0 where `|X|` is below 1e-12 of its largest value).
+/// becomes `X/|X|` (both 0 where `|X|` is below 1e-12 of the product of the spectra's
+/// largest parts, which bounds it: numerically zero).
 ///
-/// Computed in float32, eight coefficients per vector instruction. Each spectrum is first
-/// scaled by a power of two (exact) to a largest component of about 1, so `|X|²` can neither
-/// overflow nor, above the floor, underflow. The scale changes `X/|X|` not at all and
-/// `X/|X|^½` by a constant factor, which moves no peak.
+/// Computed in float32, eight coefficients per vector instruction, in one pass over the
+/// coefficients after finding each spectrum's largest part (the passes are memory-bound).
+/// Each spectrum is first scaled by a power of two (exact) to a largest part in [0.5, 1),
+/// so `|X|²` can neither overflow nor, above the floor, underflow. The scale changes `X/|X|`
+/// not at all and `X/|X|^½` by a constant factor, which moves no peak.
 fn whiten(a: &mut [C32], b: &mut [C32]) {
-    let (sa, sb) = (unit_scale(a), unit_scale(b));
-    let scaled = |x: C32, y: C32| C32::new(x.re * sa, x.im * sa) * C32::new(y.re * sb, -y.im * sb);
-    let largest_sq = a.iter().zip(b.iter()).map(|(&x, &y)| scaled(x, y).norm_sqr()).fold(0.0f32, f32::max);
-    let floor_sq = largest_sq * 1e-24;
+    let (la, lb) = (largest_part(a), largest_part(b));
+    let (sa, sb) = (unit_scale(la), unit_scale(lb));
+    let floor = 1e-12 * (la * sa) * (lb * sb);
+    let floor_sq = floor * floor;
     for (x, y) in a.iter_mut().zip(b.iter_mut()) {
-        let z = scaled(*x, *y);
+        let z = C32::new(x.re * sa, x.im * sa) * C32::new(y.re * sb, -y.im * sb);
         let m_sq = z.norm_sqr();
         let root = m_sq.sqrt().sqrt(); // |X|^½
         let inv_root = if m_sq > floor_sq { 1.0 / root } else { 0.0 };
@@ -193,9 +194,8 @@ fn whiten(a: &mut [C32], b: &mut [C32]) {
     }
 }
 
-/// The power of two that brings the largest real or imaginary part of `z` to [0.5, 1)
-/// (1 if all are 0 or the largest is not finite).
-fn unit_scale(z: &[C32]) -> f32 {
+/// The largest real or imaginary part of `z` in absolute value (0 if empty).
+fn largest_part(z: &[C32]) -> f32 {
     let mut lanes = [0.0f32; 8];
     let parts = z.chunks_exact(4);
     let tail = parts.remainder().iter().fold(0.0f32, |m, v| m.max(v.re.abs()).max(v.im.abs()));
@@ -206,7 +206,11 @@ fn unit_scale(z: &[C32]) -> f32 {
             lanes[2 * k + 1] = if im > lanes[2 * k + 1] { im } else { lanes[2 * k + 1] };
         }
     }
-    let largest = lanes.into_iter().fold(tail, f32::max);
+    lanes.into_iter().fold(tail, f32::max)
+}
+
+/// The power of two that brings `largest` to [0.5, 1) (1 if it is 0 or not finite).
+fn unit_scale(largest: f32) -> f32 {
     if largest > 0.0 && largest.is_finite() {
         (-(largest.log2().floor()) - 1.0).clamp(-126.0, 126.0).exp2()
     } else {
@@ -482,7 +486,7 @@ mod tests {
     fn whitened_peak(real: &Plane, sim: &Plane) -> Peak {
         let limits = search_limits(real.rows, real.cols, None);
         let (a, b) = (untapered(real), untapered(sim));
-        correlate_tapered(&a, &b, real.rows, real.cols, limits, Polarity::Either, Locate::Whitened).unwrap().0
+        correlate_tapered(&a, &b, real.rows, real.cols, limits, Polarity::Either, Locate::Whitened).0
     }
 
     #[test]
@@ -502,7 +506,7 @@ mod tests {
     fn identical_frames_give_exactly_no_shift() {
         let frame = untapered(&pattern(48, 64, 0.3, -0.2));
         let limits = search_limits(48, 64, None);
-        let (pk, _) = correlate_tapered(&frame, &frame, 48, 64, limits, Polarity::Either, Locate::Whitened).unwrap();
+        let (pk, _) = correlate_tapered(&frame, &frame, 48, 64, limits, Polarity::Either, Locate::Whitened);
         assert_eq!((pk.dy, pk.dx, pk.sign), (0.0, 0.0, 1.0));
     }
 
@@ -513,8 +517,7 @@ mod tests {
         sim.values.iter_mut().for_each(|v| *v = 100.0 - 3.0 * *v);
         let limits = search_limits(48, 64, None);
         let (pk, _) =
-            correlate_tapered(&untapered(&real), &untapered(&sim), 48, 64, limits, Polarity::Either, Locate::Whitened)
-                .unwrap();
+            correlate_tapered(&untapered(&real), &untapered(&sim), 48, 64, limits, Polarity::Either, Locate::Whitened);
         assert_eq!(pk.sign, -1.0);
         assert!((pk.dy + 1.5).abs() < 1e-6 && (pk.dx - 2.25).abs() < 1e-6, "{pk:?}");
         let (pos, _) = correlate_tapered(
@@ -525,8 +528,7 @@ mod tests {
             limits,
             Polarity::Positive,
             Locate::HalfWhitened,
-        )
-        .unwrap();
+        );
         assert_eq!(pos.sign, 1.0);
     }
 
