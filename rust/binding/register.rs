@@ -68,12 +68,8 @@ fn register_frames(
         .map_err(|_| PyTypeError::new_err("internal: mask must be contiguous"))?;
     let (rows, cols) = shape_of(real, "real")?;
     if shape_of(sim, "simulated")? != (rows, cols) {
-        return Err(crate::Error::Shape(format!(
-            "real and simulated frames differ in shape: {:?} vs {:?}",
-            real.shape(),
-            sim.shape()
-        )))
-        .map_err(PyErr::from);
+        let message = format!("real and simulated frames differ in shape: {:?} vs {:?}", real.shape(), sim.shape());
+        return Err(crate::Error::Shape(message).into());
     }
     let reg = with_samples!(py, real, "real", |real| with_samples!(py, sim, "simulated", |sim| py
         .detach(|| {

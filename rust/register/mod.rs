@@ -5,8 +5,10 @@
 //! The result is the map `M` from simulated to real pixel coordinates (x = column,
 //! y = row): `real(M·p) ≈ sim(p)`, OpenCV's `warpAffine(sim, M, (w, h)) ≈ real`. Data flow:
 //!
-//! - `image`: each frame converted once to a float64 [`Plane`] with its valid-pixel mask
-//!   (caller's mask, finite values); excluded pixels take part in nothing.
+//! - `frame`: each frame as the caller gave it ([`Frame`]); phase correlation reads clean
+//!   frames' samples directly, every other step a float64 [`Plane`] (`image`) with its
+//!   valid-pixel mask (caller's mask, finite values), converted once when first needed;
+//!   excluded pixels take part in nothing.
 //! - `phase` (method "phase"): Fourier phase correlation of Tukey-windowed frames
 //!   (`window`, `fft`), subpixel peak by Newton's method on the band-limited correlation;
 //!   for rotation and scale first `logpolar` (Reddy & Chatterji 1996), then the translation
