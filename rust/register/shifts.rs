@@ -49,20 +49,34 @@ pub fn shifted_correlation(real: &Plane, sim: &Plane, d: (isize, isize), min_pai
 /// `Σ ∇r·∇s / sqrt(Σ|∇r|² Σ|∇s|²)` over the pixels where both central differences exist, if
 /// at least `min_pairs` do.
 pub fn shifted_gradient_correlation(real: &Plane, sim: &Plane, d: (isize, isize), min_pairs: usize) -> Option<f64> {
-    let (rows, cols) = (real.rows as isize, real.cols as isize);
-    let span_y = ((d.0 + 1).max(1), (rows - 1 + d.0).min(rows - 1));
-    let span_x = ((d.1 + 1).max(1), (cols - 1 + d.1).min(cols - 1));
-    if span_y.1 <= span_y.0 || span_x.1 <= span_x.0 {
+    let overlap = Overlap::interior(real.rows, real.cols, d);
+    if overlap.y.1 <= overlap.y.0 || overlap.x.1 <= overlap.x.0 {
         return None;
     }
     let all_valid = |p: &Plane| p.n_valid == p.values.len();
     let sums = if all_valid(real) && all_valid(sim) {
-        clean_gradient_sums(real, sim, d, span_y, span_x)
+        clean_gradient_sums(real, sim, overlap)
     } else {
-        masked_gradient_sums(real, sim, d, span_y, span_x)
+        masked_gradient_sums(real, sim, overlap)
     };
     let GradientSums { n, rr, ss, rs } = sums;
     (n >= min_pairs.max(2) && rr > 0.0 && ss > 0.0).then(|| rs / (rr * ss).sqrt())
+}
+
+/// Where `real(p)` meets `sim(p − d)` with both frames' borders left out (a central
+/// difference needs the neighbours): the real frame's rows `y` and columns `x`, half-open.
+#[derive(Clone, Copy, Debug)]
+struct Overlap {
+    d: (isize, isize),
+    y: (isize, isize),
+    x: (isize, isize),
+}
+
+impl Overlap {
+    fn interior(rows: usize, cols: usize, d: (isize, isize)) -> Overlap {
+        let span = |n: usize, shift: isize| ((shift + 1).max(1), (n as isize - 1 + shift).min(n as isize - 1));
+        Overlap { d, y: span(rows, d.0), x: span(cols, d.1) }
+    }
 }
 
 /// `Σ|∇r|²`, `Σ|∇s|²`, `Σ ∇r·∇s` over `n` pixels (central differences, unscaled).
@@ -73,16 +87,10 @@ struct GradientSums {
     rs: f64,
 }
 
-/// [`GradientSums`] of real pixels `span_y × span_x` (rows, columns; half-open, inside the
-/// frame's border) against sim pixels shifted by `−d`, when every pixel of both frames is
-/// valid: row slices and four independent lanes, which the compiler vectorises.
-fn clean_gradient_sums(
-    real: &Plane,
-    sim: &Plane,
-    d: (isize, isize),
-    span_y: (isize, isize),
-    span_x: (isize, isize),
-) -> GradientSums {
+/// [`GradientSums`] over an overlap when every pixel of both frames is valid: row slices and
+/// four independent lanes, which the compiler vectorises.
+fn clean_gradient_sums(real: &Plane, sim: &Plane, overlap: Overlap) -> GradientSums {
+    let Overlap { d, y: span_y, x: span_x } = overlap;
     const LANES: usize = 4;
     let width = (span_x.1 - span_x.0) as usize;
     // the row `r` of `p` from column `c − 1` to `c + width` (the neighbours included)
@@ -112,13 +120,8 @@ fn clean_gradient_sums(
 
 /// [`GradientSums`] as [`clean_gradient_sums`], pixel by pixel, where a central difference
 /// exists only if the four neighbours are valid.
-fn masked_gradient_sums(
-    real: &Plane,
-    sim: &Plane,
-    d: (isize, isize),
-    span_y: (isize, isize),
-    span_x: (isize, isize),
-) -> GradientSums {
+fn masked_gradient_sums(real: &Plane, sim: &Plane, overlap: Overlap) -> GradientSums {
+    let Overlap { d, y: span_y, x: span_x } = overlap;
     let cols = real.cols as isize;
     let grad = |p: &Plane, i: usize, stride: usize| -> Option<(f64, f64)> {
         let ok = p.valid[i - 1] && p.valid[i + 1] && p.valid[i - stride] && p.valid[i + stride];
@@ -211,11 +214,9 @@ mod tests {
         assert!(shifted_correlation(&real, &sim, (19, 29), 10).is_none());
         // the row-slice path for fully valid frames gives the pixel-by-pixel sums
         for d in [(0, 0), (3, -5), (-4, 7), (18, 27), (-18, -27)] {
-            let (rows, cols) = (rows as isize, cols as isize);
-            let span_y = ((d.0 + 1).max(1), (rows - 1 + d.0).min(rows - 1));
-            let span_x = ((d.1 + 1).max(1), (cols - 1 + d.1).min(cols - 1));
-            let fast = clean_gradient_sums(&real, &sim, d, span_y, span_x);
-            let slow = masked_gradient_sums(&real, &sim, d, span_y, span_x);
+            let overlap = Overlap::interior(rows, cols, d);
+            let fast = clean_gradient_sums(&real, &sim, overlap);
+            let slow = masked_gradient_sums(&real, &sim, overlap);
             assert_eq!(fast.n, slow.n, "{d:?}");
             for (f, s) in [(fast.rr, slow.rr), (fast.ss, slow.ss), (fast.rs, slow.rs)] {
                 assert!((f - s).abs() <= 1e-12 * s.abs().max(1.0), "{d:?}: {f} vs {s}");
