@@ -47,7 +47,7 @@ impl Plane {
         let mut values = Buffer::collect_exact(n, data.iter().map(|v| v.to_f64()));
         if mask.is_none() && (T::IS_INT || all_finite(&values)) {
             // the common case, in vectorised passes
-            return Ok(Plane { rows, cols, values, valid: Buffer::filled(n, true), n_valid: n });
+            return Ok(Plane::all_valid(rows, cols, values));
         }
         let valid = match mask {
             Some(m) => Buffer::collect_exact(n, values.iter().zip(m).map(|(v, &keep)| keep && v.is_finite())),
@@ -61,8 +61,11 @@ impl Plane {
     /// A plane of `rows × cols` samples known to be all finite and unmasked.
     pub fn from_clean<T: Sample>(data: &[T], rows: usize, cols: usize) -> Plane {
         debug_assert_eq!(data.len(), rows * cols);
-        let n = data.len();
-        let values = Buffer::collect_exact(n, data.iter().map(|v| v.to_f64()));
+        Plane::all_valid(rows, cols, Buffer::collect_exact(data.len(), data.iter().map(|v| v.to_f64())))
+    }
+
+    fn all_valid(rows: usize, cols: usize, values: Buffer<f64>) -> Plane {
+        let n = values.len();
         Plane { rows, cols, values, valid: Buffer::filled(n, true), n_valid: n }
     }
 

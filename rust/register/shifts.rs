@@ -87,8 +87,8 @@ struct GradientSums {
     rs: f64,
 }
 
-/// [`GradientSums`] over an overlap when every pixel of both frames is valid: row slices and
-/// four independent lanes, which the compiler vectorises.
+/// [`GradientSums`] over an overlap when every pixel of both frames is valid: whole row
+/// slices, no per-pixel mask checks, four independent partial sums.
 fn clean_gradient_sums(real: &Plane, sim: &Plane, overlap: Overlap) -> GradientSums {
     let Overlap { d, y: span_y, x: span_x } = overlap;
     const LANES: usize = 4;
