@@ -24,7 +24,7 @@ from typing import Any, Iterable, Mapping
 
 import numpy as np
 
-from .errors import FidelityError
+from .errors import AHPConsistencyWarning, FidelityError
 
 __all__ = [
     "COMPONENTS",
@@ -261,11 +261,6 @@ def fidelity_sum(weights: Weights, components: Mapping[str, float]) -> float:
 
 
 # --------------------------------------------------------------------------- AHP
-class AHPConsistencyWarning(UserWarning):
-    """An AHP comparison matrix whose consistency ratio exceeds the threshold (Saaty: 0.1):
-    the judgements contradict each other too much for the weights to be trusted."""
-
-
 #: Saaty's random consistency index RI(n) (Saaty 1980), n = 1..10.
 RANDOM_INDEX = {1: 0.0, 2: 0.0, 3: 0.58, 4: 0.90, 5: 1.12, 6: 1.24, 7: 1.32, 8: 1.41, 9: 1.45, 10: 1.49}
 

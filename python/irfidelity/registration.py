@@ -30,7 +30,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import _core
-from .errors import FidelityError, FidelityWarning, ShapeError
+from .errors import FidelityError, RegistrationWarning, ShapeError
 from .stats import _as_frame
 
 __all__ = ["register", "Registration", "RegistrationWarning", "MODELS", "METHODS", "LOW_CONFIDENCE",
@@ -51,12 +51,6 @@ DEFAULT_ORDER = 3
 #: PSNR more than bicubic resampling does for f ≥ 0.02 px on a clean frame, so only
 #: shifts whole to within the registration's own precision are snapped (docs/registration.md).
 INTEGER_SNAP: float = _core.REGISTRATION_INTEGER_SNAP
-
-
-class RegistrationWarning(FidelityWarning):
-    """A registration was found but is unsure: a rival transform matches nearly as well
-    (confidence below :data:`LOW_CONFIDENCE`). Check ``reg.confidence`` before trusting the
-    metrics computed on the registered pair."""
 
 
 def _matrix_tuple(m: Any) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
