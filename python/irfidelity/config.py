@@ -154,6 +154,18 @@ class ScoringConfig:
     pair_by : "auto", "name" or "order"
         Sequences: pair frames by file name (``"auto"`` does when both sides are named
         files) or by position. With ``max_delay``, by position (``"name"`` is refused).
+
+    Examples
+    --------
+    >>> import irfidelity as irf
+    >>> cfg = irf.ScoringConfig(bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
+    >>> print(cfg.weights)
+    mtf=0, sitf=0, psnr=0.5, nmi=0, ssim=0.5, noise=0
+    >>> cfg.replace(bins="levels").bins, cfg.bins                 # frozen: replace makes a copy
+    ('levels', 256)
+    >>> cfg.save("scoring.toml")
+    >>> irf.ScoringConfig.load("scoring.toml") == cfg
+    True
     """
 
     weights: Weights = field(default_factory=Weights)
