@@ -7,11 +7,16 @@ real frame gets its own noise:
 - ``640×512 Lepton↑``: a 160×120 Lepton frame upscaled ×4 (cubic spline) — smooth at this scale;
 - ``640×512 XT-R``: a native 640×512 DJI Zenmuse XT-R frame (lightly smoothed, σ = 0.7 px,
   so that the known transform is exact up to the resampling error of a 5th-order spline);
+- ``640×512 Duo Pro R``: a native 640×512 FLIR Duo Pro R frame, a low-contrast scene (116
+  counts from coldest to hottest; σ = 0.7 px as above);
 - ``160×120 Lepton``: the Lepton frame itself (σ = 0.7 px).
 
 Transforms: shifts up to ±8 px (±4 px at 160×120); rigid adds a rotation within ±3°; similarity
 adds a scale within ±2 %. The error of a result is the worst displacement over the four frame
-corners between the found and the true map (pixels).
+corners between the found and the true map (pixels). Its *PSNR cost* is what it does to the
+metrics: the PSNR of the real frame against the simulated one registered by the found map,
+minus the same with the true map (both after the least-squares grey-level gain and offset;
+the largest absolute difference over the cases, in dB).
 
 Peers: scikit-image ``phase_cross_correlation`` (upsample_factor 10 and 100; and 100 on
 Hann-windowed frames) and OpenCV
@@ -25,7 +30,7 @@ Rust pool, OpenCV, OpenBLAS/OpenMP behind numpy and scikit-image) and the time i
 CPU time — core-for-core ratios that a busy machine disturbs little. ``--threads N`` lets every
 library use N threads and measures wall time instead.
 
-Usage: ``python benches/bench_register.py [--quick] [--repeat R] [--threads N] [--docs]``.
+Usage: ``python benches/bench_register.py [--quick] [--repeat R] [--threads N] [--models M,...] [--docs]``.
 The table goes to bench-out/registration.md, the error-vs-time figure to
 bench-out/registration.png (``--docs``: docs/registration.png). The "Registration" section of
 docs/performance.md gives the ranges over several runs of this table.
@@ -74,13 +79,15 @@ def ratios(rows):
 
 def table(rows) -> str:
     rat = ratios(rows)
-    out = ["| frames | model | method | worst corner error (px) | median (px) | time / call (ms) | time ÷ irfidelity phase |",
-           "|---|---|---|---|---|---|---|"]
+    out = ["| frames | model | method | worst corner error (px) | median (px) | worst PSNR cost (dB) | time / call (ms) "
+           "| time ÷ irfidelity phase |",
+           "|---|---|---|---|---|---|---|---|"]
     for r in rows:
         err = "failed" if np.isinf(r["worst"]) else f"{r['worst']:.3f}"
         if r["failed"] and not np.isinf(r["median"]):
             err += f" ({r['failed']} failed)"
-        out.append(f"| {r['frame']} | {r['model']} | {r['method']} | {err} | {r['median']:.3f} | {r['time_ms']:.1f} | "
+        cost = "–" if np.isinf(r["psnr_cost"]) else f"{r['psnr_cost']:.3f}"
+        out.append(f"| {r['frame']} | {r['model']} | {r['method']} | {err} | {r['median']:.3f} | {cost} | {r['time_ms']:.1f} | "
                    f"{rat[(r['frame'], r['model'], r['method'])]:.2f} |")
     return "\n".join(out)
 
@@ -93,7 +100,7 @@ def figure(rows, path):
     from matplotlib.ticker import NullFormatter
 
     frames_ = list(dict.fromkeys(r["frame"] for r in rows))
-    models = list(METHODS)
+    models = list(dict.fromkeys(r["model"] for r in rows))
     fig, axes = plt.subplots(len(frames_), len(models), figsize=(4.2 * len(models), 3.4 * len(frames_)), squeeze=False)
     styles = {"irfidelity phase": ("o", "C0"), "irfidelity auto": ("s", "C1"), "skimage pcc ×10": ("v", "C2"),
               "skimage pcc ×100": ("^", "C3"), "skimage pcc ×100 Hann": ("<", "C7"), "OpenCV phaseCorrelate": ("D", "C4"), "OpenCV ECC euclidean": ("P", "C5"),
@@ -126,12 +133,18 @@ def main():
     ap.add_argument("--cases", type=int, default=None, help="cases per frame and model (default 8)")
     ap.add_argument("--repeat", type=int, default=None, help="timed calls per case, best kept (default 3; quick 1)")
     ap.add_argument("--threads", type=int, default=1, help="threads for every library (default 1: CPU time, core for core)")
+    ap.add_argument("--models", default=",".join(METHODS),
+                    help=f"comma-separated models to run (default all: {','.join(METHODS)})")
     ap.add_argument("--docs", action="store_true", help="write the figure to docs/registration.png")
     args = ap.parse_args()
+    models = tuple(m for m in args.models.split(",") if m)
+    unknown = sorted(set(models) - set(METHODS))
+    if unknown or not models:
+        ap.error(f"--models: expected some of {','.join(METHODS)}, got {args.models!r}")
     n = args.cases or (3 if args.quick else 8)
     repeat = args.repeat or (2 if args.quick else 3)
     cv2.setRNGSeed(0)
-    rows = run(n, repeat, CLOCK)
+    rows = run(n, repeat, CLOCK, models=models)
     md = table(rows)
     print()
     print(md)
