@@ -302,7 +302,10 @@ def register(real: Any, sim: Any, *, model: str = "translation", method: str = D
     >>> real = ndi.gaussian_filter(load_demo_data()["frame"].astype(float), 0.7)
     >>> sim = ndi.shift(real, (-2.3, 1.6), order=3, mode="nearest")   # the simulated view
     >>> reg = irf.register(real, sim)
-    >>> [round(v, 2) for v in reg.shift]                                # real ≈ shift(sim, reg.shift)
+    >>> [round(v, 1) for v in reg.shift]                                # real ≈ shift(sim, reg.shift)
+    [2.3, -1.6]
+    >>> reg = irf.register(real, sim, method="auto")                    # refined: within 0.01 px
+    >>> [round(v, 2) for v in reg.shift]
     [2.3, -1.6]
     >>> aligned, valid = reg.apply(sim)                                 # sim on real's pixels
 
