@@ -1,8 +1,16 @@
 """Registration accuracy and speed: irfidelity vs scikit-image and OpenCV on real thermal frames.
 
 Cases: real frames from ``tests/data/thermal`` seen through known transforms, then made to
-differ as a simulator would — blurred (a different MTF), gain/offset-changed, noised — while the
-real frame gets its own noise:
+differ as a simulator would, by one of two simulators (``registration_cases.SIMULATORS``), while
+the real frame gets its own noise:
+
+- ``typical``: blurred (σ 0.5–1.2 px, a different MTF), gain (0.7–1.4) and offset (±200)
+  changed, noised (5–20 % of the scene's std);
+- ``close``: a simulator close to the camera — within 0.5 px of blur, the same grey levels,
+  0.2–1 % of the scene's range of noise, whole counts — where misregistration, not the
+  simulator, limits PSNR.
+
+Frames:
 
 - ``640×512 Lepton↑``: a 160×120 Lepton frame upscaled ×4 (cubic spline) — smooth at this scale;
 - ``640×512 XT-R``: a native 640×512 DJI Zenmuse XT-R frame (lightly smoothed, σ = 0.7 px,
@@ -30,7 +38,8 @@ Rust pool, OpenCV, OpenBLAS/OpenMP behind numpy and scikit-image) and the time i
 CPU time — core-for-core ratios that a busy machine disturbs little. ``--threads N`` lets every
 library use N threads and measures wall time instead.
 
-Usage: ``python benches/bench_register.py [--quick] [--repeat R] [--threads N] [--models M,...] [--docs]``.
+Usage: ``python benches/bench_register.py [--quick] [--repeat R] [--threads N] [--models M,...]
+[--simulators S,...] [--docs]``.
 The table goes to bench-out/registration.md, the error-vs-time figure to
 bench-out/registration.png (``--docs``: docs/registration.png). The "Registration" section of
 docs/performance.md gives the ranges over several runs of this table.
@@ -68,27 +77,32 @@ CLOCK = time.process_time if THREADS == 1 else time.perf_counter
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benches"))
 
-from registration_cases import METHODS, run  # noqa: E402
+from registration_cases import METHODS, SIMULATORS, run  # noqa: E402
+
+
+def group(row) -> tuple[str, str, str]:
+    """The cases a row was measured on: frame, simulator, model."""
+    return row["frame"], row["simulator"], row["model"]
 
 
 def ratios(rows):
-    """Time ratio of each peer to ``irfidelity phase`` on the same frame and model."""
-    ref = {(r["frame"], r["model"]): r["time_ms"] for r in rows if r["method"] == "irfidelity phase"}
-    return {(r["frame"], r["model"], r["method"]): r["time_ms"] / ref[(r["frame"], r["model"])] for r in rows}
+    """Time ratio of each method to ``irfidelity phase`` on the same cases."""
+    ref = {group(r): r["time_ms"] for r in rows if r["method"] == "irfidelity phase"}
+    return {(*group(r), r["method"]): r["time_ms"] / ref[group(r)] for r in rows}
 
 
 def table(rows) -> str:
     rat = ratios(rows)
-    out = ["| frames | model | method | worst corner error (px) | median (px) | worst PSNR cost (dB) | time / call (ms) "
-           "| time ÷ irfidelity phase |",
-           "|---|---|---|---|---|---|---|---|"]
+    out = ["| frames | simulator | model | method | worst corner error (px) | median (px) | worst PSNR cost (dB) "
+           "| time / call (ms) | time ÷ irfidelity phase |",
+           "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         err = "failed" if np.isinf(r["worst"]) else f"{r['worst']:.3f}"
         if r["failed"] and not np.isinf(r["median"]):
             err += f" ({r['failed']} failed)"
         cost = "–" if np.isinf(r["psnr_cost"]) else f"{r['psnr_cost']:.3f}"
-        out.append(f"| {r['frame']} | {r['model']} | {r['method']} | {err} | {r['median']:.3f} | {cost} | {r['time_ms']:.1f} | "
-                   f"{rat[(r['frame'], r['model'], r['method'])]:.2f} |")
+        out.append(f"| {r['frame']} | {r['simulator']} | {r['model']} | {r['method']} | {err} | {r['median']:.3f} | {cost} "
+                   f"| {r['time_ms']:.1f} | {rat[(*group(r), r['method'])]:.2f} |")
     return "\n".join(out)
 
 
@@ -99,22 +113,22 @@ def figure(rows, path):
     import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
 
-    frames_ = list(dict.fromkeys(r["frame"] for r in rows))
+    frames_ = list(dict.fromkeys((r["frame"], r["simulator"]) for r in rows))
     models = list(dict.fromkeys(r["model"] for r in rows))
     fig, axes = plt.subplots(len(frames_), len(models), figsize=(4.2 * len(models), 3.4 * len(frames_)), squeeze=False)
     styles = {"irfidelity phase": ("o", "C0"), "irfidelity auto": ("s", "C1"), "skimage pcc ×10": ("v", "C2"),
               "skimage pcc ×100": ("^", "C3"), "skimage pcc ×100 Hann": ("<", "C7"), "OpenCV phaseCorrelate": ("D", "C4"), "OpenCV ECC euclidean": ("P", "C5"),
               "OpenCV ECC affine": ("X", "C6")}
-    for i, f in enumerate(frames_):
+    for i, (f, simulator) in enumerate(frames_):
         for j, mo in enumerate(models):
             ax = axes[i][j]
             for r in rows:
-                if r["frame"] == f and r["model"] == mo:
+                if group(r) == (f, simulator, mo):
                     marker, color = styles[r["method"]]
                     worst = r["worst"] if np.isfinite(r["worst"]) else 100.0
                     ax.loglog(r["time_ms"], worst, marker, color=color, label=r["method"], ms=8)
                     ax.loglog(r["time_ms"], max(r["median"], 1e-4), marker, color=color, ms=5, alpha=0.4)
-            ax.set_title(f"{f}, {mo}", fontsize=9)
+            ax.set_title(f"{f}, {simulator} simulator, {mo}", fontsize=9)
             ax.set_xlabel("time per call (ms)")
             ax.set_ylabel("corner error (px)")
             ax.xaxis.set_minor_formatter(NullFormatter())
@@ -127,6 +141,14 @@ def figure(rows, path):
     fig.savefig(path, dpi=90)
 
 
+def choose(ap, flag: str, given: str, known) -> tuple[str, ...]:
+    """The comma-separated names of ``given``, each one of ``known`` (else a usage error)."""
+    names = tuple(name for name in given.split(",") if name)
+    if not names or set(names) - set(known):
+        ap.error(f"{flag}: expected some of {','.join(known)}, got {given!r}")
+    return names
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="3 cases per frame and model, 1 timing repeat")
@@ -135,16 +157,16 @@ def main():
     ap.add_argument("--threads", type=int, default=1, help="threads for every library (default 1: CPU time, core for core)")
     ap.add_argument("--models", default=",".join(METHODS),
                     help=f"comma-separated models to run (default all: {','.join(METHODS)})")
+    ap.add_argument("--simulators", default=",".join(SIMULATORS),
+                    help=f"comma-separated simulated-frame kinds (default all: {','.join(SIMULATORS)})")
     ap.add_argument("--docs", action="store_true", help="write the figure to docs/registration.png")
     args = ap.parse_args()
-    models = tuple(m for m in args.models.split(",") if m)
-    unknown = sorted(set(models) - set(METHODS))
-    if unknown or not models:
-        ap.error(f"--models: expected some of {','.join(METHODS)}, got {args.models!r}")
+    models = choose(ap, "--models", args.models, METHODS)
+    simulators = choose(ap, "--simulators", args.simulators, SIMULATORS)
     n = args.cases or (3 if args.quick else 8)
     repeat = args.repeat or (2 if args.quick else 3)
     cv2.setRNGSeed(0)
-    rows = run(n, repeat, CLOCK, models=models)
+    rows = run(n, repeat, CLOCK, models=models, simulators=simulators)
     md = table(rows)
     print()
     print(md)
