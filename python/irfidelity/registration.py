@@ -39,9 +39,9 @@ __all__ = ["register", "Registration", "RegistrationWarning", "MODELS", "METHODS
 MODELS = ("translation", "rigid", "similarity")
 METHODS = ("auto", "phase", "nmi")
 #: The method used unless one is given (:func:`register`, ``ScoringConfig.register_method``,
-#: ``--register-method``). Phase correlation: on blurred, noised simulations of real 640×512
-#: frames it is within 0.08 px and 7–8× faster than ``"auto"``, whose refinement of
-#: translations changes PSNR by at most about 0.1 dB more (benches/bench_register.py,
+#: ``--register-method``). Phase correlation: on simulations of real frames it is within
+#: 0.08 px of the true transform in a fraction of ``"auto"``'s time, and ``"auto"``'s
+#: refinement of translations moves PSNR by at most 0.15 dB (benches/bench_register.py,
 #: docs/registration.md "Which method by default"). Rotation and scale are refined either way.
 DEFAULT_METHOD = "phase"
 #: Below this confidence a registration warns (:class:`RegistrationWarning`); below
