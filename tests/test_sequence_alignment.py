@@ -17,6 +17,7 @@ import scipy.ndimage as ndi
 
 import irfidelity as irf
 from irfidelity.errors import FidelityError
+from irfidelity.registration import DEFAULT_METHOD
 from irfidelity.report import render_sequence_html
 
 DATA = pathlib.Path(__file__).parent / "data" / "thermal"
@@ -78,7 +79,7 @@ def test_every_pair_is_registered_on_its_own_and_scored_as_evaluate_scores_it(tm
     summary = from_files.registration
     assert summary["each"] and summary["frames"] == 6 and summary["model"] == "translation"
     assert summary["shift_dx"]["min"] == min(f["registration"]["shift"][1] for f in from_files.frames)
-    assert "registration per frame (translation, auto): 6 frames" in from_files.summary_text()
+    assert f"registration per frame (translation, {DEFAULT_METHOD}): 6 frames" in from_files.summary_text()
     rows = list(csv.DictReader(open(tmp_path / "f.csv")))
     assert [float(r["reg_dx"]) for r in rows] == [f["registration"]["shift"][1] for f in from_files.frames]
     assert all(float(r["reg_confidence"]) > 0.5 for r in rows)

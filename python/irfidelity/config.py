@@ -23,6 +23,7 @@ from typing import Any
 from .errors import FidelityError
 from .fuzzy import GradeScale, Weights
 from .normalize import DEFAULT_PSNR_ANCHORS, psnr_curve_params
+from .registration import DEFAULT_METHOD
 
 __all__ = ["ScoringConfig", "MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "PAIRING_RULES"]
 
@@ -143,7 +144,8 @@ class ScoringConfig:
         count the overlap only (:func:`irfidelity.register`). A sequence is registered once,
         on its first readable pair (fixed camera geometry), unless ``register_each``.
     register_method : "auto", "phase" or "nmi"
-        :func:`irfidelity.register`'s method.
+        :func:`irfidelity.register`'s method; default
+        :data:`irfidelity.registration.DEFAULT_METHOD`.
     register_each : bool
         Sequences: register every frame pair on its own (a moving simulated viewpoint),
         with the model of ``register``; each frame's transform is in its row.
@@ -154,6 +156,18 @@ class ScoringConfig:
     pair_by : "auto", "name" or "order"
         Sequences: pair frames by file name (``"auto"`` does when both sides are named
         files) or by position. With ``max_delay``, by position (``"name"`` is refused).
+
+    Examples
+    --------
+    >>> import irfidelity as irf
+    >>> cfg = irf.ScoringConfig(bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
+    >>> print(cfg.weights)
+    mtf=0, sitf=0, psnr=0.5, nmi=0, ssim=0.5, noise=0
+    >>> cfg.replace(bins="levels").bins, cfg.bins                 # frozen: replace makes a copy
+    ('levels', 256)
+    >>> cfg.save("scoring.toml")
+    >>> irf.ScoringConfig.load("scoring.toml") == cfg
+    True
     """
 
     weights: Weights = field(default_factory=Weights)
@@ -176,7 +190,7 @@ class ScoringConfig:
     sitf_options: Mapping = field(default_factory=dict)
     grades: GradeScale = field(default_factory=GradeScale)
     register: str | None = None
-    register_method: str = "auto"
+    register_method: str = DEFAULT_METHOD
     register_each: bool = False
     max_delay: int = 0
     pair_by: str = "auto"

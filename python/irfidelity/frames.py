@@ -164,6 +164,22 @@ def load_frame(
         The file is missing, unreadable, truncated, corrupt, unsupported (deep or
         subsampled EXR, palette TIFF, ...) or larger than ``max_pixels`` / ``max_bytes``; the message
         names the path and the reason.
+
+    Examples
+    --------
+    The FLIR Lepton frame shipped with the package (14-bit counts in a 16-bit PNG):
+
+    >>> from importlib import resources
+    >>> import irfidelity as irf
+    >>> from irfidelity.frames import list_channels
+    >>> with resources.as_file(resources.files("irfidelity") / "data" / "cptv_v2_frame000.png") as path:
+    ...     frame, channels = irf.load_frame(path), list_channels(path)
+    >>> frame.shape, frame.dtype.name, channels
+    ((120, 160), 'uint16', ['Y'])
+    >>> irf.load_frame("missing.png")
+    Traceback (most recent call last):
+    ...
+    irfidelity.errors.FrameError: missing.png: cannot open: ...
     """
     try:
         spath = os.fspath(path)
@@ -250,6 +266,20 @@ class FrameSequence(Sequence[np.ndarray]):
     ``len(seq)``, ``seq[i]`` (a 2-D array), ``seq[a:b]`` (a new ``FrameSequence``),
     iteration, and ``seq.names`` (display names such as ``"frame_0003.png"`` or
     ``"stack.tif[3]"``) are supported. Errors raise :class:`FrameError` naming the path.
+
+    Examples
+    --------
+    >>> import os, numpy as np, irfidelity as irf
+    >>> os.mkdir("run")
+    >>> for i in (1, 2, 10):
+    ...     np.save(f"run/frame_{i}.npy", np.full((3, 5), i, dtype=np.uint16))
+    >>> seq = irf.FrameSequence("run")               # natural order: frame_2 before frame_10
+    >>> seq
+    FrameSequence(3 frames: frame_1.npy, frame_2.npy, frame_10.npy)
+    >>> [int(frame[0, 0]) for frame in seq], seq[1:].names
+    ([1, 2, 10], ['frame_2.npy', 'frame_10.npy'])
+    >>> irf.FrameSequence(np.zeros((4, 3, 5), dtype=np.uint16))      # a 3-D array
+    FrameSequence(4 frames: [0], [1], [2], ...)
     """
 
     def __init__(

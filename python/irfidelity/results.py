@@ -127,6 +127,18 @@ class FidelityReport:
         The registration applied before the image components (``config.register``):
         :meth:`irfidelity.Registration.to_dict` — model, method, matrix, shift, angle, scale,
         confidence, overlap. The image components then count the overlap only.
+
+    Examples
+    --------
+    >>> import json, numpy as np, irfidelity as irf
+    >>> real = np.arange(64, dtype=np.uint16).reshape(8, 8)    # a scene spanning 63 counts
+    >>> rep = irf.evaluate(real, real + 1, bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
+    >>> round(rep.fidelity, 3), rep.grade, rep.component_grades
+    (0.978, 'excellent', {'psnr': 'excellent', 'ssim': 'excellent'})
+    >>> rep.skipped                                              # not computed, and why
+    {'mtf': 'weight 0', 'sitf': 'weight 0', 'nmi': 'weight 0'}
+    >>> irf.FidelityReport.from_dict(json.loads(json.dumps(rep.to_dict()))) == rep
+    True
     """
 
     fidelity: float

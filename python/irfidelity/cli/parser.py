@@ -7,6 +7,7 @@ import argparse
 from ..config import MISSING_MODES, NONFINITE_MODES, PAIRING_RULES, REGISTRATION_MODELS
 from ..curves.table import parse_columns, parse_where
 from ..errors import FidelityError
+from ..registration import DEFAULT_METHOD, METHODS
 
 __all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "flag_for"]
 
@@ -157,6 +158,8 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--register", choices=REGISTRATION_MODELS, metavar="MODEL",
                    help="align the simulated frame to the real one first and score the overlap: translation, "
                         "rigid or similarity (a sequence is registered once, on its first pair)")
+    r.add_argument("--register-method", choices=METHODS, metavar="METHOD",
+                   help=f"how to register: {', '.join(METHODS)} (default {DEFAULT_METHOD}; docs/registration.md)")
     r.add_argument("--register-each", action="store_true", default=None,
                    help="sequences: register every frame pair on its own (with --register's model)")
     r.add_argument("--max-delay", type=_non_negative_int, metavar="N",

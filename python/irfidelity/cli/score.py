@@ -18,7 +18,7 @@ __all__ = ["score_command"]
 #: Flags that set a ScoringConfig field of the same name.
 _CONFIG_FLAGS = ("bits", "peak", "bins", "hist_range", "missing", "nonfinite", "channel", "real_channel",
                  "sim_channel", "edge_channel", "edge_fit_order", "ifov_mrad", "pixel_pitch_um", "focal_length_mm", "register",
-                 "register_each", "max_delay", "pair_by")
+                 "register_method", "register_each", "max_delay", "pair_by")
 
 
 def _config(a: argparse.Namespace) -> ScoringConfig:

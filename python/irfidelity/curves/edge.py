@@ -58,7 +58,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FidelityError, FidelityWarning
+from ..errors import EdgeWarning, FidelityError
 from .curve import Curve
 from .mtf import apodization, mtf_from_esf
 
@@ -80,11 +80,6 @@ MIN_SNR = 5
 MIN_ROWS = 8
 #: edge angles (degrees from the pixel grid) at which the 4x phase pattern repeats too soon
 CRITICAL_ANGLES = (math.degrees(math.atan(0.25)), math.degrees(math.atan(0.5)))  # 14.04°, 26.57°
-
-
-class EdgeWarning(FidelityWarning):
-    """A slanted-edge measurement that ran, but whose conditions make the MTF doubtful:
-    clipped pixels, low contrast, an edge angle near 0°/45° or a critical angle, empty ESF bins."""
 
 
 def _warn(msg: str) -> None:

@@ -101,10 +101,11 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     Examples
     --------
     >>> import numpy as np, irfidelity as irf
-    >>> real = np.arange(3 * 64, dtype=np.uint16).reshape(3, 8, 8)
-    >>> rep = irf.score_sequence(real, real + 1, bits=14, weights="psnr=1", progress=False)
-    >>> len(rep.frames), round(rep.metrics["psnr_db"], 2)
-    (3, 84.29)
+    >>> ramp = np.arange(64, dtype=np.uint16).reshape(8, 8)      # a scene spanning 63 counts
+    >>> real = np.stack([ramp, ramp.T, ramp[::-1]])               # three frames
+    >>> rep = irf.score_sequence(real, real + 1, bits=14, peak="range", weights="psnr=1", progress=False)
+    >>> len(rep.frames), rep.failed, round(rep.metrics["psnr_db"], 2), rep.metrics["psnr_peak"]
+    (3, [], 35.99, 63.0)
     """
     cfg = ScoringConfig.resolve(config, **options)
     if resume and csv is None:
