@@ -70,7 +70,7 @@ class OTF:
     --------
     >>> otf = gaussian_otf(1.0) * diffraction_otf(0.8)
     >>> otf.name, round(float(otf(0.2, 0.0)), 4), otf.support
-    ('gaussian(sigma=1 px) x diffraction(cutoff=0.8 cy/px)', 0.3135, 0.8)
+    ('gaussian(sigma=1 px) x diffraction(cutoff=0.8 cy/px)', 0.311, 0.8)
     """
 
     name: str
@@ -132,7 +132,7 @@ def diffraction_otf(cutoff: float) -> OTF:
     Examples
     --------
     >>> round(float(diffraction_otf(1.0)(0.5)), 4)
-    0.3910
+    0.391
     """
     fc = _positive(cutoff, "cutoff")
 
@@ -314,7 +314,7 @@ def bar_target(frequency: float, shape: Any, *, bars: int = 4, orientation: str 
 
     Examples
     --------
-    >>> t = bar_target(0.25, (16, 20), bars=3)  # bars 2 px wide, 14 px long
+    >>> t = bar_target(0.25, (16, 20), bars=3, phase=0.5)  # bars 2 px wide, half a pixel off the grid
     >>> t[8].round(2).tolist()
     [0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 1.0, 0.5, 0.0, 0.5, 1.0, 0.5, 0.0, 0.5, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0]
     """
@@ -354,7 +354,7 @@ def four_bar(frequency: float, shape: Any, **options: Any) -> np.ndarray:
     Examples
     --------
     >>> t = four_bar(0.1, (40, 40), levels=(20.0, 21.0))  # bars 5 px wide, 35 px long
-    >>> t.shape, t.min(), t.max(), float(t.mean().round(4))
+    >>> t.shape, float(t.min()), float(t.max()), float(t.mean().round(4))
     ((40, 40), 20.0, 21.0, 20.4375)
     """
     return bar_target(frequency, shape, bars=4, **options)

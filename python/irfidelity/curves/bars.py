@@ -4,7 +4,8 @@ interest, for :mod:`irfidelity.curves.ctf` to read.
 Finding the targets of a frame (:func:`find_bars`), in steps:
 
 1. the frame averaged over 2 × 2 blocks (frames of at least 64 px), its background the median
-   level, its noise from the median absolute difference of neighbouring blocks;
+   level (then the median outside the targets found), its noise from the median absolute
+   difference of neighbouring blocks;
 2. the pixels deviating from the background by more than a quarter of the largest deviation
    (and by more than 5 times the noise) mark the targets;
 3. recursive XY cuts: the marked area is split along every empty band of rows or columns wider
@@ -63,7 +64,7 @@ class BarGroup:
     polarity : int
         +1 bars above the background, -1 below.
     background : float
-        The frame's background level.
+        The frame's background level: the median outside the targets.
     """
 
     roi: Region
@@ -259,6 +260,15 @@ def _xy_cut(mask: np.ndarray, min_gap: int) -> list[Region]:
     return pieces
 
 
+def _background_outside(coarse: np.ndarray, pieces: list[Region], first_guess: float) -> float:
+    """The median of the frame outside the targets (each grown by one block); the first guess
+    when the targets leave fewer than 64 blocks."""
+    outside = np.ones(coarse.shape, dtype=bool)
+    for r0, r1, c0, c1 in pieces:
+        outside[max(r0 - 1, 0):r1 + 1, max(c0 - 1, 0):c1 + 1] = False
+    return float(np.median(coarse[outside])) if outside.sum() >= 64 else first_guess
+
+
 def _estimate_frequency(oriented: np.ndarray, bars: int, background: float) -> tuple[float, int]:
     """Bar frequency (cy/px) and polarity of the target filling an oriented region."""
     deviation = oriented - background
@@ -323,11 +333,11 @@ def find_bars(image: Any, *, frequencies: Sequence[float] | float | None = None,
     if not peak > 5 * noise:
         return []
     mask = deviation > max(MARK_FRACTION * peak, 5 * noise)
+    pieces = [p for p in _xy_cut(mask, int(math.ceil(gap / factor))) if (p[1] - p[0]) * (p[3] - p[2]) >= 4]
+    background = _background_outside(coarse, pieces, background)
     groups = []
     pad = int(math.ceil(gap / 2)) + 2
-    for r0, r1, c0, c1 in _xy_cut(mask, int(math.ceil(gap / factor))):
-        if (r1 - r0) * (c1 - c0) < 4:
-            continue  # a speck, not a target
+    for r0, r1, c0, c1 in pieces:
         roi = (max(r0 * factor - pad, 0), min(r1 * factor + pad, pixels.shape[0]),
                max(c0 * factor - pad, 0), min(c1 * factor + pad, pixels.shape[1]))
         region = pixels[roi[0]:roi[1], roi[2]:roi[3]]
