@@ -21,14 +21,16 @@ period beyond them:
   determine the profile between them and the bar modulation depends on the sampling phase
   (the errors measured are in docs/bars.md);
 
-* **fundamental-amplitude ratio** (Boreman & Yang 1995): the profile's Fourier component at
-  the bar frequency against the ideal target's. Blur conserves the profile's integral ``Σp``,
-  and the ideal target of that integral has the fundamental ``(2/π) Σp``, so
+* **fundamental-amplitude ratio** (Boreman & Yang 1995): the image's Fourier component at
+  the bar frequency against the ideal target's. With ``s(x)`` the image minus the background
+  summed along the bars over the whole target and a margin of a bar width (at least 8 px) on
+  every side — blur conserves that integral ``Σs``, and the ideal target of that integral has
+  the fundamental ``(2/π) Σs`` —
 
-  .. math:: \\mathrm{MTF}(f) = \\frac{(-1)^{n-1}\\,\\mathrm{Re}\\sum_x p(x)\\,
-            e^{-2\\pi i f (x - c)}}{(2/\\pi) \\sum_x p(x)},
+  .. math:: \\mathrm{MTF}(f) = \\frac{(-1)^{n-1}\\,\\mathrm{Re}\\sum_x s(x)\\,
+            e^{-2\\pi i f (x - c)}}{(2/\\pi) \\sum_x s(x)},
 
-  over a window of the target's extent plus a bar width (at least 3 px) on each side. It is an
+  the two-dimensional Fourier transform at ``(f, 0)`` of image and ideal target. It is an
   MTF sample — the system MTF including the pixel aperture, as the slanted edge measures —
   needs no series conversion, and does not depend on where the samples fall on the bars, so it
   stays valid when the bars are only 1-2 pixels wide (undersampled sensors); it is signed
@@ -68,8 +70,8 @@ import numpy as np
 
 from ..errors import BarClippingWarning, BarPolarityWarning, BarSamplingWarning, BarWarning, ColtmanWarning, \
     FidelityError
-from .bars import (BarGeometry, BarGroup, cycles_per_pixel, detect_orientation, find_bars, frame_pixels, locate,
-                   orient, pixel_noise, surround)
+from .bars import (BarGeometry, BarGroup, cycles_per_pixel, detect_orientation, find_in, frame_pixels, locate, orient,
+                   pixel_noise, surround, target_margin)
 from .curve import Curve, as_curve
 from .edge import MTF_LIMIT
 from .units import CameraGeometry, canonical_unit
@@ -127,8 +129,8 @@ class BarReading:
         ``B`` and ``G``: the profile on the bars' and gaps' centre lines above the background,
         in the target's polarity.
     amplitude : float
-        The bars' large-area level above the background in the target's polarity,
-        ``Σp / (n W)`` (blur conserves the integral).
+        The bars' large-area level above the background in the target's polarity: the
+        target's integral over the bars' area (blur conserves the integral).
     noise : float
         Pixel noise (standard deviation) used.
     snr : float
@@ -251,8 +253,8 @@ def _band_limited_values(window: np.ndarray, start: int, points: np.ndarray) -> 
     (profile coordinates): exact for a profile sampled above its Nyquist rate."""
     n = window.size
     spectrum = np.fft.fft(window)
-    k = np.fft.fftfreq(n) * n
-    return (np.exp(2j * math.pi * np.outer(points - start, k) / n) @ spectrum).real / n
+    phase = 2 * math.pi * np.outer(points - start, np.fft.fftfreq(n))
+    return (np.cos(phase) @ spectrum.real - np.sin(phase) @ spectrum.imag) / n  # real products: fast in every BLAS
 
 
 def _nyquist_mtf(window: np.ndarray, noise: float, f: float, bars: int, amplitude: float) -> float:
@@ -264,8 +266,9 @@ def _nyquist_mtf(window: np.ndarray, noise: float, f: float, bars: int, amplitud
     band = nu >= 0.35
     width = 1.0 / (2.0 * f)
     offsets = (np.arange(bars) - (bars - 1) / 2) / f
-    ideal = (amplitude * width * np.sinc(width * nu[band])
-             * np.abs(np.exp(-2j * math.pi * np.outer(nu[band], offsets)).sum(axis=1))) ** 2
+    phase = 2 * math.pi * np.outer(nu[band], offsets)
+    ideal = (amplitude * width * np.sinc(width * nu[band]) * np.hypot(np.cos(phase).sum(axis=1),
+                                                                      np.sin(phase).sum(axis=1))) ** 2
     signal = max(float(power[band].sum()) - noise ** 2 * window.size * int(band.sum()), 0.0)
     return math.sqrt(signal / float(ideal.sum())) if ideal.sum() > 0 else math.inf
 
@@ -280,16 +283,24 @@ def _measure(oriented: np.ndarray, geometry: BarGeometry, f: float, bars: int, b
     x = np.arange(profile.size, dtype=np.float64)
     bar_centres = geometry.centre + (np.arange(bars) - (bars - 1) / 2) / f
     gap_centres = bar_centres[:-1] + width
-    half = (2 * bars - 1) * width / 2 + max(width, 3.0)
+    margin = target_margin(f)
+    half = (2 * bars - 1) * width / 2 + margin
     lo = max(int(math.floor(geometry.centre - half)), 0)
     hi = min(int(math.ceil(geometry.centre + half)) + 1, profile.size)
     window, xs = profile[lo:hi], x[lo:hi]
     sigma = pixel_noise(read[:, lo:hi], axis=0) if noise is None else float(noise)
     profile_sigma = sigma / math.sqrt(r1 - r0)
-    dc = float(window.sum())
-    amplitude = dc / (bars * width)
-    fundamental = float((window * np.cos(2 * math.pi * f * (xs - geometry.centre))).sum()) * (-1) ** (bars - 1)
-    nyquist = _nyquist_mtf(window, profile_sigma, f, bars, amplitude)
+    # the whole target with a margin along the bars too: a 2-D PSF spreads the bars' low
+    # frequencies beyond their ends, and only the 2-D sums conserve them
+    e0 = max(int(math.floor(geometry.extent[0] - margin)), 0)
+    e1 = min(int(math.ceil(geometry.extent[1] + margin)), oriented.shape[0])
+    column_sums = geometry.polarity * (oriented[e0:e1, lo:hi].sum(axis=0) - (e1 - e0) * background)
+    dc = float(column_sums.sum())
+    length = float(geometry.extent[1] - geometry.extent[0])
+    amplitude = dc / (bars * width * length)
+    fundamental = float((column_sums * np.cos(2 * math.pi * f * (xs - geometry.centre))).sum()) * (-1) ** (bars - 1)
+    sum_sigma = sigma * math.sqrt(e1 - e0)
+    nyquist = _nyquist_mtf(window, profile_sigma, f, bars, float(window.sum()) / (bars * width))
     if nyquist <= WELL_SAMPLED_MTF:
         values = _band_limited_values(window, lo, np.concatenate((bar_centres, gap_centres)))
         scales = np.ones(values.size)
@@ -315,8 +326,8 @@ def _measure(oriented: np.ndarray, geometry: BarGeometry, f: float, bars: int, b
                    ctf_error=2 * math.hypot(gap_level * sigma_b, bar_level * sigma_g) / total ** 2 if total > 0
                    else math.inf,
                    mtf=fundamental / ((2 / math.pi) * dc) if dc > 0 else math.nan, fundamental=fundamental,
-                   fundamental_error=profile_sigma * math.sqrt(window.size / 2), amplitude=amplitude,
-                   amplitude_error=profile_sigma * math.sqrt(window.size) / (bars * width), noise=sigma, snr=snr,
+                   fundamental_error=sum_sigma * math.sqrt(window.size / 2), amplitude=amplitude,
+                   amplitude_error=sum_sigma * math.sqrt(window.size) / (bars * width * length), noise=sigma, snr=snr,
                    nyquist_mtf=nyquist, clipped=clipped, read_pixels=int((r1 - r0) * window.size))
 
 
@@ -392,22 +403,25 @@ def read_bars(pixels: np.ndarray, *, frequency: float, roi: tuple[int, int, int,
             if located:
                 geometry = locate(oriented, frequency, bars, level)
         elif fallback_background is None:
-            raise FidelityError(f"no background around the bars in roi {roi}: fewer than 32 pixels lie a bar width "
-                                f"beyond the target; enlarge the roi or give background=")
+            raise FidelityError(f"no background around the bars in roi {roi}: fewer than 32 pixels lie "
+                                f"{target_margin(frequency):.0f} px beyond the target; enlarge the roi or give "
+                                f"background=")
     return geometry, level, _measure(oriented, geometry, frequency, bars, bar_length, level, noise, clip)
 
 
-def target_region(pixels: np.ndarray, roi: Any, f: float, orientation: str | None,
-                  bars: int) -> tuple[tuple[int, int, int, int], str, float | None]:
+def target_region(pixels: np.ndarray, roi: Any, f: float, orientation: str | None, bars: int,
+                  groups: list[BarGroup] | None = None) -> tuple[tuple[int, int, int, int], str, float | None]:
     """The region, orientation and fallback background of the target at ``f``: the target
-    found in the frame when ``roi`` is None, else the ROI (orientation detected unless given)."""
+    found in the frame (among ``groups`` when the frame's targets were found already) when
+    ``roi`` is None, else the ROI (orientation detected unless given)."""
     if roi is None:
-        group = _pick_group(find_bars(pixels, frequencies=[f], bars=bars), f, orientation)
+        found = find_in(pixels, frequencies=[f], bars=bars) if groups is None else groups
+        group = _pick_group(found, f, orientation)
         return group.roi, group.orientation, group.background
     region = _region(roi, pixels.shape)
     if orientation is None:
         sub = pixels[region[0]:region[1], region[2]:region[3]]
-        orientation = detect_orientation(sub - _border_median(sub))
+        orientation = detect_orientation(sub, f, _border_median(sub))
     orient(pixels[:1, :1], orientation)  # validates the orientation
     return region, orientation, None
 
@@ -466,7 +480,8 @@ def ctf_from_bars(image: Any, *, frequency: float, roi: Any = None, orientation:
         The region holding the target, best with a margin of background around it. Default:
         the target at ``frequency`` found in the image (:func:`~irfidelity.curves.bars.find_bars`).
     orientation : "vertical" | "horizontal", optional
-        Vertical bars run along the columns. Default: detected.
+        Vertical bars run along the columns. Default: detected (the direction whose mean
+        profile carries the stronger component at ``frequency``).
     method : "modulation" | "fundamental"
         Which of ``ctf`` (bar modulation) and ``mtf`` (fundamental ratio) is the ``value``.
     bars : int
@@ -474,8 +489,9 @@ def ctf_from_bars(image: Any, *, frequency: float, roi: Any = None, orientation:
     bar_length : float
         Bar length in bar widths (7:1 bars), for the SNR.
     background : float, optional
-        Background level; default the median of the region beyond the target (the frame's
-        background for a target found automatically).
+        Background level; default the median of the ROI beyond a bar width (at least 8 px) of
+        the target, or the frame's background outside its targets when the ROI leaves
+        fewer than 32 such pixels (a target found automatically).
     noise : float, optional
         Pixel noise (standard deviation, image units); default from the differences of
         neighbouring pixels along the bars.
@@ -521,12 +537,19 @@ def ctf_from_bars(image: Any, *, frequency: float, roi: Any = None, orientation:
     """
     pixels, dtype_clip = frame_pixels(image)
     f = cycles_per_pixel(frequency, unit=unit, camera=camera)
-    below_nyquist(f)
     bars, bar_length = check_options(method, bars, bar_length)
-    region, orientation, fallback = target_region(pixels, roi, f, orientation, bars)
+    return _read_target(pixels, f, roi=roi, orientation=orientation, method=method, bars=bars, bar_length=bar_length,
+                        background=background, noise=noise, clip=clip if clip is not None else dtype_clip)
+
+
+def _read_target(pixels: np.ndarray, f: float, *, roi: Any, orientation: str | None, method: str, bars: int,
+                 bar_length: float, background: float | None, noise: float | None,
+                 clip: tuple[float, float] | None, groups: list[BarGroup] | None = None) -> BarReading:
+    below_nyquist(f)
+    region, orientation, fallback = target_region(pixels, roi, f, orientation, bars, groups)
     geometry, level, signal = read_bars(pixels, frequency=f, roi=region, orientation=orientation, bars=bars,
-                                        bar_length=bar_length, background=background, noise=noise,
-                                        clip=clip if clip is not None else dtype_clip, fallback_background=fallback)
+                                        bar_length=bar_length, background=background, noise=noise, clip=clip,
+                                        fallback_background=fallback)
     ctf = _check_signal(signal, f, method, f" in roi {region}", level)
     return _reading(signal, ctf, method, f, orientation, bars, geometry, region, level)
 
@@ -585,13 +608,28 @@ def ctf_curve(frames: Any, *, frequencies: Sequence[float], rois: Any = None, or
     roi_list = [None] * f_list.size if rois is None else list(rois)
     if len(roi_list) != f_list.size:
         raise FidelityError(f"{len(roi_list)} rois for {f_list.size} frequencies")
+    unknown = set(options) - {"background", "noise", "clip", "bar_length"}
+    if unknown:
+        raise FidelityError(f"ctf_curve got unexpected options {sorted(unknown)}")
+    bars, bar_length = check_options(method, bars, options.get("bar_length", 7.0))
+    f_px = [cycles_per_pixel(freq, unit=unit, camera=camera) for freq in f_list]
+    shared = None
+    if single:
+        pixels, dtype_clip = frame_pixels(frames)
+        if any(r is None for r in roi_list):
+            shared = find_in(pixels, frequencies=f_px, bars=bars)
     readings = []
-    for frame, freq, roi in zip(frame_list, f_list, roi_list):
+    for index, (frame, freq, roi) in enumerate(zip(frame_list, f_px, roi_list)):
+        if not single:
+            pixels, dtype_clip = frame_pixels(frame, what=f"frame {index}")
+        clip = options.get("clip")
         try:
-            readings.append(ctf_from_bars(frame, frequency=float(freq), roi=roi, orientation=orientation,
-                                          method=method, bars=bars, unit=unit, camera=camera, **options))
+            readings.append(_read_target(pixels, freq, roi=roi, orientation=orientation, method=method, bars=bars,
+                                         bar_length=bar_length, background=options.get("background"),
+                                         noise=options.get("noise"), clip=clip if clip is not None else dtype_clip,
+                                         groups=shared))
         except FidelityError as exc:
-            raise FidelityError(f"bar target at {freq:g} {unit}: {exc}") from None
+            raise FidelityError(f"bar target at {f_list[index]:g} {unit}: {exc}") from None
     order = np.argsort(f_list)
     quantity = "ctf" if method == "modulation" else "mtf"
     return Curve(f_list[order], [readings[i].value for i in order],
