@@ -244,7 +244,7 @@ def _parabola_value(profile: np.ndarray, centre: float, width: float) -> tuple[f
     if near.size < 3:
         near = np.argsort(np.abs(offsets), kind="stable")[:3]
     basis = np.vander(offsets[near], min(3, near.size), increasing=True)
-    coef = np.linalg.lstsq(basis, profile[near], rcond=None)[0]
+    coef = np.linalg.solve(basis.T @ basis, basis.T @ profile[near])  # normal equations: 3 × 3 at most
     return float(coef[0]), 1.0 / math.sqrt(near.size)
 
 
@@ -400,7 +400,7 @@ def read_bars(pixels: np.ndarray, *, frequency: float, roi: tuple[int, int, int,
         outside = surround(oriented, geometry, frequency, bars)
         if outside.size >= 32:
             level = float(np.median(outside))
-            if located:
+            if located and fallback_background is None:  # located on the ROI border's level: again on the surround's
                 geometry = locate(oriented, frequency, bars, level)
         elif fallback_background is None:
             raise FidelityError(f"no background around the bars in roi {roi}: fewer than 32 pixels lie "
