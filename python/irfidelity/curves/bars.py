@@ -7,8 +7,8 @@ Finding the targets of a frame (:func:`find_bars`), in steps:
    background the median
    level (then the median outside the targets found), its noise from the median absolute
    difference of neighbouring blocks;
-2. the pixels deviating from the background by more than a quarter of the largest deviation
-   (and by more than 5 times the noise) mark the targets;
+2. after a 3 × 3 box mean of the blocks, the blocks deviating from the background by more than
+   a quarter of the largest deviation (and by more than 5 times their noise) mark the targets;
 3. recursive XY cuts: the marked area is split along every empty band of rows or columns wider
    than the separation between targets (by default 1.5 times the widest bar of the frequencies
    sought, 16 px when none is given), until no band splits it; each piece is one target —
@@ -262,6 +262,18 @@ def _block_mean(pixels: np.ndarray, factor: int) -> np.ndarray:
     return total / (factor * factor)
 
 
+def _box3(image: np.ndarray) -> np.ndarray:
+    """3 × 3 box mean (edges replicated): the marking threshold sees the targets' level, not
+    the noise of single blocks."""
+    padded = np.pad(image, 1, mode="edge")
+    h, w = image.shape
+    total = np.zeros((h, w))
+    for i in range(3):
+        for j in range(3):
+            total += padded[i:i + h, j:j + w]
+    return total / 9
+
+
 def _bands(occupied: np.ndarray, min_gap: int) -> list[tuple[int, int]]:
     """Runs of occupied indices separated by more than ``min_gap`` empty ones, as (start, stop)."""
     breaks = np.flatnonzero(np.diff(occupied) > min_gap + 1)
@@ -405,8 +417,8 @@ def find_in(pixels: np.ndarray, *, frequencies: Sequence[float] | float | None =
     factor = 4 if min(pixels.shape) >= 256 else 2 if min(pixels.shape) >= 64 else 1
     coarse = _block_mean(pixels, factor)
     background = float(np.median(coarse[::2, ::2]))
-    deviation = np.abs(coarse - background)
-    noise = pixel_noise(coarse[::2], axis=1)  # every other row of blocks: enough for a median
+    noise = pixel_noise(coarse[::2], axis=1) / 3  # every other row of blocks: enough for a median; /3: smoothed
+    deviation = np.abs(_box3(coarse) - background)
     peak = float(deviation.max())
     if not peak > 5 * noise:
         return []

@@ -86,6 +86,9 @@ MIN_BAR_WIDTH = 2.0
 FLAT_SIGMAS = 5.0
 #: bars whose fundamental is below this many standard errors are not resolved
 RESOLVED_SIGMAS = 3.0
+#: bars read a modulation of at least about 0.85 of their fundamental ratio (Coltman's series with
+#: MTF(3f) <= MTF(f)); a modulation under this fraction of it is not bars (a uniform block, an edge)
+NOT_BARS_RATIO = 0.4
 #: a CTF above 1 by less than this many standard errors plus CTF_TOLERANCE reads 1 without a warning
 #: (noise, and the centre-line estimate's error on resolved bars); above 1 + CTF_GROSS_EXCESS it is refused
 CTF_EXCESS_SIGMAS = 3.0
@@ -274,7 +277,8 @@ def _nyquist_mtf(window: np.ndarray, noise: float, f: float, bars: int, amplitud
 
 
 def _measure(oriented: np.ndarray, geometry: BarGeometry, f: float, bars: int, bar_length: float,
-             background: float, noise: float | None, clip: tuple[float, float] | None) -> _Signal:
+             background: float, noise: float | None, clip: tuple[float, float] | None,
+             background_pixels: int = 0) -> _Signal:
     """Levels, fundamental, amplitude and SNR of a located target (module docstring)."""
     width = 1.0 / (2.0 * f)
     r0, r1 = geometry.rows
@@ -300,6 +304,9 @@ def _measure(oriented: np.ndarray, geometry: BarGeometry, f: float, bars: int, b
     amplitude = dc / (bars * width * length)
     fundamental = float((column_sums * np.cos(2 * math.pi * f * (xs - geometry.centre))).sum()) * (-1) ** (bars - 1)
     sum_sigma = sigma * math.sqrt(e1 - e0)
+    # a background read as the median of n pixels is off by about 1.2533 σ/√n over the whole window
+    background_sigma = 1.2533 * sigma / math.sqrt(background_pixels) if background_pixels else 0.0
+    dc_sigma = math.hypot(sum_sigma * math.sqrt(window.size), background_sigma * (e1 - e0) * window.size)
     nyquist = _nyquist_mtf(window, profile_sigma, f, bars, float(window.sum()) / (bars * width))
     if nyquist <= WELL_SAMPLED_MTF:
         values = _band_limited_values(window, lo, np.concatenate((bar_centres, gap_centres)))
@@ -327,7 +334,7 @@ def _measure(oriented: np.ndarray, geometry: BarGeometry, f: float, bars: int, b
                    else math.inf,
                    mtf=fundamental / ((2 / math.pi) * dc) if dc > 0 else math.nan, fundamental=fundamental,
                    fundamental_error=sum_sigma * math.sqrt(window.size / 2), amplitude=amplitude,
-                   amplitude_error=sum_sigma * math.sqrt(window.size) / (bars * width * length), noise=sigma, snr=snr,
+                   amplitude_error=dc_sigma / (bars * width * length), noise=sigma, snr=snr,
                    nyquist_mtf=nyquist, clipped=clipped, read_pixels=int((r1 - r0) * window.size))
 
 
@@ -347,6 +354,11 @@ def _check_signal(signal: _Signal, f: float, method: str, where: str, background
         raise FidelityError(f"no bars{where}: nothing varies at {f:.4g} cy/px beyond the noise (fundamental ratio "
                             f"{signal.mtf:.3g}); the region holds no bar target at this frequency, or the camera "
                             f"does not resolve it")
+    if 1.0 / (2.0 * f) >= MIN_BAR_WIDTH and abs(signal.ctf) < NOT_BARS_RATIO * abs(signal.mtf) - \
+            RESOLVED_SIGMAS * signal.ctf_error:
+        raise FidelityError(f"no bars{where}: the region varies at {f:.4g} cy/px, but not as bars (bar modulation "
+                            f"{signal.ctf:.3g} against a fundamental ratio {signal.mtf:.3g}); the region holds no bar "
+                            f"target at this frequency")
     if not signal.bar_level + signal.gap_level > 0:
         raise FidelityError(f"bar modulation undefined{where}: bars and gaps read {signal.bar_level:.4g} and "
                             f"{signal.gap_level:.4g} above the background (wrong background level?)")
@@ -392,21 +404,27 @@ def read_bars(pixels: np.ndarray, *, frequency: float, roi: tuple[int, int, int,
     located = geometry is None
     if background is not None:
         level = float(background)
+        if not math.isfinite(level):
+            raise FidelityError(f"background must be finite, got {background!r}", option="background")
     else:
         level = fallback_background if fallback_background is not None else _border_median(oriented)
     if geometry is None:
         geometry = locate(oriented, frequency, bars, level)
+    outside = surround(oriented, geometry, frequency, bars)
+    if background is not None and outside.size >= 32:
+        _check_background(level, float(np.median(outside)), oriented, geometry, roi)
+    counted = 0
     if background is None:
-        outside = surround(oriented, geometry, frequency, bars)
         if outside.size >= 32:
             level = float(np.median(outside))
+            counted = int(outside.size)
             if located and fallback_background is None:  # located on the ROI border's level: again on the surround's
                 geometry = locate(oriented, frequency, bars, level)
         elif fallback_background is None:
             raise FidelityError(f"no background around the bars in roi {roi}: fewer than 32 pixels lie "
                                 f"{target_margin(frequency):.0f} px beyond the target; enlarge the roi or give "
                                 f"background=")
-    return geometry, level, _measure(oriented, geometry, frequency, bars, bar_length, level, noise, clip)
+    return geometry, level, _measure(oriented, geometry, frequency, bars, bar_length, level, noise, clip, counted)
 
 
 def target_region(pixels: np.ndarray, roi: Any, f: float, orientation: str | None, bars: int,
@@ -424,6 +442,18 @@ def target_region(pixels: np.ndarray, roi: Any, f: float, orientation: str | Non
         orientation = detect_orientation(sub, f, _border_median(sub))
     orient(pixels[:1, :1], orientation)  # validates the orientation
     return region, orientation, None
+
+
+def _check_background(given: float, around: float, oriented: np.ndarray, geometry: BarGeometry,
+                      roi: tuple[int, int, int, int]) -> None:
+    """Refuse a given background level that the region around the target contradicts by more
+    than a quarter of the target's contrast."""
+    r0, r1 = geometry.rows
+    contrast = float(np.abs(oriented[r0:r1].mean(axis=0) - around).max())
+    if abs(given - around) > 0.25 * contrast:
+        raise FidelityError(f"background {given:.6g} differs from the level {around:.6g} around the target in roi "
+                            f"{roi} by more than a quarter of the target's contrast {contrast:.4g}",
+                            option="background")
 
 
 def _pick_group(groups: list[BarGroup], f: float, orientation: str | None) -> BarGroup:

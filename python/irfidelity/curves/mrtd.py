@@ -69,13 +69,16 @@ import numpy as np
 from ..errors import BarPolarityWarning, FidelityError, MRTDWarning
 from .bars import BarGeometry, cycles_per_pixel, frame_pixels
 from .curve import Curve, as_curve
-from .ctf import below_nyquist, check_options, read_bars, target_region
+from .ctf import RESOLVED_SIGMAS, below_nyquist, check_options, read_bars, target_region
 from .units import CameraGeometry, canonical_unit, convert, warn_unknown
 
 __all__ = ["mrtd", "measured_mrtd", "MRTD_CONSTANT"]
 
 #: π²/8: the bar-minus-gap mean of a square wave's fundamental, per unit of ΔT·MTF, inverted
 MRTD_CONSTANT = math.pi ** 2 / 8
+#: frames whose statistic is below this many times the threshold fit its slope (above it, saturation
+#: or a nonlinear response would bend the line)
+FIT_LIMIT = 4.0
 #: the 3-D noise components that do not cancel between a bar and its gap, for each bar orientation:
 #: (temporal component constant along the bar, fixed component constant along the bar)
 _ALONG_BAR = {"vertical": ("th", "h"), "horizontal": ("tv", "v")}
@@ -287,17 +290,17 @@ def _rois(rois: Any, count: int) -> list[Any]:
 
 
 def _crossing(delta: np.ndarray, stat: np.ndarray, threshold: float) -> float | None:
-    """The smallest ΔT where the statistic reaches ``threshold``, by linear interpolation from
-    (0, 0) through the frames in increasing ΔT; None when no frame reaches it."""
-    order = np.argsort(delta, kind="stable")
-    levels, inverse = np.unique(delta[order], return_inverse=True)
-    means = np.bincount(inverse, weights=stat[order]) / np.bincount(inverse)
-    xs, ys = np.concatenate(([0.0], levels)), np.concatenate(([0.0], means))
-    above = np.flatnonzero(ys >= threshold)
-    if above.size == 0:
+    """The ΔT at which the statistic reaches ``threshold``: it grows in proportion to ΔT, so
+    its slope is fitted through the origin (least squares) to the frames below
+    ``FIT_LIMIT`` times the threshold (the frames of the smallest ΔT when none is), and the
+    MRTD is ``threshold / slope``; None when no frame reaches the threshold (no extrapolation)."""
+    if not (stat >= threshold).any():
         return None
-    i = int(above[0])
-    return float(xs[i - 1] + (threshold - ys[i - 1]) * (xs[i] - xs[i - 1]) / (ys[i] - ys[i - 1]))
+    low = stat < FIT_LIMIT * threshold
+    if not low.any():
+        low = delta == delta.min()
+    slope = float((delta[low] * stat[low]).sum() / (delta[low] ** 2).sum())
+    return threshold / slope if slope > 0 else None
 
 
 def measured_mrtd(frames: Sequence[Any], *, frequencies: Any, delta_t: Any, rois: Any = None,
@@ -313,9 +316,12 @@ def measured_mrtd(frames: Sequence[Any], *, frequencies: Any, delta_t: Any, rois
     over the bars and over the gaps against the noise of one bar–gap difference, each frame's
     own background and noise). The statistic ``SNR · √N`` (``N`` frames integrated, as in
     :func:`mrtd`) grows in proportion to ``ΔT``; the MRTD is the smallest ``|ΔT|`` at which it
-    reaches ``snr_threshold``, interpolated linearly from ``(0, 0)`` through the frames in
-    increasing ``|ΔT|``. Hot (ΔT > 0) and cold (ΔT < 0) bars give one MRTD each; with both, the
-    MRTD is their mean (which cancels an offset of the ΔT scale, as the MRTD test does).
+    reaches ``snr_threshold``, interpolated on the line through the origin fitted (least
+    squares) to the frames whose statistic is below 4 times the threshold — a fit rather than
+    the first frame above the threshold, which the noise of the small-ΔT frames would pull
+    low; at least one frame must reach the threshold (no extrapolation). Hot (ΔT > 0) and cold
+    (ΔT < 0) bars give one MRTD each; with both, the MRTD is their mean (which cancels an offset
+    of the ΔT scale, as the MRTD test does).
 
     Parameters
     ----------
@@ -349,13 +355,14 @@ def measured_mrtd(frames: Sequence[Any], *, frequencies: Any, delta_t: Any, rois
     ------
     FidelityError
         Mismatched lengths, a ΔT of 0 (a flat target: its SNR is 0 by definition, leave it
-        out), a frequency at or above Nyquist, a target not found or flat in its frame of
-        largest ΔT, or fewer than 3 resolved frequencies.
+        out), a frequency at or above Nyquist, a bad ROI, or fewer than 3 resolved
+        frequencies.
 
     Warns
     -----
     MRTDWarning
-        Frequencies that no frame resolves at the threshold (left out of the curve).
+        Frequencies that no frame resolves at the threshold, or whose target cannot be found
+        or shows no bars in the frame of largest ΔT (left out of the curve, with the reason).
     BarPolarityWarning
         Inverted polarity: a frame whose bars stand out of the background with the sign
         opposite to its ΔT's (relative to the frame of largest ΔT).
@@ -388,24 +395,27 @@ def measured_mrtd(frames: Sequence[Any], *, frequencies: Any, delta_t: Any, rois
     f_px = np.array([cycles_per_pixel(f, unit=unit, camera=camera) for f in f_in])
     for f in f_px:
         below_nyquist(float(f))
-    resolved, unresolved, details = [], [], []
+    resolved, unresolved, details, reasons = [], [], [], []
     for freq in np.unique(f_in):
         members = np.flatnonzero(f_in == freq)
-        stats = _frequency_stats(frame_list, members, float(f_px[members[0]]), dts, roi_list, orientation, bars,
-                                 length, background, noise)
-        stat = stats[:, 1] * math.sqrt(frames_integrated)
-        found = [_crossing(np.abs(dts[members][sign]), stat[sign], threshold)
-                 for sign in (dts[members] > 0, dts[members] < 0) if sign.any()]
-        values = [v for v in found if v is not None]
-        details.append({"frequency": float(freq), "delta_t": dts[members].tolist(), "snr": stats[:, 1].tolist()})
+        stats, reason = _frequency_stats(frame_list, members, float(f_px[members[0]]), dts, roi_list, orientation,
+                                         bars, length, background, noise)
+        values = []
+        if stats is not None:
+            stat = stats * math.sqrt(frames_integrated)
+            found = [_crossing(np.abs(dts[members][sign]), stat[sign], threshold)
+                     for sign in (dts[members] > 0, dts[members] < 0) if sign.any()]
+            values = [v for v in found if v is not None]
+            details.append({"frequency": float(freq), "delta_t": dts[members].tolist(), "snr": stats.tolist()})
+            reason = reason or f"no frame reaches the threshold SNR {threshold:g}"
         if values:
             resolved.append((float(freq), float(np.mean(values))))
         else:
             unresolved.append(float(freq))
+            reasons.append(f"{freq:g} {unit} ({reason})")
     if unresolved:
-        warnings.warn(f"no frame resolves the bars at {', '.join(f'{f:g}' for f in unresolved)} {unit} at the "
-                      f"threshold SNR {threshold:g}: left out of the measured MRTD (take frames at larger ΔT)",
-                      MRTDWarning, stacklevel=2)
+        warnings.warn(f"bars unresolved at {'; '.join(reasons)}: left out of the measured MRTD (take frames at larger "
+                      f"ΔT)", MRTDWarning, stacklevel=2)
     if len(resolved) < 3:
         raise FidelityError(f"a measured MRTD curve needs at least 3 resolved frequencies, got {len(resolved)}"
                             + (f" ({len(unresolved)} unresolved)" if unresolved else ""))
@@ -418,18 +428,28 @@ def measured_mrtd(frames: Sequence[Any], *, frequencies: Any, delta_t: Any, rois
 
 def _frequency_stats(frames: list[Any], members: np.ndarray, f: float, dts: np.ndarray, rois: list[Any],
                      orientation: str | None, bars: int, length: float, background: float | None,
-                     noise: float | None) -> np.ndarray:
-    """Per frame of one frequency: (amplitude in standard errors, bar SNR), the target located
-    in the frame of largest |ΔT| and read at that place in every frame."""
+                     noise: float | None) -> tuple[np.ndarray | None, str | None]:
+    """The bar SNR of each frame of one frequency, the target located in the frame of largest
+    |ΔT| and read at that place in every frame; None and the reason when that frame shows no
+    target, or bars within the noise."""
     reference = int(members[np.argmax(np.abs(dts[members]))])
     pixels, clip = frame_pixels(_frame(frames[reference], reference), what=f"frame {reference}")
-    try:
+    if rois[reference] is None:
+        try:
+            region, side, fallback = target_region(pixels, None, f, orientation, bars)
+        except FidelityError as exc:
+            return None, f"frame {reference}, of the largest ΔT: {exc}"
+    else:
         region, side, fallback = target_region(pixels, rois[reference], f, orientation, bars)
-        geometry, _, _ = read_bars(pixels, frequency=f, roi=region, orientation=side, bars=bars, bar_length=length,
-                                   background=background, noise=noise, clip=clip, fallback_background=fallback)
+    try:
+        geometry, _, first = read_bars(pixels, frequency=f, roi=region, orientation=side, bars=bars,
+                                       bar_length=length, background=background, noise=noise, clip=clip,
+                                       fallback_background=fallback)
     except FidelityError as exc:
         raise FidelityError(f"frame {reference} ({f:g} cy/px, ΔT {dts[reference]:g} K): {exc}") from None
-    out = np.empty((members.size, 2))
+    if not abs(first.fundamental) > RESOLVED_SIGMAS * first.fundamental_error:
+        return None, f"frame {reference}, of the largest ΔT, shows no bars beyond the noise"
+    out = np.empty(members.size)
     for row, index in enumerate(members):
         same_sign = np.sign(dts[index]) == np.sign(dts[reference])
         expected: BarGeometry = geometry if same_sign else replace(geometry, polarity=-geometry.polarity)
@@ -445,5 +465,5 @@ def _frequency_stats(frames: list[Any], members: np.ndarray, f: float, dts: np.n
             warnings.warn(f"inverted polarity in frame {int(index)}: its bars stand out of the background with the "
                           f"sign opposite to its ΔT {dts[index]:g} K (relative to frame {reference})",
                           BarPolarityWarning, stacklevel=3)
-        out[row] = standing, signal.snr
-    return out
+        out[row] = signal.snr
+    return out, None
