@@ -36,7 +36,6 @@ import argparse  # noqa: E402
 import math  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
-from typing import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -57,18 +56,6 @@ def make_frame(width: int, height: int) -> np.ndarray:
                           levels=(0.0, 400.0))
     rng = np.random.default_rng(0)
     return np.round(frame + 8000 + rng.normal(0, 10, frame.shape)).astype(np.uint16)
-
-
-def best_cpu(fn: Callable[[], object], repeat: int) -> float:
-    """Best CPU time of the process over ``repeat`` calls (less sensitive than wall time to
-    other processes sharing the cores)."""
-    fn()
-    times = []
-    for _ in range(repeat):
-        t0 = time.process_time()
-        fn()
-        times.append(time.process_time() - t0)
-    return min(times)
 
 
 def hand_rolled(frame: np.ndarray, rois: list[tuple[int, int, int, int]], orientations: list[str]) -> list[float]:
@@ -105,7 +92,7 @@ def main() -> None:
                 "numpy hand-rolled max/min (ROIs given)": lambda: hand_rolled(frame, rois, sides),
                 "irfidelity mtf_from_edge (128 x 128)": lambda: mtf_from_edge(edge)}
         wall = {name: best(fn, args.repeat) for name, fn in runs.items()}
-        cpu = {name: best_cpu(fn, args.repeat) for name, fn in runs.items()}
+        cpu = {name: best(fn, args.repeat, clock=time.process_time) for name, fn in runs.items()}
 
     print(f"frame {width} x {height} uint16, four targets at {', '.join(f'{f:g}' for f in FREQUENCIES)} cy/px, "
           f"Gaussian PSF sigma {SIGMA} px, noise 10 counts on 400; best of {args.repeat}, one thread")

@@ -39,7 +39,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .curves.bars import cycles_per_pixel
+from .curves.bars import cycles_per_pixel, positive
 from .curves.units import CameraGeometry
 from .errors import FidelityError
 
@@ -95,16 +95,6 @@ class OTF:
                    support=min(a.support, b.support), factor=factor)
 
 
-def _positive(value: Any, what: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise FidelityError(f"{what} must be a number, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise FidelityError(f"{what} must be finite and > 0, got {value!r}")
-    return v
-
-
 def gaussian_otf(sigma: float) -> OTF:
     """The OTF of a Gaussian PSF of standard deviation ``sigma`` pixels:
     ``exp(-2π² σ² ρ²)`` (separable).
@@ -114,7 +104,7 @@ def gaussian_otf(sigma: float) -> OTF:
     >>> round(float(gaussian_otf(1.0)(0.25)), 4)  # exp(-2π² / 16)
     0.2912
     """
-    s = _positive(sigma, "sigma")
+    s = positive(sigma, "sigma")
     k = -2 * math.pi ** 2 * s * s
 
     def gauss(f: np.ndarray) -> np.ndarray:
@@ -134,7 +124,7 @@ def diffraction_otf(cutoff: float) -> OTF:
     >>> round(float(diffraction_otf(1.0)(0.5)), 4)
     0.391
     """
-    fc = _positive(cutoff, "cutoff")
+    fc = positive(cutoff, "cutoff")
 
     def airy(rho: np.ndarray) -> np.ndarray:
         r = np.minimum(np.abs(np.asarray(rho, dtype=np.float64)) / fc, 1.0)
@@ -323,7 +313,7 @@ def bar_target(frequency: float, shape: Any, *, bars: int = 4, orientation: str 
     orientation = _check_orientation(orientation)
     if isinstance(bars, bool) or not isinstance(bars, (int, np.integer)) or bars < 2:
         raise FidelityError(f"bars must be an integer >= 2, got {bars!r}")
-    length = _positive(bar_length, "bar_length")
+    length = positive(bar_length, "bar_length")
     lo, hi = _check_levels(levels)
     row, col = _centre(centre, h, w)
     across, along = (col, row) if orientation == "vertical" else (row, col)

@@ -38,9 +38,9 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..errors import FidelityError
-from .units import FREQUENCY, UNITS, CameraGeometry, canonical_unit
+from .units import FREQUENCY, UNITS, CameraGeometry, _positive, canonical_unit
 
-__all__ = ["BarGroup", "BarGeometry", "find_bars", "find_in", "locate", "detect_orientation", "bar_score",
+__all__ = ["BarGroup", "BarGeometry", "find_bars", "find_in", "locate", "detect_orientation", "bar_score", "positive",
            "target_margin", "surround", "cycles_per_pixel", "frame_pixels", "orient",
            "pixel_noise"]
 
@@ -139,16 +139,22 @@ def cycles_per_pixel(frequency: Any, *, unit: str | None = "cy/px", camera: Came
     >>> cycles_per_pixel(2.0, unit="cy/mrad", camera=CameraGeometry(ifov_mrad=0.05))
     0.1
     """
-    try:
-        f = float(frequency)
-    except (TypeError, ValueError):
-        raise FidelityError(f"{what} must be a number, got {frequency!r}") from None
-    if not (math.isfinite(f) and f > 0):
-        raise FidelityError(f"{what} must be finite and > 0, got {frequency!r}")
+    f = positive(frequency, what)
     symbol = canonical_unit(unit, what="unit") or "cy/px"
     if symbol not in UNITS or UNITS[symbol].quantity != FREQUENCY:
         raise FidelityError(f"unit must be a spatial frequency unit (cy/px, cy/mrad, lp/mm), got {unit!r}")
     return f * (camera or CameraGeometry()).scale(symbol, "cy/px")
+
+
+def positive(value: Any, what: str) -> float:
+    """``value`` as a finite number > 0, else a :class:`FidelityError` naming ``what`` (its
+    ``option``)."""
+    if value is None:
+        raise FidelityError(f"{what} must be a number, got None", option=what)
+    try:
+        return float(_positive(value, what))  # type: ignore[arg-type]
+    except FidelityError as exc:
+        raise FidelityError(str(exc), option=what) from None
 
 
 def orient(pixels: np.ndarray, orientation: str) -> np.ndarray:

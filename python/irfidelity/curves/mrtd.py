@@ -67,7 +67,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..errors import BarPolarityWarning, FidelityError, MRTDWarning
-from .bars import BarGeometry, cycles_per_pixel, frame_pixels
+from .bars import BarGeometry, cycles_per_pixel, frame_pixels, positive
 from .curve import Curve, as_curve
 from .ctf import RESOLVED_SIGMAS, below_nyquist, check_options, read_bars, target_region
 from .units import CameraGeometry, canonical_unit, convert, warn_unknown
@@ -84,22 +84,12 @@ FIT_LIMIT = 4.0
 _ALONG_BAR = {"vertical": ("th", "h"), "horizontal": ("tv", "v")}
 
 
-def _positive(value: Any, what: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise FidelityError(f"{what} must be a number, got {value!r}", option=what) from None
-    if not (math.isfinite(v) and v > 0):
-        raise FidelityError(f"{what} must be finite and > 0, got {value!r}", option=what)
-    return v
-
-
 def integrated_frames(eye_time: float, frame_rate: float | None) -> float:
     """Frames the eye integrates: ``max(1, eye_time · frame_rate)``; 1 without a frame rate."""
-    t = _positive(eye_time, "eye_time")
+    t = positive(eye_time, "eye_time")
     if frame_rate is None:
         return 1.0
-    return max(1.0, t * _positive(frame_rate, "frame_rate"))
+    return max(1.0, t * positive(frame_rate, "frame_rate"))
 
 
 def noise_factor(noise: Any, f: np.ndarray, frames: float, bar_length: float, orientation: str) -> np.ndarray:
@@ -202,9 +192,9 @@ def mrtd(mtf: Any, *, netd: float | None = None, noise: Any = None, snr_threshol
         if netd is None:
             raise FidelityError("the MRTD needs the NETD: give netd= (K) or a Noise3D measured with sitf=",
                                 option="netd")
-    scale = _positive(netd, "netd")
-    threshold = _positive(snr_threshold, "snr_threshold")
-    length = _positive(bar_length, "bar_length")
+    scale = positive(netd, "netd")
+    threshold = positive(snr_threshold, "snr_threshold")
+    length = positive(bar_length, "bar_length")
     frames = integrated_frames(eye_time, frame_rate)
     if orientation not in _ALONG_BAR:
         raise FidelityError(f"orientation must be 'vertical' or 'horizontal', got {orientation!r}")
@@ -255,7 +245,7 @@ def _limit(max_frequency: Any, curve: Curve, camera: CameraGeometry | None) -> f
         if max_frequency != "nyquist":
             raise FidelityError(f"max_frequency must be 'nyquist', a number or None, got {max_frequency!r}")
         return 0.5
-    limit = _positive(max_frequency, "max_frequency")
+    limit = positive(max_frequency, "max_frequency")
     if curve.x_unit is None:
         return limit
     return float(convert([limit], curve.x_unit, "cy/px", camera=camera)[0])
@@ -389,7 +379,7 @@ def measured_mrtd(frames: Sequence[Any], *, frequencies: Any, delta_t: Any, rois
         raise FidelityError(f"frame {int(zero[0])}: ΔT = 0 is a flat target (its bar SNR is 0 by definition); "
                             f"leave it out", option="delta_t")
     bars, length = check_options("modulation", bars, bar_length)
-    threshold = _positive(snr_threshold, "snr_threshold")
+    threshold = positive(snr_threshold, "snr_threshold")
     frames_integrated = integrated_frames(eye_time, frame_rate)
     roi_list = _rois(rois, count)
     f_px = np.array([cycles_per_pixel(f, unit=unit, camera=camera) for f in f_in])
