@@ -11,6 +11,7 @@ module: :mod:`irfidelity.curves` (MTF, slanted edge, SiTF, curve similarity),
 """
 
 from . import curves, fuzzy
+from . import targets
 from .config import ScoringConfig
 from .curves import Curve
 from .errors import FidelityError, FidelityWarning, FrameError, RangeError, RegistrationError, ShapeError

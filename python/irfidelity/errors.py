@@ -91,3 +91,41 @@ class NoiseWarning(FidelityWarning):
 class AHPConsistencyWarning(FidelityWarning):
     """An AHP comparison matrix whose consistency ratio exceeds the threshold (Saaty: 0.1):
     the judgements contradict each other too much for the weights to be trusted."""
+
+
+# bar targets, CTF and MRTD (irfidelity.targets, irfidelity.curves.ctf / mrtd)
+__all__ += ["BarWarning", "BarClippingWarning", "BarSamplingWarning", "BarPolarityWarning", "ColtmanWarning",
+            "MRTDWarning"]
+
+
+class BarWarning(FidelityWarning):
+    """A bar-target reading (:func:`irfidelity.curves.ctf_from_bars`) that ran, but whose
+    conditions make the CTF doubtful; the subclasses say which."""
+
+
+class BarClippingWarning(BarWarning):
+    """Pixels of the bar target sit at the clipping level (saturated bars or gaps): the bar
+    modulation is biased."""
+
+
+class BarSamplingWarning(BarWarning):
+    """Bars too narrow for the bar-modulation method (under about two pixels wide): the
+    modulation depends on where the samples fall on the bars; the fundamental-amplitude ratio
+    does not."""
+
+
+class BarPolarityWarning(BarWarning):
+    """Inverted polarity: the bar centres read darker than the gaps in the target's own
+    polarity (contrast reversal, spurious resolution), or the target's polarity contradicts the
+    sign of the temperature difference it was given with."""
+
+
+class ColtmanWarning(FidelityWarning):
+    """A CTF ↔ MTF conversion (Coltman's series) had to take the curve as 0 beyond its last
+    frequency although it has not fallen to 0 there: values above a third of that frequency
+    miss terms."""
+
+
+class MRTDWarning(FidelityWarning):
+    """Frequencies left out of an MRTD curve: an MTF too small for the model, or bars that no
+    frame resolved at the threshold."""
