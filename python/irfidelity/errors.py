@@ -13,7 +13,8 @@ from __future__ import annotations
 
 __all__ = ["FidelityError", "FrameError", "ShapeError", "RangeError", "RegistrationError", "FidelityWarning",
            "PeakWarning", "RegistrationWarning", "EdgeWarning", "CurveUnitsWarning", "NoiseWarning",
-           "AHPConsistencyWarning"]
+           "AHPConsistencyWarning", "BarWarning", "BarClippingWarning", "BarSamplingWarning", "BarPolarityWarning",
+           "ColtmanWarning", "MRTDWarning"]
 
 
 class FidelityError(ValueError):
