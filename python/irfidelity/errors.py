@@ -94,11 +94,6 @@ class AHPConsistencyWarning(FidelityWarning):
     the judgements contradict each other too much for the weights to be trusted."""
 
 
-# bar targets, CTF and MRTD (irfidelity.targets, irfidelity.curves.ctf / mrtd)
-__all__ += ["BarWarning", "BarClippingWarning", "BarSamplingWarning", "BarPolarityWarning", "ColtmanWarning",
-            "MRTDWarning"]
-
-
 class BarWarning(FidelityWarning):
     """A bar-target reading (:func:`irfidelity.curves.ctf_from_bars`) that ran, but whose
     conditions make the CTF doubtful; the subclasses say which."""
