@@ -14,13 +14,15 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import numbers
 import os
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import FidelityError
+from .config_file import read_config, toml_document
+from .curves.similarity import MAX_FEATURE_POINTS
 from .fuzzy import GradeScale, Weights
 from .normalize import DEFAULT_PSNR_ANCHORS, psnr_curve_params
 
@@ -38,7 +40,7 @@ class ConfigError(FidelityError):
     """A scoring configuration value (or file) that is not valid; names the field."""
 
     def __init__(self, field_name: str, message: str):
-        super().__init__(f"{field_name}: {message}", option=field_name)
+        super().__init__(f"{field_name}: {message}", option=field_name.split(".")[0])
 
 
 def _choice(name: str, value: Any, choices: tuple) -> str:
@@ -72,14 +74,25 @@ def _optional_positive(name: str, value: Any) -> float | None:
     return number
 
 
-def _numbers(name: str, value: Any, count: int) -> tuple[float, ...]:
+def _real(value: Any) -> float | None:
+    """``value`` as a finite float when it is a real number (not a bool), else None."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return None
     try:
-        out = tuple(float(v) for v in value)
-    except (TypeError, ValueError, OverflowError):
-        raise ConfigError(name, f"expected {count} numbers; got {value!r}") from None
-    if len(out) != count or not all(math.isfinite(v) for v in out):
-        raise ConfigError(name, f"expected {count} finite numbers; got {value!r}")
-    return out
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def _numbers(name: str, value: Any, count: int) -> tuple[float, ...]:
+    """``count`` finite numbers from a list, tuple or 1-D array."""
+    listed = value.tolist() if hasattr(value, "tolist") else value
+    items = tuple(listed) if isinstance(listed, (list, tuple)) else ()
+    out = tuple(_real(v) for v in items)
+    if len(out) != count or any(v is None for v in out):
+        raise ConfigError(name, f"expected {count} finite numbers; got {_short(value)}")
+    return out  # type: ignore[return-value]
 
 
 def _optional_name(name: str, value: Any) -> str | None:
@@ -216,10 +229,7 @@ class ScoringConfig:
         for name in ("ifov_mrad", "pixel_pitch_um", "focal_length_mm"):
             out[name] = _optional_positive(name, getattr(self, name))
         for name in ("mtf_options", "sitf_options"):
-            value = getattr(self, name)
-            if not isinstance(value, Mapping) or not all(isinstance(k, str) for k in value):
-                raise ConfigError(name, f"expected a mapping of option names to values; got {value!r}")
-            out[name] = dict(value)
+            out[name] = _curve_options(name, getattr(self, name))
         if not isinstance(self.grades, GradeScale):
             out["grades"] = _grades(self.grades)
         out["register"] = None if self.register is None else _choice("register", self.register, REGISTRATION_MODELS)
@@ -296,58 +306,40 @@ class ScoringConfig:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> ScoringConfig:
         """A configuration from a mapping (missing fields keep their defaults)."""
-        if not isinstance(data, Mapping):
-            raise FidelityError(f"config: expected a mapping of options; got {type(data).__name__}")
+        if not isinstance(data, Mapping) or not all(isinstance(k, str) for k in data):
+            raise FidelityError(f"config: expected a mapping of option names to values; got {type(data).__name__}",
+                                option="config")
         values = dict(data)
         values.pop("version", None)  # reports record it beside the options
         return cls().replace(**values)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> ScoringConfig:
-        """Read a configuration from a ``.toml`` or ``.json`` file (see :meth:`save`)."""
-        spath = os.fspath(path)
-        try:
-            with open(spath, "rb") as fh:
-                raw = fh.read()
-        except OSError as exc:
-            raise FidelityError(f"{spath}: cannot read the configuration: {exc.strerror or exc}") from None
-        try:
-            if spath.lower().endswith(".json"):
-                data = json.loads(raw.decode("utf-8"))
-            else:
-                data = tomllib.loads(raw.decode("utf-8"))
-        except (ValueError, UnicodeDecodeError) as exc:
-            kind = "JSON" if spath.lower().endswith(".json") else "TOML"
-            raise FidelityError(f"{spath}: not a valid {kind} configuration: {exc}") from None
-        data = data.get("scoring", data) if isinstance(data, dict) else data
+        """Read a configuration from a ``.toml`` or ``.json`` file (see :meth:`save`).
+
+        Files larger than :data:`~irfidelity.config_file.MAX_CONFIG_BYTES` (1 MiB) or nested
+        deeper than :data:`~irfidelity.config_file.MAX_CONFIG_DEPTH` (16) are refused before
+        parsing; every error is a :class:`~irfidelity.FidelityError` naming the file.
+        """
+        data = read_config(path)
         try:
             return cls.from_dict(data)
         except FidelityError as exc:
-            raise FidelityError(f"{spath}: {exc}") from None
+            raise FidelityError(f"{os.fsdecode(os.fspath(path))}: {exc}", option=exc.option) from None
 
     def save(self, path: str | os.PathLike) -> None:
         """Write the configuration as TOML (or JSON for a ``.json`` path)."""
         spath = os.fspath(path)
-        text = (json.dumps(self.to_dict(), indent=2) + "\n" if spath.lower().endswith(".json")
+        text = (json.dumps(self.to_dict(), indent=2) + "\n" if os.fsdecode(spath).lower().endswith(".json")
                 else self.to_toml())
         with open(spath, "w", encoding="utf-8") as fh:
             fh.write(text)
 
     def to_toml(self) -> str:
         """The configuration as TOML. TOML has no null: a field that is None is written as a
-        commented-out example."""
-        data = self.to_dict()
-        tables = {k: data.pop(k) for k in ("weights", "mtf_options", "sitf_options", "grades")}
-        lines = ["# irfidelity scoring configuration (irfidelity score --config FILE)"]
-        lines += [f"{k} = {_toml_value(v)}" if v is not None else f"# {k} = {_UNSET_EXAMPLES[k]}"
-                  for k, v in data.items()]
-        for name, table in tables.items():
-            lines += ["", f"[{name}]"]
-            lines += [f"{k} = {_toml_value(v)}" for k, v in table.items() if not isinstance(v, dict)]
-            for k, v in table.items():
-                if isinstance(v, dict):
-                    lines += ["", f"[{name}.{k}]"] + [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items()]
-        return "\n".join(lines) + "\n"
+        commented-out example. Keys that are not bare TOML keys are quoted."""
+        return toml_document(self.to_dict(), ("weights", "mtf_options", "sitf_options", "grades"), _UNSET_EXAMPLES,
+                             "irfidelity scoring configuration (irfidelity score --config FILE)")
 
 
 #: What a commented-out line shows for a field that is not set.
@@ -362,18 +354,6 @@ _UNSET_EXAMPLES = {
     "focal_length_mm": "25.0",
     "register": '"translation"   # or "rigid", "similarity": align before the image metrics',
 }
-
-
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, str):
-        return json.dumps(value)  # a TOML basic string is a JSON string
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    raise TypeError(f"cannot write {value!r} as TOML")
 
 
 def _pairs(name: str, value: Any) -> tuple:
@@ -413,12 +393,89 @@ def _hist_range(value: Any) -> str | tuple:
     return (lo, hi)
 
 
+def _flag(name: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise ConfigError(name, f"expected true or false; got {value!r}")
+    return value
+
+
+def _exponent(name: str, value: Any) -> float:
+    number = _real(value)
+    if number is None or number < 0:
+        raise ConfigError(name, f"expected a finite number >= 0; got {_short(value)}")
+    return number
+
+
+def _fraction(name: str, value: Any) -> float:
+    number = _real(value)
+    if number is None or not 0 <= number <= 1:
+        raise ConfigError(name, f"expected a number in [0, 1]; got {_short(value)}")
+    return number
+
+
+def _points(name: str, value: Any) -> int | list:
+    """A count of feature points, or the points themselves (at most MAX_FEATURE_POINTS)."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        count = value if isinstance(value, int) else int(value) if value.is_integer() else 0
+        if not 2 <= count <= MAX_FEATURE_POINTS:
+            raise ConfigError(name, f"expected an integer in 2..{MAX_FEATURE_POINTS}; got {value!r}")
+        return count
+    if isinstance(value, (list, tuple)) and 2 <= len(value) <= MAX_FEATURE_POINTS:
+        return list(_numbers(name, value, len(value)))
+    raise ConfigError(name, f"expected a count in 2..{MAX_FEATURE_POINTS} or a list of 2..{MAX_FEATURE_POINTS} "
+                            f"numbers; got {_short(value)}")
+
+
+def _sitf_window(name: str, value: Any) -> str | list:
+    if isinstance(value, str) and value in ("real", "each"):
+        return value
+    if isinstance(value, (list, tuple)):
+        lo, hi = _numbers(name, value, 2)
+        if lo < hi:
+            return [lo, hi]
+    raise ConfigError(name, f"expected 'real', 'each' or [lo, hi] with lo < hi; got {_short(value)}")
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+#: The keyword options of each curve comparison a configuration may set, with their checks
+#: (``camera`` is not one: the configuration's geometry fields give it).
+CURVE_OPTIONS: dict[str, dict[str, Any]] = {
+    "mtf_options": {"smooth": _flag, "points": _points, "alpha": _exponent, "beta": _exponent},
+    "sitf_options": {"window": _sitf_window, "lo_frac": _fraction, "hi_frac": _fraction,
+                     "method": lambda name, value: _choice(name, value, ("band", "logistic")),
+                     "points": _points, "alpha": _exponent, "beta": _exponent},
+}
+
+
+def _curve_options(name: str, value: Any) -> dict:
+    """The options of a curve comparison, each name and value checked."""
+    if not isinstance(value, Mapping) or not all(isinstance(k, str) for k in value):
+        raise ConfigError(name, f"expected a mapping of option names to values; got {_short(value)}")
+    checks = CURVE_OPTIONS[name]
+    unknown = sorted(set(value) - set(checks))
+    if unknown:
+        camera = " (the camera comes from ifov_mrad, pixel_pitch_um, focal_length_mm)" if "camera" in unknown else ""
+        raise ConfigError(name, f"unknown option(s) {', '.join(map(repr, unknown))}; the options are "
+                                f"{', '.join(checks)}{camera}")
+    out = {key: checks[key](f"{name}.{key}", v) for key, v in value.items()}
+    if out.get("lo_frac", 0.1) >= out.get("hi_frac", 0.9):
+        raise ConfigError(name, f"expected lo_frac < hi_frac; got {out.get('lo_frac', 0.1)!r} and "
+                                f"{out.get('hi_frac', 0.9)!r} (defaults 0.1 and 0.9)")
+    return out
+
+
 def _grades(value: Any) -> GradeScale:
     if not isinstance(value, Mapping):
         raise ConfigError("grades", f"expected a GradeScale or a mapping; got {type(value).__name__}")
+    names = [f.name for f in dataclasses.fields(GradeScale)]
+    unknown = sorted(str(k) for k in value if k not in names)
+    if unknown:
+        raise ConfigError("grades", f"unknown key(s) {', '.join(unknown)}; the keys are {', '.join(names)}")
     try:
-        return GradeScale(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in value.items()})
-    except TypeError as exc:
-        raise ConfigError("grades", str(exc)) from None
+        return GradeScale(**value)
     except FidelityError as exc:
         raise ConfigError("grades", str(exc)) from None
