@@ -107,9 +107,22 @@ def read_config(path: str | os.PathLike) -> Any:
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def toml_string(text: str) -> str:
+    """A TOML basic string: quotes, backslashes and control characters escaped."""
+    if any(0xD800 <= ord(c) <= 0xDFFF for c in text):
+        raise FidelityError(f"cannot write {text!r} as TOML: it holds a lone surrogate (an undecodable byte); "
+                            "save the configuration as JSON")
+    escaped = "".join(_ESCAPES.get(c) or (f"\\u{ord(c):04X}" if ord(c) < 0x20 or ord(c) == 0x7F else c)
+                      for c in text)
+    return f'"{escaped}"'
+
+
 def toml_key(key: str) -> str:
     """A TOML key: bare when it can be, else a basic (quoted) string."""
-    return key if _BARE_KEY.fullmatch(key) else json.dumps(key)
+    return key if _BARE_KEY.fullmatch(key) else toml_string(key)
 
 
 def toml_value(value: Any) -> str:
@@ -118,7 +131,7 @@ def toml_value(value: Any) -> str:
     if isinstance(value, (int, float)):
         return repr(value)
     if isinstance(value, str):
-        return json.dumps(value)  # a TOML basic string is a JSON string
+        return toml_string(value)
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(toml_value(v) for v in value) + "]"
     raise FidelityError(f"cannot write {value!r} as TOML")
