@@ -121,7 +121,10 @@ class ScoringConfig:
         The PSNR peak (eq. 5). None: ``2**bits - 1`` (the paper's choice), or the integer
         dtype's maximum; float frames need a number or ``"range"``. ``"range"``: the real
         frame's ``max - min``, for scenes that use a small part of the sensor's range (see
-        docs/interpretation.md).
+        docs/interpretation.md). ``bits`` and ``peak`` compose: ``bits`` still bounds the
+        values when ``peak`` (a number or ``"range"``) sets the PSNR peak (``bits=16,
+        peak=100``: values in ``0..65535``, PSNR peak 100; ``hist_range="full"`` is
+        ``0..2**bits - 1``).
     bins : int or "levels"
         Histogram bins for NMI (uniform over ``hist_range``), or one bin per grey level.
     hist_range : "data", "full" or (lo, hi)
@@ -139,7 +142,11 @@ class ScoringConfig:
     real_channel, sim_channel : str or None
         Channel of multi-channel frame files ("Y", "R", an EXR channel name, ...), per side.
     edge_channel : str or None
-        Channel of multi-channel slanted-edge images.
+        Channel of multi-channel slanted-edge image files, both sides (unless their own is
+        set).
+    real_edge_channel, sim_edge_channel : str or None
+        Channel of one side's slanted-edge image files, overriding ``edge_channel`` (a real
+        RGBA edge image scored against a grey simulated one: ``real_edge_channel="G"``).
     edge_fit_order : int
         Order (1..5) of the polynomial fitted to the edge location of slanted-edge images:
         5 follows lens curvature (ISO 12233:2023), 1 is the straight line of ISO 12233:2014.
@@ -181,6 +188,8 @@ class ScoringConfig:
     real_channel: str | None = None
     sim_channel: str | None = None
     edge_channel: str | None = None
+    real_edge_channel: str | None = None
+    sim_edge_channel: str | None = None
     edge_fit_order: int = 5
     ifov_mrad: float | None = None
     pixel_pitch_um: float | None = None
@@ -206,9 +215,6 @@ class ScoringConfig:
             raise ConfigError("weights", str(exc)) from None
         out["bits"] = _optional_int("bits", self.bits, 1, 32)
         out["peak"] = _peak(self.peak)
-        if out["bits"] is not None and isinstance(out["peak"], float):
-            raise ConfigError("peak", "a numeric peak and bits both set the PSNR peak; give one of them (bits "
-                                      "still bounds the values with the peak 'range')")
         out["bins"] = _bins(self.bins)
         out["hist_range"] = _hist_range(self.hist_range)
         anchors = tuple(_numbers("psnr_anchors", a, 2) for a in _pairs("psnr_anchors", self.psnr_anchors))
@@ -223,7 +229,7 @@ class ScoringConfig:
         out["ssim_exponents"] = exponents
         out["missing"] = _choice("missing", self.missing, MISSING_MODES)
         out["nonfinite"] = _choice("nonfinite", self.nonfinite, NONFINITE_MODES)
-        for name in ("real_channel", "sim_channel", "edge_channel"):
+        for name in ("real_channel", "sim_channel", "edge_channel", "real_edge_channel", "sim_edge_channel"):
             out[name] = _optional_name(name, getattr(self, name))
         out["edge_fit_order"] = _optional_int("edge_fit_order", self.edge_fit_order, 1, 5)
         for name in ("ifov_mrad", "pixel_pitch_um", "focal_length_mm"):
@@ -348,7 +354,9 @@ _UNSET_EXAMPLES = {
     "peak": '"range"       # or a number: the PSNR peak',
     "real_channel": '"Y"   # channel of the real frame files',
     "sim_channel": '"Y"    # channel of the simulated frame files',
-    "edge_channel": '"R"   # channel of slanted-edge images',
+    "edge_channel": '"R"   # channel of slanted-edge images (both sides)',
+    "real_edge_channel": '"G"   # channel of the real slanted-edge image, if it differs',
+    "sim_edge_channel": '"Y"    # channel of the simulated slanted-edge image, if it differs',
     "ifov_mrad": "0.5     # camera geometry for curve unit conversions",
     "pixel_pitch_um": "12.0",
     "focal_length_mm": "25.0",
