@@ -18,7 +18,8 @@ from hypothesis import strategies as st
 
 import irfidelity as irf
 from irfidelity.cli import main
-from irfidelity.config import CURVE_OPTIONS, ScoringConfig
+from irfidelity.config import ScoringConfig
+from irfidelity.config_fields import CURVE_OPTIONS
 from irfidelity.config_file import MAX_CONFIG_BYTES, MAX_CONFIG_DEPTH, toml_document
 from irfidelity.curves import mtf_similarity, sitf_similarity
 from irfidelity.curves.similarity import MAX_FEATURE_POINTS

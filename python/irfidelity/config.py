@@ -13,93 +13,20 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
-import numbers
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .errors import FidelityError
+from .config_fields import (MISSING_MODES, NONFINITE_MODES, PAIRING_RULES, REGISTRATION_METHODS, REGISTRATION_MODELS,
+                            ConfigError, bins_value, choice, curve_options, finite_numbers, grade_scale,
+                            hist_range_value, optional_int, optional_name, optional_positive, pairs, peak_value)
 from .config_file import read_config, toml_document
-from .curves.similarity import MAX_FEATURE_POINTS
+from .errors import FidelityError
 from .fuzzy import GradeScale, Weights
 from .normalize import DEFAULT_PSNR_ANCHORS, psnr_curve_params
 
 __all__ = ["ScoringConfig", "MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "PAIRING_RULES"]
-
-MISSING_MODES = ("renormalize", "raise")
-NONFINITE_MODES = ("raise", "mask")
-REGISTRATION_MODELS = ("translation", "rigid", "similarity")
-REGISTRATION_METHODS = ("auto", "phase", "nmi")
-PAIRING_RULES = ("auto", "name", "order")
-PEAK_RULES = ("range",)
-
-
-class ConfigError(FidelityError):
-    """A scoring configuration value (or file) that is not valid; names the field."""
-
-    def __init__(self, field_name: str, message: str):
-        super().__init__(f"{field_name}: {message}", option=field_name.split(".")[0])
-
-
-def _choice(name: str, value: Any, choices: tuple) -> str:
-    if isinstance(value, str):
-        key = value.lower().replace("normalise", "normalize")
-        if key in choices:
-            return key
-    raise ConfigError(name, f"expected one of {', '.join(choices)}; got {value!r}")
-
-
-def _optional_int(name: str, value: Any, lo: int, hi: int | None = None) -> int | None:
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < lo or (hi is not None and value > hi):
-        bound = f"{lo}..{hi}" if hi is not None else f">= {lo}"
-        raise ConfigError(name, f"expected an integer {bound}; got {value!r}")
-    return int(value)
-
-
-def _optional_positive(name: str, value: Any) -> float | None:
-    if value is None:
-        return None
-    if isinstance(value, bool):
-        raise ConfigError(name, f"expected a positive number; got {value!r}")
-    try:
-        number = float(value)
-    except (TypeError, ValueError, OverflowError):
-        raise ConfigError(name, f"expected a positive number; got {value!r}") from None
-    if not (number > 0 and math.isfinite(number)):
-        raise ConfigError(name, f"expected a positive finite number; got {value!r}")
-    return number
-
-
-def _real(value: Any) -> float | None:
-    """``value`` as a finite float when it is a real number (not a bool), else None."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        return None
-    try:
-        number = float(value)
-    except OverflowError:
-        return None
-    return number if math.isfinite(number) else None
-
-
-def _numbers(name: str, value: Any, count: int) -> tuple[float, ...]:
-    """``count`` finite numbers from a list, tuple or 1-D array."""
-    listed = value.tolist() if hasattr(value, "tolist") else value
-    items = tuple(listed) if isinstance(listed, (list, tuple)) else ()
-    out = tuple(_real(v) for v in items)
-    if len(out) != count or any(v is None for v in out):
-        raise ConfigError(name, f"expected {count} finite numbers; got {_short(value)}")
-    return out  # type: ignore[return-value]
-
-
-def _optional_name(name: str, value: Any) -> str | None:
-    if value is None or (isinstance(value, str) and value):
-        return value
-    raise ConfigError(name, f"expected a non-empty name; got {value!r}")
-
 
 @dataclass(frozen=True)
 class ScoringConfig:
@@ -213,40 +140,40 @@ class ScoringConfig:
             out["weights"] = Weights.coerce(self.weights)
         except FidelityError as exc:
             raise ConfigError("weights", str(exc)) from None
-        out["bits"] = _optional_int("bits", self.bits, 1, 32)
-        out["peak"] = _peak(self.peak)
-        out["bins"] = _bins(self.bins)
-        out["hist_range"] = _hist_range(self.hist_range)
-        anchors = tuple(_numbers("psnr_anchors", a, 2) for a in _pairs("psnr_anchors", self.psnr_anchors))
+        out["bits"] = optional_int("bits", self.bits, 1, 32)
+        out["peak"] = peak_value(self.peak)
+        out["bins"] = bins_value(self.bins)
+        out["hist_range"] = hist_range_value(self.hist_range)
+        anchors = tuple(finite_numbers("psnr_anchors", a, 2) for a in pairs("psnr_anchors", self.psnr_anchors))
         try:
             psnr_curve_params(anchors)
         except FidelityError as exc:
             raise ConfigError("psnr_anchors", str(exc)) from None
         out["psnr_anchors"] = anchors
-        exponents = _numbers("ssim_exponents", self.ssim_exponents, 3)
+        exponents = finite_numbers("ssim_exponents", self.ssim_exponents, 3)
         if any(e < 0 for e in exponents):
             raise ConfigError("ssim_exponents", f"expected numbers >= 0; got {self.ssim_exponents!r}")
         out["ssim_exponents"] = exponents
-        out["missing"] = _choice("missing", self.missing, MISSING_MODES)
-        out["nonfinite"] = _choice("nonfinite", self.nonfinite, NONFINITE_MODES)
+        out["missing"] = choice("missing", self.missing, MISSING_MODES)
+        out["nonfinite"] = choice("nonfinite", self.nonfinite, NONFINITE_MODES)
         for name in ("real_channel", "sim_channel", "edge_channel", "real_edge_channel", "sim_edge_channel"):
-            out[name] = _optional_name(name, getattr(self, name))
-        out["edge_fit_order"] = _optional_int("edge_fit_order", self.edge_fit_order, 1, 5)
+            out[name] = optional_name(name, getattr(self, name))
+        out["edge_fit_order"] = optional_int("edge_fit_order", self.edge_fit_order, 1, 5)
         for name in ("ifov_mrad", "pixel_pitch_um", "focal_length_mm"):
-            out[name] = _optional_positive(name, getattr(self, name))
+            out[name] = optional_positive(name, getattr(self, name))
         for name in ("mtf_options", "sitf_options"):
-            out[name] = _curve_options(name, getattr(self, name))
+            out[name] = curve_options(name, getattr(self, name))
         if not isinstance(self.grades, GradeScale):
-            out["grades"] = _grades(self.grades)
-        out["register"] = None if self.register is None else _choice("register", self.register, REGISTRATION_MODELS)
-        out["register_method"] = _choice("register_method", self.register_method, REGISTRATION_METHODS)
+            out["grades"] = grade_scale(self.grades)
+        out["register"] = None if self.register is None else choice("register", self.register, REGISTRATION_MODELS)
+        out["register_method"] = choice("register_method", self.register_method, REGISTRATION_METHODS)
         if not isinstance(self.register_each, bool):
             raise ConfigError("register_each", f"expected true or false; got {self.register_each!r}")
         if self.register_each and out["register"] is None:
             raise ConfigError("register_each", "registers every pair with the model of register; set register to "
                                                "translation, rigid or similarity")
-        out["max_delay"] = _optional_int("max_delay", self.max_delay, 0, 1 << 20)
-        out["pair_by"] = _choice("pair_by", self.pair_by, PAIRING_RULES)
+        out["max_delay"] = optional_int("max_delay", self.max_delay, 0, 1 << 20)
+        out["pair_by"] = choice("pair_by", self.pair_by, PAIRING_RULES)
         if out["max_delay"] and out["pair_by"] == "name":
             raise ConfigError("pair_by", "frames paired by name have no delay to search; with max_delay the frames "
                                          "are paired by position, offset by the delay found (pair_by = auto or order)")
@@ -364,126 +291,3 @@ _UNSET_EXAMPLES = {
 }
 
 
-def _pairs(name: str, value: Any) -> tuple:
-    try:
-        items = tuple(value)
-    except TypeError:
-        raise ConfigError(name, f"expected two (dB, value) pairs; got {value!r}") from None
-    if len(items) != 2:
-        raise ConfigError(name, f"expected two (dB, value) pairs; got {value!r}")
-    return items
-
-
-def _peak(value: Any) -> float | str | None:
-    if value is None:
-        return None
-    if isinstance(value, str):
-        return _choice("peak", value, PEAK_RULES)
-    return _optional_positive("peak", value)
-
-
-def _bins(value: Any) -> int | str:
-    if isinstance(value, str) and value == "levels":
-        return value
-    if isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= (1 << 20):
-        return int(value)
-    raise ConfigError("bins", f"expected an integer in 1..1048576 or 'levels'; got {value!r}")
-
-
-def _hist_range(value: Any) -> str | tuple:
-    if isinstance(value, str):
-        if value in ("data", "full"):
-            return value
-        raise ConfigError("hist_range", f"expected 'data', 'full' or (lo, hi); got {value!r}")
-    lo, hi = _numbers("hist_range", value, 2)
-    if not lo <= hi:
-        raise ConfigError("hist_range", f"expected lo <= hi; got {value!r}")
-    return (lo, hi)
-
-
-def _flag(name: str, value: Any) -> bool:
-    if not isinstance(value, bool):
-        raise ConfigError(name, f"expected true or false; got {value!r}")
-    return value
-
-
-def _exponent(name: str, value: Any) -> float:
-    number = _real(value)
-    if number is None or number < 0:
-        raise ConfigError(name, f"expected a finite number >= 0; got {_short(value)}")
-    return number
-
-
-def _fraction(name: str, value: Any) -> float:
-    number = _real(value)
-    if number is None or not 0 <= number <= 1:
-        raise ConfigError(name, f"expected a number in [0, 1]; got {_short(value)}")
-    return number
-
-
-def _points(name: str, value: Any) -> int | list:
-    """A count of feature points, or the points themselves (at most MAX_FEATURE_POINTS)."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        count = value if isinstance(value, int) else int(value) if value.is_integer() else 0
-        if not 2 <= count <= MAX_FEATURE_POINTS:
-            raise ConfigError(name, f"expected an integer in 2..{MAX_FEATURE_POINTS}; got {value!r}")
-        return count
-    if isinstance(value, (list, tuple)) and 2 <= len(value) <= MAX_FEATURE_POINTS:
-        return list(_numbers(name, value, len(value)))
-    raise ConfigError(name, f"expected a count in 2..{MAX_FEATURE_POINTS} or a list of 2..{MAX_FEATURE_POINTS} "
-                            f"numbers; got {_short(value)}")
-
-
-def _sitf_window(name: str, value: Any) -> str | list:
-    if isinstance(value, str) and value in ("real", "each"):
-        return value
-    if isinstance(value, (list, tuple)):
-        lo, hi = _numbers(name, value, 2)
-        if lo < hi:
-            return [lo, hi]
-    raise ConfigError(name, f"expected 'real', 'each' or [lo, hi] with lo < hi; got {_short(value)}")
-
-
-def _short(value: Any, limit: int = 80) -> str:
-    text = repr(value)
-    return text if len(text) <= limit else text[:limit] + "..."
-
-
-#: The keyword options of each curve comparison a configuration may set, with their checks
-#: (``camera`` is not one: the configuration's geometry fields give it).
-CURVE_OPTIONS: dict[str, dict[str, Any]] = {
-    "mtf_options": {"smooth": _flag, "points": _points, "alpha": _exponent, "beta": _exponent},
-    "sitf_options": {"window": _sitf_window, "lo_frac": _fraction, "hi_frac": _fraction,
-                     "method": lambda name, value: _choice(name, value, ("band", "logistic")),
-                     "points": _points, "alpha": _exponent, "beta": _exponent},
-}
-
-
-def _curve_options(name: str, value: Any) -> dict:
-    """The options of a curve comparison, each name and value checked."""
-    if not isinstance(value, Mapping) or not all(isinstance(k, str) for k in value):
-        raise ConfigError(name, f"expected a mapping of option names to values; got {_short(value)}")
-    checks = CURVE_OPTIONS[name]
-    unknown = sorted(set(value) - set(checks))
-    if unknown:
-        camera = " (the camera comes from ifov_mrad, pixel_pitch_um, focal_length_mm)" if "camera" in unknown else ""
-        raise ConfigError(name, f"unknown option(s) {', '.join(map(repr, unknown))}; the options are "
-                                f"{', '.join(checks)}{camera}")
-    out = {key: checks[key](f"{name}.{key}", v) for key, v in value.items()}
-    if out.get("lo_frac", 0.1) >= out.get("hi_frac", 0.9):
-        raise ConfigError(name, f"expected lo_frac < hi_frac; got {out.get('lo_frac', 0.1)!r} and "
-                                f"{out.get('hi_frac', 0.9)!r} (defaults 0.1 and 0.9)")
-    return out
-
-
-def _grades(value: Any) -> GradeScale:
-    if not isinstance(value, Mapping):
-        raise ConfigError("grades", f"expected a GradeScale or a mapping; got {type(value).__name__}")
-    names = [f.name for f in dataclasses.fields(GradeScale)]
-    unknown = sorted(str(k) for k in value if k not in names)
-    if unknown:
-        raise ConfigError("grades", f"unknown key(s) {', '.join(unknown)}; the keys are {', '.join(names)}")
-    try:
-        return GradeScale(**value)
-    except FidelityError as exc:
-        raise ConfigError("grades", str(exc)) from None
