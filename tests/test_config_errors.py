@@ -295,3 +295,17 @@ def test_a_lone_surrogate_is_a_clear_error_in_toml_and_saved_in_json(tmp_path):
         cfg.save(tmp_path / "c.toml")
     cfg.save(tmp_path / "c.json")
     assert ScoringConfig.load(tmp_path / "c.json") == cfg
+
+
+@pytest.mark.parametrize("text, needle", [
+    ("psnr_anchors = [[30.0, 0.9], [30.0000001, 0.99]]\n", "psnr_anchors"),
+    ("[mtf_options]\npoints = 5e7\n", "mtf_options.points"),
+    ("[sitf_options]\n'a b' = 1\n", "unknown option(s) 'a b'"),
+    ("bits = 99\n", "bits"),
+    ("[grades]\nwidth = {mtf = [1]}\n", "grade width of mtf"),
+    ("weights = 3\n", "weights"),
+    ("x = 1\n", "unknown scoring option(s) x"),
+])
+def test_cli_reports_config_file_errors_in_one_line(tmp_path, capsys, text, needle):
+    line = cli_error(capsys, "score", REAL, SIM, "--config", write(tmp_path, "c.toml", text))
+    assert needle in line and "c.toml" in line

@@ -17,7 +17,10 @@ import numbers
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from .config import ScoringConfig
+from .config_fields import REGISTRATION_MODELS
 from .errors import FidelityError
+from .fuzzy import COMPONENTS, Weights
 
 __all__ = ["MAX_REPORT_DEPTH", "ReportError", "check_json", "Fields", "shared_fields"]
 
@@ -180,8 +183,6 @@ def spread(value: Any, where: str) -> dict:
 
 
 def _model(value: Any, where: str) -> str:
-    from .config import REGISTRATION_MODELS
-
     if value not in REGISTRATION_MODELS:
         raise _fail(where, f"one of {', '.join(REGISTRATION_MODELS)}", value)
     return value
@@ -242,8 +243,6 @@ grading = record({}, {"grades": list_of(text), "matrix": mapping_of(mapping_of(f
 
 
 def components(value: Any, where: str) -> dict:
-    from .fuzzy import COMPONENTS
-
     checked = mapping_of(fraction)(value, where)
     unknown = [k for k in checked if k not in COMPONENTS]
     if unknown:
@@ -284,9 +283,7 @@ class Fields:
         return check(self.d[key], f"{self.what}.{key}")
 
 
-def _weights(value: Any, where: str) -> Any:
-    from .fuzzy import Weights
-
+def _weights(value: Any, where: str) -> Weights:
     if not isinstance(value, (Mapping, str)):
         raise _fail(where, "a mapping of weights", value)
     try:
@@ -295,9 +292,7 @@ def _weights(value: Any, where: str) -> Any:
         raise ReportError(f"{where}: {exc}") from None
 
 
-def _config(value: Any, where: str) -> Any:
-    from .config import ScoringConfig
-
+def _config(value: Any, where: str) -> ScoringConfig:
     try:
         return ScoringConfig.from_dict(value)
     except FidelityError as exc:
@@ -306,13 +301,11 @@ def _config(value: Any, where: str) -> Any:
 
 def shared_fields(fields: Fields) -> dict[str, Any]:
     """The fields a single pair's report and a sequence's report share, checked."""
-    return {"components": fields.get("components", components, {}),
-            "component_grades": fields.get("component_grades", mapping_of(text), {}),
-            "membership": fields.get("membership", mapping_of(fraction), {}),
-            "metrics": fields.get("metrics", mapping_of(metric), {}),
+    config = fields.get("config", _config)
+    return {**{key: fields.get(key, check, {}) for key, check in RESULT.items()},
             "weights": fields.require("weights", _weights),
             "skipped": fields.get("skipped", mapping_of(text), {}),
-            "config": fields.get("config", _config, None) or _config({}, "config"),
+            "config": config if config is not None else ScoringConfig(),
             "version": fields.get("irfidelity", text, "unknown"),
             "notes": fields.get("notes", list_of(text), []),
             "inputs": fields.get("inputs", mapping_of(anything), {})}
