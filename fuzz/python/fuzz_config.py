@@ -1,3 +1,4 @@
+#!/usr/bin/env python3
 """Fuzz target: the configuration loader (``ScoringConfig.load``) on TOML and JSON bytes.
 
 The first byte chooses the format (even: TOML, odd: JSON); the rest is the file. A finding is

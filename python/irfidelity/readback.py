@@ -214,7 +214,7 @@ _MAX_OFFSET = 1 << 20
 
 def offset(value: Any, where: str) -> int:
     """A frame offset: an integer within ±2^20."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or abs(value) > _MAX_OFFSET:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or abs(int(value)) > _MAX_OFFSET:
         raise _fail(where, f"an integer within ±{_MAX_OFFSET}", value)
     return int(value)
 
