@@ -203,7 +203,7 @@ def test_accepted_anchors_give_a_usable_curve(first, second, psnrs):
     ("header.toml", "[" + ".".join(["t"] * 100_000) + "]"),
     ("quoted.toml", ".".join(['"q"'] * 50_000) + " = 1"),
     ("deep.json", "[" * 100_000 + "]" * 100_000),
-    ("deep_objects.json", '{"a":' * 50_000 + "1" + "}" * 50_000),
+    ("deep_objects.json", '{"a":' * 40_000 + "1" + "}" * 40_000),
 ])
 def test_deeply_nested_files_are_refused_before_parsing(tmp_path, capsys, name, text):
     path = write(tmp_path, name, text)

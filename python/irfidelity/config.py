@@ -57,7 +57,9 @@ class ScoringConfig:
     hist_range : "data", "full" or (lo, hi)
         Histogram edges shared by both frames: their joint min..max, ``0..peak``, or given.
     psnr_anchors : ((dB, value), (dB, value))
-        The two points fixing eq. (6); default 30 dB -> 0.9, 45 dB -> 0.99.
+        The two points fixing eq. (6); default 30 dB -> 0.9, 45 dB -> 0.99. Both within
+        0.01..1000 dB, and giving a curve that rises there
+        (:func:`irfidelity.normalize.psnr_curve_params` states the bounds).
     ssim_exponents : (alpha, beta, gamma)
         Exponents of eq. (14).
     missing : "renormalize" or "raise"
@@ -81,8 +83,12 @@ class ScoringConfig:
         Camera geometry for converting curve frequencies between cycles/pixel, cycles/mrad
         and line pairs/mm (only needed when the two curves are in different units).
     mtf_options, sitf_options : mapping
-        Options of the curve comparisons (:func:`irfidelity.curves.mtf_similarity`,
-        :func:`irfidelity.curves.sitf_similarity`), e.g. ``{"points": 64}``.
+        Options of the curve comparisons (:func:`irfidelity.curves.mtf_similarity`:
+        ``smooth``, ``points``, ``alpha``, ``beta``; :func:`irfidelity.curves.sitf_similarity`:
+        ``window``, ``lo_frac``, ``hi_frac``, ``method``, ``points``, ``alpha``, ``beta``),
+        e.g. ``{"points": 64}``. Names and values are checked when the configuration is built;
+        ``points`` is a count or a list of at most
+        :data:`~irfidelity.curves.similarity.MAX_FEATURE_POINTS` (65536).
     grades : GradeScale
         Grade names and boundaries of the fuzzy evaluation.
     register : "translation", "rigid", "similarity" or None
@@ -250,7 +256,7 @@ class ScoringConfig:
     def load(cls, path: str | os.PathLike) -> ScoringConfig:
         """Read a configuration from a ``.toml`` or ``.json`` file (see :meth:`save`).
 
-        Files larger than :data:`~irfidelity.config_file.MAX_CONFIG_BYTES` (1 MiB) or nested
+        Files larger than :data:`~irfidelity.config_file.MAX_CONFIG_BYTES` (256 KiB) or nested
         deeper than :data:`~irfidelity.config_file.MAX_CONFIG_DEPTH` (16) are refused before
         parsing; every error is a :class:`~irfidelity.FidelityError` naming the file.
         """

@@ -20,8 +20,9 @@ from .errors import FidelityError
 
 __all__ = ["MAX_CONFIG_BYTES", "MAX_CONFIG_DEPTH", "read_config", "toml_document"]
 
-#: Largest configuration file read (bytes).
-MAX_CONFIG_BYTES = 1 << 20
+#: Largest configuration file read (bytes): about a hundred times the default one, and at most
+#: a second or so of parsing.
+MAX_CONFIG_BYTES = 1 << 18
 
 #: Deepest nesting of a configuration file: tables, arrays and inline tables within each
 #: other, counting each part of a dotted key (``[grades.cuts]`` is 2 deep, its arrays 3).
