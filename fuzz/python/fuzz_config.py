@@ -15,6 +15,7 @@ Run (atheris, https://github.com/google/atheris; ``pip install atheris``)::
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
@@ -26,34 +27,46 @@ with atheris.instrument_imports(include=["irfidelity", "tomllib"]):
     from irfidelity.config import ScoringConfig
     from irfidelity.errors import FidelityError
 
-_DIR = tempfile.mkdtemp(prefix="irf_fuzz_config_", dir="/dev/shm" if os.path.isdir("/dev/shm") else None)
-_INPUT = (os.path.join(_DIR, "in.toml"), os.path.join(_DIR, "in.json"))
-_OUTPUT = (os.path.join(_DIR, "out.toml"), os.path.join(_DIR, "out.json"))
+# Scratch files in memory where there is /dev/shm; each is removed after the input that wrote it.
+_DIR = "/dev/shm" if os.path.isdir("/dev/shm") else tempfile.gettempdir()
+_STEM = os.path.join(_DIR, f"irf_fuzz_config_{os.getpid()}")
+_INPUT = (f"{_STEM}_in.toml", f"{_STEM}_in.json")
+_OUTPUT = (f"{_STEM}_out.toml", f"{_STEM}_out.json")
+
+
+@contextlib.contextmanager
+def _scratch(path: str):
+    try:
+        yield path
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(path)
 
 
 def _round_trips(config: ScoringConfig) -> None:
-    for path in _OUTPUT:
-        try:
-            config.save(path)
-        except FidelityError:
-            if path.endswith(".toml"):
-                continue  # a lone surrogate (from a JSON escape) has no TOML form: refused by name
-            raise
-        again = ScoringConfig.load(path)
+    for output in _OUTPUT:
+        with _scratch(output) as path:
+            try:
+                config.save(path)
+            except FidelityError:
+                if path.endswith(".toml"):
+                    continue  # a lone surrogate (from a JSON escape) has no TOML form: refused by name
+                raise
+            again = ScoringConfig.load(path)
         if again != config:
-            raise AssertionError(f"{path} does not load back to the configuration saved:\n{config}\n{again}")
+            raise AssertionError(f"{output} does not load back to the configuration saved:\n{config}\n{again}")
 
 
 def test_one_input(data: bytes) -> None:
     if not data:
         return
-    path = _INPUT[data[0] & 1]
-    with open(path, "wb") as fh:
-        fh.write(data[1:])
-    try:
-        config = ScoringConfig.load(path)
-    except FidelityError:
-        return
+    with _scratch(_INPUT[data[0] & 1]) as path:
+        with open(path, "wb") as fh:
+            fh.write(data[1:])
+        try:
+            config = ScoringConfig.load(path)
+        except FidelityError:
+            return
     _round_trips(config)
 
 
