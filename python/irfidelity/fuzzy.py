@@ -451,6 +451,70 @@ def _max_membership(row: Mapping[str, float], grades: tuple) -> str:
     return max(reversed(grades), key=lambda g: row[g])
 
 
+def _grade_names(value: Any) -> tuple:
+    """The grade names: a list of at least 2 distinct non-empty strings, best first."""
+    names = tuple(value) if isinstance(value, (list, tuple)) else ()
+    if len(names) < 2 or len(set(names)) != len(names) or not all(isinstance(x, str) and x for x in names):
+        raise FidelityError(f"grades must be a list of at least 2 distinct non-empty names, got {value!r}",
+                            option="grades")
+    return names
+
+
+def _grade_number(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise FidelityError(f"{what} must be a number, got {value!r}", option="grades")
+    return float(value)
+
+
+def _grade_widths(value: Any) -> dict:
+    """One half-width per component from a number or a ``{component: number}`` mapping."""
+    if isinstance(value, Mapping):
+        unknown = sorted(str(k) for k in value if k not in COMPONENTS)
+        if unknown:
+            raise FidelityError(f"grade width for unknown component(s) {unknown}; the components are "
+                                f"{', '.join(COMPONENTS)}", option="grades")
+        given = {name: value.get(name, DEFAULT_WIDTHS[name]) for name in COMPONENTS}
+    else:
+        given = dict.fromkeys(COMPONENTS, value)
+    widths = {}
+    for name, w in given.items():
+        width = _grade_number(w, f"grade width of {name} (a number or one per component)")
+        if not (math.isfinite(width) and width >= 0):
+            raise FidelityError(f"grade width of {name} must be finite and >= 0, got {w!r}", option="grades")
+        widths[name] = width
+    return widths
+
+
+def _grade_cuts(value: Any, grades: tuple, widths: Mapping[str, float]) -> dict:
+    """Each component's ascending boundaries, ``len(grades) - 1`` of them, in (0, 1)."""
+    if not isinstance(value, Mapping):
+        raise FidelityError(f"grade cuts must be a mapping {{component: [boundaries]}}, got {value!r}",
+                            option="grades")
+    unknown = sorted(str(k) for k in value if k not in COMPONENTS)
+    if unknown:
+        raise FidelityError(f"grade cuts for unknown component(s) {unknown}; the components are "
+                            f"{', '.join(COMPONENTS)}", option="grades")
+    cuts = {}
+    for name in COMPONENTS:
+        given = value.get(name)
+        if given is None and len(grades) == len(DEFAULT_CUTS[name]) + 1:
+            given = DEFAULT_CUTS[name]  # e.g. scales written before the noise component existed
+        if given is None:
+            raise FidelityError(f"grade cuts missing for component {name!r}", option="grades")
+        if not isinstance(given, (list, tuple, np.ndarray)):
+            raise FidelityError(f"grade cuts for {name} must be a list of numbers, got {given!r}", option="grades")
+        c = tuple(_grade_number(v, f"a grade cut for {name}") for v in given)
+        if len(c) != len(grades) - 1:
+            raise FidelityError(f"grade cuts for {name}: need {len(grades) - 1} boundaries for grades {grades}, "
+                                f"got {len(c)}", option="grades")
+        w = widths[name]
+        if not all(0 < v < 1 for v in c) or any(b - a < 2 * w - 1e-12 for a, b in zip(c, c[1:])):
+            raise FidelityError(f"grade cuts for {name} must lie in (0, 1), ascending, at least "
+                                f"2*width = {2 * w:g} apart; got {c}", option="grades")
+        cuts[name] = c
+    return cuts
+
+
 @dataclass(frozen=True)
 class GradeScale:
     """Grade set and membership functions for the fuzzy comprehensive evaluation.
@@ -499,40 +563,11 @@ class GradeScale:
     width: float | Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_WIDTHS))
 
     def __post_init__(self) -> None:
-        g = tuple(self.grades)
-        if len(g) < 2 or len(set(g)) != len(g) or not all(isinstance(x, str) and x for x in g):
-            raise FidelityError(f"grades must be at least 2 distinct non-empty names, got {self.grades!r}")
-        object.__setattr__(self, "grades", g)
-        widths = {}
-        for name in COMPONENTS:
-            try:
-                w = float(self.width.get(name, DEFAULT_WIDTHS[name]) if isinstance(self.width, Mapping)
-                          else self.width)
-            except (KeyError, TypeError, ValueError):
-                raise FidelityError(f"grade width must be a number or one per component, got {self.width!r}") from None
-            if not (math.isfinite(w) and w >= 0):
-                raise FidelityError(f"grade width must be finite and >= 0, got {self.width!r}")
-            widths[name] = w
+        grades = _grade_names(self.grades)
+        object.__setattr__(self, "grades", grades)
+        widths = _grade_widths(self.width)
         object.__setattr__(self, "width", widths)
-        cuts = {}
-        for name in COMPONENTS:
-            w = widths[name]
-            given = self.cuts.get(name)
-            if given is None and len(g) == len(DEFAULT_CUTS[name]) + 1:
-                given = DEFAULT_CUTS[name]  # e.g. scales written before the noise component existed
-            if given is None:
-                raise FidelityError(f"grade cuts missing for component {name!r}")
-            c = tuple(float(v) for v in given)
-            if len(c) != len(g) - 1:
-                raise FidelityError(f"grade cuts for {name}: need {len(g) - 1} boundaries for grades {g}, got {len(c)}")
-            if not all(0 < v < 1 for v in c) or any(b - a < 2 * w - 1e-12 for a, b in zip(c, c[1:])):
-                raise FidelityError(f"grade cuts for {name} must lie in (0, 1), ascending, at least "
-                                    f"2*width = {2 * w:g} apart; got {c}")
-            cuts[name] = c
-        unknown = set(self.cuts) - set(COMPONENTS)
-        if unknown:
-            raise FidelityError(f"grade cuts for unknown component(s) {sorted(unknown)}")
-        object.__setattr__(self, "cuts", cuts)
+        object.__setattr__(self, "cuts", _grade_cuts(self.cuts, grades, widths))
 
     def memberships(self, component: str, value: float) -> dict:
         """Row of ``R`` for one component value: ``{grade: membership}`` (sums to 1)."""

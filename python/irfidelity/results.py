@@ -18,6 +18,8 @@ from typing import Any, Mapping
 from .config import ScoringConfig
 from .errors import FidelityError
 from .fuzzy import COMPONENTS, PAPER_COMPONENTS, Weights
+from . import readback
+from .readback import Fields, check_json, shared_fields
 from .schema import from_json, to_json
 
 __all__ = ["FidelityReport", "component_lines", "recorded_warnings", "reading_report"]
@@ -29,6 +31,7 @@ def reading_report(cls: type, data: Any) -> Iterator[dict]:
     anything that is not one."""
     if not isinstance(data, Mapping):
         raise FidelityError(f"not a {cls.__name__} dict: got {type(data).__name__}")
+    check_json(data, "report")
     try:
         yield from_json(dict(data))
     except KeyError as exc:
@@ -202,14 +205,12 @@ class FidelityReport:
     def from_dict(cls, data: Mapping[str, Any]) -> FidelityReport:
         """A report from :meth:`to_dict`'s output; FidelityError naming what is wrong otherwise."""
         with reading_report(cls, data) as d:
-            return cls(fidelity=float(d["fidelity"]), grade=str(d["grade"]), components=dict(d["components"]),
-                       weights=Weights.coerce(d["weights"]), metrics=dict(d.get("metrics", {})),
-                       component_grades=dict(d.get("component_grades", {})),
-                       membership=dict(d.get("membership", {})), skipped=dict(d.get("skipped", {})),
-                       config=ScoringConfig.from_dict(d.get("config", {})),
-                       version=str(d.get("irfidelity", "unknown")), grading=dict(d.get("grading", {})),
-                       notes=list(d.get("notes", [])), inputs=dict(d.get("inputs", {})),
-                       registration=_registration_dict(d.get("registration")))
+            fields = Fields(d, "report")
+            return cls(fidelity=fields.require("fidelity", readback.fraction),
+                       grade=fields.require("grade", readback.text),
+                       grading=fields.get("grading", readback.grading, {}),
+                       registration=fields.get("registration", readback.optional(readback.registration)),
+                       **shared_fields(fields))
 
     @property
     def grades(self) -> tuple:
@@ -230,14 +231,6 @@ class FidelityReport:
 
     def __str__(self) -> str:
         return self.summary_text()
-
-
-def _registration_dict(value: Any) -> dict | None:
-    if value is None:
-        return None
-    if not isinstance(value, Mapping):
-        raise FidelityError(f"registration must be a mapping or null, got {type(value).__name__}")
-    return dict(value)
 
 
 def registration_line(reg: Mapping[str, Any]) -> str:

@@ -389,23 +389,29 @@ def _frame_pair(real, sim) -> tuple[np.ndarray, np.ndarray]:
 
 
 def peak_and_valid(dtype: np.dtype, bits, peak):
-    """The PSNR peak and (for integer frames) the allowed value range."""
-    if bits is not None and peak is not None:
-        raise FidelityError("bits and a peak both set the PSNR peak; give one of them", option="peak")
+    """The PSNR peak and (for integer frames) the allowed value range.
+
+    ``bits`` bounds integer values to ``[0, 2**bits - 1]`` and makes ``2**bits - 1`` the
+    default peak; a numeric ``peak`` sets the peak, with or without ``bits``.
+    """
     is_int = dtype.kind in "ui"
+    top = valid = None
     if bits is not None:
         if not is_int:
             raise FidelityError("a bit depth applies to integer frames; give a peak for float frames", option="bits")
         width = dtype.itemsize * 8
         if not (isinstance(bits, (int, np.integer)) and 1 <= bits <= width):
-            raise FidelityError(f"bits must be an integer in 1..{width} for {dtype} frames, got {bits!r}")
+            raise FidelityError(f"bits must be an integer in 1..{width} for {dtype} frames, got {bits!r}",
+                                option="bits")
         top = (1 << int(bits)) - 1
-        return float(top), (0, top)
+        valid = (0, top)
     if peak is not None:
         peak = float(peak)
         if not (peak > 0 and np.isfinite(peak)):
-            raise FidelityError(f"peak must be a positive finite number, got {peak!r}")
-        return peak, None
+            raise FidelityError(f"peak must be a positive finite number, got {peak!r}", option="peak")
+        return peak, valid
+    if top is not None:
+        return float(top), valid
     if is_int:
         info = np.iinfo(dtype)
         # unsigned: the dtype's maximum; signed: its full range (as scikit-image does)
@@ -414,12 +420,13 @@ def peak_and_valid(dtype: np.dtype, bits, peak):
 
 
 def full_range(dtype: np.dtype, bits: int | None, peak: float | None) -> tuple[float, float] | None:
-    """The edges of ``hist_range="full"``: ``0..2**bits - 1`` or ``0..peak``; a signed integer
-    dtype's whole range when neither is given; None for float frames without a peak."""
+    """The edges of ``hist_range="full"``: ``0..2**bits - 1`` (the values' range, also when a
+    peak is given), else ``0..peak``; a signed integer dtype's whole range when neither is
+    given; None for float frames without a peak."""
     if bits is None and peak is None and dtype.kind == "i":
         info = np.iinfo(dtype)
         return float(info.min), float(info.max)
-    top, _ = peak_and_valid(dtype, bits, peak)
+    top, _ = peak_and_valid(dtype, bits, None if bits is not None else peak)
     return None if top is None else (0.0, float(top))
 
 
@@ -573,10 +580,13 @@ def mse(real, sim, *, mask=None) -> float:
     return pair_stats(real, sim, need=("mse",), mask=mask).mse()
 
 
-def psnr(real, sim, *, bits: int | None = None, peak: float | None = None, mask=None) -> float:
+def psnr(real, sim, *, bits: int | None = None, peak: float | str | None = None, mask=None) -> float:
     """PSNR in dB (paper eq. 5), ``10·log10(peak²/MSE)``; ``+inf`` for identical frames.
 
-    ``peak = 2**bits − 1`` when ``bits`` is given; float frames need ``peak``.
+    ``peak``: a number; ``"range"``, the real frame's ``max − min`` over the counted pixels
+    (those of ``mask``), as :func:`irfidelity.evaluate` with ``peak="range"``; default
+    ``2**bits − 1`` when ``bits`` is given (which also bounds integer values to
+    ``[0, 2**bits − 1]``), else the integer dtype's maximum. Float frames need ``peak``.
 
     Examples
     --------
@@ -589,7 +599,14 @@ def psnr(real, sim, *, bits: int | None = None, peak: float | None = None, mask=
     47.78
     >>> irf.psnr(real, real, bits=14)
     inf
+    >>> real = np.array([[100, 110], [120, 130]], dtype=np.uint16)
+    >>> round(irf.psnr(real, real + 3, peak="range"), 4)   # 10·log10(30² / 3²)
+    20.0
+    >>> round(irf.psnr(real, real + 3, bits=12, peak=100), 4)
+    30.4576
     """
+    if isinstance(peak, str):
+        return _psnr_over_range(real, sim, bits, peak, mask)
     if mask is None and bits is None:
         pk = _DEFAULT_PEAK.get(getattr(real, "dtype", None)) if peak is None else peak
         if pk is not None:
@@ -597,6 +614,20 @@ def psnr(real, sim, *, bits: int | None = None, peak: float | None = None, mask=
             if value is not None:
                 return psnr_from_mse(value, float(pk))
     return pair_stats(real, sim, bits=bits, peak=peak, need=("psnr",), mask=mask).psnr()
+
+
+def _psnr_over_range(real, sim, bits, rule: str, mask) -> float:
+    """PSNR with the peak ``"range"``: the real frame's max − min over the counted pixels."""
+    if rule != "range":
+        raise FidelityError(f"peak must be a positive number or 'range', got {rule!r}", option="peak")
+    r, s = _frame_pair(real, sim)
+    st = pair_stats(r, s, bits=bits, need=("psnr",), mask=mask)  # checks the values, the mask, NaN/Inf
+    counted = r if mask is None else r[np.asarray(mask)]
+    span = float(counted.max()) - float(counted.min()) if counted.size else 0.0
+    if not span > 0:
+        raise FidelityError("the PSNR peak 'range' needs a real frame with more than one value over the counted "
+                            f"pixels (its range is {span:g})", option="peak")
+    return st.psnr(span)
 
 
 def ssim(real, sim, *, alpha: float = 1.0, beta: float = 1.0, gamma: float = 1.0, mask=None, nonfinite="raise") -> SSIM:

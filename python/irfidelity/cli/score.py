@@ -17,8 +17,9 @@ __all__ = ["score_command"]
 
 #: Flags that set a ScoringConfig field of the same name.
 _CONFIG_FLAGS = ("bits", "peak", "bins", "hist_range", "missing", "nonfinite", "channel", "real_channel",
-                 "sim_channel", "edge_channel", "edge_fit_order", "ifov_mrad", "pixel_pitch_um", "focal_length_mm", "register",
-                 "register_method", "register_each", "max_delay", "pair_by")
+                 "sim_channel", "edge_channel", "real_edge_channel", "sim_edge_channel", "edge_fit_order", "ifov_mrad",
+                 "pixel_pitch_um", "focal_length_mm", "register", "register_method", "register_each", "max_delay",
+                 "pair_by")
 
 
 def _config(a: argparse.Namespace) -> ScoringConfig:

@@ -14,6 +14,8 @@ from typing import Any, Mapping
 
 from ..config import ScoringConfig
 from ..fuzzy import Weights
+from .. import readback
+from ..readback import Fields, shared_fields
 from ..results import component_lines, reading_report, registration_line, settings_line, version
 from ..schema import csv_columns, to_json
 from .log import csv_line
@@ -150,10 +152,21 @@ class SequenceReport:
     def from_dict(cls, data: Mapping[str, Any]) -> SequenceReport:
         """A report from :meth:`to_dict`'s output; FidelityError naming what is wrong otherwise."""
         with reading_report(cls, data) as d:
-            values = {k: d[k] for k in cls._FIELDS if k in d}
-            return cls(frames=list(d["frames"]), weights=Weights.coerce(d["weights"]),
-                       config=ScoringConfig.from_dict(d.get("config", {})),
-                       version=str(d.get("irfidelity", "unknown")), **values)
+            fields = Fields(d, "report")
+            report = cls(frames=fields.require("frames", readback.list_of(readback.frame)),
+                       fidelity=fields.get("fidelity", readback.optional(readback.fraction)),
+                       grade=fields.get("grade", readback.optional(readback.text)),
+                       failed=fields.get("failed", readback.list_of(readback.count), []),
+                       frame_stats=fields.get("frame_stats", readback.frame_stats, {}),
+                       pooling=fields.get("pooling", readback.mapping_of(readback.anything), {}),
+                       run=fields.get("run", readback.mapping_of(readback.anything), {}),
+                       registration=fields.get("registration", readback.optional(readback.any_registration)),
+                       delay=fields.get("delay", readback.optional(readback.delay)),
+                       **shared_fields(fields))
+            if (report.fidelity is None) != (report.grade is None):
+                raise readback.ReportError("report: fidelity and grade are both given (a pooled result) or both "
+                                           "null (no frame scored)")
+            return report
 
     def summary_text(self) -> str:
         """A short human-readable summary: pooled table, per-frame spread, failures."""
@@ -176,8 +189,9 @@ class SequenceReport:
         if self.failed:
             shown = ", ".join(str(i) for i in self.failed[:10]) + (", ..." if len(self.failed) > 10 else "")
             lines.append(f"failed frames: {shown}")
-            first = next(f for f in self.frames if f["error"])
-            lines.append(f"  first error (frame {first['index']}): {first['error']}")
+            first = next((f for f in self.frames if f["error"]), None)
+            if first is not None:
+                lines.append(f"  first error (frame {first['index']}): {first['error']}")
         if self.delay:
             lines.append(_delay_line(self.delay))
         if self.registration:
