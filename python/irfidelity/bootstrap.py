@@ -104,7 +104,7 @@ def frame_series(per_frame: Mapping[str, Any], label: str = "per_frame") -> Fram
             raise FidelityError(f"{label}[{name!r}] must be 1-D (one number per frame), got shape {column.shape}")
         bad = np.flatnonzero(~np.isfinite(column))
         if bad.size:
-            raise FidelityError(f"{label}[{name!r}] frame {int(bad[0])} is {column[bad[0]]!r}: drop failed "
+            raise FidelityError(f"{label}[{name!r}] frame {int(bad[0])} is {float(column[bad[0]])!r}: drop failed "
                                 f"frames before bootstrapping")
         columns.append(column)
     lengths = {len(c) for c in columns}

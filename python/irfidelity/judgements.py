@@ -33,6 +33,9 @@ SCALE_PENALTY = 1e-4
 
 _MAX_ITERATIONS = 200
 
+#: A fit whose every predicted preference is within this logit of a coin toss explains nothing.
+_NO_SIGNAL = 1e-6
+
 
 # --------------------------------------------------------------------------- judgements
 @dataclass(frozen=True)
@@ -192,16 +195,16 @@ class Fit:
 
 
 def _fit(judgements: Judgements, prior: np.ndarray | None, strength: float) -> Fit | None:
-    """The fitted weights and scale, or None when the judgements carry no preference (s = 0)."""
+    """The fitted weights and scale, or None when the judgements carry no preference (every
+    fitted logit below :data:`_NO_SIGNAL`: scale 0)."""
     start_w = np.full(len(judgements.components), 1.0 / len(judgements.components)) if prior is None else prior
     spread = float(np.mean(np.abs(judgements.difference @ start_w)))
     if spread == 0:
         spread = float(np.mean(np.abs(judgements.difference))) or 1.0
     v = _minimize(Objective(judgements, prior, strength), start_w / spread)
-    scale = float(v.sum())
-    if not scale > 0:
+    if float(np.max(np.abs(judgements.difference @ v))) < _NO_SIGNAL:
         return None
-    return Fit(v / scale, scale)
+    return Fit(v / v.sum(), float(v.sum()))
 
 
 # --------------------------------------------------------------------------- agreement
