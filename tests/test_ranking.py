@@ -303,6 +303,20 @@ def test_noise_interval_through_the_metric_agrees_with_the_analytic_one():
     assert mc.ci["value"][0] < analytic.estimate["psnr_db"] < mc.ci["value"][1]
     with pytest.raises(FidelityError, match="sigma"):
         noise_interval(real, sim, -1.0, lambda r, s: 0.0)
+
+
+def test_noise_interval_scores_integer_frames_through_evaluate():
+    rng = np.random.default_rng(19)
+    real = tifffile.imread(DATA)[0]
+    sim = np.clip(real + rng.normal(0, 8, real.shape), 0, 16383).astype(np.uint16)
+
+    def components(r, s):
+        return irf.evaluate(r, s, peak=600.0, weights=WEIGHTS).components
+
+    ci = noise_interval(real, sim, 2.0, components, draws=40)
+    assert set(ci.ci) == {"psnr", "nmi", "ssim"} and ci.resamples == 40
+    for name, (lo, hi) in ci.ci.items():
+        assert lo <= ci.estimate[name] <= hi and hi - lo < 0.05
     with pytest.raises(FidelityError, match="n must"):
         psnr_noise_interval(1.0, 0, 1.0, peak=1.0)
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from numbers import Real
 from statistics import NormalDist
 from typing import Any, Callable, Mapping
 
@@ -56,10 +57,17 @@ _MAX_RHO = 0.99  # lag-1 autocorrelations are clipped here before the block-leng
 # --------------------------------------------------------------------------- inputs
 def check_level(level: float) -> float:
     """``level`` as a float in (0, 1), else FidelityError."""
-    value = float(level) if isinstance(level, (int, float)) and not isinstance(level, bool) else math.nan
+    value = float(level) if isinstance(level, Real) and not isinstance(level, bool) else math.nan
     if not 0 < value < 1:
         raise FidelityError(f"level must be a number in (0, 1), e.g. 0.95; got {level!r}", option="level")
     return value
+
+
+def check_non_negative(name: str, value: Any) -> float:
+    """``value`` as a finite float >= 0, else FidelityError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, Real) or not (math.isfinite(value) and value >= 0):
+        raise FidelityError(f"{name} must be a finite number >= 0, got {value!r}", option=name)
+    return float(value)
 
 
 def check_resamples(resamples: int) -> int:
@@ -610,10 +618,8 @@ def psnr_noise_interval(mse: float, n: int, sigma: float, *, peak: float, level:
     [58.253, 58.281]
     """
     level = check_level(level)
-    values = {"mse": mse, "sigma": sigma, "peak": peak}
-    for name, value in values.items():
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-            raise FidelityError(f"{name} must be a finite number >= 0, got {value!r}", option=name)
+    for name, value in {"mse": mse, "sigma": sigma, "peak": peak}.items():
+        check_non_negative(name, value)
     if not peak > 0:
         raise FidelityError(f"peak must be > 0, got {peak!r}", option="peak")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
@@ -637,12 +643,13 @@ def _scores(value: Any) -> dict[str, float]:
     return {"value": float(value)}
 
 
-def noise_interval(real: Any, sim: Any, sigma: float, score: Callable[[np.ndarray, Any], Any], *, draws: int = 200,
+def noise_interval(real: Any, sim: Any, sigma: float, score: Callable[[np.ndarray, np.ndarray], Any], *,
+                   draws: int = 200,
                    level: float = 0.95, rng: Any = 0) -> Intervals:
     """Interval of one pair's scores from the real camera's temporal noise, through any metric.
 
     ``score(real_frame, sim)`` is evaluated on ``real + e_k`` for ``draws`` draws of Gaussian
-    noise ``e_k`` of standard deviation ``sigma`` (the real frame as float64). The spread of
+    noise ``e_k`` of standard deviation ``sigma`` (both frames as float64). The spread of
     the draws around their mean, centred on the observed score, is the interval:
     ``score(real) + (q_a, q_(1−a))`` of ``score(real + e_k) − mean_k``. The perturbed frames carry
     noise √2·σ, so the spread is somewhat wider than another noise realisation would give
@@ -653,7 +660,7 @@ def noise_interval(real: Any, sim: Any, sigma: float, score: Callable[[np.ndarra
     ----------
     score : callable(real_frame, sim) -> float or {quantity: float}
         E.g. ``lambda r, s: irf.evaluate(r, s, peak=p).components`` (fix the PSNR peak: a
-        noisy float frame has no dtype range).
+        float frame has no dtype range).
 
     Examples
     --------
@@ -668,14 +675,13 @@ def noise_interval(real: Any, sim: Any, sigma: float, score: Callable[[np.ndarra
     (True, 0.07)
     """
     level = check_level(level)
-    if isinstance(sigma, bool) or not isinstance(sigma, (int, float)) or not (math.isfinite(sigma) and sigma >= 0):
-        raise FidelityError(f"sigma must be a finite number >= 0, got {sigma!r}", option="sigma")
+    check_non_negative("sigma", sigma)
     if isinstance(draws, bool) or not isinstance(draws, (int, np.integer)) or draws < 20:
         raise FidelityError(f"draws must be an integer >= 20, got {draws!r}", option="draws")
-    frame = np.asarray(real, dtype=np.float64)
+    frame, other = np.asarray(real, dtype=np.float64), np.asarray(sim, dtype=np.float64)
     generator = as_generator(rng)
-    observed = _scores(score(frame, sim))
-    runs = [_scores(score(frame + generator.normal(0.0, sigma, frame.shape), sim)) for _ in range(int(draws))]
+    observed = _scores(score(frame, other))
+    runs = [_scores(score(frame + generator.normal(0.0, sigma, frame.shape), other)) for _ in range(int(draws))]
     tail = (1 - level) / 2
     ci = {}
     for q, value in observed.items():

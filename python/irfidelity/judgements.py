@@ -274,7 +274,7 @@ def _experts(judgements: Judgements, weights: np.ndarray, prior: np.ndarray | No
             reasons.append(f"{cyclic} judgement(s) on a cycle of this expert's own preferences")
         if reasons:
             flagged[name] = tuple(reasons)
-    counts = [per_expert[n]["judgements"] for n in held]
+    counts = [int(np.count_nonzero(experts == n)) for n in held]
     pooled = None if not held else float(np.average([held[n] for n in held], weights=counts))
     return per_expert, flagged, pooled
 
@@ -496,7 +496,8 @@ def _csv_error(path: str, line: int, column: str | None, message: str) -> Fideli
 def _csv_columns(path: str, header: list[str]) -> tuple[tuple, bool]:
     """The judged components and whether an ``expert`` column is present."""
     stripped = [h.strip() for h in header]
-    seen, sides = set(), {"a": [], "b": []}
+    seen: set[str] = set()
+    sides: dict[str, list[str]] = {"a": [], "b": []}
     for column in stripped:
         if column in seen:
             raise _csv_error(path, 1, column, "column given twice")

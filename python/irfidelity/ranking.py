@@ -112,8 +112,8 @@ class Ranking:
             lines.append(f"{name:<24} {self.estimate[name]['fidelity']:>9.4f} [{lo:.4f}, {hi:.4f}]")
         for (a, b), test in self.pairs.items():
             verdict = "significant" if self.significant[(a, b)] else "not significant"
-            lines.append(f"{a} − {b}: {test.difference['fidelity']:+.4f}, p = {self.p_adjusted[(a, b)]['fidelity']:.3g} "
-                         f"({self.correction}): {verdict}")
+            p = self.p_adjusted[(a, b)]["fidelity"]
+            lines.append(f"{a} − {b}: {test.difference['fidelity']:+.4f}, p = {p:.3g} ({self.correction}): {verdict}")
         lines.append(f"level {self.level:g}; {self.resamples} resamples of {self.frames} frames in blocks of "
                      f"{self.block}")
         if self.stability is not None:
@@ -204,10 +204,10 @@ def rank(per_frame: Mapping[str, Mapping[str, Any]], *, pool: Pool | None = None
     w = None if weights is None else Weights.coerce(weights)
     names = [str(n) for n in per_frame]
     series = {}
-    for name, frames in zip(names, per_frame.values()):
-        if not isinstance(frames, Mapping):
+    for name, given in zip(names, per_frame.values()):
+        if not isinstance(given, Mapping):
             raise FidelityError(f"per_frame[{name!r}] must be a mapping {{series: per-frame values}}")
-        series[name] = frame_series(frames if pool is not None else _with_fidelity(frames, w, name),
+        series[name] = frame_series(given if pool is not None else _with_fidelity(given, w, name),
                                     f"per_frame[{name!r}]")
     lengths = {n: s.frames for n, s in series.items()}
     if len(set(lengths.values())) != 1:
