@@ -130,6 +130,8 @@ def _pooled(series: FrameSeries, sums: np.ndarray, frames: int, pool: Pool | Non
     if pool is None:
         return {name: sums[:, j] / frames for j, name in enumerate(series.names)}
     rows = [pool(dict(zip(series.names, map(float, row))), frames) for row in sums]
+    if not all(isinstance(r, Mapping) for r in rows):
+        raise FidelityError("pool must return a mapping {quantity: value}")
     names = tuple(rows[0])
     out = {}
     for q in names:
@@ -140,7 +142,7 @@ def _pooled(series: FrameSeries, sums: np.ndarray, frames: int, pool: Pool | Non
                                 f"{q!r} is missing or not a number on one") from None
         bad = np.flatnonzero(~np.isfinite(out[q]))
         if bad.size:
-            raise FidelityError(f"pool returned {out[q][bad[0]]!r} for {q!r}; every pooled quantity must "
+            raise FidelityError(f"pool returned {float(out[q][bad[0]])!r} for {q!r}; every pooled quantity must "
                                 f"be finite (return components, not +inf dB)")
     return out
 
@@ -279,8 +281,9 @@ def studentized_interval(estimate: float, draws: np.ndarray, influence: np.ndarr
 
 def studentized_p_value(estimate: float, draws: np.ndarray, influence: np.ndarray,
                         resampling: Resampling) -> float:
-    """Two-sided p-value of θ = 0, equal-tailed like the interval: ``2·min(#{t* ≥ t}, #{t* ≤ t}) + 1``
-    over ``B + 1`` with ``t = θ / se`` (below ``1 − level`` about when the interval excludes 0)."""
+    """Two-sided p-value of θ = 0, equal-tailed like the interval: ``2·(min(#{t* ≥ t}, #{t* ≤ t}) + 1)
+    / (B + 1)`` with ``t = θ / se`` (below ``1 − level`` about when the interval excludes 0; the
+    smallest, ``2 / (B + 1)``, also when no frame moves a non-zero θ)."""
     se, se_star = resampling.standard_errors(influence)
     rows = resampling.resamples
     if se == 0:
