@@ -65,9 +65,10 @@ def check_level(level: float) -> float:
 
 def check_non_negative(name: str, value: Any) -> float:
     """``value`` as a finite float >= 0, else FidelityError naming ``name``."""
-    if isinstance(value, bool) or not isinstance(value, Real) or not (math.isfinite(value) and value >= 0):
+    number = float(value) if isinstance(value, Real) and not isinstance(value, bool) else math.nan
+    if not (math.isfinite(number) and number >= 0):
         raise FidelityError(f"{name} must be a finite number >= 0, got {value!r}", option=name)
-    return float(value)
+    return number
 
 
 def check_resamples(resamples: int) -> int:
