@@ -723,3 +723,9 @@ def compare(reports: Mapping[str, Any], *, weights: Any = None, samples: int = 2
     return Comparison(ranking=ranking, fidelity=base, p_first={n: float(p) for n, p in zip(names, p_first)},
                       mean_rank={n: float(r) for n, r in zip(names, mean_rank)}, weights=w, samples=ns,
                       concentration=conc, components=comps)
+
+
+# Weights from experts (judgements.py imports this module's names, so it comes last).
+from .judgements import combine_ahp, fit_weights  # noqa: E402
+
+__all__ += ["fit_weights", "combine_ahp"]
