@@ -9,7 +9,7 @@ kinds here), so there is one hierarchy whatever layer failed.
 from __future__ import annotations
 
 __all__ = ["FidelityError", "FrameError", "ShapeError", "RangeError", "RegistrationError", "FidelityWarning",
-           "PeakWarning"]
+           "PeakWarning", "RadiometryWarning"]
 
 
 class FidelityError(ValueError):
@@ -61,3 +61,8 @@ class FidelityWarning(UserWarning):
 class PeakWarning(FidelityWarning):
     """The PSNR peak is so far above the real frame's range that the ``psnr`` component is
     pinned near 1 for any simulated frame whose errors stay within the scene's range."""
+
+
+class RadiometryWarning(FidelityWarning):
+    """Some counts (or temperatures) lie outside the radiometric calibration's domain (no finite
+    temperature above 0 K) and became NaN; the message counts them."""
