@@ -241,7 +241,7 @@ def test_counts_outside_the_domain_are_nan_with_a_warning():
     (dict(relative_humidity=120), "relative_humidity = 120"),
     (dict(window_transmission=0), "window_transmission = 0"),
     (dict(reflected_temperature=-300), "reflected_temperature = -300"),
-    (dict(atmospheric_temperature=float("nan")), "atmospheric_temperature = nan"),
+    (dict(atmospheric_temperature=float("nan")), "atmospheric_temperature = NaN"),
     (dict(object_distance=1e15), "atmospheric transmission"),
 ])
 def test_invalid_calibration_fields_are_named(override, match):
@@ -427,3 +427,16 @@ def test_csq_and_plain_jpeg_are_refused_clearly(tmp_path):
     assert str(plain) in str(info.value)
     with pytest.raises(FrameError, match="JPEG without FLIR segments"):
         irf.read_radiometry(plain)
+
+
+def test_readme_radiometric_example_runs(capsys):
+    import re
+
+    readme = (pathlib.Path(__file__).parent.parent / "README.md").read_text(encoding="utf-8")
+    block = next(b for b in re.findall(r"```python\n(.*?)```", readme, re.S) if "read_radiometry" in b)
+    namespace: dict = {}
+    exec(compile(block, "README.md", "exec"), namespace)
+    assert namespace["counts"].shape == (60, 80) and namespace["counts"].dtype == np.uint16
+    celsius = namespace["celsius"]
+    assert celsius.dtype == np.float64 and np.isfinite(celsius).all() and 0 < celsius.mean() < 60
+    assert namespace["cal"].camera_model in capsys.readouterr().out
