@@ -312,11 +312,11 @@ def test_seq_pages_read_through_frame_sequence(tmp_path):
 def test_seq_scores_as_a_sequence(tmp_path):
     real = _seq(tmp_path, "real.seq", [FFF_LE] * 3)
     sim = _seq(tmp_path, "sim.seq", [FFF_LE] * 3)
-    report = irf.score_sequence(real, sim, bits=16, progress=False, workers=1)
+    report = irf.score_sequence(real, sim, bits=16, peak="range", progress=False, workers=1)
     assert len(report.frames) == 3 and not report.failed
     assert all(f["fidelity"] == pytest.approx(1.0) for f in report.frames)
-    rc = main(["score", str(real), str(sim), "--bits", "16", "--pages", "0:2", "--no-progress", "--workers", "1",
-               "--csv", str(tmp_path / "frames.csv")])
+    rc = main(["score", str(real), str(sim), "--bits", "16", "--peak", "range", "--pages", "0:2", "--no-progress",
+               "--workers", "1", "--csv", str(tmp_path / "frames.csv")])
     assert rc == 0
     assert len((tmp_path / "frames.csv").read_text().strip().splitlines()) == 3  # header and two frames
 

@@ -19,6 +19,7 @@ __all__ = [
     "REGISTRATION_MIN_OVERLAP",
     "SUPPORTED_DTYPES",
     "applied_matrix",
+    "counts_to_temperature",
     "default_max_bytes",
     "default_max_pixels",
     "file_digests",
@@ -33,9 +34,11 @@ __all__ = [
     "pair_stats",
     "plain_moments",
     "plain_mse",
+    "read_camera_info",
     "register_frames",
     "score_pairs",
     "ssim_map",
+    "temperature_to_counts",
     "warp_frame",
 ]
 
