@@ -73,12 +73,11 @@ fn apply<'py, T: numpy::Element + Sample>(
     unit: Unit,
     convert: Conversion<T>,
 ) -> PyResult<(Bound<'py, PyAny>, usize, usize)> {
-    let array = values.cast::<PyArrayDyn<T>>()?.try_readonly().map_err(|e| {
-        crate::Error::Value(format!("the array is being written elsewhere: {e}"))
-    })?;
-    let slice = array
-        .as_slice()
-        .map_err(|e| crate::Error::Value(format!("internal: array not C-contiguous: {e}")))?;
+    let array = values
+        .cast::<PyArrayDyn<T>>()?
+        .try_readonly()
+        .map_err(|e| crate::Error::Value(format!("the array is being written elsewhere: {e}")))?;
+    let slice = array.as_slice().map_err(|e| crate::Error::Value(format!("internal: array not C-contiguous: {e}")))?;
     let out = py.detach(|| convert(slice, calibration, unit))?;
     let shaped = numpy::ndarray::ArrayD::from_shape_vec(values.shape(), out.values)
         .map_err(|e| crate::Error::Value(format!("internal: {e}")))?;
@@ -86,8 +85,12 @@ fn apply<'py, T: numpy::Element + Sample>(
 }
 
 fn unsupported(values: &Bound<'_, PyUntypedArray>) -> PyErr {
-    crate::Error::Value(format!("unsupported dtype {}; expected one of {}", values.dtype(), SUPPORTED_DTYPES.join(", ")))
-        .into()
+    crate::Error::Value(format!(
+        "unsupported dtype {}; expected one of {}",
+        values.dtype(),
+        SUPPORTED_DTYPES.join(", ")
+    ))
+    .into()
 }
 
 /// Temperatures (float64, in `unit`) of raw counts, with the number of finite counts outside

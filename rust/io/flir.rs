@@ -87,7 +87,8 @@ impl Header {
             (v, _) => return Err(format!("unsupported FLIR FFF version {v:#x} (expected 100..199)")),
         };
         let f = Fields { bytes: head, big };
-        let header = Header { big, directory: f.u32(0x18).unwrap_or(0).into(), entries: f.u32(0x1c).unwrap_or(0).into() };
+        let header =
+            Header { big, directory: f.u32(0x18).unwrap_or(0).into(), entries: f.u32(0x1c).unwrap_or(0).into() };
         if header.entries > MAX_ENTRIES {
             return Err(format!(
                 "corrupt FLIR frame: the header claims {} records (at most {MAX_ENTRIES})",
@@ -139,17 +140,16 @@ impl<'a> FffFrame<'a> {
     pub(super) fn parse(bytes: &'a [u8]) -> Result<FffFrame<'a>, Reason> {
         let header = Header::parse(bytes)?;
         let (start, end) = header.directory_range();
-        let dir = usize::try_from(start)
-            .ok()
-            .zip(usize::try_from(end).ok())
-            .and_then(|(s, e)| bytes.get(s..e))
-            .ok_or_else(|| {
-                format!(
+        let dir =
+            usize::try_from(start).ok().zip(usize::try_from(end).ok()).and_then(|(s, e)| bytes.get(s..e)).ok_or_else(
+                || {
+                    format!(
                     "truncated or corrupt FLIR frame: its record directory (bytes {start}..{end}) lies past the end of \
                      the FLIR data ({} bytes)",
                     bytes.len()
                 )
-            })?;
+                },
+            )?;
         Ok(FffFrame { bytes, entries: parse_directory(dir, &header) })
     }
 
@@ -180,7 +180,10 @@ impl<'a> FffFrame<'a> {
         let rec = self.record(RAW_DATA, "raw-data")?;
         let big = record_order(rec, "raw-data")?;
         if rec.len() < RAW_HEADER_LEN {
-            return Err(format!("truncated raw-data record ({} bytes; its header alone is {RAW_HEADER_LEN})", rec.len()));
+            return Err(format!(
+                "truncated raw-data record ({} bytes; its header alone is {RAW_HEADER_LEN})",
+                rec.len()
+            ));
         }
         let f = Fields { bytes: rec, big };
         let (cols, rows) = (f.u16(2).unwrap_or(0) as usize, f.u16(4).unwrap_or(0) as usize);
@@ -190,13 +193,19 @@ impl<'a> FffFrame<'a> {
         let frame = if image.starts_with(b"\x89PNG\r\n\x1a\n") {
             let frame = embedded(raster::decode_png(Cursor::new(image), &inner(o, held)?), "PNG")?;
             // FLIR writes the PNG's 16-bit samples in the record's byte order
-            if big { frame } else { swap_bytes(frame) }
+            if big {
+                frame
+            } else {
+                swap_bytes(frame)
+            }
         } else if image.starts_with(b"II*\0") || image.starts_with(b"MM\0*") {
             embedded(raster::decode_tiff(Cursor::new(image), &inner(o, held)?), "TIFF")?
         } else if image.starts_with(&[0xFF, 0xD8]) {
-            return Err("the raw frame is JPEG-LS coded (a FLIR CSQ file): irfidelity cannot decode CSQ, as no \
+            return Err(
+                "the raw frame is JPEG-LS coded (a FLIR CSQ file): irfidelity cannot decode CSQ, as no \
                         well-kept pure-Rust JPEG-LS decoder exists (convert the CSQ to SEQ or TIFF with FLIR's tools)"
-                .to_string());
+                    .to_string(),
+            );
         } else {
             raw16(image, (cols, rows), big, held, o)?
         };

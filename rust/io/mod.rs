@@ -277,7 +277,8 @@ fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>) -> std::result::Result<
         if got == 0 {
             "empty file (not an EXR, PNG or TIFF image)".to_string()
         } else {
-            "unsupported file format (not an OpenEXR, PNG, TIFF or radiometric FLIR image by its magic bytes)".to_string()
+            "unsupported file format (not an OpenEXR, PNG, TIFF or radiometric FLIR image by its magic bytes)"
+                .to_string()
         }
     })?;
     if let Op::Decode(o) = op {
@@ -300,12 +301,14 @@ fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>) -> std::result::Result<
         (Format::Flir, Op::Pages) => seq::page_count(reader).map(OpOut::Pages),
         (Format::Flir, Op::Radiometry(o)) => seq::camera_info(reader, o).map(|c| OpOut::Radiometry(Box::new(c))),
         (Format::Jpeg, Op::Decode(o)) => rjpeg::decode(reader, o).map(OpOut::Frame),
-        (Format::Jpeg, Op::Channels) => rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Channels(vec!["Y".to_string()])),
+        (Format::Jpeg, Op::Channels) => {
+            rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Channels(vec!["Y".to_string()]))
+        }
         (Format::Jpeg, Op::Pages) => rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Pages(1)),
         (Format::Jpeg, Op::Radiometry(o)) => rjpeg::camera_info(reader, o).map(|c| OpOut::Radiometry(Box::new(c))),
-        (Format::Exr | Format::Png | Format::Tiff, Op::Radiometry(_)) => Err(
-            "no radiometric calibration: only FLIR files (FFF, SEQ, radiometric JPEG) carry one".to_string(),
-        ),
+        (Format::Exr | Format::Png | Format::Tiff, Op::Radiometry(_)) => {
+            Err("no radiometric calibration: only FLIR files (FFF, SEQ, radiometric JPEG) carry one".to_string())
+        }
     }
 }
 

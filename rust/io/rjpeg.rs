@@ -67,9 +67,9 @@ fn flir_segments<R: BufRead + Seek>(reader: &mut R, max_bytes: u64) -> Result<Ve
         }
         let mut len = [0u8; 2];
         reader.read_exact(&mut len).map_err(|e| read_err(e, at))?;
-        let body = u64::from(u16::from_be_bytes(len)).checked_sub(2).ok_or_else(|| {
-            format!("corrupt JPEG file: the segment at byte {at} has a length below 2")
-        })?;
+        let body = u64::from(u16::from_be_bytes(len))
+            .checked_sub(2)
+            .ok_or_else(|| format!("corrupt JPEG file: the segment at byte {at} has a length below 2"))?;
         let mut head = [0u8; SEGMENT_HEADER];
         let flir = marker == APP1 && body >= SEGMENT_HEADER as u64 && {
             reader.read_exact(&mut head).map_err(|e| read_err(e, at))?;
