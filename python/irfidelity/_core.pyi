@@ -19,7 +19,6 @@ __all__ = [
     "REGISTRATION_MIN_OVERLAP",
     "SUPPORTED_DTYPES",
     "applied_matrix",
-    "counts_to_temperature",
     "default_max_bytes",
     "default_max_pixels",
     "file_digests",
@@ -34,11 +33,11 @@ __all__ = [
     "pair_stats",
     "plain_moments",
     "plain_mse",
+    "radiometric_conversion",
     "read_camera_info",
     "register_frames",
     "score_pairs",
     "ssim_map",
-    "temperature_to_counts",
     "warp_frame",
 ]
 
@@ -106,11 +105,8 @@ def list_channels(path: str | os.PathLike[str]) -> list[str]: ...
 def read_camera_info(
     path: str | os.PathLike[str], page: int = 0, *, max_bytes: int | None = None
 ) -> dict[str, Any]: ...
-def counts_to_temperature(
-    counts: npt.NDArray[Any], calibration: Any, unit: str
-) -> tuple[npt.NDArray[np.float64], int, int]: ...
-def temperature_to_counts(
-    temperature: npt.NDArray[Any], calibration: Any, unit: str
+def radiometric_conversion(
+    values: npt.NDArray[Any], calibration: Any, unit: str, inverse: bool
 ) -> tuple[npt.NDArray[np.float64], int, int]: ...
 def default_max_pixels() -> int: ...
 def default_max_bytes() -> int: ...

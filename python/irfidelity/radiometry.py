@@ -153,9 +153,8 @@ class Radiometry:
         if array.dtype not in _NATIVE:
             array = array.astype(np.float64)
         array = np.require(array, requirements=["C", "A"])
-        convert = _core.counts_to_temperature if to_temperature else _core.temperature_to_counts
         try:
-            out, outside, nonfinite = convert(array, calibration, unit)
+            out, outside, nonfinite = _core.radiometric_conversion(array, calibration, unit, not to_temperature)
         except FidelityError as exc:
             raise type(exc)(f"{self._where()}{exc}{self._origin(exc, overrides)}",
                             option=_field_named(str(exc))) from None

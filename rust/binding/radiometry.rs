@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use numpy::{IntoPyArray, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use pyo3::IntoPyObject;
 
 use super::args;
 use super::dtypes::SUPPORTED_DTYPES;
@@ -24,28 +25,7 @@ fn read_camera_info<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let opts = DecodeOptions { page, max_bytes: max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES), ..Default::default() };
     let c = py.detach(|| io::read_camera_info(&path, &opts))?;
-    let d = PyDict::new(py);
-    for (name, value) in [
-        ("planck_r1", c.planck_r1),
-        ("planck_r2", c.planck_r2),
-        ("planck_b", c.planck_b),
-        ("planck_f", c.planck_f),
-        ("planck_o", c.planck_o),
-        ("emissivity", c.emissivity),
-        ("object_distance", c.object_distance),
-        ("reflected_temperature", c.reflected_temperature),
-        ("atmospheric_temperature", c.atmospheric_temperature),
-        ("window_temperature", c.window_temperature),
-        ("window_transmission", c.window_transmission),
-        ("relative_humidity", c.relative_humidity),
-        ("alpha1", c.alpha1),
-        ("alpha2", c.alpha2),
-        ("beta1", c.beta1),
-        ("beta2", c.beta2),
-        ("x", c.x),
-    ] {
-        d.set_item(name, value)?;
-    }
+    let d = c.calibration.into_pyobject(py)?;
     d.set_item("camera_model", c.camera_model)?;
     d.set_item("camera_serial", c.camera_serial)?;
     d.set_item("lens_model", c.lens_model)?;
@@ -93,37 +73,27 @@ fn unsupported(values: &Bound<'_, PyUntypedArray>) -> PyErr {
     .into()
 }
 
-/// Temperatures (float64, in `unit`) of raw counts, with the number of finite counts outside
-/// the calibration's domain and of non-finite counts (both now NaN).
+/// Temperatures (float64, in `unit`) of raw counts, or with `inverse` raw counts (float64,
+/// unrounded) of temperatures in `unit`; with the number of finite inputs outside the
+/// calibration's domain and of non-finite inputs (both now NaN).
 #[pyfunction]
-fn counts_to_temperature<'py>(
+fn radiometric_conversion<'py>(
     py: Python<'py>,
-    counts: &Bound<'py, PyUntypedArray>,
+    values: &Bound<'py, PyUntypedArray>,
     calibration: Calibration,
     unit: &str,
+    inverse: bool,
 ) -> PyResult<(Bound<'py, PyAny>, usize, usize)> {
     let unit = self::unit(unit)?;
-    with_frame_dtype!(py, counts.dtype(), |T| apply::<T>(py, counts, &calibration, unit, radiometry::temperatures))
-        .unwrap_or_else(|| Err(unsupported(counts)))
-}
-
-/// Raw counts (float64, unrounded) of temperatures in `unit`: the inverse of
-/// `counts_to_temperature`, with the same counts of NaN results.
-#[pyfunction]
-fn temperature_to_counts<'py>(
-    py: Python<'py>,
-    temperature: &Bound<'py, PyUntypedArray>,
-    calibration: Calibration,
-    unit: &str,
-) -> PyResult<(Bound<'py, PyAny>, usize, usize)> {
-    let unit = self::unit(unit)?;
-    with_frame_dtype!(py, temperature.dtype(), |T| apply::<T>(py, temperature, &calibration, unit, radiometry::counts))
-        .unwrap_or_else(|| Err(unsupported(temperature)))
+    with_frame_dtype!(py, values.dtype(), |T| {
+        let convert: Conversion<T> = if inverse { radiometry::counts } else { radiometry::temperatures };
+        apply::<T>(py, values, &calibration, unit, convert)
+    })
+    .unwrap_or_else(|| Err(unsupported(values)))
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_camera_info, m)?)?;
-    m.add_function(wrap_pyfunction!(counts_to_temperature, m)?)?;
-    m.add_function(wrap_pyfunction!(temperature_to_counts, m)?)?;
+    m.add_function(wrap_pyfunction!(radiometric_conversion, m)?)?;
     Ok(())
 }

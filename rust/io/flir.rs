@@ -14,6 +14,8 @@
 
 use std::io::Cursor;
 
+use crate::radiometry::{Calibration, ZERO_CELSIUS};
+
 use super::{check_budget, check_size, raster, select_channel, DecodeOptions, Frame, FrameData, Reason};
 
 /// Bytes of the FFF header.
@@ -287,28 +289,12 @@ fn raw16(image: &[u8], (cols, rows): (usize, usize), big: bool, held: u64, o: &D
     Ok(Frame { rows, cols, data: FrameData::U16(counts) })
 }
 
-/// The camera-info record: calibration (Planck constants), object parameters, atmosphere, and
-/// the camera. Temperatures in °C, relative humidity in percent, distances in metres, as
-/// stored (unchecked: the conversion validates what it uses).
+/// The camera-info record: the calibration (Planck constants, object parameters, atmosphere;
+/// temperatures in °C, relative humidity in percent, distance in metres, as stored: the
+/// conversion validates what it uses) and the camera.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CameraInfo {
-    pub planck_r1: f64,
-    pub planck_r2: f64,
-    pub planck_b: f64,
-    pub planck_f: f64,
-    pub planck_o: f64,
-    pub emissivity: f64,
-    pub object_distance: f64,
-    pub reflected_temperature: f64,
-    pub atmospheric_temperature: f64,
-    pub window_temperature: f64,
-    pub window_transmission: f64,
-    pub relative_humidity: f64,
-    pub alpha1: f64,
-    pub alpha2: f64,
-    pub beta1: f64,
-    pub beta2: f64,
-    pub x: f64,
+    pub calibration: Calibration,
     pub camera_model: Option<String>,
     pub camera_serial: Option<String>,
     pub lens_model: Option<String>,
@@ -319,16 +305,13 @@ pub struct CameraInfo {
     pub frame_rate: Option<u32>,
 }
 
-/// Kelvin to degrees Celsius.
-const ZERO_CELSIUS: f64 = 273.15;
-
 impl CameraInfo {
     /// Parse a record at least `CALIBRATION_LEN` long (checked by the caller).
     fn parse(f: Fields<'_>) -> CameraInfo {
         let float = |at| f64::from(f.f32(at).expect("within the calibration's length"));
         let celsius = |at| float(at) - ZERO_CELSIUS;
         let humidity = float(0x3c);
-        CameraInfo {
+        let calibration = Calibration {
             planck_r1: float(0x58),
             planck_r2: float(0x30c),
             planck_b: float(0x5c),
@@ -347,6 +330,9 @@ impl CameraInfo {
             beta1: float(0x78),
             beta2: float(0x7c),
             x: float(0x80),
+        };
+        CameraInfo {
+            calibration,
             camera_model: f.text(0xd4, 32),
             camera_serial: f.text(0x104, 16),
             lens_model: f.text(0x170, 32),

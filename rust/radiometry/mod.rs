@@ -17,19 +17,22 @@
 //!
 //! Counts outside the calibration's domain (no finite, positive absolute temperature: the
 //! logarithm of a non-positive number, or of a number below 1) become NaN and are counted.
+//! The pixel loops use branch-free `ln` and `exp` (`math.rs`) so they compile to SIMD code.
 
 use rayon::prelude::*;
 
 use crate::{Error, Result};
+
+mod math;
 
 /// 0 °C in kelvin.
 pub const ZERO_CELSIUS: f64 = 273.15;
 
 /// The calibration and viewing conditions of a conversion. Temperatures in °C, relative
 /// humidity in percent, distance in metres; field names are those of the Python `Radiometry`
-/// (the binding reads them from it attribute by attribute).
+/// (the binding reads them from it attribute by attribute, and returns a file's as a dict).
 #[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "python", derive(pyo3::FromPyObject))]
+#[cfg_attr(feature = "python", derive(pyo3::FromPyObject, pyo3::IntoPyObject))]
 pub struct Calibration {
     pub planck_r1: f64,
     pub planck_r2: f64,
@@ -163,16 +166,17 @@ impl Calibration {
 
 impl Model {
     /// The calibrated signal of a blackbody at `kelvin`.
+    #[inline(always)]
     fn signal(&self, kelvin: f64) -> f64 {
-        self.ratio / ((self.b / kelvin).exp() - self.f) - self.o
+        self.ratio / (math::exp_non_negative(self.b / kelvin) - self.f) - self.o
     }
 
     /// Kelvin from counts; NaN outside the calibration's domain.
-    #[inline]
+    #[inline(always)]
     fn kelvin(&self, counts: f64) -> f64 {
         let object = (counts - self.background) / self.gain;
         let arg = self.ratio / (object + self.o) + self.f;
-        let t = self.b / arg.ln();
+        let t = self.b / math::ln_at_least_one(arg);
         if arg > 1.0 && t.is_finite() {
             t
         } else {
@@ -181,7 +185,7 @@ impl Model {
     }
 
     /// Counts from kelvin; NaN for temperatures that are not finite and above 0 K.
-    #[inline]
+    #[inline(always)]
     fn counts(&self, kelvin: f64) -> f64 {
         let s = self.gain * self.signal(kelvin) + self.background;
         if kelvin > 0.0 && s.is_finite() {
@@ -199,29 +203,19 @@ pub trait Sample: Copy + Send + Sync {
     fn integer(self) -> Option<i64>;
 }
 
-macro_rules! integer_sample {
-    ($($t:ty),*) => {$(
+macro_rules! sample {
+    ($is_integer:expr => $($t:ty),*) => {$(
         impl Sample for $t {
             #[inline]
             fn value(self) -> f64 { f64::from(self) }
             #[inline]
-            fn integer(self) -> Option<i64> { Some(i64::from(self)) }
+            #[allow(clippy::cast_possible_truncation)]
+            fn integer(self) -> Option<i64> { $is_integer.then(|| f64::from(self) as i64) }
         }
     )*};
 }
-integer_sample!(u8, u16, i16, u32);
-
-macro_rules! float_sample {
-    ($($t:ty),*) => {$(
-        impl Sample for $t {
-            #[inline]
-            fn value(self) -> f64 { f64::from(self) }
-            #[inline]
-            fn integer(self) -> Option<i64> { None }
-        }
-    )*};
-}
-float_sample!(half::f16, f32, f64);
+sample!(true => u8, u16, i16, u32);
+sample!(false => half::f16, f32, f64);
 
 /// The result of a conversion: one value per input, and how many became NaN.
 #[derive(Debug, Clone, PartialEq)]
@@ -237,35 +231,57 @@ const CHUNK: usize = 1 << 14;
 
 /// `f` of every input, in parallel; integer inputs spanning a range much smaller than their
 /// count go through a table of `f` over that range (the same values, fewer logarithms).
-fn convert<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync) -> Converted {
+fn convert<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync + Copy) -> Converted {
     let mut values = vec![0.0; input.len()];
-    let table = integer_table(input, &f);
+    let table = integer_table(input, f);
     let (outside, nonfinite) = values
         .par_chunks_mut(CHUNK)
         .zip(input.par_chunks(CHUNK))
         .map(|(out, inp)| {
-            let (mut outside, mut nonfinite) = (0, 0);
-            for (o, &x) in out.iter_mut().zip(inp) {
-                *o = match (&table, x.integer()) {
-                    (Some((low, t)), Some(i)) => t[(i - low) as usize],
-                    _ => f(x.value()),
-                };
-                if o.is_nan() {
-                    if x.value().is_finite() {
-                        outside += 1;
-                    } else {
-                        nonfinite += 1;
-                    }
-                }
+            match &table {
+                Some((low, t)) => inp.iter().zip(out.iter_mut()).for_each(|(x, o)| {
+                    *o = t[(x.integer().unwrap_or(*low) - low) as usize];
+                }),
+                None => apply(inp, out, f),
             }
-            (outside, nonfinite)
+            count_nan(inp, out)
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     Converted { values, outside, nonfinite }
 }
 
+/// `out[i] = f(inp[i])`, in AVX2 code when the CPU has it.
+fn apply<T: Sample>(inp: &[T], out: &mut [f64], f: impl Fn(f64) -> f64 + Copy) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { apply_avx2(inp, out, f) };
+    }
+    apply_portable(inp, out, f)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn apply_avx2<T: Sample>(inp: &[T], out: &mut [f64], f: impl Fn(f64) -> f64 + Copy) {
+    apply_portable(inp, out, f)
+}
+
+#[inline(always)]
+fn apply_portable<T: Sample>(inp: &[T], out: &mut [f64], f: impl Fn(f64) -> f64 + Copy) {
+    inp.iter().zip(out.iter_mut()).for_each(|(&x, o)| *o = f(x.value()));
+}
+
+/// NaN results from finite inputs (outside the domain), and from non-finite inputs.
+fn count_nan<T: Sample>(inp: &[T], out: &[f64]) -> (usize, usize) {
+    inp.iter().zip(out).fold((0, 0), |(outside, nonfinite), (&x, o)| {
+        let nan = o.is_nan() as usize;
+        let finite = x.value().is_finite() as usize;
+        (outside + (nan & finite), nonfinite + (nan & (1 - finite)))
+    })
+}
+
 /// `f` over `min..=max` of integer inputs, when that range is under a quarter of their count.
-fn integer_table<T: Sample>(input: &[T], f: &(impl Fn(f64) -> f64 + Sync)) -> Option<(i64, Vec<f64>)> {
+fn integer_table<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync) -> Option<(i64, Vec<f64>)> {
     let (low, high) = input
         .par_chunks(CHUNK)
         .map(|c| c.iter().filter_map(|x| x.integer()).fold((i64::MAX, i64::MIN), |(l, h), v| (l.min(v), h.max(v))))
