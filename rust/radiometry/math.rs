@@ -7,8 +7,8 @@
 /// low mantissa bits.
 const SHIFTER: f64 = 6_755_399_441_055_744.0;
 /// ln 2 in two parts; `k * LN2_HI` is exact for |k| < 2^11.
-const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-1;
-const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
+const LN2_HI: f64 = f64::from_bits(0x3FE6_2E42_FEE0_0000);
+const LN2_LO: f64 = f64::from_bits(0x3DEA_39EF_3579_3C76);
 const SQRT_HALF_BITS: u64 = 0x3FE6_A09E_667F_3BCD;
 const MANTISSA: u64 = (1 << 52) - 1;
 
