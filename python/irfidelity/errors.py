@@ -14,7 +14,7 @@ from __future__ import annotations
 __all__ = ["FidelityError", "FrameError", "ShapeError", "RangeError", "RegistrationError", "FidelityWarning",
            "PeakWarning", "RegistrationWarning", "EdgeWarning", "CurveUnitsWarning", "NoiseWarning",
            "AHPConsistencyWarning", "BarWarning", "BarClippingWarning", "BarSamplingWarning", "BarPolarityWarning",
-           "ColtmanWarning", "MRTDWarning"]
+           "ColtmanWarning", "MRTDWarning", "RadiometryWarning"]
 
 
 class FidelityError(ValueError):
@@ -125,3 +125,8 @@ class ColtmanWarning(FidelityWarning):
 class MRTDWarning(FidelityWarning):
     """Frequencies left out of an MRTD curve: an MTF too small for the model, or bars that no
     frame resolved at the threshold."""
+
+
+class RadiometryWarning(FidelityWarning):
+    """Some counts (or temperatures) lie outside the radiometric calibration's domain (no finite
+    temperature above 0 K) and became NaN; the message counts them."""

@@ -22,14 +22,17 @@ from typing import Any, Union, overload
 import numpy as np
 
 from . import _core
-from .errors import FrameError
+from .errors import FidelityError, FrameError, RangeError
 
 __all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "natural_key", "display_name"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
 #: File extensions a directory or glob source picks up (case-insensitive).
-FRAME_EXTENSIONS = (".exr", ".png", ".tif", ".tiff", ".npy")
+FRAME_EXTENSIONS = (".exr", ".png", ".tif", ".tiff", ".npy", ".fff", ".seq")
+
+#: Extensions of files that may hold several frames (pages), each a frame of a sequence.
+MULTIPAGE_EXTENSIONS = (".tif", ".tiff", ".seq")
 
 #: dtypes a frame may have (the dtypes the metrics accept).
 FRAME_DTYPES = tuple(np.dtype(t) for t in _core.SUPPORTED_DTYPES)
@@ -127,14 +130,17 @@ def load_frame(
     page: int = 0,
     max_pixels: int | None = None,
     max_bytes: int | None = None,
+    unit: str | None = None,
+    **overrides: float,
 ) -> np.ndarray:
-    """Load one frame as a 2-D numpy array in the file's own sample type.
+    """Load one frame as a 2-D numpy array in the file's own sample type, or in kelvin or °C.
 
     Parameters
     ----------
     path : str or os.PathLike
-        An OpenEXR, PNG or TIFF file (recognised by its magic bytes), or a ``.npy`` file
-        holding a 2-D array (or a 3-D stack, indexed by ``page``).
+        An OpenEXR, PNG or TIFF file, a FLIR FFF or SEQ file or a radiometric JPEG (FLIR or
+        DJI; recognised by their magic bytes), or a ``.npy`` file holding a 2-D array (or a
+        3-D stack, indexed by ``page``). FLIR files give their raw counts (uint16).
     channel : str, optional
         Channel to decode. EXR: a channel name such as ``"Y"``, ``"R"``, ``"left.Y"``
         (``"part.channel"`` in multi-part files; a bare name works when unique).
@@ -142,7 +148,7 @@ def load_frame(
         Default: the only channel, or ``"Y"`` if present; files with several colour
         channels and no ``"Y"`` raise :class:`FrameError` listing the channels.
     page : int, default 0
-        Page of a multi-page TIFF (or frame of a 3-D ``.npy`` stack).
+        Page of a multi-page TIFF, frame of a FLIR SEQ (or of a 3-D ``.npy`` stack).
     max_pixels : int, optional
         Refuse files whose header claims more pixels (default 16384 * 16384). Checked
         before the pixel buffer is allocated.
@@ -151,6 +157,13 @@ def load_frame(
         block, samples, decompression scratch, metadata), planned from the headers before
         allocating (default :func:`default_max_bytes`, 640 MiB). A file that would need more
         is a :class:`FrameError` naming the budget.
+    unit : {"C", "K"}, optional
+        Return temperatures (float64) in this unit instead of counts: a radiometric file's
+        counts are converted with its calibration (:func:`irfidelity.read_radiometry`); a
+        float frame is taken as already in this unit and returned as it is.
+    **overrides : float
+        With ``unit``: calibration fields replacing the file's (``emissivity=0.98``,
+        ``reflected_temperature=20``, ...; see :class:`irfidelity.Radiometry`).
 
     Returns
     -------
@@ -163,7 +176,10 @@ def load_frame(
     FrameError
         The file is missing, unreadable, truncated, corrupt, unsupported (deep or
         subsampled EXR, palette TIFF, ...) or larger than ``max_pixels`` / ``max_bytes``; the message
-        names the path and the reason.
+        names the path and the reason. With ``unit``: integer counts without a calibration,
+        or no count within the calibration's domain.
+    FidelityError
+        With ``unit``: an override that is unknown or out of its range, naming the field.
 
     Examples
     --------
@@ -180,6 +196,13 @@ def load_frame(
     Traceback (most recent call last):
     ...
     irfidelity.errors.FrameError: missing.png: cannot open: ...
+
+    A radiometric JPEG (FLIR AX8, shipped with the package) as counts and as temperatures:
+
+    >>> with resources.as_file(resources.files("irfidelity") / "data" / "readthermal_flir_ax8.jpg") as path:
+    ...     counts, kelvin = irf.load_frame(path), irf.load_frame(path, unit="K")
+    >>> counts.dtype.name, kelvin.dtype.name, bool(250 < kelvin.mean() < 330)
+    ('uint16', 'float64', True)
     """
     try:
         spath = os.fspath(path)
@@ -193,8 +216,38 @@ def load_frame(
     if channel is not None and not isinstance(channel, str):
         raise FrameError(f"{spath}: channel must be a string, got {channel!r}")
     if _is_npy(spath):
-        return _load_npy(spath, channel, page, max_pixels)
-    return _core.load_frame(spath, channel, page, max_pixels, max_bytes=max_bytes)
+        frame = _load_npy(spath, channel, page, max_pixels)
+    else:
+        frame = _core.load_frame(spath, channel, page, max_pixels, max_bytes=max_bytes)
+    if unit is None and not overrides:
+        return frame
+    return _in_unit(spath, frame, page, max_bytes, unit, overrides)
+
+
+def _in_unit(path: str, frame: np.ndarray, page: int, max_bytes: int | None, unit: str | None,
+             overrides: dict[str, float]) -> np.ndarray:
+    """A loaded frame in a temperature unit (``load_frame``'s ``unit``)."""
+    from .radiometry import UNITS, read_radiometry
+
+    if unit not in UNITS:
+        given = f"got {unit!r}" if unit is not None else f"calibration overrides ({', '.join(overrides)}) need one"
+        raise FidelityError(f"{path}: unit must be 'C' or 'K'; {given}", option="unit")
+    if frame.dtype.kind == "f":
+        if overrides:
+            raise FidelityError(f"{path}: a float frame is taken as already in {unit}; calibration overrides "
+                                f"({', '.join(overrides)}) apply to radiometric counts only", option="unit")
+        return frame
+    if _is_npy(path):
+        raise FrameError(f"{path}: integer counts without a radiometric calibration cannot become temperatures "
+                         f"(unit={unit!r}): only FLIR files (FFF, SEQ, radiometric JPEG) carry one")
+    try:
+        calibration = read_radiometry(path, page=page, max_bytes=max_bytes)
+    except FrameError as exc:
+        raise FrameError(f"{exc}; integer counts without one cannot become temperatures (unit={unit!r})") from None
+    try:
+        return np.asarray(calibration.temperature(frame, unit, **overrides), dtype=np.float64)
+    except RangeError as exc:
+        raise FrameError(str(exc)) from None
 
 
 def list_channels(path: PathLike) -> list[str]:
@@ -237,7 +290,7 @@ def natural_key(text: str) -> list[Any]:
 
 
 def _is_tiff(path: str) -> bool:
-    return path.lower().endswith((".tif", ".tiff"))
+    return path.lower().endswith(MULTIPAGE_EXTENSIONS)
 
 
 class FrameSequence(Sequence[np.ndarray]):

@@ -1,10 +1,13 @@
 //! Frame decoding: OpenEXR (`exr` crate), PNG (`image` crate) and TIFF (`tiff` crate),
-//! as plain Rust with no Python types, so the sequence engine can decode frames from its
-//! own threads.
+//! and the raw counts and calibration of radiometric FLIR files (FFF, SEQ, radiometric JPEG:
+//! `flir.rs`, `seq.rs`, `rjpeg.rs`), as plain Rust with no Python types, so the sequence
+//! engine can decode frames from its own threads.
 //!
 //! * [`decode_frame`] decodes one 2-D frame (one channel, one page) in the file's own
 //!   sample type ([`FrameData`]); float16 stays float16.
-//! * [`page_count`] counts the pages of a (multi-page) TIFF; 1 for other formats.
+//! * [`page_count`] counts the pages of a (multi-page) TIFF or the frames of a FLIR SEQ; 1 for
+//!   other formats.
+//! * [`read_camera_info`] reads a radiometric file's calibration ([`CameraInfo`]).
 //! * [`list_channels`] lists the channels one may select.
 //! * [`decode_bytes`] is the same decoder over an in-memory buffer (used by the fuzz target).
 //!
@@ -25,11 +28,16 @@ use std::path::Path;
 use crate::{Error, Result};
 
 mod exr;
+mod flir;
 #[cfg(feature = "fuzzing")]
 pub mod fuzzing;
 mod piz;
 mod raster;
+mod rjpeg;
+mod seq;
 mod zip;
+
+pub use flir::CameraInfo;
 
 /// Decoded samples of one frame, row-major, in the file's own sample type.
 #[derive(Debug, Clone, PartialEq)]
@@ -142,6 +150,10 @@ pub(crate) enum Format {
     Exr,
     Png,
     Tiff,
+    /// FLIR FFF, or a FLIR SEQ (FFF frames one after another)
+    Flir,
+    /// JPEG: read only when radiometric (FLIR segments)
+    Jpeg,
 }
 
 fn sniff(head: &[u8]) -> Option<Format> {
@@ -155,6 +167,10 @@ fn sniff(head: &[u8]) -> Option<Format> {
         || head.starts_with(b"MM\0+")
     {
         Some(Format::Tiff)
+    } else if flir::is_fff(head) {
+        Some(Format::Flir)
+    } else if head.starts_with(&[0xFF, 0xD8, 0xFF]) {
+        Some(Format::Jpeg)
     } else {
         None
     }
@@ -235,12 +251,14 @@ enum Op<'a> {
     Decode(&'a DecodeOptions),
     Pages,
     Channels,
+    Radiometry(&'a DecodeOptions),
 }
 
 enum OpOut {
     Frame(Frame),
     Pages(usize),
     Channels(Vec<String>),
+    Radiometry(Box<CameraInfo>),
 }
 
 fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>) -> std::result::Result<OpOut, Reason> {
@@ -259,12 +277,13 @@ fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>) -> std::result::Result<
         if got == 0 {
             "empty file (not an EXR, PNG or TIFF image)".to_string()
         } else {
-            "unsupported file format (not an OpenEXR, PNG or TIFF image by its magic bytes)".to_string()
+            "unsupported file format (not an OpenEXR, PNG, TIFF or radiometric FLIR image by its magic bytes)"
+                .to_string()
         }
     })?;
     if let Op::Decode(o) = op {
-        if o.page != 0 && format != Format::Tiff {
-            return Err(format!("page {} out of range (only TIFF files have several pages)", o.page));
+        if o.page != 0 && format != Format::Tiff && format != Format::Flir {
+            return Err(format!("page {} out of range (only TIFF and FLIR SEQ files have several pages)", o.page));
         }
     }
     match (format, op) {
@@ -277,6 +296,19 @@ fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>) -> std::result::Result<
         (Format::Tiff, Op::Decode(o)) => raster::decode_tiff(reader, o).map(OpOut::Frame),
         (Format::Tiff, Op::Channels) => raster::tiff_channels(reader).map(OpOut::Channels),
         (Format::Tiff, Op::Pages) => raster::tiff_page_count(reader).map(OpOut::Pages),
+        (Format::Flir, Op::Decode(o)) => seq::decode(reader, o).map(OpOut::Frame),
+        (Format::Flir, Op::Channels) => seq::page_count(reader).map(|_| OpOut::Channels(vec!["Y".to_string()])),
+        (Format::Flir, Op::Pages) => seq::page_count(reader).map(OpOut::Pages),
+        (Format::Flir, Op::Radiometry(o)) => seq::camera_info(reader, o).map(|c| OpOut::Radiometry(Box::new(c))),
+        (Format::Jpeg, Op::Decode(o)) => rjpeg::decode(reader, o).map(OpOut::Frame),
+        (Format::Jpeg, Op::Channels) => {
+            rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Channels(vec!["Y".to_string()]))
+        }
+        (Format::Jpeg, Op::Pages) => rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Pages(1)),
+        (Format::Jpeg, Op::Radiometry(o)) => rjpeg::camera_info(reader, o).map(|c| OpOut::Radiometry(Box::new(c))),
+        (Format::Exr | Format::Png | Format::Tiff, Op::Radiometry(_)) => {
+            Err("no radiometric calibration: only FLIR files (FFF, SEQ, radiometric JPEG) carry one".to_string())
+        }
     }
 }
 
@@ -306,11 +338,11 @@ pub(crate) fn open_regular(path: &Path) -> std::result::Result<File, Reason> {
     Ok(file)
 }
 
-/// Whether the file starts with a TIFF signature (errors are left to the full decode path).
-fn is_tiff(path: &Path) -> bool {
+/// The file's format by its signature (errors are left to the full decode path).
+fn sniff_path(path: &Path) -> Option<Format> {
     let mut head = [0u8; 8];
     let n = open_regular(path).ok().and_then(|mut f| std::io::Read::read(&mut f, &mut head).ok()).unwrap_or(0);
-    sniff(&head[..n]) == Some(Format::Tiff)
+    sniff(&head[..n])
 }
 
 fn run_on_path(path: &Path, op: Op<'_>) -> Result<OpOut> {
@@ -320,14 +352,19 @@ fn run_on_path(path: &Path, op: Op<'_>) -> Result<OpOut> {
     guarded(&name, || run_op(reader, &op))
 }
 
-/// Decode one frame (one channel of one page) of an OpenEXR, PNG or TIFF file.
+/// Decode one frame (one channel of one page) of an OpenEXR, PNG or TIFF file, or the raw counts of
+/// a radiometric FLIR file (FFF, one frame of a SEQ, radiometric JPEG).
 ///
 /// Errors are `Error::Frame("{path}: {reason}")`.
 pub fn decode_frame(path: &Path, opts: &DecodeOptions) -> Result<Frame> {
-    if opts.page > 0 && is_tiff(path) {
-        // later pages of a multi-page TIFF: this thread's open decoder knows the IFD offsets
+    if opts.page > 0 {
+        // later pages: this thread's open TIFF decoder knows the IFD offsets, the SEQ index the frames
         let name = path.display().to_string();
-        return guarded(&name, || raster::decode_tiff_page_cached(path, opts));
+        match sniff_path(path) {
+            Some(Format::Tiff) => return guarded(&name, || raster::decode_tiff_page_cached(path, opts)),
+            Some(Format::Flir) => return guarded(&name, || seq::decode_cached(path, opts)),
+            _ => {}
+        }
     }
     match run_on_path(path, Op::Decode(opts))? {
         OpOut::Frame(f) => Ok(f),
@@ -343,7 +380,16 @@ pub fn decode_bytes(bytes: &[u8], name: &str, opts: &DecodeOptions) -> Result<Fr
     }
 }
 
-/// Number of pages: the IFD count of a TIFF, 1 for EXR and PNG.
+/// The calibration of a radiometric FLIR file (frame `opts.page` of a SEQ): a FrameError for
+/// files without one.
+pub fn read_camera_info(path: &Path, opts: &DecodeOptions) -> Result<CameraInfo> {
+    match run_on_path(path, Op::Radiometry(opts))? {
+        OpOut::Radiometry(c) => Ok(*c),
+        _ => unreachable!("read_camera_info returns a calibration"),
+    }
+}
+
+/// Number of pages: the IFD count of a TIFF, the frame count of a FLIR SEQ, 1 for others.
 pub fn page_count(path: &Path) -> Result<usize> {
     match run_on_path(path, Op::Pages)? {
         OpOut::Pages(n) => Ok(n),

@@ -453,7 +453,7 @@ fn decode_tiff_page<R: BufRead + Seek>(dec: &mut TiffDecoder<R>, o: &DecodeOptio
 /// rename (a new inode) or rewritten in place (same inode, new change time even when the
 /// modification time is set back), and either may keep the length and mtime.
 #[derive(Clone, Debug, PartialEq)]
-struct FileKey {
+pub(super) struct FileKey {
     path: std::path::PathBuf,
     len: u64,
     modified: Option<std::time::SystemTime>,
@@ -462,7 +462,7 @@ struct FileKey {
 }
 
 impl FileKey {
-    fn of(path: &Path) -> Result<FileKey, Reason> {
+    pub(super) fn of(path: &Path) -> Result<FileKey, Reason> {
         let meta = std::fs::metadata(path).map_err(|e| format!("cannot open: {e}"))?;
         #[cfg(unix)]
         let unix = {

@@ -9,7 +9,7 @@ from typing import Any
 
 from ..config import ScoringConfig
 from ..errors import FidelityError
-from ..frames import FrameSequence, page_count
+from ..frames import MULTIPAGE_EXTENSIONS, FrameSequence, page_count
 from ..fuzzy import Weights
 from .output import UsageError, write_outputs
 
@@ -33,12 +33,12 @@ def _config(a: argparse.Namespace) -> ScoringConfig:
 
 
 def _is_sequence(path: str) -> bool:
-    """A directory, a glob pattern, or a multi-page TIFF."""
+    """A directory, a glob pattern, or a multi-page TIFF or SEQ."""
     if os.path.isdir(path):
         return True
     if not os.path.exists(path):
         return glob.has_magic(path)
-    return path.lower().endswith((".tif", ".tiff")) and page_count(path) > 1
+    return path.lower().endswith(MULTIPAGE_EXTENSIONS) and page_count(path) > 1
 
 
 def _curve(a: argparse.Namespace, side: str, kind: str) -> Any:
