@@ -174,8 +174,8 @@ def test_only_the_plan_is_computed(lepton):
     # the engine itself skips moments and histograms
     out = _core.score_pairs([str(real_path)], [str(real_path)], [0], [1],
                             request=KernelRequest(sse=True, moments=False, bins=None))
-    (_, st, err, shape, dtype, extent, registration), = out
-    assert extent is None and registration is None  # not asked for
+    (_, st, err, shape, dtype, extent, registration, fingerprints), = out
+    assert extent is None and registration is None and fingerprints is None  # not asked for
     assert err is None and st.has_sse and not st.has_moments and not st.has_hist
 
 
