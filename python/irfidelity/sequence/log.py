@@ -60,14 +60,18 @@ def _copy(src: IO[bytes], dst: IO[bytes], offset: int, size: int) -> None:
 class FrameLog:
     """The streamed CSV, its ``.pairstats`` records, and the lock (module notes).
 
-    After a resume, ``kept`` maps a frame index to where its last intact record lies in the
-    rewritten ``.pairstats`` (``(offset, size)``; read it with :meth:`read`); nothing of a
-    record is held in memory. ``notes`` says what the resume found.
+    After a resume, ``kept`` maps a frame index (below ``frames``) to where its last intact
+    record lies in the rewritten ``.pairstats`` (``(offset, size)``; read it with
+    :meth:`read`); nothing of a record is held in memory. ``foreign`` counts intact records of
+    frames the run does not have (dropped); ``notes`` says what else the resume found.
     """
 
-    def __init__(self, path: str, columns: list[str], settings: dict, resume: bool, limits: Limits):
+    def __init__(self, path: str, columns: list[str], settings: dict, resume: bool, limits: Limits,
+                 frames: int):
         self.path, self.side, self.columns, self.limits = path, path + ".pairstats", columns, limits
+        self.frames = frames
         self.kept: dict[int, tuple[int, int]] = {}
+        self.foreign = 0
         self.notes: list[str] = []
         self.lock = Lock(path + ".lock")
         try:
@@ -107,6 +111,8 @@ class FrameLog:
                                 f"same settings", option="resume")
         scan = Scan(old, end, self.limits)
         last = {index: (offset, size) for offset, size, index in scan}
+        self.foreign = sum(index >= self.frames for index in last)
+        last = {index: where for index, where in last.items() if index < self.frames}
         for index, (offset, size) in sorted(last.items(), key=lambda item: item[1]):
             self.kept[index] = (start, size)
             _copy(old, out, offset, size)

@@ -92,8 +92,8 @@ class Resumer:
                  bounds: RecordBounds):
         self.plan, self.pairing, self.log, self.fingerprints, self.bounds = plan, pairing, log, fingerprints, bounds
         self.make = _expected_make(plan) if plan.dtype is not None else None
-        self.unusable = 0  # records that could not be used
-        self.why: str | None = None  # why the first of them could not
+        self.unusable = log.foreign  # records that could not be used
+        self.why = "no frame of this run has its index" if log.foreign else None  # why the first could not
         self.changed = 0
 
     def take(self, names: Callable[[int], tuple], keep: Callable[..., None]) -> int:
@@ -113,9 +113,9 @@ class Resumer:
 
     def _pairable(self, index: int) -> bool:
         pairs = self.pairing.pairs
-        if index < len(pairs) and None not in pairs[index] and self.make is not None:
+        if None not in pairs[index] and self.make is not None:
             return True
-        self._unusable("no frame pair of this run has it, or none of its frames is readable")
+        self._unusable("its frame has no pair in this run, or no frame of the run is readable")
         return False
 
     def _unusable(self, why: str) -> None:

@@ -140,7 +140,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
     log = None
     if options.csv is not None:
         log = FrameLog(options.csv, columns, _log_settings(plan, pairing, real_names, sim_names, columns),
-                       options.resume, _bounds(plan, options).run)
+                       options.resume, _bounds(plan, options).run, len(pairing.pairs))
     total = len(pairing.pairs)
     progress = Progress(total, options.progress)
     notes = list(plan.notes) + list(pairing.notes)
