@@ -29,7 +29,7 @@ from ..errors import FidelityError
 from .lock import Lock
 from .sidecar import Limits, Scan, header, read_header, read_record
 
-__all__ = ["FrameLog", "csv_line"]
+__all__ = ["FrameLog", "csv_line", "last_records"]
 
 
 def csv_line(values: Iterable[Any]) -> str:
@@ -55,6 +55,14 @@ def _copy(src: IO[bytes], dst: IO[bytes], offset: int, size: int) -> None:
             raise FidelityError(f"{getattr(src, 'name', 'the log')}: shortened while it was being read")
         dst.write(block)
         size -= len(block)
+
+
+def last_records(scan: Scan, frames: int) -> tuple[dict[int, tuple[int, int]], int]:
+    """``index -> (offset, size)`` of the last intact record of each of ``frames`` frames, and
+    how many intact records are of other indices."""
+    last = {index: (offset, size) for offset, size, index in scan}
+    ours = {index: where for index, where in last.items() if index < frames}
+    return ours, len(last) - len(ours)
 
 
 class FrameLog:
@@ -110,9 +118,7 @@ class FrameLog:
                                 f"({_differences(found, settings)} differ); score without resuming, or give the "
                                 f"same settings", option="resume")
         scan = Scan(old, end, self.limits)
-        last = {index: (offset, size) for offset, size, index in scan}
-        self.foreign = sum(index >= self.frames for index in last)
-        last = {index: where for index, where in last.items() if index < self.frames}
+        last, self.foreign = last_records(scan, self.frames)
         for index, (offset, size) in sorted(last.items(), key=lambda item: item[1]):
             self.kept[index] = (start, size)
             _copy(old, out, offset, size)
