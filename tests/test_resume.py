@@ -292,11 +292,13 @@ def _bomb(size: int) -> bytes:
 
 
 def test_forged_records_are_scored_again_never_trusted_nor_fatal(tmp_path):
-    rdir, sdir = _pngs(tmp_path, 12)
+    rdir, sdir = _pngs(tmp_path, 13)
     out = tmp_path / "rows.csv"
     fresh = score_sequence(rdir, sdir, csv=out, **OPTIONS)
     side = pathlib.Path(str(out) + ".pairstats")
     genuine = _records(side)
+    overflowing = bytearray(unpack_stats(genuine[12][1], 1 << 20))
+    overflowing[110:126] = (1 << 120).to_bytes(16, "little")  # the SSE: beyond 1024 pixels of 14 bits
     float_stats = pair_stats(np.zeros((32, 32), np.float32), np.ones((32, 32), np.float32), bins=256,
                              need=("psnr", "nmi", "ssim")).to_bytes()
 
@@ -318,6 +320,7 @@ def test_forged_records_are_scored_again_never_trusted_nor_fatal(tmp_path):
         9: (meta(9), pack_stats(float_stats)),  # statistics of another kind (float sums)
         10: (meta(10, shape=[16, 32]), genuine[10][1]),  # counts that are not its frame's
         11: (b"[" * 30000 + b"]" * 30000, genuine[11][1]),  # nested beyond the parser
+        12: (meta(12), pack_stats(bytes(overflowing))),
     }
     with open(side, "ab") as fh:  # appended: the last record of each frame is the one a resume reads
         for index, (m, payload) in forged.items():
@@ -326,11 +329,11 @@ def test_forged_records_are_scored_again_never_trusted_nor_fatal(tmp_path):
     got = run_python(_RESUME_FORGED, [str(rdir), str(sdir), str(out)], timeout=300)
     assert got["resumed"] == 0
     assert got["frames"] == [list(v) for v in _values(fresh)] and got["fidelity"] == fresh.fidelity
-    assert any("13 record(s) with a valid checksum could not be used" in n for n in got["notes"]), got["notes"]
+    assert any("14 record(s) with a valid checksum could not be used" in n for n in got["notes"]), got["notes"]
     assert got["rss_mb"] < 250, "the bomb was inflated"
     # the frames scored again are trusted by the next resume
     again = score_sequence(rdir, sdir, csv=out, resume=True, **OPTIONS)
-    assert again.run["resumed"] == 12 and _values(again) == _values(fresh) and again.notes == []
+    assert again.run["resumed"] == 13 and _values(again) == _values(fresh) and again.notes == []
 
 
 def test_an_old_log_is_scored_again_with_a_note(tmp_path):

@@ -134,9 +134,14 @@ class Resumer:
         stats = self._stats(payload, shape)
         outcome = Outcome(index, stats, None, shape, meta["dtype"], extent, registration, inputs)
         real, sim = names(index)
-        entry, pooled = frame_entry(self.plan, outcome, real, sim)
+        try:  # the scoring functions expect statistics a kernel made: a forged sum may upset them
+            entry, pooled = frame_entry(self.plan, outcome, real, sim)
+        except (ArithmeticError, ValueError) as exc:
+            raise BadRecord(f"its statistics do not score ({type(exc).__name__}: {exc})") from None
         if entry["error"] is not None:
             raise BadRecord(f"its statistics do not score ({entry['error']})")
+        if not (type(entry["fidelity"]) is float and math.isfinite(entry["fidelity"])):
+            raise BadRecord("its statistics score no finite fidelity")
         keep(entry, pooled, extent, lambda: self._reload(where, shape))
         return True
 
@@ -182,7 +187,23 @@ class Resumer:
             raise BadRecord("its statistics are not of the kind this run computes")
         if raw.n + raw.masked + raw.nonfinite != pixels:
             raise BadRecord("its statistics do not count its frame's pixels")
+        if raw.is_int and not self._plausible(raw):
+            raise BadRecord("its sums are beyond what its pixels' grey levels allow")
         return PairStats(raw, bins=self.plan.bin_label)
+
+    def _plausible(self, raw: _core.PairStats) -> bool:
+        """Whether exact integer sums lie within what ``n`` pixels of the valid grey levels
+        can add up to."""
+        if self.plan.valid is None:
+            return True
+        lo, hi = self.plan.valid
+        n, top, sums = raw.n, max(abs(lo), abs(hi)) ** 2, raw.int_sums()
+        ok = not raw.has_sse or 0 <= sums["sse"] <= n * (hi - lo) ** 2
+        if raw.has_moments:
+            ok = ok and all(n * lo <= sums[k] <= n * hi for k in ("sum_real", "sum_sim"))
+            ok = ok and all(0 <= sums[k] <= n * top for k in ("sum_real_sq", "sum_sim_sq"))
+            ok = ok and abs(sums["sum_cross"]) <= n * top
+        return ok
 
     def _reload(self, where: tuple[int, int], shape: tuple[int, int]) -> PairStats:
         """A taken record's statistics read again (for pooling, once their turn comes)."""
