@@ -91,6 +91,7 @@ class Resumer:
     def __init__(self, plan: SequencePlan, pairing: Pairing, log: FrameLog, fingerprints: Fingerprints,
                  bounds: RecordBounds):
         self.plan, self.pairing, self.log, self.fingerprints, self.bounds = plan, pairing, log, fingerprints, bounds
+        self.dtype = None if plan.dtype is None else plan.dtype.name
         self.make = _expected_make(plan) if plan.dtype is not None else None
         self.unusable = log.foreign  # records that could not be used
         self.why = "no frame of this run has its index" if log.foreign else None  # why the first could not
@@ -153,7 +154,7 @@ class Resumer:
         if not (isinstance(shape, list) and len(shape) == 2 and all(_int(v) and v > 0 for v in shape)
                 and shape[0] * shape[1] <= self.bounds.max_pixels):
             raise BadRecord("its shape is not two positive integers within max_pixels")
-        if meta.get("dtype") != self.plan.dtype.name:
+        if meta.get("dtype") != self.dtype:
             raise BadRecord("its sample type is not the sequence's")
         extent = meta.get("extent")
         if extent is not None and not (isinstance(extent, list) and len(extent) == 2 and all(map(_number, extent))
@@ -198,6 +199,7 @@ class Resumer:
             return True
         lo, hi = self.plan.valid
         n, top, sums = raw.n, max(abs(lo), abs(hi)) ** 2, raw.int_sums()
+        assert sums is not None  # integer statistics have exact sums
         ok = not raw.has_sse or 0 <= sums["sse"] <= n * (hi - lo) ** 2
         if raw.has_moments:
             ok = ok and all(n * lo <= sums[k] <= n * hi for k in ("sum_real", "sum_sim"))

@@ -90,10 +90,10 @@ class _Scorer:
     def resumed(self, entry: dict, stats: PairStats, extent: tuple | None, reload: Callable[[], PairStats]) -> None:
         """A frame taken from the log (``reload()`` reads its statistics again)."""
         index = entry["index"]
-        if index != self.pool.next:
+        ready = index == self.pool.next
+        if not ready:
             self.deferred[index] = (reload, extent)
-            stats = None
-        self._keep(entry, stats, extent, resumed=True, pool=stats is not None)
+        self._keep(entry, stats, extent, resumed=True, pool=ready)
 
     def _keep(self, entry: dict, stats: PairStats | None, extent: tuple | None, *, resumed: bool = False,
               pool: bool = True) -> None:
