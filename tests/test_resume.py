@@ -72,6 +72,16 @@ def _raw_record(index: int, meta: bytes, payload: bytes) -> bytes:
     return RECORD_MAGIC + struct.pack("<I", zlib.crc32(body)) + body
 
 
+def _bomb(size: int) -> bytes:
+    """A valid zlib stream of ``size`` zero bytes (a multiple of 16 MiB), about a thousandth of
+    it long: one 16 MiB block repeated (its back-references reach only zeros)."""
+    chunk = 16 << 20
+    deflate = zlib.compressobj(9)
+    first = deflate.compress(b"\0" * chunk) + deflate.flush(zlib.Z_SYNC_FLUSH)
+    adler = ((size % 65521) << 16) | 1
+    return first + first[2:] * (size // chunk - 1) + b"\x03\x00" + adler.to_bytes(4, "big")
+
+
 # --------------------------------------------------------------------------- the record format
 def test_max_stats_size_bounds_real_statistics():
     rng = np.random.default_rng(0)
@@ -100,10 +110,9 @@ def test_unpacking_is_bounded_and_refuses_what_is_not_a_payload():
     assert len(packed) < 400 and unpack_stats(packed, len(stats)) == stats
     with pytest.raises(BadRecord, match="statistics of 5771 bytes, beyond the 5770"):
         unpack_stats(packed, len(stats) - 1)
-    bomb = zlib.compressobj(9)
-    payload = bomb.compress(b"\0" * (64 << 20)) + bomb.flush()  # 64 MB from 65 kB
+    assert len(zlib.decompress(_bomb(64 << 20))) == 64 << 20  # a real zlib stream, from 65 kB
     with pytest.raises(BadRecord, match="larger than"):
-        unpack_stats(payload, 1 << 16)
+        unpack_stats(_bomb(64 << 20), 1 << 16)
     body = zlib.decompress(packed)
     for bad in (b"", b"garbage", packed[:-3], packed + b"x", zlib.compress(body[:-8]), zlib.compress(body + b"\0" * 8),
                 zlib.compress(struct.pack("<Q", 1 << 60) + body[8:]), zlib.compress(b"\0" * 8 + b"\xff" + b"\0" * 8)):
@@ -282,13 +291,6 @@ _RESUME_FORGED = textwrap.dedent("""
                       "frames": [[f["index"], f["fidelity"], f["metrics"], f["error"]] for f in rep.frames],
                       "fidelity": rep.fidelity}))
 """)
-
-
-def _bomb(size: int) -> bytes:
-    """A zlib stream of ``size`` zero bytes (about a thousandth of it long)."""
-    deflate = zlib.compressobj(9)
-    block = b"\0" * (16 << 20)
-    return b"".join(deflate.compress(block) for _ in range(size // len(block))) + deflate.flush()
 
 
 def test_forged_records_are_scored_again_never_trusted_nor_fatal(tmp_path):
