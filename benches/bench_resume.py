@@ -6,7 +6,7 @@ temporary directory, scored with every image component and ``hist_range="full"``
 frame's record carries a 256x256 joint histogram (512 kB before packing), which is what a
 resume reads, checks and pools; the pixels cost next to nothing.
 
-Each run is a child process (``RAYON_NUM_THREADS=2``): the fresh run writes the CSV and its
+Each run is a child process (``RAYON_NUM_THREADS=2``; Linux: peak RSS is ``VmHWM``): the fresh run writes the CSV and its
 ``.pairstats``; the resume of the finished run then takes every record. Printed per N: wall
 seconds, CPU ms per frame (user + system: what to compare when other processes share the
 machine), peak RSS, and the resume / fresh ratios; and the growth of each run's peak RSS from
@@ -34,8 +34,10 @@ t = time.perf_counter()
 rep = score_sequence(sys.argv[1], sys.argv[2], bits=14, hist_range="full", progress=False, csv=sys.argv[3],
                      resume=sys.argv[4] == "resume")
 usage = resource.getrusage(resource.RUSAGE_SELF)
+with open("/proc/self/status") as fh:  # VmHWM: this process's peak RSS (ru_maxrss may keep the parent's)
+    peak = next(int(line.split()[1]) / 1024 for line in fh if line.startswith("VmHWM:"))
 print(json.dumps({"wall": time.perf_counter() - t, "cpu": usage.ru_utime + usage.ru_stime,
-                  "rss_mb": usage.ru_maxrss / 1024, "resumed": rep.run["resumed"]}))
+                  "rss_mb": peak, "resumed": rep.run["resumed"]}))
 """
 
 
