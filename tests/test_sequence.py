@@ -392,6 +392,9 @@ def test_dask_local_cluster_gives_identical_results(lepton, tmp_path):
     assert remote.frames == local.frames
     assert remote.metrics == local.metrics and remote.fidelity == local.fidelity
     assert sorted(int(r["index"]) for r in _rows(out)) == list(range(100))
+    # the workers fingerprinted the files they decoded: a resume trusts their records
+    resumed = score_sequence(real_path, sim_path, bits=14, hist_range="full", csv=out, resume=True, progress=False)
+    assert resumed.run["resumed"] == 100 and resumed.frames == local.frames and resumed.notes == local.notes
 
 
 _SIGINT_SCRIPT = textwrap.dedent(
