@@ -116,9 +116,12 @@ def default_max_bytes() -> int: ...
 #: A pair's own registration (``request.register_each``): matrix (6 floats, row-major),
 #: method used, confidence, overlap, inverted.
 _PairRegistration = tuple[tuple[float, float, float, float, float, float], str, float, float, bool]
-#: ``(index, stats, error, shape, dtype, real extent, registration)``.
+#: A file's fingerprint: size, modification time (ns), XXH3-64 of the bytes decoded.
+_FileFingerprint = tuple[int, int, int]
+#: ``(index, stats, error, shape, dtype, real extent, registration, fingerprints)``.
 _PairOutcome = tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None,
-                    tuple[float, float] | None, _PairRegistration | None]
+                    tuple[float, float] | None, _PairRegistration | None,
+                    tuple[_FileFingerprint, _FileFingerprint] | None]
 
 def score_pairs(
     real_paths: list[str | os.PathLike[str]],
@@ -130,6 +133,7 @@ def score_pairs(
     workers: int = 0,
     progress: Callable[[int], Any] | None = None,
     on_result: Callable[[list[Any]], Any] | None = None,
+    fingerprints: bool = False,
 ) -> list[_PairOutcome] | None: ...
 def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats | None, bool]: ...
 
