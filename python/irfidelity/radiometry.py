@@ -297,10 +297,14 @@ def read_radiometry(path: PathLike, *, page: int = 0, max_bytes: int | None = No
 
     Examples
     --------
+    The FLIR AX8 radiometric JPEG shipped with the package:
+
+    >>> from importlib import resources
     >>> import irfidelity as irf
-    >>> cal = irf.read_radiometry("tests/data/radiometric/flirpy_frame_000000.fff")
-    >>> cal.camera_model, round(cal.emissivity, 2), cal.object_distance, cal.frame_rate
-    ('Duo Pro R', 0.94, 50.0, 30)
+    >>> with resources.as_file(resources.files("irfidelity") / "data" / "readthermal_flir_ax8.jpg") as path:
+    ...     cal = irf.read_radiometry(path)
+    >>> cal.camera_model, round(cal.emissivity, 2), cal.object_distance
+    ('FLIR AX8', 0.95, 1.0)
     """
     from .frames import _check_limit, _check_page
 
