@@ -29,13 +29,14 @@ __all__ = [
     "ms_ssim",
     "noise_sums_array",
     "noise_sums_paths",
-    "page_count",
+    "page_chain",
     "pair_stats",
     "plain_moments",
     "plain_mse",
     "register_frames",
     "score_pairs",
     "ssim_map",
+    "tiff_ifds_read",
     "warp_frame",
 ]
 
@@ -98,7 +99,8 @@ def load_frame(
     *,
     max_bytes: int | None = None,
 ) -> npt.NDArray[Any]: ...
-def page_count(path: str | os.PathLike[str]) -> int: ...
+def page_chain(path: str | os.PathLike[str]) -> tuple[int, str | None]: ...
+def tiff_ifds_read() -> int: ...
 def list_channels(path: str | os.PathLike[str]) -> list[str]: ...
 def default_max_pixels() -> int: ...
 def default_max_bytes() -> int: ...

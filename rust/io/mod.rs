@@ -4,7 +4,8 @@
 //!
 //! * [`decode_frame`] decodes one 2-D frame (one channel, one page) in the file's own
 //!   sample type ([`FrameData`]); float16 stays float16.
-//! * [`page_count`] counts the pages of a (multi-page) TIFF; 1 for other formats.
+//! * [`page_chain`] finds the pages of a (multi-page) TIFF, and where a broken IFD chain
+//!   breaks; [`page_count`] counts them (1 for other formats).
 //! * [`list_channels`] lists the channels one may select.
 //! * [`decode_bytes`] is the same decoder over an in-memory buffer (used by the fuzz target).
 //!
@@ -23,13 +24,17 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 
 use crate::{Error, Result};
+use tiff_pages::FileKey;
 
 mod exr;
 #[cfg(feature = "fuzzing")]
 pub mod fuzzing;
 mod piz;
 mod raster;
+mod tiff_pages;
 mod zip;
+
+pub use tiff_pages::ifds_read;
 
 /// Decoded samples of one frame, row-major, in the file's own sample type.
 #[derive(Debug, Clone, PartialEq)]
@@ -239,11 +244,13 @@ enum Op<'a> {
 
 enum OpOut {
     Frame(Frame),
-    Pages(usize),
+    /// Pages found, and why the chain breaks after them (if it does).
+    Pages(usize, Option<Reason>),
     Channels(Vec<String>),
 }
 
-fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>) -> std::result::Result<OpOut, Reason> {
+/// Run `op` on a stream; `key` identifies the file it reads (the TIFF page cache's key).
+fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>, key: Option<&FileKey>) -> std::result::Result<OpOut, Reason> {
     let mut head = [0u8; 8];
     let mut got = 0;
     while got < head.len() {
@@ -270,13 +277,15 @@ fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>) -> std::result::Result<
     match (format, op) {
         (Format::Exr, Op::Decode(o)) => exr::decode(reader, o).map(OpOut::Frame),
         (Format::Exr, Op::Channels) => exr::channels(reader).map(OpOut::Channels),
-        (Format::Exr, Op::Pages) => exr::channels(reader).map(|_| OpOut::Pages(1)),
+        (Format::Exr, Op::Pages) => exr::channels(reader).map(|_| OpOut::Pages(1, None)),
         (Format::Png, Op::Decode(o)) => raster::decode_png(reader, o).map(OpOut::Frame),
         (Format::Png, Op::Channels) => raster::png_channels(reader).map(OpOut::Channels),
-        (Format::Png, Op::Pages) => raster::png_channels(reader).map(|_| OpOut::Pages(1)),
-        (Format::Tiff, Op::Decode(o)) => raster::decode_tiff(reader, o).map(OpOut::Frame),
-        (Format::Tiff, Op::Channels) => raster::tiff_channels(reader).map(OpOut::Channels),
-        (Format::Tiff, Op::Pages) => raster::tiff_page_count(reader).map(OpOut::Pages),
+        (Format::Png, Op::Pages) => raster::png_channels(reader).map(|_| OpOut::Pages(1, None)),
+        (Format::Tiff, Op::Decode(o)) => raster::decode_tiff(reader, o, key).map(OpOut::Frame),
+        (Format::Tiff, Op::Channels) => raster::tiff_channels(reader, key).map(OpOut::Channels),
+        (Format::Tiff, Op::Pages) => {
+            raster::tiff_page_chain(reader, key).map(|(pages, broken)| OpOut::Pages(pages, broken))
+        }
     }
 }
 
@@ -306,29 +315,21 @@ pub(crate) fn open_regular(path: &Path) -> std::result::Result<File, Reason> {
     Ok(file)
 }
 
-/// Whether the file starts with a TIFF signature (errors are left to the full decode path).
-fn is_tiff(path: &Path) -> bool {
-    let mut head = [0u8; 8];
-    let n = open_regular(path).ok().and_then(|mut f| std::io::Read::read(&mut f, &mut head).ok()).unwrap_or(0);
-    sniff(&head[..n]) == Some(Format::Tiff)
-}
-
 fn run_on_path(path: &Path, op: Op<'_>) -> Result<OpOut> {
     let name = path.display().to_string();
     let file = open_regular(path).map_err(|reason| frame_err(&name, reason))?;
+    let key = file.metadata().map(|meta| FileKey::of(path, &meta)).ok();
     let reader = BufReader::with_capacity(1 << 16, file);
-    guarded(&name, || run_op(reader, &op))
+    guarded(&name, || run_op(reader, &op, key.as_ref()))
 }
 
 /// Decode one frame (one channel of one page) of an OpenEXR, PNG or TIFF file.
 ///
-/// Errors are `Error::Frame("{path}: {reason}")`.
+/// A page of a multi-page TIFF costs one IFD read, whatever its place: the file's chain of
+/// pages is walked once and kept (`tiff_pages`). A page before the place where a broken
+/// chain breaks (a truncated file, a loop) decodes; a page from there on is an error naming
+/// why. Errors are `Error::Frame("{path}: {reason}")`.
 pub fn decode_frame(path: &Path, opts: &DecodeOptions) -> Result<Frame> {
-    if opts.page > 0 && is_tiff(path) {
-        // later pages of a multi-page TIFF: this thread's open decoder knows the IFD offsets
-        let name = path.display().to_string();
-        return guarded(&name, || raster::decode_tiff_page_cached(path, opts));
-    }
     match run_on_path(path, Op::Decode(opts))? {
         OpOut::Frame(f) => Ok(f),
         _ => unreachable!("decode returns a frame"),
@@ -337,17 +338,43 @@ pub fn decode_frame(path: &Path, opts: &DecodeOptions) -> Result<Frame> {
 
 /// Decode one frame from an in-memory file; `name` is used in error messages.
 pub fn decode_bytes(bytes: &[u8], name: &str, opts: &DecodeOptions) -> Result<Frame> {
-    match guarded(name, || run_op(Cursor::new(bytes), &Op::Decode(opts)))? {
+    match guarded(name, || run_op(Cursor::new(bytes), &Op::Decode(opts), None))? {
         OpOut::Frame(f) => Ok(f),
         _ => unreachable!("decode returns a frame"),
     }
 }
 
-/// Number of pages: the IFD count of a TIFF, 1 for EXR and PNG.
-pub fn page_count(path: &Path) -> Result<usize> {
+/// The pages of a frame file: how many can be read, and why the rest cannot.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PageChain {
+    /// Pages found: the IFDs of a TIFF's chain up to its end or to where it breaks; 1 for
+    /// EXR and PNG.
+    pub pages: usize,
+    /// When a TIFF's IFD chain breaks before its end, why (`"{path}: truncated at page k:
+    /// ..."`, `"{path}: the IFD chain loops back at page k: ..."`): page `pages` and any
+    /// after it cannot be read. None when the chain ends properly.
+    pub broken: Option<String>,
+}
+
+/// The pages of a frame file, in one pass over a TIFF's IFD chain (kept for decoding its
+/// pages). An error when not even the first page can be found.
+pub fn page_chain(path: &Path) -> Result<PageChain> {
     match run_on_path(path, Op::Pages)? {
-        OpOut::Pages(n) => Ok(n),
-        _ => unreachable!("page_count returns a count"),
+        OpOut::Pages(pages, broken) => {
+            Ok(PageChain { pages, broken: broken.map(|why| format!("{}: {why}", path.display())) })
+        }
+        _ => unreachable!("page_chain returns pages"),
+    }
+}
+
+/// Number of pages: the IFD count of a TIFF, 1 for EXR and PNG. A TIFF whose IFD chain
+/// breaks before its end is an error naming where and why ([`page_chain`] gives the pages
+/// before the break).
+pub fn page_count(path: &Path) -> Result<usize> {
+    let chain = page_chain(path)?;
+    match chain.broken {
+        Some(why) => Err(Error::Frame(why)),
+        None => Ok(chain.pages),
     }
 }
 
