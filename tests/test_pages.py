@@ -82,7 +82,7 @@ def test_a_truncated_stack_gives_its_pages_and_one_failed_frame_at_the_break(tru
     with pytest.raises(FrameError, match=f"truncated at page {found}"):
         seq[found]
 
-    rep = irf.score_sequence(cut, cut, progress=False)
+    rep = irf.score_sequence(cut, cut, bits=12, progress=False)
     assert len(rep.frames) == found + 1
     assert rep.frames[found]["error"] == broken
     assert found in rep.failed and not rep.unpaired
@@ -95,19 +95,20 @@ def test_the_api_and_the_cli_give_the_same_rows_for_a_truncated_stack(truncated,
     cut, whole, found = truncated
     sim = tmp_path / "sim.tif"
     write_stack(sim, frames(PAGES, seed=1))
-    rep = irf.score_sequence(cut, sim, progress=False)
+    rep = irf.score_sequence(cut, sim, bits=12, progress=False)
     # by page: the readable pages, the break, then the simulated pages with no real partner
     assert len(rep.frames) == PAGES
     assert rep.frames[found]["error"].startswith(f"{cut}: truncated at page {found}")
     assert all(rep.frames[i]["error"] == f"sim.tif[{i}]: no real frame pairs with it (paired by page)"
                for i in range(found + 1, PAGES))
     out = tmp_path / "r.csv"
-    p = run_cli(cut, sim, "--csv", out, "--no-progress")
+    p = run_cli(cut, sim, "--bits", "12", "--csv", out, "--no-progress")
     assert p.returncode == 3, p.stderr  # a sequence finished but some frames failed
     rows = list(csv.DictReader(open(out, encoding="utf-8")))
     assert len(rows) == PAGES
     for row, frame in zip(rows, rep.frames):
-        assert (row["real"], row["sim"], row["error"] or None) == (frame["real"], frame["sim"], frame["error"])
+        names = tuple(row[k] or None for k in ("real", "sim", "error"))
+        assert names == (frame["real"], frame["sim"], frame["error"])
         assert (float(row["fidelity"]) if row["fidelity"] else None) == frame["fidelity"]
         assert (float(row["psnr_db"]) if row["psnr_db"] else None) == frame["metrics"].get("psnr_db")
 
@@ -127,20 +128,27 @@ def test_a_looping_ifd_chain_is_read_up_to_the_loop(tmp_path):
                       f"back to page 100's IFD (byte {chain[100][0]}); the {count} page(s) before it can be read")
     want = frames(count, seed=2)
     assert np.array_equal(irf.load_frame(path, page=count - 1), want[-1])  # the page with the bad link too
-    rep = irf.score_sequence(path, path, progress=False)
+    rep = irf.score_sequence(path, path, bits=12, progress=False)
     assert len(rep.frames) == count + 1 and rep.failed == [count]
     assert rep.frames[count]["error"] == broken
     out = tmp_path / "r.json"
-    p = run_cli(path, path, "--json", out, "--no-progress", timeout=120)
+    p = run_cli(path, path, "--bits", "12", "--json", out, "--no-progress", timeout=120)
     assert p.returncode == 3, p.stderr
     d = json.loads(out.read_text())
     assert len(d["frames"]) == count + 1 and d["failed"] == [count] and d["frames"][count]["error"] == broken
 
 
-def test_noise3d_of_a_truncated_stack_names_the_break(truncated):
-    cut, _, found = truncated
-    with pytest.raises(FrameError, match=f"truncated at page {found}"):
+def test_noise3d_of_a_truncated_stack_names_the_file_and_the_break(truncated, tmp_path):
+    cut, _, found = truncated  # cut inside page found - 1's pixels: that page fails first
+    with pytest.raises(FrameError, match=rf"^{cut}: page {found - 1}: truncated or corrupt TIFF file"):
         irf.noise3d(cut)
+    whole = tmp_path / "whole50.tif"
+    write_stack(whole, frames(50))
+    at = ifds(whole)[30][0]
+    short = tmp_path / "short.tif"
+    short.write_bytes(whole.read_bytes()[: at + 6])  # every page before page 30 is whole
+    with pytest.raises(FrameError, match=rf"^{short}: truncated at page 30: its IFD at byte {at} \(.* the 30 page"):
+        irf.noise3d(short)
 
 
 def test_a_stack_costs_one_walk_over_its_chain(tmp_path):
@@ -150,7 +158,7 @@ def test_a_stack_costs_one_walk_over_its_chain(tmp_path):
         path = tmp_path / f"s{count}.tif"
         write_stack(path, frames(count, seed=3, shape=(4, 4)))
         before = _core.tiff_ifds_read()
-        rep = irf.score_sequence(path, path, progress=False, workers=2)
+        rep = irf.score_sequence(path, path, bits=12, progress=False, workers=2)
         assert len(rep.frames) == count and not rep.failed
         assert _core.tiff_ifds_read() - before == count
 
@@ -174,6 +182,6 @@ def test_a_run_passes_over_the_frame_list_a_fixed_number_of_times(tmp_path):
         real, sim = FrameSequence(path), FrameSequence(path)
         real._entries, sim._entries = _CountingList(real._entries), _CountingList(sim._entries)
         _CountingList.passes = 0
-        irf.score_sequence(real, sim, progress=False, csv=tmp_path / f"s{count}.csv")
+        irf.score_sequence(real, sim, bits=12, progress=False, csv=tmp_path / f"s{count}.csv")
         counts[count] = _CountingList.passes
     assert counts[500] == counts[50] < 50, counts

@@ -313,6 +313,9 @@ class _Column(Sequence[Any]):
             return [self._field(e) for e in self._entries[index]]
         return self._field(self._entries[index])
 
+    def __iter__(self) -> Iterator[Any]:
+        return map(self._field, self._entries)
+
     def __eq__(self, other: object) -> bool:
         if isinstance(other, (list, tuple, _Column)):
             return list(self) == list(other)

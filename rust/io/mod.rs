@@ -315,11 +315,28 @@ pub(crate) fn open_regular(path: &Path) -> std::result::Result<File, Reason> {
     Ok(file)
 }
 
+/// The read buffer for a file: small for a TIFF, whose decoder seeks to each directory and
+/// chunk it reads (every seek refills the buffer, and large chunks bypass it), larger for
+/// the formats read front to back.
+fn buffer_size(file: &File) -> usize {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileExt;
+        let mut head = [0u8; 8];
+        if let Ok(n) = file.read_at(&mut head, 0) {
+            if sniff(&head[..n]) == Some(Format::Tiff) {
+                return 1 << 13;
+            }
+        }
+    }
+    1 << 16
+}
+
 fn run_on_path(path: &Path, op: Op<'_>) -> Result<OpOut> {
     let name = path.display().to_string();
     let file = open_regular(path).map_err(|reason| frame_err(&name, reason))?;
     let key = file.metadata().map(|meta| FileKey::of(path, &meta)).ok();
-    let reader = BufReader::with_capacity(1 << 16, file);
+    let reader = BufReader::with_capacity(buffer_size(&file), file);
     guarded(&name, || run_op(reader, &op, key.as_ref()))
 }
 

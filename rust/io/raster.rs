@@ -306,8 +306,11 @@ pub(super) fn tiff_channels<R: Read + Seek>(mut reader: R, key: Option<&FileKey>
 /// or walked once, then that page alone (whatever its place in the chain).
 pub(super) fn decode_tiff<R: Read + Seek>(mut reader: R, o: &DecodeOptions, key: Option<&FileKey>) -> Result<Frame, Reason> {
     let chain = tiff_pages::chain(&mut reader, key)?;
-    let mut dec = tiff_open(chain.one_page(reader, o.page)?)?;
-    decode_tiff_page(&mut dec, o)
+    let view = chain.one_page(reader, o.page)?;
+    // in a multi-page file, say which page failed
+    let in_page = |e: Reason| if chain.pages() > 1 { format!("page {}: {e}", o.page) } else { e };
+    let mut dec = tiff_open(view).map_err(in_page)?;
+    decode_tiff_page(&mut dec, o).map_err(in_page)
 }
 
 /// How one page's samples are stored: chunks (strips or tiles) of `chunk` pixels in a grid
