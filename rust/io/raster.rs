@@ -290,7 +290,10 @@ fn tiff_open<R: Read + Seek>(mut reader: R) -> Result<TiffDecoder<R>, Reason> {
 }
 
 /// The pages of the TIFF `reader` holds (`key`: the file's identity, for the page cache).
-pub(super) fn tiff_page_chain<R: Read + Seek>(mut reader: R, key: Option<&FileKey>) -> Result<(usize, Option<Reason>), Reason> {
+pub(super) fn tiff_page_chain<R: Read + Seek>(
+    mut reader: R,
+    key: Option<&FileKey>,
+) -> Result<(usize, Option<Reason>), Reason> {
     let chain = tiff_pages::chain(&mut reader, key)?;
     Ok((chain.pages(), chain.broken.clone()))
 }
@@ -304,7 +307,11 @@ pub(super) fn tiff_channels<R: Read + Seek>(mut reader: R, key: Option<&FileKey>
 
 /// Decode page `o.page`: the chain of pages from the cache (by `key`, the file's identity)
 /// or walked once, then that page alone (whatever its place in the chain).
-pub(super) fn decode_tiff<R: Read + Seek>(mut reader: R, o: &DecodeOptions, key: Option<&FileKey>) -> Result<Frame, Reason> {
+pub(super) fn decode_tiff<R: Read + Seek>(
+    mut reader: R,
+    o: &DecodeOptions,
+    key: Option<&FileKey>,
+) -> Result<Frame, Reason> {
     let chain = tiff_pages::chain(&mut reader, key)?;
     let view = chain.one_page(reader, o.page)?;
     // in a multi-page file, say which page failed

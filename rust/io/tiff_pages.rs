@@ -27,6 +27,9 @@ use super::Reason;
 /// The most pages read from one TIFF; a longer chain is broken at this page.
 pub(super) const MAX_PAGES: usize = 10_000_000;
 
+/// Files whose chains the cache keeps (looked up one by one: a few files per sequence side).
+const CACHED_FILES: usize = 16;
+
 /// Pages whose offsets the cache keeps besides the newest file's (16 bytes a page).
 const CACHED_PAGES: usize = 1 << 22;
 
@@ -347,7 +350,7 @@ fn remember(key: FileKey, chain: Arc<Chain>) {
     // keep the newest, and older chains while they hold at most CACHED_PAGES pages in all
     let mut kept = 0usize;
     let mut keep = 1;
-    for (_, c) in chains.iter().skip(1) {
+    for (_, c) in chains.iter().skip(1).take(CACHED_FILES - 1) {
         kept += c.pages();
         if kept > CACHED_PAGES {
             break;
