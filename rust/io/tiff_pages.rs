@@ -114,7 +114,10 @@ impl Chain {
         let Some(ifd) = self.ifds.get(page) else {
             return Err(match &self.broken {
                 Some(why) => why.clone(),
-                None => format!("page {page} out of range ({} pages)", self.ifds.len()),
+                None => match self.ifds.len() {
+                    1 => format!("page {page} out of range (the file has one page)"),
+                    n => format!("page {page} out of range (the file has {n} pages)"),
+                },
             });
         };
         reader.rewind().map_err(|e| format!("read error: {e}"))?;
@@ -228,10 +231,12 @@ impl<R: Read + Seek> Walker<'_, R> {
 
     /// The IFD at `at`: where it lies and the next IFD's offset; or why it cannot be read.
     fn ifd(&mut self, layout: Layout, at: u64) -> Result<(Ifd, u64), String> {
-        let beyond = || format!("its IFD at byte {at} lies beyond the end of the file ({} bytes)", self.len);
+        if at >= self.len {
+            return Err(format!("its IFD at byte {at} lies beyond the end of the file ({} bytes)", self.len));
+        }
         let count_len: u64 = if layout.big { 8 } else { 2 };
-        if at.checked_add(count_len).is_none_or(|end| end > self.len) {
-            return Err(beyond());
+        if at + count_len > self.len {
+            return Err(format!("its IFD at byte {at} runs past the end of the file ({} bytes)", self.len));
         }
         let mut count = [0u8; 8];
         self.read_at(at, &mut count[..count_len as usize]).map_err(|e| format!("read error: {e}"))?;
