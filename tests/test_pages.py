@@ -125,7 +125,7 @@ def test_a_looping_ifd_chain_is_read_up_to_the_loop(tmp_path):
     pages, broken = page_chain(path)
     assert pages == count and time.perf_counter() - t0 < 10
     assert broken == (f"{path}: the IFD chain loops back at page {count}: page {count - 1}'s next-IFD offset points "
-                      f"back to page 100's IFD (byte {chain[100][0]}); the {count} page(s) before it can be read")
+                      f"back to page 100's IFD (byte {chain[100][0]}); the {count} page(s) before it are found")
     want = frames(count, seed=2)
     assert np.array_equal(irf.load_frame(path, page=count - 1), want[-1])  # the page with the bad link too
     rep = irf.score_sequence(path, path, bits=12, progress=False)

@@ -270,7 +270,7 @@ fn a_truncated_tiff_gives_the_pages_before_the_break_and_names_it() {
         let m = frame_msg(decode_bytes(cut, "cut", &page(k)));
         let want = format!(
             "cut: truncated at page 60: its IFD at byte {} (12 entries) runs past the end of the file ({} bytes); \
-             the 60 page(s) before it can be read",
+             the 60 page(s) before it are found",
             ifds[60].0,
             cut.len()
         );
@@ -296,7 +296,7 @@ fn a_looping_ifd_chain_is_read_up_to_the_loop() {
         let why = chain.broken.unwrap();
         let want = format!(
             "{}: the IFD chain loops back at page 100: page 99's next-IFD offset points back to page {back}'s IFD \
-             (byte {}); the 100 page(s) before it can be read",
+             (byte {}); the 100 page(s) before it are found",
             path.display(),
             ifds[back].0
         );

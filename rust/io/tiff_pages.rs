@@ -188,6 +188,13 @@ pub fn ifds_read() -> u64 {
     IFDS_READ.load(Ordering::Relaxed)
 }
 
+/// Why an IFD cannot be read.
+enum IfdError {
+    /// It lies, or runs, past the end of the file.
+    Truncated(String),
+    Read(io::Error),
+}
+
 /// A reader that knows its position, so a short hop forward or back stays inside a
 /// `BufReader`'s buffer instead of discarding it.
 struct Walker<'a, R> {
@@ -230,28 +237,32 @@ impl<R: Read + Seek> Walker<'_, R> {
     }
 
     /// The IFD at `at`: where it lies and the next IFD's offset; or why it cannot be read.
-    fn ifd(&mut self, layout: Layout, at: u64) -> Result<(Ifd, u64), String> {
-        if at >= self.len {
-            return Err(format!("its IFD at byte {at} lies beyond the end of the file ({} bytes)", self.len));
+    fn ifd(&mut self, layout: Layout, at: u64) -> Result<(Ifd, u64), IfdError> {
+        let len = self.len;
+        if at >= len {
+            return Err(IfdError::Truncated(format!(
+                "its IFD at byte {at} lies beyond the end of the file ({len} bytes)"
+            )));
         }
         let count_len: u64 = if layout.big { 8 } else { 2 };
-        if at + count_len > self.len {
-            return Err(format!("its IFD at byte {at} runs past the end of the file ({} bytes)", self.len));
+        if at + count_len > len {
+            return Err(IfdError::Truncated(format!(
+                "its IFD at byte {at} runs past the end of the file ({len} bytes)"
+            )));
         }
         let mut count = [0u8; 8];
-        self.read_at(at, &mut count[..count_len as usize]).map_err(|e| format!("read error: {e}"))?;
+        self.read_at(at, &mut count[..count_len as usize]).map_err(IfdError::Read)?;
         let entries = layout.uint(&count[..count_len as usize]);
         let entry_len: u64 = if layout.big { 20 } else { 12 };
         let width = layout.width() as u64;
         let next_field = entries.checked_mul(entry_len).and_then(|b| b.checked_add(at + count_len));
-        let Some(next_field) = next_field.filter(|f| f.checked_add(width).is_some_and(|end| end <= self.len)) else {
-            return Err(format!(
-                "its IFD at byte {at} ({entries} entries) runs past the end of the file ({} bytes)",
-                self.len
-            ));
+        let Some(next_field) = next_field.filter(|f| f.checked_add(width).is_some_and(|end| end <= len)) else {
+            return Err(IfdError::Truncated(format!(
+                "its IFD at byte {at} ({entries} entries) runs past the end of the file ({len} bytes)"
+            )));
         };
         let mut next = [0u8; 8];
-        self.read_at(next_field, &mut next[..width as usize]).map_err(|e| format!("read error: {e}"))?;
+        self.read_at(next_field, &mut next[..width as usize]).map_err(IfdError::Read)?;
         IFDS_READ.fetch_add(1, Ordering::Relaxed);
         Ok((Ifd { at, next_field }, layout.uint(&next[..width as usize])))
     }
@@ -272,7 +283,7 @@ pub(super) fn scan<R: Read + Seek>(reader: &mut R) -> Result<Chain, Reason> {
             break None;
         }
         if k == MAX_PAGES {
-            break Some(format!("more than {MAX_PAGES} pages: the pages from {k} on are not read"));
+            break Some(format!("more than {MAX_PAGES} pages (the most read from one TIFF): page {k} is not read"));
         }
         if next < layout.header_len() {
             break Some(format!("corrupt TIFF file at page {k}: its IFD offset {next} points into the header"));
@@ -290,13 +301,13 @@ pub(super) fn scan<R: Read + Seek>(reader: &mut R) -> Result<Chain, Reason> {
                 ifds.push(ifd);
                 next = following;
             }
-            Err(why) if why.starts_with("read error") => break Some(format!("page {k}: {why}")),
-            Err(why) => break Some(format!("truncated at page {k}: {why}")),
+            Err(IfdError::Truncated(why)) => break Some(format!("truncated at page {k}: {why}")),
+            Err(IfdError::Read(e)) => break Some(format!("page {k}: read error: {e}")),
         }
     };
     let broken = broken.map(|why| match ifds.len() {
         0 => why,
-        n => format!("{why}; the {n} page(s) before it can be read"),
+        n => format!("{why}; the {n} page(s) before it are found"),
     });
     if ifds.is_empty() {
         return Err(broken.unwrap_or_else(|| "corrupt TIFF file: no image (the first IFD offset is 0)".to_string()));
