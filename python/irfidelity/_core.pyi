@@ -29,7 +29,7 @@ __all__ = [
     "ms_ssim",
     "noise_sums_array",
     "noise_sums_paths",
-    "page_count",
+    "page_chain",
     "pair_stats",
     "plain_moments",
     "plain_mse",
@@ -38,6 +38,7 @@ __all__ = [
     "register_frames",
     "score_pairs",
     "ssim_map",
+    "tiff_ifds_read",
     "warp_frame",
 ]
 
@@ -100,7 +101,8 @@ def load_frame(
     *,
     max_bytes: int | None = None,
 ) -> npt.NDArray[Any]: ...
-def page_count(path: str | os.PathLike[str]) -> int: ...
+def page_chain(path: str | os.PathLike[str]) -> tuple[int, str | None]: ...
+def tiff_ifds_read() -> int: ...
 def list_channels(path: str | os.PathLike[str]) -> list[str]: ...
 def read_camera_info(
     path: str | os.PathLike[str], page: int = 0, *, max_bytes: int | None = None

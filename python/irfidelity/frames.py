@@ -16,15 +16,16 @@ import glob as _glob
 import os
 import re
 import stat
-from collections.abc import Iterable, Iterator, Sequence
-from typing import Any, Union, overload
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from typing import Any, NamedTuple, Union, overload
 
 import numpy as np
 
 from . import _core
 from .errors import FidelityError, FrameError, RangeError
 
-__all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "natural_key", "display_name"]
+__all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "page_chain", "PageChain", "natural_key",
+           "display_name"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -148,7 +149,11 @@ def load_frame(
         Default: the only channel, or ``"Y"`` if present; files with several colour
         channels and no ``"Y"`` raise :class:`FrameError` listing the channels.
     page : int, default 0
-        Page of a multi-page TIFF, frame of a FLIR SEQ (or of a 3-D ``.npy`` stack).
+        Page of a multi-page TIFF, frame of a FLIR SEQ (or of a 3-D ``.npy`` stack). A page costs one
+        directory read whatever its place: the file's chain of pages is walked once and kept.
+        In a TIFF whose chain of pages breaks (a truncated file, a chain that loops back;
+        :func:`page_chain`), the pages before the break load as usual (page 0 too) and a page
+        from the break on raises :class:`FrameError` naming where and why the chain breaks.
     max_pixels : int, optional
         Refuse files whose header claims more pixels (default 16384 * 16384). Checked
         before the pixel buffer is allocated.
@@ -263,16 +268,74 @@ def list_channels(path: PathLike) -> list[str]:
     return list(_core.list_channels(spath))
 
 
-def page_count(path: PathLike) -> int:
-    """Number of pages: TIFF IFDs, the first axis of a 3-D ``.npy``, else 1."""
+class PageChain(NamedTuple):
+    """The pages of a frame file (:func:`page_chain`)."""
+
+    #: Pages that can be found: a TIFF's pages up to the end of its chain or to where it breaks.
+    pages: int
+    #: Why a TIFF's chain of pages breaks after ``pages`` pages (naming the file, the page and
+    #: the reason), or None when nothing is missing.
+    broken: str | None
+
+
+def page_chain(path: PathLike) -> PageChain:
+    """The pages of a frame file that can be found, and why the rest cannot.
+
+    A multi-page TIFF links its pages in a chain of directories (IFDs), each pointing to the
+    next. The chain is walked once (and kept for decoding the pages). When it breaks before
+    its end -- the file is truncated (``"truncated at page k: ..."``), a directory points back
+    to an earlier one (``"the IFD chain loops back at page k: ..."``) or into the header, or
+    there are more than 10 million pages -- the pages before the break can still be read,
+    and ``broken`` says why page ``k = pages`` and any after it cannot.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A TIFF, OpenEXR, PNG or ``.npy`` file.
+
+    Returns
+    -------
+    PageChain
+        ``(pages, broken)``: 1 page for EXR and PNG, the first axis of a 3-D ``.npy``
+        (else 1); ``broken`` is None unless a TIFF's chain breaks.
+
+    Raises
+    ------
+    FrameError
+        The file cannot be read, or not even its first page can be found.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np, irfidelity as irf
+    >>> path = os.path.join(tempfile.mkdtemp(), "stack.npy")
+    >>> np.save(path, np.zeros((3, 4, 4), np.uint16))
+    >>> irf.frames.page_chain(path)
+    PageChain(pages=3, broken=None)
+    """
     spath = os.fspath(path)
     if _is_npy(spath):
         try:
             a = np.load(spath, mmap_mode="r", allow_pickle=False)
         except (OSError, ValueError, EOFError, TypeError) as e:
             raise FrameError(f"{spath}: corrupt or invalid .npy file: {e}") from None
-        return int(a.shape[0]) if getattr(a, "ndim", 0) == 3 else 1
-    return int(_core.page_count(spath))
+        return PageChain(int(a.shape[0]) if getattr(a, "ndim", 0) == 3 else 1, None)
+    pages, broken = _core.page_chain(spath)
+    return PageChain(int(pages), broken)
+
+
+def page_count(path: PathLike) -> int:
+    """Number of pages: TIFF IFDs, the first axis of a 3-D ``.npy``, else 1.
+
+    A TIFF whose chain of pages breaks before its end (a truncated file, a loop) raises
+    :class:`FrameError` naming where and why: its number of pages is not known.
+    :func:`page_chain` gives the pages before the break, and :class:`FrameSequence` reads
+    them, with the break as a frame that fails to load.
+    """
+    pages, broken = page_chain(path)
+    if broken is not None:
+        raise FrameError(broken)
+    return pages
 
 
 def display_name(name: str) -> str:
@@ -293,6 +356,46 @@ def _is_tiff(path: str) -> bool:
     return path.lower().endswith(MULTIPAGE_EXTENSIONS)
 
 
+Entry = tuple[Union[str, None], int, str]  # (path, page, display name); path None for an array
+
+
+class _Column(Sequence[Any]):
+    """A read-only view of one field of a sequence's entries: indexing costs O(1) (the
+    properties are read once per frame while a run goes, so they must not copy the list)."""
+
+    __slots__ = ("_entries", "_field")
+
+    def __init__(self, entries: list[Entry], field: Callable[[Entry], Any]) -> None:
+        self._entries, self._field = entries, field
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    @overload
+    def __getitem__(self, index: int) -> Any: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[Any]: ...
+
+    def __getitem__(self, index: int | slice) -> Any:
+        if isinstance(index, slice):
+            return [self._field(e) for e in self._entries[index]]
+        return self._field(self._entries[index])
+
+    def __iter__(self) -> Iterator[Any]:
+        return map(self._field, self._entries)
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, (list, tuple, _Column)):
+            return list(self) == list(other)
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return repr(list(self))
+
+
 class FrameSequence(Sequence[np.ndarray]):
     """A lazy, indexable sequence of frames.
 
@@ -307,8 +410,12 @@ class FrameSequence(Sequence[np.ndarray]):
 
         Files are ordered naturally (``frame_2`` before ``frame_10``); an explicit list
         keeps its order. Multi-page TIFFs inside a directory, glob or list are expanded
-        into their pages (a cheap header walk); pixels are only decoded when a frame is
-        accessed.
+        into their pages (one walk over the file's chain of pages, kept for decoding them);
+        pixels are only decoded when a frame is accessed. A TIFF whose chain of pages
+        breaks (a truncated file, a chain that loops back; :func:`page_chain`) gives the
+        pages before the break and one more frame, ``"file.tif[k]"`` at the break, whose
+        loading raises :class:`FrameError` naming the file and why the chain breaks there:
+        a sequence run reports it as a failed frame, never drops the rest silently.
     channel : str, optional
         Channel passed to :func:`load_frame` for every file.
     max_pixels, max_bytes : int, optional
@@ -318,7 +425,8 @@ class FrameSequence(Sequence[np.ndarray]):
     -----
     ``len(seq)``, ``seq[i]`` (a 2-D array), ``seq[a:b]`` (a new ``FrameSequence``),
     iteration, and ``seq.names`` (display names such as ``"frame_0003.png"`` or
-    ``"stack.tif[3]"``) are supported. Errors raise :class:`FrameError` naming the path.
+    ``"stack.tif[3]"``) are supported. ``names``, ``entries`` and ``sources`` are read-only
+    views (``list(seq.names)`` for a list). Errors raise :class:`FrameError` naming the path.
 
     Examples
     --------
@@ -348,7 +456,7 @@ class FrameSequence(Sequence[np.ndarray]):
         self.max_bytes = max_bytes
         self._array: np.ndarray | None = None
         # entries: (path, page, display name); for arrays: (None, index, name)
-        self._entries: list[tuple[str | None, int, str]]
+        self._entries: list[Entry]
         if isinstance(source, np.ndarray):
             if source.ndim != 3:
                 raise FrameError(f"array source: expected a 3-D array (frames, rows, cols), got shape {source.shape}")
@@ -365,7 +473,7 @@ class FrameSequence(Sequence[np.ndarray]):
             raise FrameError(f"{source!r}: not a directory, glob, file, list of paths or 3-D array")
 
     @classmethod
-    def _subset(cls, parent: FrameSequence, entries: list[tuple[str | None, int, str]]) -> FrameSequence:
+    def _subset(cls, parent: FrameSequence, entries: list[Entry]) -> FrameSequence:
         new = cls.__new__(cls)
         new.channel = parent.channel
         new.max_pixels = parent.max_pixels
@@ -374,7 +482,7 @@ class FrameSequence(Sequence[np.ndarray]):
         new._entries = entries
         return new
 
-    def _from_path(self, spath: str) -> list[tuple[str | None, int, str]]:
+    def _from_path(self, spath: str) -> list[Entry]:
         if os.path.isdir(spath):
             names = [
                 n
@@ -395,15 +503,17 @@ class FrameSequence(Sequence[np.ndarray]):
             return self._expand(hits, label_dirs=False)
         raise FrameError(f"{spath}: no such file or directory")
 
-    def _expand(self, paths: list[str], *, label_dirs: bool) -> list[tuple[str | None, int, str]]:
-        out: list[tuple[str | None, int, str]] = []
+    def _expand(self, paths: list[str], *, label_dirs: bool) -> list[Entry]:
+        out: list[Entry] = []
         for p in paths:
             base = display_name(os.path.basename(p) or p)
             if _is_tiff(p):
                 try:
-                    n = page_count(p)
+                    n, broken = page_chain(p)
                 except FrameError:
-                    n = 1  # unreadable: one frame, whose decode reports why
+                    n, broken = 1, None  # not even page 0 is found: one frame, whose decode says why
+                if broken is not None:
+                    n += 1  # the page at the break: its decode names why the chain breaks
                 if n > 1:
                     out.extend((p, i, f"{base}[{i}]") for i in range(n))
                     continue
@@ -415,7 +525,7 @@ class FrameSequence(Sequence[np.ndarray]):
     def __len__(self) -> int:
         return len(self._entries)
 
-    def _load(self, entry: tuple[str | None, int, str]) -> np.ndarray:
+    def _load(self, entry: Entry) -> np.ndarray:
         path, page, _ = entry
         if path is None:
             assert self._array is not None
@@ -456,14 +566,14 @@ class FrameSequence(Sequence[np.ndarray]):
             yield self._load(entry)
 
     @property
-    def names(self) -> list[str]:
+    def names(self) -> Sequence[str]:
         """Display name of each frame: file name, ``"file.tif[3]"`` for TIFF pages, ``"[i]"`` for arrays."""
-        return [e[2] for e in self._entries]
+        return _Column(self._entries, _name)
 
     @property
-    def entries(self) -> list[tuple[str | None, int, str]]:
+    def entries(self) -> Sequence[Entry]:
         """``(path, page, display name)`` of each frame (path None for a 3-D array source)."""
-        return list(self._entries)
+        return _Column(self._entries, _whole)
 
     @property
     def is_files(self) -> bool:
@@ -471,11 +581,23 @@ class FrameSequence(Sequence[np.ndarray]):
         return self._array is None
 
     @property
-    def sources(self) -> list[tuple[str | None, int]]:
+    def sources(self) -> Sequence[tuple[str | None, int]]:
         """``(path, page)`` of each frame (``(None, i)`` for a 3-D array source)."""
-        return [(e[0], e[1]) for e in self._entries]
+        return _Column(self._entries, _source)
 
     def __repr__(self) -> str:
         head = ", ".join(self.names[:3])
         more = ", ..." if len(self) > 3 else ""
         return f"FrameSequence({len(self)} frames: {head}{more})"
+
+
+def _name(entry: Entry) -> str:
+    return entry[2]
+
+
+def _whole(entry: Entry) -> Entry:
+    return entry
+
+
+def _source(entry: Entry) -> tuple[str | None, int]:
+    return entry[0], entry[1]

@@ -201,7 +201,7 @@ impl<'a> FffFrame<'a> {
                 swap_bytes(frame)
             }
         } else if image.starts_with(b"II*\0") || image.starts_with(b"MM\0*") {
-            embedded(raster::decode_tiff(Cursor::new(image), &inner(o, held)?), "TIFF")?
+            embedded(raster::decode_tiff(Cursor::new(image), &inner(o, held)?, None), "TIFF")?
         } else if image.starts_with(&[0xFF, 0xD8]) {
             return Err(
                 "the raw frame is JPEG-LS coded (a FLIR CSQ file): irfidelity cannot decode CSQ, as no \

@@ -13,7 +13,7 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use super::flir::{self, CameraInfo, FffFrame, Header};
-use super::raster::FileKey;
+use super::tiff_pages::FileKey;
 use super::{check_budget, DecodeOptions, Frame, Reason};
 
 /// Where one frame lies in the file.
@@ -119,7 +119,8 @@ const INDEXES_KEPT: usize = 8;
 
 /// The frame index of the file at `path`, from the cache or by one pass.
 fn cached_index(path: &Path, file: &mut BufReader<File>) -> Result<Arc<Vec<Span>>, Reason> {
-    let key = FileKey::of(path)?;
+    let meta = file.get_ref().metadata().map_err(|e| format!("cannot stat: {e}"))?;
+    let key = FileKey::of(path, &meta);
     let lock = || INDEXES.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
     if let Some((_, spans)) = lock().iter().find(|(k, _)| *k == key) {
         return Ok(spans.clone());

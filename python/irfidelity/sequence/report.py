@@ -40,7 +40,13 @@ class SequenceReport:
         ``index``, ``real``, ``sim``, ``rows``, ``cols``, ``dtype`` and ``error`` (None, or
         why the pair could not be scored).
     failed : list of int
-        Indices of the frames with an error.
+        Indices of the frames with an error (not those in ``unpaired``).
+    unpaired : list of int
+        Indices of the rows of frames that no frame of the other side can pair with: with
+        ``config.max_delay``, the frames the delay leaves at the ends. Each is a row with one
+        side, no score and the reason in ``error`` ("no simulated frame pairs with it at
+        delay +2"), but not a failure. (A frame without a partner by name is in ``failed``:
+        a file is missing.)
     frame_stats : dict
         Mean, p5, p50, p95, min and max over the scored frames of ``fidelity``, of each
         component (``frame_stats["components"]``) and of each metric (``["metrics"]``).
@@ -61,8 +67,8 @@ class SequenceReport:
         With ``config.max_delay``: the frame offset found — ``frames`` (real frame ``i``
         pairs with simulated frame ``i + frames``), ``confidence``, ``window`` (frames of
         each side compared), ``max_delay``, ``correlation`` (per candidate delay) and
-        ``unpaired`` (``{"real": [...], "sim": [...]}``: the frames at the ends without a
-        partner at this delay, not scored).
+        ``unpaired`` (``{"real": [...], "sim": [...]}``: the names of the frames at the ends
+        without a partner at this delay; their rows are listed in :attr:`unpaired`).
 
     Examples
     --------
@@ -96,6 +102,7 @@ class SequenceReport:
     membership: dict = field(default_factory=dict)
     metrics: dict = field(default_factory=dict)
     failed: list = field(default_factory=list)
+    unpaired: list = field(default_factory=list)
     frame_stats: dict = field(default_factory=dict)
     pooling: dict = field(default_factory=dict)
     skipped: dict = field(default_factory=dict)
@@ -139,7 +146,7 @@ class SequenceReport:
             fh.writelines(csv_line(flat_row(f, cols)) for f in self.frames)
 
     _FIELDS = ("fidelity", "grade", "components", "component_grades", "membership", "metrics", "failed",
-               "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration", "delay")
+               "unpaired", "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration", "delay")
 
     def to_dict(self) -> dict:
         """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""
@@ -170,9 +177,10 @@ class SequenceReport:
 
     def summary_text(self) -> str:
         """A short human-readable summary: pooled table, per-frame spread, failures."""
-        n = len(self.frames)
-        lines = [f"sequence of {n} frame pairs: {n - len(self.failed)} scored, {len(self.failed)} failed"
-                 f" (paired by {self.run.get('pair_by', 'order')})"]
+        n, alone = len(self.frames), len(self.unpaired)
+        lonely = f", {alone} without a partner at the delay" if alone else ""
+        lines = [f"sequence of {n} frame pairs: {n - len(self.failed) - alone} scored, {len(self.failed)} failed"
+                 f"{lonely} (paired by {self.run.get('pair_by', 'order')})"]
         if self.fidelity is not None:
             lines.append("pooled over the scored frames (PSNR from ΣSSE/ΣN"
                          + (", NMI as the mean of the frames')" if self.pooling.get("nmi") == "frame_mean" else ")"))
@@ -189,7 +197,7 @@ class SequenceReport:
         if self.failed:
             shown = ", ".join(str(i) for i in self.failed[:10]) + (", ..." if len(self.failed) > 10 else "")
             lines.append(f"failed frames: {shown}")
-            first = next((f for f in self.frames if f["error"]), None)
+            first = next((f for f in self.frames if f.get("index") == self.failed[0]), None)
             if first is not None:
                 lines.append(f"  first error (frame {first['index']}): {first['error']}")
         if self.delay:
@@ -213,5 +221,5 @@ def _delay_line(delay: Mapping[str, Any]) -> str:
     text = (f"delay: {d:+d} frames ({pairing}), confidence {delay['confidence']:.3f}, "
             f"searched ±{delay.get('max_delay')} over the first {delay.get('window')} frames")
     if lonely:
-        text += f"; {' and '.join(lonely)} frame(s) at the ends have no partner and are not scored"
+        text += f"; {' and '.join(lonely)} frame(s) at the ends have no partner: rows without a score"
     return text

@@ -72,9 +72,7 @@ class _Scorer:
 
     def unmatched(self, index: int) -> None:
         real, sim = self.names(index)
-        missing = "simulated" if sim is None else "real"
-        entry = error_entry(index, real, sim, f"{real or sim}: no {missing} frame pairs with it "
-                                              f"(paired by {self.pairing.rule})")
+        entry = error_entry(index, real, sim, f"{real or sim}: {self.pairing.why_alone(index)}")
         if self.log is not None:
             self.log.write(flat_row(entry, self.columns), None)
         self._keep(entry, None, None)
@@ -176,8 +174,11 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
             log.close()
     score, pooling = scorer.pool.result(frames)
     pooled = score.to_dict() if score is not None else {}
+    unpaired = pairing.expected_alone
+    alone = set(unpaired)
     return SequenceReport(
-        frames=frames, weights=plan.weights, failed=[f["index"] for f in frames if f["error"]],
+        frames=frames, weights=plan.weights, unpaired=unpaired,
+        failed=[f["index"] for f in frames if f["error"] and f["index"] not in alone],
         frame_stats=frame_statistics(frames), pooling=pooling, skipped=dict(plan.skipped), config=plan.config,
         notes=notes, inputs=dict(plan.inputs),
         registration=registration_summary(plan, frames),
