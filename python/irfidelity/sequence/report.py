@@ -164,6 +164,7 @@ class SequenceReport:
                        fidelity=fields.get("fidelity", readback.optional(readback.fraction)),
                        grade=fields.get("grade", readback.optional(readback.text)),
                        failed=fields.get("failed", readback.list_of(readback.count), []),
+                       unpaired=fields.get("unpaired", readback.list_of(readback.count), []),
                        frame_stats=fields.get("frame_stats", readback.frame_stats, {}),
                        pooling=fields.get("pooling", readback.mapping_of(readback.anything), {}),
                        run=fields.get("run", readback.mapping_of(readback.anything), {}),
@@ -198,7 +199,7 @@ class SequenceReport:
             shown = ", ".join(str(i) for i in self.failed[:10]) + (", ..." if len(self.failed) > 10 else "")
             lines.append(f"failed frames: {shown}")
             first = next((f for f in self.frames if f.get("index") == self.failed[0]), None)
-            if first is not None:
+            if first is not None and first.get("error"):
                 lines.append(f"  first error (frame {first['index']}): {first['error']}")
         if self.delay:
             lines.append(_delay_line(self.delay))
