@@ -9,7 +9,7 @@ from ..curves.table import parse_columns, parse_where
 from ..errors import FidelityError
 from ..registration import DEFAULT_METHOD, METHODS
 
-__all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "flag_for"]
+__all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "flag_for", "CALIBRATION_FLAGS"]
 
 EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES = 0, 2, 3
 
@@ -17,7 +17,12 @@ EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES = 0, 2, 3
 _FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "sim_mtf": "--sim-mtf/--sim-edge",
           "psnr_anchors": "--config", "ssim_exponents": "--config", "grades": "--config",
           "mtf_options": "--config", "sitf_options": "--config", "register": "--register", "client": "--workers",
-          "chunk_size": "--workers"}
+          "chunk_size": "--workers", "relative_humidity": "--humidity"}
+
+#: Flags that override one calibration field (``ScoringConfig.calibration``): flag dest -> field.
+CALIBRATION_FLAGS = {"emissivity": "emissivity", "reflected_temperature": "reflected_temperature",
+                     "atmospheric_temperature": "atmospheric_temperature", "object_distance": "object_distance",
+                     "humidity": "relative_humidity"}
 
 
 def flag_for(option: str | None) -> str | None:
@@ -82,6 +87,25 @@ def _hist_range(text: str) -> str | tuple[float, float]:
     return (lo, hi)
 
 
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def _calibration(text: str) -> dict[str, float]:
+    """``NAME=VALUE,...``: calibration fields, or a linear gain and offset."""
+    out: dict[str, float] = {}
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise argparse.ArgumentTypeError(f"expected NAME=VALUE items (gain=0.04,offset=-273.15 or "
+                                             f"planck_r1=...,planck_b=...), got {item!r}")
+        out[name.strip()] = _number(value.strip())
+    return out
+
+
 def _argument_type(parse):
     """An argparse type from a parser that raises FidelityError."""
     def convert(text: str):
@@ -125,6 +149,20 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                    help="a weighted component without inputs: drop it and renormalise the other weights "
                         "(default; shown as skipped), or fail (raise)")
     g.add_argument("--nonfinite", choices=NONFINITE_MODES, help="NaN/Inf in float frames: fail (default) or mask")
+    t = s.add_argument_group("temperatures (radiometric files; float frames are taken as already in the unit)")
+    t.add_argument("--unit", choices=("K", "C"), help="score temperatures in kelvin or degrees Celsius: adds the "
+                                                     "temperature errors and the opt-in 'radiometry' component")
+    t.add_argument("--emissivity", type=_number, metavar="E", help="the object's emissivity, in (0, 1]")
+    t.add_argument("--reflected-temperature", type=_number, metavar="DEGC", help="reflected apparent temperature, °C")
+    t.add_argument("--atmospheric-temperature", type=_number, metavar="DEGC", help="air temperature, °C")
+    t.add_argument("--object-distance", type=_number, metavar="M", help="distance to the object, metres")
+    t.add_argument("--humidity", type=_number, metavar="PERCENT", help="relative humidity, percent")
+    t.add_argument("--calibration", type=_calibration, metavar="NAME=V,...",
+                   help="calibration of integer frames without one: gain=G,offset=O (temperature = G*count + O) "
+                        "or the Planck constants planck_r1,planck_r2,planck_b,planck_f,planck_o")
+    t.add_argument("--temperature-tolerance", type=_positive_float, metavar="K",
+                   help="error counted as within tolerance and scale of the radiometry component (default: the "
+                        "real camera's NETD when measured, else 1 K)")
     c = s.add_argument_group("channels")
     c.add_argument("--channel", metavar="C", help="channel of both frames' files (e.g. EXR 'Y', PNG 'R')")
     c.add_argument("--real-channel", metavar="C", help="channel of the real frames only")

@@ -133,7 +133,8 @@ def _bounds(plan: SequencePlan, options: RunOptions) -> RecordBounds:
 def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: SequencePlan,
             options: RunOptions) -> SequenceReport:
     """Score every pair of ``pairing`` (the module notes of :mod:`irfidelity.sequence`)."""
-    columns = csv_columns(plan.weights.active(), registered=plan.config.register is not None)
+    columns = csv_columns(plan.weights.active(), registered=plan.config.register is not None,
+                          temperature=plan.config.unit is not None)
     real_names, sim_names = real.names, sim.names
     log = None
     if options.csv is not None:
