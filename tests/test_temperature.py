@@ -10,6 +10,7 @@ test_radiometry.py.
 from __future__ import annotations
 
 import csv
+import html
 import io
 import json
 import math
@@ -277,7 +278,7 @@ def test_html_report_shows_temperatures(tmp_path):
     assert 'id="temperatures"' in page
     assert "temperature (°C, one scale for both)" in page and "simulated − real (K)" in page
     assert "histogram of the temperature errors" in page
-    assert "PSNR peak: the real frame's temperature range" in page
+    assert "PSNR peak: the real frame's temperature range" in html.unescape(page)
     plain = irf.evaluate(real, real + 0.7, peak="range").to_html()
     assert 'id="temperatures"' not in plain
 
@@ -322,13 +323,14 @@ def test_sequence_of_radiometric_files(tmp_path):
     assert [float(r["temperature_bias"]) for r in rows] == pytest.approx([0.0, 0.1, 0.2], abs=1e-4)
 
 
-def test_sequence_frame_without_a_calibration_is_its_error_row():
+def test_sequence_frames_without_a_calibration_are_error_rows():
     reals = np.stack([scene(0), scene(1)])
     rep = irf.score_sequence(reals, reals.astype(np.float64) + 0.5, unit="K", weights=WEIGHTS, progress=False)
     assert not rep.failed
     counts = np.full((2, 8, 8), 100, np.uint16)
-    with pytest.raises(FidelityError):
-        irf.score_sequence(counts, counts, unit="K", progress=False)
+    rep = irf.score_sequence(counts, counts.astype(np.float64), unit="K", progress=False)
+    assert rep.failed == [0, 1]
+    assert all("real [" in f["error"] and "without a radiometric calibration" in f["error"] for f in rep.frames)
 
 
 def test_ax8_shipped_example_scores_in_celsius():
@@ -361,3 +363,14 @@ def test_readme_and_demo_radiometric_examples_run(capsys):
     assert demo.metrics["temperature_bias"] == pytest.approx(RADIOMETRIC_MODEL["offset"], abs=0.05)
     assert 0 < demo.components["radiometry"] < 1 and demo.notes == []
     assert "temperatures (C): bias" in capsys.readouterr().out
+
+
+def test_resumed_sequence_keeps_the_temperature_errors(tmp_path):
+    reals = np.stack([scene(i) for i in range(3)])
+    sims = reals + np.stack([np.full(reals.shape[1:], off) for off in (0.2, -0.5, 1.5)])
+    out = tmp_path / "frames.csv"
+    first = irf.score_sequence(reals, sims, unit="K", weights=WEIGHTS, progress=False, csv=out)
+    again = irf.score_sequence(reals, sims, unit="K", weights=WEIGHTS, progress=False, csv=out, resume=True)
+    assert again.run["resumed"] == 3
+    assert again.metrics == first.metrics and again.components == first.components
+    assert [f["metrics"] for f in again.frames] == [f["metrics"] for f in first.frames]

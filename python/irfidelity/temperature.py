@@ -20,6 +20,7 @@ temperatures, 0.9 for a pure offset of one tolerance (bias = RMSE = tolerance), 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from collections.abc import Mapping
@@ -250,6 +251,24 @@ class TemperatureErrors:
         return cls(n=n, bias=float(np.sum(d) / n), rmse=math.sqrt(float(np.sum(d * d)) / n),
                    mae=float(np.sum(np.abs(d)) / n), within=int(np.count_nonzero(np.abs(d) <= tolerance)),
                    tolerance=float(tolerance), unit=unit)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields, JSON-ready (a resumable run's record keeps them); :meth:`from_dict` inverts it."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: Any) -> TemperatureErrors:
+        """Errors from :meth:`to_dict`'s output, checked (``ValueError`` naming what is wrong)."""
+        if not isinstance(data, Mapping) or set(data) != {f.name for f in dataclasses.fields(cls)}:
+            raise ValueError("not a record of temperature errors")
+        n, within = data["n"], data["within"]
+        if type(n) is not int or type(within) is not int or not 0 <= within <= n or n <= 0:
+            raise ValueError(f"counts out of range (n {n!r}, within {within!r})")
+        values = [data[k] for k in ("bias", "rmse", "mae", "tolerance")]
+        if not all(type(v) is float and math.isfinite(v) for v in values) or min(values[1:]) < 0 \
+                or data["tolerance"] <= 0 or data["unit"] not in UNITS:
+            raise ValueError("values out of range")
+        return cls(**data)
 
     def metrics(self) -> dict[str, Any]:
         """The ``temperature_*`` metrics (:data:`irfidelity.schema.METRICS` ``["radiometry"]``)."""

@@ -111,7 +111,8 @@ def _record(outcome: Outcome, stats: PairStats | None) -> bytes | None:
         return None
     meta = {"inputs": outcome.inputs, "shape": list(outcome.shape), "dtype": outcome.dtype,
             "extent": None if outcome.real_extent is None else list(outcome.real_extent),
-            "registration": None if outcome.registration is None else outcome.registration.to_dict()}
+            "registration": None if outcome.registration is None else outcome.registration.to_dict(),
+            "temperature": None if outcome.temperature is None else outcome.temperature.to_dict()}
     return encode_record(outcome.index, meta, stats.to_bytes())
 
 
