@@ -90,8 +90,8 @@ METRICS["radiometry"] = (
     ("temperature_unit", "", "'K' or 'C': the unit the frames were scored in (config.unit)"),
     ("temperature_bias", "K", "mean(S − R) of the temperatures (a difference: K and °C alike)"),
     ("temperature_rmse", "K", "√mean((S − R)²)"),
-    ("temperature_mae", "K", "mean |S − R|"),
-    ("temperature_within", "1", "fraction of pixel pairs with |S − R| ≤ temperature_tolerance"),
+    ("temperature_mae", "K", "mean abs(S − R)"),
+    ("temperature_within", "1", "fraction of pixel pairs with abs(S − R) ≤ temperature_tolerance"),
     ("temperature_tolerance", "K", "the tolerance: config.temperature_tolerance, the real camera's NETD, or 1 K"),
 )
 
