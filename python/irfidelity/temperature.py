@@ -146,7 +146,7 @@ def frame_temperature(frame: Any, name: str, config: Any, path: str | None = Non
     if values.dtype.kind not in "ui":
         raise FidelityError(f"{name}: expected integer counts or float temperatures, got dtype {values.dtype}")
     overrides = {k: v for k, v in config.calibration.items() if k in CALIBRATION_FIELDS}
-    why = "it is an array"
+    why = "an array carries none" if path is None else "a .npy file carries none"
     try:
         if path is not None and not path.lower().endswith(".npy"):
             try:

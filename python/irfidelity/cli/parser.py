@@ -19,10 +19,15 @@ _FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "s
           "mtf_options": "--config", "sitf_options": "--config", "register": "--register", "client": "--workers",
           "chunk_size": "--workers", "relative_humidity": "--humidity"}
 
-#: Flags that override one calibration field (``ScoringConfig.calibration``): flag dest -> field.
-CALIBRATION_FLAGS = {"emissivity": "emissivity", "reflected_temperature": "reflected_temperature",
-                     "atmospheric_temperature": "atmospheric_temperature", "object_distance": "object_distance",
-                     "humidity": "relative_humidity"}
+#: Flags that override one calibration field (``ScoringConfig.calibration``): flag dest -> (field,
+#: metavar, help).
+CALIBRATION_FLAGS = {
+    "emissivity": ("emissivity", "E", "the object's emissivity, in (0, 1]"),
+    "reflected_temperature": ("reflected_temperature", "DEGC", "reflected apparent temperature, °C"),
+    "atmospheric_temperature": ("atmospheric_temperature", "DEGC", "air temperature, °C"),
+    "object_distance": ("object_distance", "M", "distance to the object, metres"),
+    "humidity": ("relative_humidity", "PERCENT", "relative humidity, percent"),
+}
 
 
 def flag_for(option: str | None) -> str | None:
@@ -140,7 +145,8 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                         "with --bits, the values are still bounded by 2^N-1")
     g.add_argument("--weights", metavar="SPEC",
                    help="balanced (default, 1/5 each) | performance | image_quality | "
-                        "'mtf=..,sitf=..,psnr=..,nmi=..,ssim=..,noise=..' (unnamed components 0; sum 1)")
+                        "'mtf=..,sitf=..,psnr=..,nmi=..,ssim=..,noise=..,radiometry=..' (unnamed components 0; "
+                        "sum 1)")
     g.add_argument("--bins", type=_bins, metavar="N|levels",
                    help="histogram bins for NMI (default 256), or 'levels' (one bin per grey level)")
     g.add_argument("--hist-range", type=_hist_range, metavar="data|full|LO,HI",
@@ -152,11 +158,9 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
     t = s.add_argument_group("temperatures (radiometric files; float frames are taken as already in the unit)")
     t.add_argument("--unit", choices=("K", "C"), help="score temperatures in kelvin or degrees Celsius: adds the "
                                                      "temperature errors and the opt-in 'radiometry' component")
-    t.add_argument("--emissivity", type=_number, metavar="E", help="the object's emissivity, in (0, 1]")
-    t.add_argument("--reflected-temperature", type=_number, metavar="DEGC", help="reflected apparent temperature, °C")
-    t.add_argument("--atmospheric-temperature", type=_number, metavar="DEGC", help="air temperature, °C")
-    t.add_argument("--object-distance", type=_number, metavar="M", help="distance to the object, metres")
-    t.add_argument("--humidity", type=_number, metavar="PERCENT", help="relative humidity, percent")
+    for dest, (_, metavar, text) in CALIBRATION_FLAGS.items():
+        t.add_argument("--" + dest.replace("_", "-"), type=_number, metavar=metavar,
+                       help=text + " (overrides a radiometric file's value)")
     t.add_argument("--calibration", type=_calibration, metavar="NAME=V,...",
                    help="calibration of integer frames without one: gain=G,offset=O (temperature = G*count + O) "
                         "or the Planck constants planck_r1,planck_r2,planck_b,planck_f,planck_o")

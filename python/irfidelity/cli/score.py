@@ -32,7 +32,7 @@ def _config(a: argparse.Namespace) -> ScoringConfig:
             raise UsageError(f"--weights: {exc}") from None
     config = ScoringConfig.resolve(a.config, **options)
     calibration = dict(a.calibration or {})
-    calibration.update({field: getattr(a, dest) for dest, field in CALIBRATION_FLAGS.items()
+    calibration.update({field: getattr(a, dest) for dest, (field, _, _) in CALIBRATION_FLAGS.items()
                         if getattr(a, dest) is not None})
     return config.replace(calibration={**config.calibration, **calibration}) if calibration else config
 
