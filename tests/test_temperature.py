@@ -374,3 +374,9 @@ def test_resumed_sequence_keeps_the_temperature_errors(tmp_path):
     assert again.run["resumed"] == 3
     assert again.metrics == first.metrics and again.components == first.components
     assert [f["metrics"] for f in again.frames] == [f["metrics"] for f in first.frames]
+
+
+def test_a_dask_client_is_refused_in_a_unit():
+    reals = np.stack([scene(0), scene(1)])
+    with pytest.raises(FidelityError, match=r"scored in a unit \(config.unit\) are converted and scored locally"):
+        irf.score_sequence(reals, reals, unit="K", client=object(), progress=False)

@@ -198,8 +198,10 @@ def choose_backend(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, 
     files = engine_reads(real, sim)
     if client is not None:
         if not files:
-            raise FidelityError("a Dask client needs file sources (EXR/PNG/TIFF paths) for both sequences; "
-                                "arrays and .npy files are scored locally", option="client")
+            local = ("frames scored in a unit (config.unit) are converted and scored locally" if plan.config.unit
+                     else "arrays and .npy files are scored locally")
+            raise FidelityError(f"a Dask client needs file sources (EXR/PNG/TIFF paths) for both sequences; {local}",
+                                option="client")
         return DaskBackend(real, sim, plan, decoding, client, chunk_size)
     if files:
         return RustEngine(real, sim, plan, decoding)
