@@ -240,17 +240,18 @@ class TemperatureErrors:
     @classmethod
     def of_frames(cls, real: Any, sim: Any, *, tolerance: float, unit: str, mask: Any = None) -> TemperatureErrors:
         """The errors over the pixel pairs where ``mask`` is true and both values are finite."""
-        diff = np.asarray(sim, dtype=np.float64) - np.asarray(real, dtype=np.float64)
+        diff = np.subtract(sim, real, dtype=np.float64)
         keep = np.isfinite(diff)
         if mask is not None:
             keep &= np.asarray(mask, dtype=bool)
-        d = diff[keep]
+        d = diff.ravel() if keep.all() else diff[keep]  # one temporary: large ones cost page faults
         if d.size == 0:
             raise FidelityError("no pixel pair with finite temperatures on both sides to compare", option="mask")
         n = int(d.size)
-        return cls(n=n, bias=float(np.sum(d) / n), rmse=math.sqrt(float(np.sum(d * d)) / n),
-                   mae=float(np.sum(np.abs(d)) / n), within=int(np.count_nonzero(np.abs(d) <= tolerance)),
-                   tolerance=float(tolerance), unit=unit)
+        bias, squares = float(np.sum(d)) / n, float(np.sum(np.square(d)))
+        magnitude = np.abs(d, out=d)
+        return cls(n=n, bias=bias, rmse=math.sqrt(squares / n), mae=float(np.sum(magnitude)) / n,
+                   within=int(np.count_nonzero(magnitude <= tolerance)), tolerance=float(tolerance), unit=unit)
 
     def to_dict(self) -> dict[str, Any]:
         """The fields, JSON-ready (a resumable run's record keeps them); :meth:`from_dict` inverts it."""
