@@ -26,6 +26,7 @@ from .errors import FidelityError
 from .fuzzy import GradeScale, Weights
 from .normalize import DEFAULT_PSNR_ANCHORS, psnr_curve_params
 from .registration import DEFAULT_METHOD
+from .temperature import unit_fields
 
 __all__ = ["ScoringConfig", "MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "PAIRING_RULES"]
 
@@ -109,13 +110,28 @@ class ScoringConfig:
     pair_by : "auto", "name" or "order"
         Sequences: pair frames by file name (``"auto"`` does when both sides are named
         files) or by position. With ``max_delay``, by position (``"name"`` is refused).
+    unit : "K", "C" or None
+        Score temperatures in this unit (:mod:`irfidelity.temperature`): radiometric files are
+        converted with their calibration, float frames taken as already in the unit; adds the
+        ``temperature_*`` metrics and allows the opt-in ``radiometry`` component. The PSNR peak
+        then defaults to the real frame's temperature range, and ``bits`` does not apply.
+    calibration : mapping
+        With ``unit``: calibration fields replacing a radiometric file's (``emissivity``,
+        ``reflected_temperature`` (°C), ``object_distance`` (m), ``relative_humidity`` (%), ...:
+        :data:`irfidelity.radiometry.CALIBRATION_FIELDS`), which with all five Planck constants
+        also calibrate integer frames that carry none; or a linear ``gain`` and ``offset``
+        (temperature in ``unit`` = gain·count + offset) for integer frames without a calibration.
+    temperature_tolerance : float or None
+        With ``unit``: the error in K counted as within tolerance, and the scale of the
+        ``radiometry`` component. None: the real camera's NETD when the noise component
+        measured it, else 1 K.
 
     Examples
     --------
     >>> import irfidelity as irf
     >>> cfg = irf.ScoringConfig(bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
     >>> print(cfg.weights)
-    mtf=0, sitf=0, psnr=0.5, nmi=0, ssim=0.5, noise=0
+    mtf=0, sitf=0, psnr=0.5, nmi=0, ssim=0.5, noise=0, radiometry=0
     >>> cfg.replace(bins="levels").bins, cfg.bins                 # frozen: replace makes a copy
     ('levels', 256)
     >>> cfg.save("scoring.toml")
@@ -149,6 +165,9 @@ class ScoringConfig:
     register_each: bool = False
     max_delay: int = 0
     pair_by: str = "auto"
+    unit: str | None = None
+    calibration: Mapping = field(default_factory=dict)
+    temperature_tolerance: float | None = None
 
     def __post_init__(self) -> None:
         for name, value in self._validated().items():
@@ -197,6 +216,7 @@ class ScoringConfig:
         if out["max_delay"] and out["pair_by"] == "name":
             raise ConfigError("pair_by", "frames paired by name have no delay to search; with max_delay the frames "
                                          "are paired by position, offset by the delay found (pair_by = auto or order)")
+        out.update(unit_fields(self.unit, self.calibration, self.temperature_tolerance, out["bits"]))
         return out
 
     # -- construction ---------------------------------------------------------------
@@ -291,7 +311,8 @@ class ScoringConfig:
     def to_toml(self) -> str:
         """The configuration as TOML. TOML has no null: a field that is None is written as a
         commented-out example. Keys that are not bare TOML keys are quoted."""
-        return toml_document(self.to_dict(), ("weights", "mtf_options", "sitf_options", "grades"), _UNSET_EXAMPLES,
+        return toml_document(self.to_dict(), ("weights", "mtf_options", "sitf_options", "grades", "calibration"),
+                             _UNSET_EXAMPLES,
                              "irfidelity scoring configuration (irfidelity score --config FILE)")
 
 
@@ -308,6 +329,8 @@ _UNSET_EXAMPLES = {
     "pixel_pitch_um": "12.0",
     "focal_length_mm": "25.0",
     "register": '"translation"   # or "rigid", "similarity": align before the image metrics',
+    "unit": '"K"          # or "C": score temperatures (radiometric files, float frames)',
+    "temperature_tolerance": "0.5   # K; default the real camera's NETD, else 1 K",
 }
 
 

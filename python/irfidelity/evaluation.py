@@ -21,6 +21,7 @@ from .config import ScoringConfig
 from .errors import FidelityError, RangeError, ShapeError
 from .results import FidelityReport, recorded_warnings
 from .scoring import image_components, plan_components, psnr_peak, score_components
+from .temperature import TemperatureErrors, scoring_config, temperature_scores, to_temperature, tolerance_for
 
 __all__ = ["evaluate"]
 
@@ -72,6 +73,8 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
                  inputs: dict, sources: dict) -> _stats.PairStats:
     r = _load(real, "real", config.real_channel)
     s = _load(sim, "sim", config.sim_channel)
+    if config.unit is not None:
+        r, s = to_temperature(r, real, "real", config), to_temperature(s, sim, "sim", config)
     sources.update(real=r, sim=s, mask=mask)
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
                   dtype=np.asarray(r).dtype.name)
@@ -160,7 +163,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     ----------
     Acta Photonica Sinica 41(5):547 (2012), doi:10.3788/gzxb20124105.0547.
     """
-    cfg = ScoringConfig.resolve(config, **options)
+    cfg = scoring_config(ScoringConfig.resolve(config, **options))
     if (real is None) != (sim is None):
         given, absent = ("real", "sim") if sim is None else ("sim", "real")
         raise FidelityError(f"{given} was given without {absent}: give both frames or neither", option=absent)
@@ -168,13 +171,20 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     given = camera.given()
     weights, image_plan, skipped = plan_components(cfg.weights, cfg.missing, have_images=real is not None,
                                                    have_mtf=given["mtf"], have_sitf=given["sitf"],
-                                                   have_noise=given["noise"])
+                                                   have_noise=given["noise"], have_unit=cfg.unit is not None)
+    in_unit = cfg.unit is not None and real is not None
     with recorded_warnings() as notes:
         components, metrics, inputs, compared = camera_components(camera, weights, cfg)
         sources: dict[str, Any] = {"curves": compared}
-        if image_plan:
+        if image_plan or in_unit:
             st = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources)
             image, image_metrics = image_components(st, image_plan, cfg)
+            components.update(image)
+            metrics.update(image_metrics)
+        if in_unit:
+            errors = TemperatureErrors.of_frames(sources["real"], sources["sim"], mask=sources["mask"],
+                                                 tolerance=tolerance_for(cfg, metrics), unit=str(cfg.unit))
+            image, image_metrics = temperature_scores(errors, weights)
             components.update(image)
             metrics.update(image_metrics)
     score = score_components(components, metrics, weights, cfg)

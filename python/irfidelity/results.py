@@ -70,6 +70,8 @@ _RAW = {
     "nmi": lambda m: f"MI {m['mi']:.4f}, H(R) {m['h_real']:.4f}, H(S) {m['h_sim']:.4f}, H(R,S) {m['h_joint']:.4f}",
     "noise": lambda m: f"σ_tvh real {m['noise_sigma_tvh_real']:.4g}, sim {m['noise_sigma_tvh_sim']:.4g}; "
                        f"mu {m['noise_mu']:.4f}, rho {m['noise_rho']:.4f}",
+    "radiometry": lambda m: f"bias {m['temperature_bias']:+.4g} K, RMSE {m['temperature_rmse']:.4g} K "
+                            f"against the tolerance {m['temperature_tolerance']:.4g} K",
     "ssim": lambda m: f"SSIM {m['ssim']:.4f} = l {m['ssim_luminance']:.4f} · c {m['ssim_contrast']:.4f} · "
                       f"s {m['ssim_structure']:.4f}",
 }
@@ -90,7 +92,17 @@ def component_lines(components: Mapping[str, float], component_grades: Mapping[s
             lines.append(f"{k:<10} {weights[k]:>7.4f} {components[k]:>8.4f}  {component_grades.get(k, ''):<9} {raw}")
         else:
             lines.append(f"{k:<10} {'-':>7} {'-':>8}  {'':<9} skipped: {skipped.get(k, '')}")
+    if "temperature_bias" in metrics:
+        lines.append(temperature_line(metrics))
     return lines
+
+
+def temperature_line(metrics: Mapping[str, Any]) -> str:
+    """One line: the errors of the simulated temperatures (scored in a unit)."""
+    m = metrics
+    return (f"temperatures ({m['temperature_unit']}): bias (sim − real) {m['temperature_bias']:+.4g} K, "
+            f"RMSE {m['temperature_rmse']:.4g} K, MAE {m['temperature_mae']:.4g} K, "
+            f"{100 * m['temperature_within']:.1f} % of pixels within ±{m['temperature_tolerance']:.4g} K")
 
 
 @dataclass
@@ -273,7 +285,7 @@ def _peak_text(config: ScoringConfig) -> str:
     if isinstance(config.peak, float):
         return f"{config.peak:g}"
     if config.peak == "range":
-        return "the real frame's max − min"
+        return "the real frame's temperature range (max − min)" if config.unit else "the real frame's max − min"
     return "2^bits − 1" if config.bits else "the dtype's maximum"
 
 
@@ -281,5 +293,6 @@ def settings_line(config: ScoringConfig, version: str) -> str:
     """One line naming the settings a reader needs to reproduce the numbers."""
     parts = [f"irfidelity {version}", f"bits {config.bits}" if config.bits else None,
              f"PSNR peak {_peak_text(config)}", f"bins {config.bins}", f"hist_range {config.hist_range}",
-             f"registration {config.register}" if config.register else None]
+             f"registration {config.register}" if config.register else None,
+             f"unit {config.unit}" if config.unit else None]
     return "settings: " + ", ".join(p for p in parts if p)

@@ -84,6 +84,17 @@ def _noise_metrics() -> tuple[tuple[str, str, str], ...]:
 
 METRICS["noise"] = _noise_metrics()
 
+#: In a temperature unit (``config.unit``): the errors of the simulated temperatures, reported
+#: whether or not the opt-in ``radiometry`` component is weighted (irfidelity.temperature).
+METRICS["radiometry"] = (
+    ("temperature_unit", "", "'K' or 'C': the unit the frames were scored in (config.unit)"),
+    ("temperature_bias", "K", "mean(S − R) of the temperatures (a difference: K and °C alike)"),
+    ("temperature_rmse", "K", "√mean((S − R)²)"),
+    ("temperature_mae", "K", "mean abs(S − R)"),
+    ("temperature_within", "1", "fraction of pixel pairs with abs(S − R) ≤ temperature_tolerance"),
+    ("temperature_tolerance", "K", "the tolerance: config.temperature_tolerance, the real camera's NETD, or 1 K"),
+)
+
 #: Per-frame columns before the metrics: (key, unit, meaning).
 FRAME_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("index", "", "position of the pair in the (paired) sequence, 0 for a single pair"),
@@ -141,12 +152,14 @@ def metric_names(components: Iterable[str]) -> list[str]:
     return [key for comp in COMPONENTS if comp in wanted for key, _, _ in METRICS.get(comp, ())]
 
 
-def csv_columns(components: Iterable[str], registered: bool = False) -> list[str]:
+def csv_columns(components: Iterable[str], registered: bool = False, temperature: bool = False) -> list[str]:
     """CSV columns of a frame row (single pair or sequence) scoring ``components``, with the
-    registration's columns when ``registered``."""
+    registration's columns when ``registered`` and the temperature errors when ``temperature``
+    (scored in a unit, ``config.unit``)."""
     comps = [c for c in COMPONENTS if c in set(components)]
+    reported = comps + ["radiometry"] if temperature and "radiometry" not in comps else comps
     return ([k for k, _, _ in FRAME_COLUMNS] + ([k for k, _, _, _ in REGISTRATION_COLUMNS] if registered else [])
-            + metric_names(comps) + [f"f_{c}" for c in comps] + [k for k, _, _ in RESULT_COLUMNS])
+            + metric_names(reported) + [f"f_{c}" for c in comps] + [k for k, _, _ in RESULT_COLUMNS])
 
 
 def registration_values(registration: dict | None) -> dict[str, Any]:

@@ -21,6 +21,11 @@ def _demo(a) -> int:
     from ..demo import run_demo
 
     report = run_demo(out=None if a.json == "-" else print)
+    if a.json != "-":
+        from ..demo import run_radiometric_demo
+
+        print()
+        run_radiometric_demo()
     a.save_config = None
     write_outputs(report, a, sequence=False) if (a.json or a.report) else None
     return EXIT_OK

@@ -91,7 +91,8 @@ def _write_json(data: Any, dest: str) -> None:
 
 
 def _columns(report: Any) -> list[str]:
-    return csv_columns(report.components, registered=report.registration is not None)
+    return csv_columns(report.components, registered=report.registration is not None,
+                       temperature=report.config.unit is not None)
 
 
 def _single_row(report: Any) -> list[Any]:

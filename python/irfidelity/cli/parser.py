@@ -9,7 +9,7 @@ from ..curves.table import parse_columns, parse_where
 from ..errors import FidelityError
 from ..registration import DEFAULT_METHOD, METHODS
 
-__all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "flag_for"]
+__all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "flag_for", "CALIBRATION_FLAGS"]
 
 EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES = 0, 2, 3
 
@@ -17,7 +17,17 @@ EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES = 0, 2, 3
 _FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "sim_mtf": "--sim-mtf/--sim-edge",
           "psnr_anchors": "--config", "ssim_exponents": "--config", "grades": "--config",
           "mtf_options": "--config", "sitf_options": "--config", "register": "--register", "client": "--workers",
-          "chunk_size": "--workers"}
+          "chunk_size": "--workers", "relative_humidity": "--humidity"}
+
+#: Flags that override one calibration field (``ScoringConfig.calibration``): flag dest -> (field,
+#: metavar, help).
+CALIBRATION_FLAGS = {
+    "emissivity": ("emissivity", "E", "the object's emissivity, in (0, 1]"),
+    "reflected_temperature": ("reflected_temperature", "DEGC", "reflected apparent temperature, °C"),
+    "atmospheric_temperature": ("atmospheric_temperature", "DEGC", "air temperature, °C"),
+    "object_distance": ("object_distance", "M", "distance to the object, metres"),
+    "humidity": ("relative_humidity", "PERCENT", "relative humidity, percent"),
+}
 
 
 def flag_for(option: str | None) -> str | None:
@@ -82,6 +92,25 @@ def _hist_range(text: str) -> str | tuple[float, float]:
     return (lo, hi)
 
 
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def _calibration(text: str) -> dict[str, float]:
+    """``NAME=VALUE,...``: calibration fields, or a linear gain and offset."""
+    out: dict[str, float] = {}
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise argparse.ArgumentTypeError(f"expected NAME=VALUE items (gain=0.04,offset=-273.15 or "
+                                             f"planck_r1=...,planck_b=...), got {item!r}")
+        out[name.strip()] = _number(value.strip())
+    return out
+
+
 def _argument_type(parse):
     """An argparse type from a parser that raises FidelityError."""
     def convert(text: str):
@@ -116,7 +145,8 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                         "with --bits, the values are still bounded by 2^N-1")
     g.add_argument("--weights", metavar="SPEC",
                    help="balanced (default, 1/5 each) | performance | image_quality | "
-                        "'mtf=..,sitf=..,psnr=..,nmi=..,ssim=..,noise=..' (unnamed components 0; sum 1)")
+                        "'mtf=..,sitf=..,psnr=..,nmi=..,ssim=..,noise=..,radiometry=..' (unnamed components 0; "
+                        "sum 1)")
     g.add_argument("--bins", type=_bins, metavar="N|levels",
                    help="histogram bins for NMI (default 256), or 'levels' (one bin per grey level)")
     g.add_argument("--hist-range", type=_hist_range, metavar="data|full|LO,HI",
@@ -125,6 +155,18 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                    help="a weighted component without inputs: drop it and renormalise the other weights "
                         "(default; shown as skipped), or fail (raise)")
     g.add_argument("--nonfinite", choices=NONFINITE_MODES, help="NaN/Inf in float frames: fail (default) or mask")
+    t = s.add_argument_group("temperatures (radiometric files; float frames are taken as already in the unit)")
+    t.add_argument("--unit", choices=("K", "C"), help="score temperatures in kelvin or degrees Celsius: adds the "
+                                                     "temperature errors and the opt-in 'radiometry' component")
+    for dest, (_, metavar, text) in CALIBRATION_FLAGS.items():
+        t.add_argument("--" + dest.replace("_", "-"), type=_number, metavar=metavar,
+                       help=text + " (overrides a radiometric file's value)")
+    t.add_argument("--calibration", type=_calibration, metavar="NAME=V,...",
+                   help="calibration of integer frames without one: gain=G,offset=O (temperature = G*count + O) "
+                        "or the Planck constants planck_r1,planck_r2,planck_b,planck_f,planck_o")
+    t.add_argument("--temperature-tolerance", type=_positive_float, metavar="K",
+                   help="error counted as within tolerance and scale of the radiometry component (default: the "
+                        "real camera's NETD when measured, else 1 K)")
     c = s.add_argument_group("channels")
     c.add_argument("--channel", metavar="C", help="channel of both frames' files (e.g. EXR 'Y', PNG 'R')")
     c.add_argument("--real-channel", metavar="C", help="channel of the real frames only")

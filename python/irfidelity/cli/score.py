@@ -12,6 +12,7 @@ from ..errors import FidelityError
 from ..frames import MULTIPAGE_EXTENSIONS, FrameSequence, page_chain
 from ..fuzzy import Weights
 from .output import UsageError, write_outputs
+from .parser import CALIBRATION_FLAGS
 
 __all__ = ["score_command"]
 
@@ -19,7 +20,7 @@ __all__ = ["score_command"]
 _CONFIG_FLAGS = ("bits", "peak", "bins", "hist_range", "missing", "nonfinite", "channel", "real_channel",
                  "sim_channel", "edge_channel", "real_edge_channel", "sim_edge_channel", "edge_fit_order", "ifov_mrad",
                  "pixel_pitch_um", "focal_length_mm", "register", "register_method", "register_each", "max_delay",
-                 "pair_by")
+                 "pair_by", "unit", "temperature_tolerance")
 
 
 def _config(a: argparse.Namespace) -> ScoringConfig:
@@ -29,7 +30,11 @@ def _config(a: argparse.Namespace) -> ScoringConfig:
             options["weights"] = Weights.parse(a.weights)
         except FidelityError as exc:
             raise UsageError(f"--weights: {exc}") from None
-    return ScoringConfig.resolve(a.config, **options)
+    config = ScoringConfig.resolve(a.config, **options)
+    calibration = dict(a.calibration or {})
+    calibration.update({field: getattr(a, dest) for dest, (field, _, _) in CALIBRATION_FLAGS.items()
+                        if getattr(a, dest) is not None})
+    return config.replace(calibration={**config.calibration, **calibration}) if calibration else config
 
 
 def _is_sequence(path: str) -> bool:

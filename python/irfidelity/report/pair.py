@@ -12,6 +12,7 @@ from ..maps import SSIMMap, ms_ssim, ssim_map
 from ..stats import _as_frame, pair_stats
 from . import figures, sections
 from .noise import noise as noise_section
+from .temperature import temperatures
 from .html import Missing, Raw, colour_bar, image, missing, page, panels, paragraph, section
 
 __all__ = ["render_pair_html"]
@@ -165,7 +166,8 @@ def _data_range(d: Mapping, real: np.ndarray, sim: np.ndarray, peak: float | Non
 def _frame_sections(d, frames, ssim, joint, peak) -> list[Raw]:
     real, sim, mask = frames
     hist = _joint_histogram(d, real, sim, mask, joint)
-    return [_frames_section(real, sim, hist), _difference_section(real, sim, mask),
+    in_unit = [temperatures(d, real, sim, mask)] if sections.mapping(d, "config").get("unit") else []
+    return [_frames_section(real, sim, hist), *in_unit, _difference_section(real, sim, mask),
             _ssim_section(d, real, sim, ssim, peak), _joint_section(hist)]
 
 

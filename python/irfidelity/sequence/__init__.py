@@ -26,6 +26,7 @@ from ..config import ScoringConfig
 from ..errors import FidelityError
 from ..frames import FrameSequence
 from ..results import recorded_warnings
+from ..temperature import scoring_config, temperature_sequence
 from .delay import find_delay
 from .pairing import Pairing, pair_frames, pair_with_delay
 from .plan import make_plan
@@ -110,14 +111,14 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     >>> len(rep.frames), rep.failed, round(rep.metrics["psnr_db"], 2), rep.metrics["psnr_peak"]
     (3, [], 35.99, 63.0)
     """
-    cfg = ScoringConfig.resolve(config, **options)
+    cfg = scoring_config(ScoringConfig.resolve(config, **options))
     if resume and csv is None:
         raise FidelityError("resuming needs the CSV of the interrupted run", option="csv")
     run = RunOptions(workers=_positive("workers", workers, allow_none=True), progress=progress, client=client,
                      csv=None if csv is None else os.fspath(csv), resume=bool(resume),
                      chunk_size=_positive("chunk_size", chunk_size), max_pixels=max_pixels, max_bytes=max_bytes)
-    real_seq = as_sequence(real, "real", cfg.real_channel, max_pixels, max_bytes)
-    sim_seq = as_sequence(sim, "sim", cfg.sim_channel, max_pixels, max_bytes)
+    real_seq = temperature_sequence(as_sequence(real, "real", cfg.real_channel, max_pixels, max_bytes), "real", cfg)
+    sim_seq = temperature_sequence(as_sequence(sim, "sim", cfg.sim_channel, max_pixels, max_bytes), "sim", cfg)
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError("empty sequences: nothing to score")
     pairing = _pairing(real_seq, sim_seq, cfg)

@@ -32,6 +32,7 @@ from ..errors import FidelityError, ShapeError
 from ..frames import FrameSequence
 from ..registration import RegistrationWarning, from_engine
 from ..stats import KernelRequest, PairStats, pair_stats
+from ..temperature import TemperatureErrors, tolerance_for
 from .fingerprint import array_fingerprint, file_fingerprint
 from .outcomes import Outcome
 from .plan import SequencePlan
@@ -165,12 +166,15 @@ class ArrayLoop:
                 hist_range = self.plan.hist_range if self.plan.hist_range is not None else hist_range
             st = pair_stats(scored_real, scored_sim, bits=bits, peak=numeric_peak, bins=cfg.bins, hist_range=hist_range,
                             mask=mask, need=self.plan.image, nonfinite=cfg.nonfinite)
+            tolerance = tolerance_for(cfg, self.plan.camera_metrics)
+            temperature = None if cfg.unit is None else TemperatureErrors.of_frames(
+                scored_real, scored_sim, mask=mask, unit=cfg.unit, tolerance=tolerance)
         except FidelityError as exc:
             return Outcome(index, None, str(exc))
         extent = _extent(scored_real if mask is None else scored_real[mask]) if cfg.peak == "range" else None
         inputs = {"real": array_fingerprint(real), "sim": array_fingerprint(sim)} if self.fingerprint else None
         return Outcome(index, st, None, real.shape, real.dtype.name, extent,
-                       registration if cfg.register_each else None, inputs)
+                       registration if cfg.register_each else None, inputs, temperature)
 
     def _registration(self, real: np.ndarray, sim: np.ndarray) -> Any:
         """The plan's registration, or with ``register_each`` the pair's own (its confidence
@@ -194,8 +198,10 @@ def choose_backend(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, 
     files = engine_reads(real, sim)
     if client is not None:
         if not files:
-            raise FidelityError("a Dask client needs file sources (EXR/PNG/TIFF paths) for both sequences; "
-                                "arrays and .npy files are scored locally", option="client")
+            local = ("frames scored in a unit (config.unit) are converted and scored locally" if plan.config.unit
+                     else "arrays and .npy files are scored locally")
+            raise FidelityError(f"a Dask client needs file sources (EXR/PNG/TIFF paths) for both sequences; {local}",
+                                option="client")
         return DaskBackend(real, sim, plan, decoding, client, chunk_size)
     if files:
         return RustEngine(real, sim, plan, decoding)

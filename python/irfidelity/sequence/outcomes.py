@@ -16,6 +16,7 @@ from ..errors import FidelityError
 from ..schema import registration_values
 from ..scoring import image_components, psnr_peak, score_components
 from ..stats import PairStats
+from ..temperature import TemperatureErrors, temperature_scores
 from .plan import SequencePlan
 
 __all__ = ["Outcome", "frame_entry", "error_entry"]
@@ -29,7 +30,8 @@ class Outcome:
     measured it (needed for ``peak="range"``); ``registration`` the pair's own
     :class:`~irfidelity.Registration` (``register_each``); ``inputs`` the fingerprints of
     what was scored, ``{"real": ..., "sim": ...}`` (:mod:`.fingerprint`), when asked for and
-    taken (a record is kept only with them).
+    taken (a record is kept only with them); ``temperature`` the pair's
+    :class:`~irfidelity.temperature.TemperatureErrors` when scored in a unit.
     """
 
     index: int
@@ -40,6 +42,7 @@ class Outcome:
     real_extent: tuple[float, float] | None = None
     registration: Any = None
     inputs: dict | None = None
+    temperature: TemperatureErrors | None = None
 
 
 def _blank(index: int, real: str | None, sim: str | None) -> dict:
@@ -84,6 +87,8 @@ def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str
     try:
         stats = outcome.stats.with_peak(_frame_peak(plan, outcome, str(real)))
         comps, metrics = image_components(stats, plan.image, plan.config)
+        if outcome.temperature is not None:
+            comps, metrics = _with_temperature(comps, metrics, outcome.temperature, plan)
         score = score_components(comps | plan.camera_components, metrics | plan.camera_metrics, plan.weights,
                                  plan.config)
     except FidelityError as exc:
@@ -92,6 +97,12 @@ def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str
     registration = outcome.registration if outcome.registration is not None else plan.registration
     entry["registration"] = None if registration is None else registration.to_dict()
     return entry, stats
+
+
+def _with_temperature(comps: dict, metrics: dict, errors: TemperatureErrors, plan: SequencePlan
+                      ) -> tuple[dict, dict]:
+    temperature_comps, temperature_metrics = temperature_scores(errors, plan.weights)
+    return comps | temperature_comps, metrics | temperature_metrics
 
 
 def flat_row(entry: dict, columns: list[str]) -> list[Any]:

@@ -136,7 +136,8 @@ class SequenceReport:
     @property
     def columns(self) -> list[str]:
         """The CSV columns (as in a single pair's CSV)."""
-        return csv_columns(self.weights.active(), registered=self.config.register is not None)
+        return csv_columns(self.weights.active(), registered=self.config.register is not None,
+                           temperature=self.config.unit is not None)
 
     def to_csv(self, path: str | os.PathLike) -> None:
         """Write one row per frame, in index order (the columns of ``csv=``)."""

@@ -111,7 +111,8 @@ def _record(outcome: Outcome, stats: PairStats | None) -> bytes | None:
         return None
     meta = {"inputs": outcome.inputs, "shape": list(outcome.shape), "dtype": outcome.dtype,
             "extent": None if outcome.real_extent is None else list(outcome.real_extent),
-            "registration": None if outcome.registration is None else outcome.registration.to_dict()}
+            "registration": None if outcome.registration is None else outcome.registration.to_dict(),
+            "temperature": None if outcome.temperature is None else outcome.temperature.to_dict()}
     return encode_record(outcome.index, meta, stats.to_bytes())
 
 
@@ -133,7 +134,8 @@ def _bounds(plan: SequencePlan, options: RunOptions) -> RecordBounds:
 def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: SequencePlan,
             options: RunOptions) -> SequenceReport:
     """Score every pair of ``pairing`` (the module notes of :mod:`irfidelity.sequence`)."""
-    columns = csv_columns(plan.weights.active(), registered=plan.config.register is not None)
+    columns = csv_columns(plan.weights.active(), registered=plan.config.register is not None,
+                          temperature=plan.config.unit is not None)
     real_names, sim_names = real.names, sim.names
     log = None
     if options.csv is not None:
