@@ -13,6 +13,7 @@ from dataclasses import dataclass, fields
 from typing import Any, Callable, Mapping
 
 from ..errors import FidelityError
+from ..keywords import options_from
 
 __all__ = ["RunOptions", "RUN_KEYWORDS", "split_options"]
 
@@ -91,12 +92,4 @@ def split_options(run: RunOptions | None, options: Mapping[str, Any]) -> tuple[R
     ``run`` is given twice: a FidelityError."""
     given = {k: v for k, v in options.items() if k in RUN_KEYWORDS}
     rest = {k: v for k, v in options.items() if k not in RUN_KEYWORDS}
-    if run is None:
-        return RunOptions(**given), rest
-    if not isinstance(run, RunOptions):
-        raise FidelityError(f"run must be a RunOptions, got {type(run).__name__}", option="run")
-    if given:
-        names = ", ".join(given)
-        raise FidelityError(f"{names} given twice: as a keyword and in run=; give each run option in one place",
-                            option=next(iter(given)))
-    return run, rest
+    return options_from(RunOptions, run, given, "run"), rest
