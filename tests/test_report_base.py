@@ -95,6 +95,8 @@ def test_frame_entries_read_back_keep_unknown_keys():
     assert all(isinstance(f, FrameEntry) for f in back.frames)
     assert back.frames[1]["camera_temperature"] == 31.5 and back.frames[1].extra == {"camera_temperature": 31.5}
     assert back.to_dict() == data
+    made = irf.SequenceReport(weights=seq.weights, frames=[dict(f) for f in seq.frames])  # rows given as dicts
+    assert all(isinstance(f, FrameEntry) for f in made.frames) and made.frames == seq.frames
 
 
 # --------------------------------------------------------------------------- pickling

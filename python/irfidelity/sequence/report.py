@@ -101,6 +101,9 @@ class SequenceReport(ReportBase):
     run: dict = field(default_factory=dict)
     delay: dict | None = None
 
+    def __post_init__(self) -> None:
+        self.frames = [f if isinstance(f, FrameEntry) else FrameEntry.from_mapping(f) for f in self.frames]
+
     def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10) -> str:
         """A self-contained HTML report (figures embedded, no network): the pooled verdict, the
         components over time with failed frames marked, the spread of per-frame fidelity, the
@@ -132,11 +135,11 @@ class SequenceReport(ReportBase):
     def _own_dict(self) -> dict:
         return {"failed": self.failed, "unpaired": self.unpaired, "frame_stats": self.frame_stats,
                 "pooling": self.pooling, "run": self.run, "delay": self.delay,
-                "frames": [f.to_dict() for f in self.frames]}
+                "frames": [dict(f) for f in self.frames]}
 
     @classmethod
     def _own_fields(cls, fields: Fields) -> dict[str, Any]:
-        own = {"frames": [FrameEntry.from_mapping(f) for f in fields.require("frames", readback.list_of(readback.frame))],
+        own = {"frames": fields.require("frames", readback.list_of(readback.frame)),
                "fidelity": fields.get("fidelity", readback.optional(readback.fraction)),
                "grade": fields.get("grade", readback.optional(readback.text)),
                "failed": fields.get("failed", readback.list_of(readback.count), []),
