@@ -101,6 +101,7 @@ def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: 
 
 
 class DaskBackend(RustEngine):
+    """The Rust engine on the workers of ``options.client``, ``options.chunk_size`` pairs a task."""
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
         try:
@@ -115,8 +116,8 @@ class DaskBackend(RustEngine):
             real = [self.real[r] for _, r, _ in chunk]
             sim = [self.sim[s] for _, _, s in chunk]
             future = self.options.client.submit(score_chunk, [p for p, _ in real], [p for p, _ in sim],
-                                        [g for _, g in real], [g for _, g in sim], request, workers,
-                                        self.fingerprint, pure=False)
+                                                [g for _, g in real], [g for _, g in sim], request, workers,
+                                                self.fingerprint, pure=False)
             futures[future] = chunk
         try:
             for future in as_completed(list(futures)):
