@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
-from typing import Any, Callable
+from typing import Callable
 
 from .. import _core
 from ..errors import FidelityError
