@@ -193,5 +193,5 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
                           weights=weights, metrics=score.metrics,
                           component_grades=dict(score.grading.component_grades),
                           membership=dict(score.grading.membership), skipped=skipped, config=cfg,
-                          grading=score.grading.to_dict(), notes=notes, inputs=inputs, sources=sources,
+                          matrix=score.grading.matrix, notes=notes, inputs=inputs, sources=sources,
                           registration=None if registration is None else registration.to_dict())

@@ -13,15 +13,16 @@ as pairs finish, in any order.
 * :class:`ArrayLoop` — arrays and ``.npy`` files: a Python loop over
   :func:`irfidelity.pair_stats` (each call itself parallel in Rust).
 
-With ``Decoding.fingerprint`` (a run that keeps a log), every outcome carries the
-fingerprints of what was scored (:mod:`.fingerprint`), taken by the backend as it reads.
+Each takes the run's :class:`~irfidelity.sequence.options.RunOptions` (threads, decoding
+limits, the Dask client and chunk size). With ``fingerprint`` (a run that keeps a log), every
+outcome carries the fingerprints of what was scored (:mod:`.fingerprint`), taken by the
+backend as it reads.
 """
 
 from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
@@ -34,6 +35,7 @@ from ..registration import RegistrationWarning, from_engine
 from ..stats import KernelRequest, PairStats, pair_stats
 from ..temperature import TemperatureErrors, tolerance_for
 from .fingerprint import array_fingerprint, file_fingerprint
+from .options import RunOptions
 from .outcomes import Outcome
 from .plan import SequencePlan
 
@@ -47,16 +49,6 @@ class Backend(Protocol):
     def run(self, todo: Todo, deliver: Deliver) -> None: ...
 
 
-@dataclass(frozen=True)
-class Decoding:
-    """How frame files are decoded (limits do not change a score, only what is refused)."""
-
-    workers: int | None = None
-    max_pixels: int | None = None
-    max_bytes: int | None = None
-    fingerprint: bool = False  # fingerprint what is scored, for a resumable log
-
-
 def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
     """(path, page) of every frame when the Rust engine can decode them all, else None."""
     if not seq.is_files:
@@ -68,9 +60,10 @@ def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
 
 
 class RustEngine:
-    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, decoding: Decoding):
+    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, options: RunOptions,
+                 fingerprint: bool = False):
         self.real, self.sim = _file_sources(real), _file_sources(sim)
-        self.plan, self.decoding = plan, decoding
+        self.plan, self.options, self.fingerprint = plan, options, fingerprint
 
     def _outcomes(self, todo: Todo, rows: list) -> list[Outcome]:
         """Outcomes from the engine's ``(k, stats, error, shape, dtype, real extent,
@@ -88,13 +81,13 @@ class RustEngine:
         return out
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
-        request = self.plan.kernel_request(self.decoding.max_pixels, self.decoding.max_bytes)
+        request = self.plan.kernel_request(self.options.max_pixels, self.options.max_bytes)
         real = [self.real[r] for _, r, _ in todo]
         sim = [self.sim[s] for _, _, s in todo]
         _core.score_pairs([p for p, _ in real], [p for p, _ in sim], [g for _, g in real], [g for _, g in sim],
-                          request=request, workers=int(self.decoding.workers or 0),
+                          request=request, workers=int(self.options.workers or 0),
                           on_result=lambda rows: deliver(self._outcomes(todo, rows)),
-                          fingerprints=self.decoding.fingerprint)
+                          fingerprints=self.fingerprint)
 
 
 def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: list, request: KernelRequest,
@@ -109,26 +102,23 @@ def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: 
 
 
 class DaskBackend(RustEngine):
-    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, decoding: Decoding,
-                 client: Any, chunk_size: int):
-        super().__init__(real, sim, plan, decoding)
-        self.client, self.chunk_size = client, chunk_size
+    """The Rust engine on the workers of ``options.client``, ``options.chunk_size`` pairs a task."""
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
         try:
             from distributed import as_completed
         except ImportError as exc:  # only without the dask extra
             raise FidelityError("a Dask client needs dask.distributed (pip install 'irfidelity[dask]')") from exc
-        request = self.plan.kernel_request(self.decoding.max_pixels, self.decoding.max_bytes)
-        workers = int(self.decoding.workers or 1)
+        request = self.plan.kernel_request(self.options.max_pixels, self.options.max_bytes)
+        workers, chunk_size = int(self.options.workers or 1), self.options.chunk_size
         futures = {}
-        for start in range(0, len(todo), self.chunk_size):
-            chunk = todo[start:start + self.chunk_size]
+        for start in range(0, len(todo), chunk_size):
+            chunk = todo[start:start + chunk_size]
             real = [self.real[r] for _, r, _ in chunk]
             sim = [self.sim[s] for _, _, s in chunk]
-            future = self.client.submit(score_chunk, [p for p, _ in real], [p for p, _ in sim],
-                                        [g for _, g in real], [g for _, g in sim], request, workers,
-                                        self.decoding.fingerprint, pure=False)
+            future = self.options.client.submit(score_chunk, [p for p, _ in real], [p for p, _ in sim],
+                                                [g for _, g in real], [g for _, g in sim], request, workers,
+                                                self.fingerprint, pure=False)
             futures[future] = chunk
         try:
             for future in as_completed(list(futures)):
@@ -139,7 +129,7 @@ class DaskBackend(RustEngine):
                                                for k, data, *rest in rows]))
         finally:
             if futures:
-                self.client.cancel(list(futures))
+                self.options.client.cancel(list(futures))
 
 
 def _extent(frame: np.ndarray) -> tuple[float, float] | None:
@@ -192,20 +182,20 @@ class ArrayLoop:
             deliver([self._one(index, r, s)])
 
 
-def choose_backend(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, decoding: Decoding,
-                   client: Any, chunk_size: int) -> Backend:
+def choose_backend(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, options: RunOptions,
+                   fingerprint: bool = False) -> Backend:
     """The Rust engine for files it decodes, Dask when a client is given, else the array loop."""
     files = engine_reads(real, sim)
-    if client is not None:
+    if options.client is not None:
         if not files:
             local = ("frames scored in a unit (config.unit) are converted and scored locally" if plan.config.unit
                      else "arrays and .npy files are scored locally")
             raise FidelityError(f"a Dask client needs file sources (EXR/PNG/TIFF paths) for both sequences; {local}",
                                 option="client")
-        return DaskBackend(real, sim, plan, decoding, client, chunk_size)
+        return DaskBackend(real, sim, plan, options, fingerprint)
     if files:
-        return RustEngine(real, sim, plan, decoding)
-    return ArrayLoop(real, sim, plan, decoding.fingerprint)
+        return RustEngine(real, sim, plan, options, fingerprint)
+    return ArrayLoop(real, sim, plan, fingerprint)
 
 
 def engine_reads(real: FrameSequence, sim: FrameSequence) -> bool:
