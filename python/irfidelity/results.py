@@ -70,6 +70,8 @@ _RAW = {
     "nmi": lambda m: f"MI {m['mi']:.4f}, H(R) {m['h_real']:.4f}, H(S) {m['h_sim']:.4f}, H(R,S) {m['h_joint']:.4f}",
     "noise": lambda m: f"σ_tvh real {m['noise_sigma_tvh_real']:.4g}, sim {m['noise_sigma_tvh_sim']:.4g}; "
                        f"mu {m['noise_mu']:.4f}, rho {m['noise_rho']:.4f}",
+    "mrtd": lambda m: f"MRTD real {m['mrtd_real']:.4g} K, sim {m['mrtd_sim']:.4g} K (×{m['mrtd_ratio']:.3g}); "
+                      f"mu {m['mrtd_mu']:.4f}, rho {m['mrtd_rho']:.4f}",
     "ssim": lambda m: f"SSIM {m['ssim']:.4f} = l {m['ssim_luminance']:.4f} · c {m['ssim_contrast']:.4f} · "
                       f"s {m['ssim_structure']:.4f}",
 }

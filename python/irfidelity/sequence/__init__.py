@@ -61,7 +61,7 @@ def _pairing(real: FrameSequence, sim: FrameSequence, cfg: ScoringConfig) -> Pai
 
 def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
                    sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-                   config: ScoringConfig | None = None, workers: int | None = None,
+                   real_mrtd: Any = None, sim_mrtd: Any = None, config: ScoringConfig | None = None, workers: int | None = None,
                    progress: bool | Callable[[int, int], Any] = True, client: Any = None,
                    csv: str | os.PathLike | None = None, resume: bool = False, chunk_size: int = 16,
                    max_pixels: int | None = None, max_bytes: int | None = None, **options: Any) -> SequenceReport:
@@ -73,8 +73,8 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         arrays, or :class:`~irfidelity.FrameSequence`
         Frames are paired by file name when both are files (``pair_by``; a frame without a
         partner is reported as a failed frame, never dropped), else by position.
-    real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise :
-        The camera curves and noise recordings, as in :func:`irfidelity.evaluate`: compared
+    real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd :
+        The camera curves, noise recordings and MRTD inputs, as in :func:`irfidelity.evaluate`: compared
         once, before any frame; their components enter every frame's and the pooled fidelity.
     config : ScoringConfig, mapping or TOML/JSON path, optional
         What decides the score; ``**options`` (any ScoringConfig field) override it.
@@ -121,5 +121,6 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError("empty sequences: nothing to score")
     pairing = _pairing(real_seq, sim_seq, cfg)
-    plan = make_plan(real_seq, sim_seq, pairing, CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise), cfg)
+    camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
+    plan = make_plan(real_seq, sim_seq, pairing, camera, cfg)
     return execute(real_seq, sim_seq, pairing, plan, run)
