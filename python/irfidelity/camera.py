@@ -108,7 +108,8 @@ def _bar_mtf(x: Any, what: str, config: ScoringConfig, edge_side: str) -> Curve 
     if bars is None:
         return None
     channel = config.real_channel if edge_side == "real" else config.sim_channel
-    return bar_curves(bars, who=what, channel=channel, camera=_camera(config), quantities=("mtf",))["mtf"]
+    who = "real" if edge_side == "real" else "simulated"
+    return bar_curves(bars, who=who, channel=channel, camera=_camera(config), quantities=("mtf",))["mtf"]
 
 
 def as_curve(x: Any, what: str, config: ScoringConfig, *, edge_side: str | None) -> Curve:

@@ -68,6 +68,9 @@ def _images(a: argparse.Namespace) -> list[tuple[str, float | None, object]]:
                          f"0.05,0.1,0.2")
     out = []
     for f in _numbers(a.frequency, "frequency"):
+        if not 0 < f < 0.5:
+            raise UsageError(f"--frequency {f:g}: expected a bar frequency in (0, 0.5) cycles/pixel; at or above "
+                             f"the Nyquist frequency 0.5 the written image would alias the bars")
         frame = targets.bar_target(f, shape, bars=KINDS[a.kind], orientation=a.orientation, phase=a.phase,
                                    levels=levels, otf=otf)
         out.append((f"{a.kind.replace('-', '_')}_{f:g}{ext}", f, frame))
