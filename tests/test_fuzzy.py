@@ -26,7 +26,7 @@ class TestWeights:
     def test_default_is_paper(self):
         w = Weights()
         assert w == Weights.balanced()
-        assert w.as_dict() == {**{k: 0.2 for k in PAPER_COMPONENTS}, "noise": 0.0}
+        assert w.as_dict() == {**{k: 0.2 for k in PAPER_COMPONENTS}, "noise": 0.0, "mrtd": 0.0}
         assert w.active() == PAPER_COMPONENTS
 
     def test_presets_valid_and_emphasised(self):
