@@ -119,6 +119,18 @@ def test_the_component_is_opt_in_and_skipped_without_inputs(cameras):
         irf.evaluate(real_mrtd=cameras["low"], weights="mrtd=1")
 
 
+def test_a_sequence_compares_the_mrtd_once_for_every_frame(tmp_path):
+    ramp = np.arange(64, dtype=np.uint16).reshape(8, 8)
+    frames = np.stack([ramp, ramp.T, ramp[::-1]])
+    rep = irf.score_sequence(frames, frames, peak="range", weights="psnr=0.5,mrtd=0.5", progress=False,
+                             real_mrtd=model_mrtd(0.04), sim_mrtd=model_mrtd(0.08))
+    assert rep.components["mrtd"] == pytest.approx(0.8, abs=1e-12)
+    assert [f["components"]["mrtd"] for f in rep.to_dict()["frames"]] == [rep.components["mrtd"]] * 3
+    rep.to_csv(tmp_path / "s.csv")
+    header = (tmp_path / "s.csv").read_text().splitlines()[0].split(",")
+    assert "f_mrtd" in header and "mrtd_ratio" in header
+
+
 def test_mrtd_inputs_from_curves_and_csv(tmp_path):
     real, sim = model_mrtd(0.04), model_mrtd(0.08)
     path = tmp_path / "sim_mrtd.csv"

@@ -16,6 +16,7 @@ EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES = 0, 2, 3
 
 #: Options whose command-line name is not ``--`` + the option name with dashes.
 _FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "sim_mtf": "--sim-mtf/--sim-edge",
+          "real_mrtd": "--real-bars", "sim_mrtd": "--sim-bars",
           "psnr_anchors": "--config", "ssim_exponents": "--config", "grades": "--config",
           "mtf_options": "--config", "sitf_options": "--config", "mrtd_options": "--config", "register": "--register", "client": "--workers",
           "chunk_size": "--workers"}
