@@ -8,7 +8,9 @@ import json
 import os
 
 import numpy as np
+import png
 import pytest
+import tifffile
 
 import irfidelity as irf
 from irfidelity.bar_frames import BarFrames, bar_curves
@@ -247,6 +249,10 @@ def test_cli_targets_writes_the_rendered_images(tmp_path, capsys):
     assert main(["targets", str(out), "--kind", "three-bar", "--frequency", "0.1", "--format", "tiff"]) == 0
     tif = irf.load_frame(str(out / "three_bar_0.1.tif"))
     np.testing.assert_allclose(tif, irf.targets.three_bar(0.1, (128, 128)).astype(np.float32), atol=0)
+    # peers read both files the same
+    np.testing.assert_array_equal(tifffile.imread(out / "three_bar_0.1.tif"), tif)
+    width, height, rows, info = png.Reader(filename=str(out / "four_bar_0.1.png")).read()
+    assert info["bitdepth"] == 16 and np.array_equal(np.array(list(rows), dtype=np.uint16), got)
     assert main(["targets", str(out), "--kind", "edge", "--format", "npy", "--angle", "4"]) == 0
     np.testing.assert_array_equal(np.load(out / "edge.npy"), slanted_edge((128, 128), angle=4.0))
     capsys.readouterr()
