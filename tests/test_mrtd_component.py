@@ -270,3 +270,15 @@ def test_cli_targets_mistakes_are_one_line(tmp_path, capsys, args, needle):
     code = main(["targets", str(tmp_path / "t"), *args])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and needle in err[0], err
+
+
+def test_mrtd_options_are_checked_and_saved(tmp_path):
+    cfg = irf.ScoringConfig(mrtd_options={"tolerance": 10, "frame_rate": 30}, weights="psnr=0.8,mrtd=0.2")
+    cfg.save(tmp_path / "c.toml")
+    assert irf.ScoringConfig.load(tmp_path / "c.toml") == cfg
+    with pytest.raises(FidelityError, match="unknown option.*'tolerence'.*tolerance"):
+        irf.ScoringConfig(mrtd_options={"tolerence": 10})
+    with pytest.raises(FidelityError, match="mrtd_options.frame_rate: expected a finite number > 0"):
+        irf.ScoringConfig(mrtd_options={"frame_rate": -1})
+    with pytest.raises(FidelityError, match="mrtd_options.tolerance"):
+        irf.ScoringConfig(mrtd_options={"tolerance": float("nan")})
