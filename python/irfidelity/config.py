@@ -91,6 +91,12 @@ class ScoringConfig:
         e.g. ``{"points": 64}``. Names and values are checked when the configuration is built;
         ``points`` is a count or a list of at most
         :data:`~irfidelity.curves.similarity.MAX_FEATURE_POINTS` (65536).
+    mrtd_options : mapping
+        Options of the ``mrtd`` component: the comparison
+        (:func:`irfidelity.curves.mrtd_similarity`: ``tolerance`` in % of ΔT, ``points``,
+        ``alpha``, ``beta``) and the MRTD measured on bar frames
+        (:func:`irfidelity.curves.measured_mrtd`: ``snr_threshold``, ``eye_time``,
+        ``frame_rate``), e.g. ``{"tolerance": 10}``.
     grades : GradeScale
         Grade names and boundaries of the fuzzy evaluation.
     register : "translation", "rigid", "similarity" or None
@@ -131,7 +137,7 @@ class ScoringConfig:
     >>> import irfidelity as irf
     >>> cfg = irf.ScoringConfig(bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
     >>> print(cfg.weights)
-    mtf=0, sitf=0, psnr=0.5, nmi=0, ssim=0.5, noise=0, radiometry=0
+    mtf=0, sitf=0, psnr=0.5, nmi=0, ssim=0.5, noise=0, radiometry=0, mrtd=0
     >>> cfg.replace(bins="levels").bins, cfg.bins                 # frozen: replace makes a copy
     ('levels', 256)
     >>> cfg.save("scoring.toml")
@@ -159,6 +165,7 @@ class ScoringConfig:
     focal_length_mm: float | None = None
     mtf_options: Mapping = field(default_factory=dict)
     sitf_options: Mapping = field(default_factory=dict)
+    mrtd_options: Mapping = field(default_factory=dict)
     grades: GradeScale = field(default_factory=GradeScale)
     register: str | None = None
     register_method: str = DEFAULT_METHOD
@@ -200,7 +207,7 @@ class ScoringConfig:
         out["edge_fit_order"] = optional_int("edge_fit_order", self.edge_fit_order, 1, 5)
         for name in ("ifov_mrad", "pixel_pitch_um", "focal_length_mm"):
             out[name] = optional_positive(name, getattr(self, name))
-        for name in ("mtf_options", "sitf_options"):
+        for name in ("mtf_options", "sitf_options", "mrtd_options"):
             out[name] = curve_options(name, getattr(self, name))
         if not isinstance(self.grades, GradeScale):
             out["grades"] = grade_scale(self.grades)
@@ -311,8 +318,8 @@ class ScoringConfig:
     def to_toml(self) -> str:
         """The configuration as TOML. TOML has no null: a field that is None is written as a
         commented-out example. Keys that are not bare TOML keys are quoted."""
-        return toml_document(self.to_dict(), ("weights", "mtf_options", "sitf_options", "grades", "calibration"),
-                             _UNSET_EXAMPLES,
+        tables = ("weights", "mtf_options", "sitf_options", "mrtd_options", "grades", "calibration")
+        return toml_document(self.to_dict(), tables, _UNSET_EXAMPLES,
                              "irfidelity scoring configuration (irfidelity score --config FILE)")
 
 

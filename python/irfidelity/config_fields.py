@@ -141,6 +141,13 @@ def _exponent(name: str, value: Any) -> float:
     return number
 
 
+def _positive(name: str, value: Any) -> float:
+    number = _real(value)
+    if number is None or not number > 0:
+        raise ConfigError(name, f"expected a finite number > 0; got {_short(value)}")
+    return number
+
+
 def _fraction(name: str, value: Any) -> float:
     number = _real(value)
     if number is None or not 0 <= number <= 1:
@@ -183,6 +190,8 @@ CURVE_OPTIONS: dict[str, dict[str, Any]] = {
     "sitf_options": {"window": _sitf_window, "lo_frac": _fraction, "hi_frac": _fraction,
                      "method": lambda name, value: choice(name, value, ("band", "logistic")),
                      "points": _points, "alpha": _exponent, "beta": _exponent},
+    "mrtd_options": {"tolerance": _exponent, "points": _points, "alpha": _exponent, "beta": _exponent,
+                     "snr_threshold": _positive, "eye_time": _positive, "frame_rate": _positive},
 }
 
 

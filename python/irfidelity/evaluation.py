@@ -105,7 +105,7 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
 
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
              real_sitf: Any = None, sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-             mask: Any = None, config: ScoringConfig | None = None, **options: Any) -> FidelityReport:
+             real_mrtd: Any = None, sim_mrtd: Any = None, mask: Any = None, config: ScoringConfig | None = None, **options: Any) -> FidelityReport:
     """Fidelity of a simulator on one scene (paper eq. 15) with its five components.
 
     Parameters
@@ -114,15 +114,23 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         The real and simulated frame (paths are loaded with :func:`irfidelity.load_frame`;
         a multi-page TIFF is a sequence: use :func:`irfidelity.score_sequence`). Needed by
         psnr, nmi, ssim.
-    real_mtf, sim_mtf : Curve, (x, y), CSV path, or edge image (2-D array or image path)
+    real_mtf, sim_mtf : Curve, (x, y), CSV path, edge image (2-D array or image path), or bar frames
         MTF curves of both cameras; an edge image goes through
-        :func:`irfidelity.curves.mtf_from_edge`. Component f1.
+        :func:`irfidelity.curves.mtf_from_edge`; bar frames (:class:`~irfidelity.BarFrames` or a
+        directory with a ``bars.csv``) give their fundamental-amplitude MTF, and a CTF curve of
+        :func:`irfidelity.curves.ctf_curve` is converted by Coltman's series. Component f1.
     real_sitf, sim_sitf : Curve, (x, y) or CSV path
         SiTF curves. Component f2.
     real_noise, sim_noise : Noise3D, or a recording of a uniform source (3-D array, directory,
         glob, multi-page TIFF), optional
         The opt-in ``noise`` component (weight 0 by default: give it a weight, e.g.
         ``weights="psnr=0.3,nmi=0.2,ssim=0.3,noise=0.2"``); :func:`irfidelity.noise.noise3d`.
+    real_mrtd, sim_mrtd : Curve, (x, y), CSV path, or bar frames, optional
+        The opt-in ``mrtd`` component (weight 0 by default): MRTD curves (e.g. the model
+        :func:`irfidelity.curves.mrtd` from MTF and NETD), or bar frames
+        (:class:`~irfidelity.BarFrames` or a directory with a ``bars.csv``) whose MRTD is
+        measured (:func:`irfidelity.curves.measured_mrtd`); compared by
+        :func:`irfidelity.curves.mrtd_similarity` (docs/bars.md).
     mask : 2-D bool array, optional
         ``False`` excludes a pixel pair from the image components.
     config : ScoringConfig, mapping or TOML/JSON path, optional
@@ -167,11 +175,12 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     if (real is None) != (sim is None):
         given, absent = ("real", "sim") if sim is None else ("sim", "real")
         raise FidelityError(f"{given} was given without {absent}: give both frames or neither", option=absent)
-    camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise)
+    camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
     given = camera.given()
     weights, image_plan, skipped = plan_components(cfg.weights, cfg.missing, have_images=real is not None,
                                                    have_mtf=given["mtf"], have_sitf=given["sitf"],
-                                                   have_noise=given["noise"], have_unit=cfg.unit is not None)
+                                                   have_noise=given["noise"], have_unit=cfg.unit is not None,
+                                                   have_mrtd=given["mrtd"])
     in_unit = cfg.unit is not None and real is not None
     with recorded_warnings() as notes:
         components, metrics, inputs, compared = camera_components(camera, weights, cfg)

@@ -73,6 +73,8 @@ _RAW = {
                        f"mu {m['noise_mu']:.4f}, rho {m['noise_rho']:.4f}",
     "radiometry": lambda m: f"bias {m['temperature_bias']:+.4g} K, RMSE {m['temperature_rmse']:.4g} K "
                             f"against the tolerance {m['temperature_tolerance']:.4g} K",
+    "mrtd": lambda m: f"MRTD real {m['mrtd_real']:.4g} K, sim {m['mrtd_sim']:.4g} K (×{m['mrtd_ratio']:.3g}); "
+                      f"mu {m['mrtd_mu']:.4f}, rho {m['mrtd_rho']:.4f}",
     "ssim": lambda m: f"SSIM {m['ssim']:.4f} = l {m['ssim_luminance']:.4f} · c {m['ssim_contrast']:.4f} · "
                       f"s {m['ssim_structure']:.4f}",
 }

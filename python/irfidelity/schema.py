@@ -94,6 +94,18 @@ METRICS["radiometry"] = (
     ("temperature_within", "1", "fraction of pixel pairs with abs(S − R) ≤ temperature_tolerance"),
     ("temperature_tolerance", "K", "the tolerance: config.temperature_tolerance, the real camera's NETD, or 1 K"),
 )
+METRICS["mrtd"] = (
+    ("mrtd_real", "K", "geometric-mean MRTD of the real camera over the common frequencies (eq. 4's a)"),
+    ("mrtd_sim", "K", "geometric-mean MRTD of the simulated camera over the common frequencies (eq. 4's b)"),
+    ("mrtd_ratio", "1", "mrtd_sim / mrtd_real"),
+    ("mrtd_mu", "1", "mu of the MRTD levels beyond the tolerance (eq. 4 on log ΔT)"),
+    ("mrtd_rho", "1", "Pearson correlation of the log MRTD curves (eq. 2)"),
+    ("mrtd_max_deviation", "%", "largest |MRTD_sim / MRTD_real − 1| at the feature points"),
+    ("mrtd_tolerance", "%", "MRTD level difference forgiven (mrtd_options.tolerance)"),
+    ("mrtd_f_min", "curve x unit", "lowest frequency compared (both curves cover it)"),
+    ("mrtd_f_max", "curve x unit", "highest frequency compared"),
+    ("mrtd_f_unit", "", "the unit of the frequencies (cy/px, cy/mrad, lp/mm; empty when unknown)"),
+)
 
 #: Per-frame columns before the metrics: (key, unit, meaning).
 FRAME_COLUMNS: tuple[tuple[str, str, str], ...] = (

@@ -1,4 +1,5 @@
-"""The command line's arguments: ``irfidelity score``, ``irfidelity demo``, ``irfidelity config``."""
+"""The command line's arguments: ``irfidelity score``, ``irfidelity demo``, ``irfidelity config``,
+``irfidelity targets``."""
 
 from __future__ import annotations
 
@@ -15,9 +16,10 @@ EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES = 0, 2, 3
 
 #: Options whose command-line name is not ``--`` + the option name with dashes.
 _FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "sim_mtf": "--sim-mtf/--sim-edge",
+          "real_mrtd": "--real-bars", "sim_mrtd": "--sim-bars",
           "psnr_anchors": "--config", "ssim_exponents": "--config", "grades": "--config",
-          "mtf_options": "--config", "sitf_options": "--config", "register": "--register", "client": "--workers",
-          "chunk_size": "--workers", "relative_humidity": "--humidity"}
+          "mtf_options": "--config", "sitf_options": "--config", "mrtd_options": "--config", "register": "--register",
+          "client": "--workers", "chunk_size": "--workers", "relative_humidity": "--humidity"}
 
 #: Flags that override one calibration field (``ScoringConfig.calibration``): flag dest -> (field,
 #: metavar, help).
@@ -200,6 +202,10 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
     n.add_argument("--real-noise", metavar="DIR|TIF", help="frames of a uniform source (blackbody) from the real "
                                                           "camera: a directory, glob or multi-page TIFF")
     n.add_argument("--sim-noise", metavar="DIR|TIF", help="the same from the simulator")
+    b = s.add_argument_group("bar targets (the opt-in 'mrtd' component: give it a weight in --weights)")
+    b.add_argument("--real-bars", metavar="DIR", help="frames of bar targets from the real camera, listed with their "
+                                                     "frequency and ΔT in DIR/bars.csv (docs/bars.md)")
+    b.add_argument("--sim-bars", metavar="DIR", help="the same from the simulator")
     r = s.add_argument_group("registration and sequences")
     r.add_argument("--register", choices=REGISTRATION_MODELS, metavar="MODEL",
                    help="align the simulated frame to the real one first and score the overlap: translation, "
@@ -247,4 +253,29 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Print the default scoring configuration as TOML, or write it to PATH: a "
                                    "starting point for 'irfidelity score --config PATH'.")
     c.add_argument("path", nargs="?", metavar="PATH", help="write here instead of printing (.toml or .json)")
+    _add_targets(sub)
     return p
+
+
+def _add_targets(sub: argparse._SubParsersAction) -> None:
+    from ..image_writers import FORMATS
+    from .targets import KINDS
+
+    t = sub.add_parser(
+        "targets", help="write bar-target or slanted-edge images",
+        description="Write ideal four-bar or three-bar targets (7:1 bars; one image per frequency, listed in "
+                    "OUT/bars.csv) or a slanted edge, as a simulator or a collimator is fed: exact pixel area "
+                    "averages, optionally through a Gaussian blur.")
+    t.add_argument("out", metavar="OUT", help="directory to write into (created when missing)")
+    t.add_argument("--kind", choices=tuple(KINDS), default="four-bar", help="four-bar (default), three-bar or edge")
+    t.add_argument("--frequency", metavar="F[,F...]", help="bar frequencies, cycles/pixel (one image each)")
+    t.add_argument("--size", metavar="ROWS,COLS", default="128,128", help="image size (default 128,128)")
+    t.add_argument("--orientation", choices=("vertical", "horizontal"), default="vertical",
+                   help="vertical bars or edge (intensity changes along a row; default) or horizontal")
+    t.add_argument("--phase", type=float, default=0.0, metavar="PX", help="shift across the bars, pixels")
+    t.add_argument("--angle", type=float, default=5.0, metavar="DEG", help="tilt of the slanted edge (default 5)")
+    t.add_argument("--levels", metavar="BACKGROUND,BAR", help="background and bar levels (default 16384,49152 "
+                                                              "for PNG, 0,1 otherwise)")
+    t.add_argument("--blur", type=float, metavar="SIGMA", help="Gaussian blur sigma, pixels (default none)")
+    t.add_argument("--format", choices=tuple(FORMATS), default="png",
+                   help="png (16-bit grey, default), tiff (float32) or npy (float64)")

@@ -94,15 +94,27 @@ def _sequence(a: argparse.Namespace, config: ScoringConfig, curves: dict) -> Any
                           resume=a.resume, **curves)
 
 
+def _bars(path: str | None, side: str) -> str | None:
+    """A directory of bar frames (checked here: a wrong path is a usage error)."""
+    from ..bar_frames import BAR_LIST
+
+    if path is not None and not os.path.isfile(os.path.join(path, BAR_LIST)):
+        what = "no such directory" if not os.path.isdir(path) else f"no {BAR_LIST} listing the bar frames in it"
+        raise UsageError(f"--{side}-bars {path!r}: {what} (docs/bars.md)")
+    return path
+
+
 def _curves(a: argparse.Namespace) -> dict:
     curves = {f"{side}_{kind}": _curve(a, side, kind) for side in ("real", "sim") for kind in ("mtf", "sitf")}
     curves.update(real_noise=a.real_noise, sim_noise=a.sim_noise)
-    for kind in ("mtf", "sitf", "noise"):
+    curves.update(real_mrtd=_bars(a.real_bars, "real"), sim_mrtd=_bars(a.sim_bars, "sim"))
+    for kind in ("mtf", "sitf", "noise", "mrtd"):
         real, sim = curves[f"real_{kind}"], curves[f"sim_{kind}"]
         if (real is None) != (sim is None):
             given, absent = ("real", "sim") if sim is None else ("sim", "real")
             alternative = f" (or --{absent}-edge)" if kind == "mtf" else ""
-            raise UsageError(f"the {given} {kind.upper()} needs the {absent} one too: give --{absent}-{kind}"
+            flag = "bars" if kind == "mrtd" else kind
+            raise UsageError(f"the {given} {kind.upper()} needs the {absent} one too: give --{absent}-{flag}"
                              f"{alternative}")
     return curves
 

@@ -11,6 +11,7 @@ from ..errors import FidelityError
 from ..maps import SSIMMap, ms_ssim, ssim_map
 from ..stats import _as_frame, pair_stats
 from . import figures, sections
+from .bars import bars as bars_section
 from .noise import noise as noise_section
 from .temperature import temperatures
 from .html import Missing, Raw, colour_bar, image, missing, page, panels, paragraph, section
@@ -101,6 +102,7 @@ def render_pair_html(
         sections.mtf(curves, metrics),
         sections.sitf(curves, metrics),
         noise_section(curves, metrics),
+        bars_section(curves, metrics),
         sections.registration(d, registration),
         sections.settings(d),
     ]

@@ -52,8 +52,8 @@ def _pairing(real: FrameSequence, sim: FrameSequence, cfg: ScoringConfig) -> Pai
 
 def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
                    sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-                   config: ScoringConfig | None = None, run: RunOptions | None = None,
-                   **options: Any) -> SequenceReport:
+                   real_mrtd: Any = None, sim_mrtd: Any = None, config: ScoringConfig | None = None,
+                   run: RunOptions | None = None, **options: Any) -> SequenceReport:
     """Score a simulated sequence against the real one, frame by frame and pooled.
 
     What is computed comes from ``config`` (a :class:`~irfidelity.ScoringConfig`); how the
@@ -66,8 +66,8 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         arrays, or :class:`~irfidelity.FrameSequence`
         Frames are paired by file name when both are files (``pair_by``; a frame without a
         partner is reported as a failed frame, never dropped), else by position.
-    real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise :
-        The camera curves and noise recordings, as in :func:`irfidelity.evaluate`: compared
+    real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd :
+        The camera curves, noise recordings and MRTD inputs, as in :func:`irfidelity.evaluate`: compared
         once, before any frame; their components enter every frame's and the pooled fidelity.
     config : ScoringConfig, mapping or TOML/JSON path, optional
         What decides the score; ScoringConfig fields given as keywords override it.
@@ -122,6 +122,6 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError("empty sequences: nothing to score")
     pairing = _pairing(real_seq, sim_seq, cfg)
-    camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise)
+    camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
     plan = make_plan(real_seq, sim_seq, pairing, camera, cfg)
     return execute(real_seq, sim_seq, pairing, plan, run)

@@ -146,7 +146,8 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
     given = camera.given()
     weights, image, skipped = plan_components(config.weights, config.missing, have_images=True,
                                               have_mtf=given["mtf"], have_sitf=given["sitf"],
-                                              have_noise=given["noise"], have_unit=config.unit is not None)
+                                              have_noise=given["noise"], have_unit=config.unit is not None,
+                                              have_mrtd=given["mrtd"])
     if not image:
         raise FidelityError("a sequence needs a positive weight on psnr, nmi or ssim (the per-frame components); "
                             "to compare curves alone, score a single pair without frames", option="weights")
