@@ -172,7 +172,7 @@ class FidelityReport:
 
         src = self.sources
         html = render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
-                                curves=src.get("curves"))
+                                curves=src.get("curves"), sim_unregistered=src.get("sim_unregistered"))
         return write_html(html, path)
 
     def _repr_html_(self) -> str:
@@ -180,7 +180,7 @@ class FidelityReport:
 
         src = self.sources
         return render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
-                                curves=src.get("curves"), fragment=True)
+                                curves=src.get("curves"), sim_unregistered=src.get("sim_unregistered"), fragment=True)
 
     def to_dict(self) -> dict:
         """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""
