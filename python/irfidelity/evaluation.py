@@ -40,15 +40,14 @@ def _load(x: Any, which: str, channel: str | None) -> np.ndarray:
 
 
 def _registered(r: Any, s: Any, mask: Any, components: tuple, config: ScoringConfig, sources: dict
-                ) -> tuple[_stats.PairStats, float | None, float | None]:
+                ) -> tuple[_stats.PairStats, float | None]:
     """Register the simulated frame onto the real one, resample it and compute the statistics
     over the overlap in one Rust call (:func:`irfidelity.alignment.score_registered`,
     docs/registration.md): the statistics (with the PSNR peak of the original sample type; a
-    bit depth bounds the integer frames only), that peak, and the real frame's range over the
-    scored pixels."""
+    bit depth bounds the integer frames only) and the real frame's range over the scored
+    pixels."""
     r, s = np.asarray(r), np.asarray(s)
-    numeric_peak = config.peak if isinstance(config.peak, float) else None
-    peak, valid = _stats.peak_and_valid(r.dtype, config.bits, numeric_peak)
+    peak, valid = _stats.peak_and_valid(r.dtype, config.bits, config.numeric_peak)
     scored = np.dtype(np.float64)
     request, bins = _stats.kernel_request(components, scored, bins=config.bins, hist_range=config.hist_range,
                                           full=_stats.full_range(scored, None, peak), nonfinite=config.nonfinite,
@@ -57,7 +56,7 @@ def _registered(r: Any, s: Any, mask: Any, components: tuple, config: ScoringCon
                             extent="psnr" in components)
     sources.update(sim=pair.sim, mask=pair.mask, sim_unregistered=s, registration=pair.registration)
     span = None if pair.extent is None else pair.extent[1] - pair.extent[0]
-    return _stats.PairStats(pair.stats, peak=peak, bins=bins), peak, span
+    return _stats.PairStats(pair.stats, peak=peak, bins=bins), span
 
 
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any,
@@ -69,13 +68,11 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
                   dtype=np.asarray(r).dtype.name)
     try:
         if config.register is not None:
-            st, default_peak, span = _registered(r, s, mask, components, config, sources)
+            st, span = _registered(r, s, mask, components, config, sources)
         else:
-            numeric_peak = config.peak if isinstance(config.peak, float) else None
-            st = _stats.pair_stats(r, s, bits=config.bits, peak=numeric_peak, bins=config.bins,
+            st = _stats.pair_stats(r, s, bits=config.bits, peak=config.numeric_peak, bins=config.bins,
                                    hist_range=config.hist_range, mask=mask, need=components,
                                    nonfinite=config.nonfinite)
-            default_peak = None
             span = _stats.real_range(r, mask, config.nonfinite) if "psnr" in components else None
     except (ShapeError, RangeError) as exc:
         paths = [f"{which} {inputs[which]}" for which, x in (("real", real), ("sim", sim))
@@ -84,9 +81,8 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
             raise
         raise type(exc)(f"{' / '.join(paths)}: {exc}", option=getattr(exc, "option", None)) from None
     if "psnr" in components:
-        dtype = np.asarray(r).dtype
-        default = default_peak if default_peak is not None else _stats.peak_and_valid(dtype, config.bits, None)[0]
-        peak = psnr_peak(config, default, span, where="real frame")
+        # st.peak is the default peak (2**bits - 1, the dtype's): psnr_peak needs it only without a peak
+        peak = psnr_peak(config, st.peak, span, where="real frame")
         if peak != st.peak:
             st = st.with_peak(peak)
     return st

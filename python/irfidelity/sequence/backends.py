@@ -158,8 +158,7 @@ class ArrayLoop:
             if cfg.register is not None:  # the frames as the Rust engine scores them, on the same path
                 st, registration, extent = self._registered(real, sim)
             else:
-                numeric_peak = cfg.peak if isinstance(cfg.peak, float) else None
-                st = pair_stats(real, sim, bits=cfg.bits, peak=numeric_peak, bins=cfg.bins,
+                st = pair_stats(real, sim, bits=cfg.bits, peak=cfg.numeric_peak, bins=cfg.bins,
                                 hist_range=cfg.hist_range, need=self.plan.image, nonfinite=cfg.nonfinite)
                 extent = _extent(real) if cfg.peak == "range" else None
         except FidelityError as exc:
@@ -178,8 +177,7 @@ class ArrayLoop:
             pair = score_registered(real, sim, plan.pair_request(), model=cfg.register, method=cfg.register_method,
                                     registration=None if cfg.register_each else plan.registration,
                                     extent=plan.real_extent)
-        numeric_peak = cfg.peak if isinstance(cfg.peak, float) else None
-        st = PairStats(pair.stats, peak=numeric_peak or plan.default_peak, bins=plan.bin_label)
+        st = PairStats(pair.stats, peak=cfg.numeric_peak or plan.default_peak, bins=plan.bin_label)
         return st, pair.registration, pair.extent
 
     def run(self, todo: Todo, deliver: Deliver) -> None:

@@ -203,9 +203,8 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
             if "psnr" in image and config.peak != "range":  # "range": each frame's own
                 peak = psnr_peak(config, default_peak, _scene_range(first), where="the first real frame")
             if "nmi" in image:
-                numeric = config.peak if isinstance(config.peak, float) else None
                 bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
-                                                       full_range(dtype, config.bits, numeric))
+                                                       full_range(dtype, config.bits, config.numeric_peak))
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,
                         camera_metrics=fixed_metrics, inputs=inputs, camera_objects=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
