@@ -235,6 +235,8 @@ REGISTRATION_LOW_CONFIDENCE: float
 REGISTRATION_AMBIGUOUS: float
 REGISTRATION_MIN_OVERLAP: float
 REGISTRATION_INTEGER_SNAP: float
+REGISTRATION_MODELS: list[str]
+REGISTRATION_METHODS: list[str]
 
 def applied_matrix(
     matrix: tuple[float, float, float, float, float, float],
