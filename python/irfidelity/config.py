@@ -226,6 +226,11 @@ class ScoringConfig:
         out.update(unit_fields(self.unit, self.calibration, self.temperature_tolerance, out["bits"]))
         return out
 
+    @property
+    def numeric_peak(self) -> float | None:
+        """The PSNR peak when it is a number; None for ``"range"`` (each real frame's own) or unset."""
+        return self.peak if isinstance(self.peak, float) else None
+
     # -- construction ---------------------------------------------------------------
     @classmethod
     def fields(cls) -> tuple[str, ...]:
@@ -237,16 +242,22 @@ class ScoringConfig:
 
         Unknown names raise :class:`~irfidelity.FidelityError` listing the valid ones.
         """
+        changes = self._known(changes)
+        return dataclasses.replace(self, **changes) if changes else self
+
+    @classmethod
+    def _known(cls, changes: Mapping[str, Any]) -> dict[str, Any]:
+        """``changes`` by field (``channel`` sets both frame channels); unknown names raise."""
         changes = dict(changes)
         if "channel" in changes:
             channel = changes.pop("channel")
             changes.setdefault("real_channel", channel)
             changes.setdefault("sim_channel", channel)
-        unknown = sorted(set(changes) - set(self.fields()))
+        unknown = sorted(set(changes) - set(cls.fields()))
         if unknown:
             raise FidelityError(f"unknown scoring option(s) {', '.join(unknown)}; "
-                                f"the options are: {', '.join(self.fields())}, channel", option=unknown[0])
-        return dataclasses.replace(self, **changes) if changes else self
+                                f"the options are: {', '.join(cls.fields())}, channel", option=unknown[0])
+        return changes
 
     @classmethod
     def resolve(cls, config: ScoringConfig | Mapping | str | os.PathLike | None = None,
@@ -254,9 +265,10 @@ class ScoringConfig:
         """The configuration an entry point runs with: ``config`` (an object, a mapping or a
         TOML/JSON path; default: the defaults) with ``overrides`` applied. Overrides that
         are None are ignored, so keyword arguments left at their default change nothing."""
+        overrides = {k: v for k, v in overrides.items() if v is not None}
         if config is None:
-            base = cls()
-        elif isinstance(config, ScoringConfig):
+            return cls(**cls._known(overrides))  # validated once
+        if isinstance(config, ScoringConfig):
             base = config
         elif isinstance(config, Mapping):
             base = cls.from_dict(config)
@@ -265,7 +277,7 @@ class ScoringConfig:
         else:
             raise FidelityError(f"config: expected a ScoringConfig, a mapping or a TOML/JSON path; "
                                 f"got {type(config).__name__}")
-        return base.replace(**{k: v for k, v in overrides.items() if v is not None})
+        return base.replace(**overrides)
 
     # -- serialisation --------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:

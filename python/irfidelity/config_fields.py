@@ -10,6 +10,7 @@ import numbers
 from collections.abc import Mapping
 from typing import Any
 
+from . import _core
 from .curves.similarity import MAX_FEATURE_POINTS
 from .errors import FidelityError
 from .fuzzy import GradeScale
@@ -20,8 +21,9 @@ __all__ = ["MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "REGISTRAT
 
 MISSING_MODES = ("renormalize", "raise")
 NONFINITE_MODES = ("raise", "mask")
-REGISTRATION_MODELS = ("translation", "rigid", "similarity")
-REGISTRATION_METHODS = ("auto", "phase", "nmi")
+#: Registration models and methods: the Rust core's lists (``crate::register::Model::ALL``, ``Method::ALL``).
+REGISTRATION_MODELS: tuple[str, ...] = tuple(_core.REGISTRATION_MODELS)
+REGISTRATION_METHODS: tuple[str, ...] = tuple(_core.REGISTRATION_METHODS)
 PAIRING_RULES = ("auto", "name", "order")
 PEAK_RULES = ("range",)
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import stats as _stats
 from .camera import CameraInputs, camera_components, describe_input
-from .alignment import aligned_pair, check_levels, find_registration
+from .alignment import score_registered
 from .config import ScoringConfig
 from .errors import FidelityError, RangeError, ShapeError
 from .results import FidelityReport, recorded_warnings
@@ -40,33 +40,24 @@ def _load(x: Any, which: str, channel: str | None) -> np.ndarray:
     return load_frame(x, channel=channel)
 
 
-def real_range(real: np.ndarray, mask: Any, nonfinite: str) -> float | None:
-    """``max − min`` of the real frame over the pixels that are scored (finite, unmasked)."""
-    values = np.asarray(real)
-    if mask is not None:
-        values = values[np.asarray(mask, dtype=bool)]
-    if values.dtype.kind == "f":
-        values = values[np.isfinite(values)] if nonfinite == "mask" else values
-        if values.size and not np.isfinite(values).all():
-            return None  # the kernel reports the non-finite values with their position
-    if values.size == 0:
-        return None
-    return float(values.max()) - float(values.min())
-
-
-def _registered(r: np.ndarray, s: np.ndarray, mask: Any, config: ScoringConfig, sources: dict
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
-    """Register the simulated frame onto the real one and resample it (docs/registration.md):
-    float64 frames, the scored mask, and the PSNR peak of the original sample type (a bit
-    depth applies to the integer frames only)."""
+def _registered(r: Any, s: Any, mask: Any, components: tuple, config: ScoringConfig, sources: dict
+                ) -> tuple[_stats.PairStats, float | None]:
+    """Register the simulated frame onto the real one, resample it and compute the statistics
+    over the overlap in one Rust call (:func:`irfidelity.alignment.score_registered`,
+    docs/registration.md): the statistics (with the PSNR peak of the original sample type; a
+    bit depth bounds the integer frames only) and the real frame's range over the scored
+    pixels."""
     r, s = np.asarray(r), np.asarray(s)
-    numeric_peak = config.peak if isinstance(config.peak, float) else None
-    peak, valid = _stats.peak_and_valid(r.dtype, config.bits, numeric_peak)
-    check_levels(r, valid, "real")
-    check_levels(s, valid, "sim")
-    reg = find_registration(r, s, config, mask)
-    sources["registration"] = reg
-    return (*aligned_pair(r, s, reg, mask), peak)
+    peak, valid = _stats.peak_and_valid(r.dtype, config.bits, config.numeric_peak)
+    scored = np.dtype(np.float64)
+    request, bins = _stats.kernel_request(components, scored, bins=config.bins, hist_range=config.hist_range,
+                                          full=_stats.full_range(scored, None, peak), nonfinite=config.nonfinite,
+                                          valid=valid)
+    pair = score_registered(r, s, request, model=config.register, method=config.register_method, mask=mask,
+                            extent="psnr" in components)
+    sources.update(sim=pair.sim, mask=pair.mask, sim_unregistered=s, registration=pair.registration)
+    span = None if pair.extent is None else pair.extent[1] - pair.extent[0]
+    return _stats.PairStats(pair.stats, peak=peak, bins=bins), span
 
 
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any,
@@ -78,16 +69,14 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
     sources.update(real=r, sim=s, mask=mask)
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
                   dtype=np.asarray(r).dtype.name)
-    bits = config.bits
-    numeric_peak = config.peak if isinstance(config.peak, float) else None
-    default_peak = None
-    if config.register is not None:
-        r, s, mask, default_peak = _registered(r, s, mask, config, sources)
-        sources.update(sim=s, mask=mask)
-        bits, numeric_peak = None, default_peak
     try:
-        st = _stats.pair_stats(r, s, bits=bits, peak=numeric_peak, bins=config.bins,
-                               hist_range=config.hist_range, mask=mask, need=components, nonfinite=config.nonfinite)
+        if config.register is not None:
+            st, span = _registered(r, s, mask, components, config, sources)
+        else:
+            st = _stats.pair_stats(r, s, bits=config.bits, peak=config.numeric_peak, bins=config.bins,
+                                   hist_range=config.hist_range, mask=mask, need=components,
+                                   nonfinite=config.nonfinite)
+            span = _stats.real_range(r, mask, config.nonfinite) if "psnr" in components else None
     except (ShapeError, RangeError) as exc:
         paths = [f"{which} {inputs[which]}" for which, x in (("real", real), ("sim", sim))
                  if isinstance(x, (str, os.PathLike))]
@@ -95,9 +84,8 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
             raise
         raise type(exc)(f"{' / '.join(paths)}: {exc}", option=getattr(exc, "option", None)) from None
     if "psnr" in components:
-        dtype = np.asarray(r).dtype
-        default = default_peak if default_peak is not None else _stats.peak_and_valid(dtype, config.bits, None)[0]
-        peak = psnr_peak(config, default, real_range(r, mask, config.nonfinite), where="real frame")
+        # st.peak is the default peak (2**bits - 1, the dtype's): psnr_peak needs it only without a peak
+        peak = psnr_peak(config, st.peak, span, where="real frame")
         if peak != st.peak:
             st = st.with_peak(peak)
     return st

@@ -299,7 +299,8 @@ class FidelityReport(ReportBase):
 
         src = self.sources
         return render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
-                                curves=src.get("curves"), fragment=fragment)
+                                curves=src.get("curves"), sim_unregistered=src.get("sim_unregistered"),
+                                fragment=fragment)
 
     def _own_dict(self) -> dict:
         return {"grading": self.grading}

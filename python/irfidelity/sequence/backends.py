@@ -28,16 +28,16 @@ from typing import Any, Protocol
 import numpy as np
 
 from .. import _core
-from ..alignment import aligned_pair, find_registration
-from ..errors import FidelityError, ShapeError
+from ..alignment import RegisteredPair, score_registered
+from ..errors import FidelityError
 from ..frames import FrameSequence
 from ..registration import RegistrationWarning, from_engine
-from ..stats import KernelRequest, PairStats, pair_stats
+from ..stats import PairStats, pair_stats
 from ..temperature import TemperatureErrors, tolerance_for
 from .fingerprint import array_fingerprint, file_fingerprint
 from .options import RunOptions
 from .outcomes import Outcome
-from .plan import SequencePlan
+from .plan import SequencePlan, SequenceRequest
 
 __all__ = ["Backend", "RustEngine", "DaskBackend", "ArrayLoop", "choose_backend", "engine_reads", "Todo"]
 
@@ -90,7 +90,7 @@ class RustEngine:
                           fingerprints=self.fingerprint)
 
 
-def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: list, request: KernelRequest,
+def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: list, request: SequenceRequest,
                 workers: int, fingerprints: bool = False) -> list:
     """Run on a Dask worker: score one chunk with the Rust engine; statistics as bytes (the
     files' fingerprints, taken by the worker as it decoded them, come back with them)."""
@@ -143,39 +143,37 @@ class ArrayLoop:
 
     def _one(self, index: int, r: int, s: int) -> Outcome:
         cfg = self.plan.config
-        registration = None
+        registration = extent = None
         try:
             real, sim = np.asarray(self.real[r]), np.asarray(self.sim[s])
-            numeric_peak = cfg.peak if isinstance(cfg.peak, float) else None
-            bits, mask, hist_range = cfg.bits, None, cfg.hist_range
-            scored_real, scored_sim = real, sim
-            if cfg.register is not None:  # the frames as the Rust engine scores them
-                registration = self._registration(real, sim)
-                scored_real, scored_sim, mask = aligned_pair(real, sim, registration, valid=self.plan.valid)
-                bits, numeric_peak = None, numeric_peak or self.plan.default_peak
-                hist_range = self.plan.hist_range if self.plan.hist_range is not None else hist_range
-            st = pair_stats(scored_real, scored_sim, bits=bits, peak=numeric_peak, bins=cfg.bins, hist_range=hist_range,
-                            mask=mask, need=self.plan.image, nonfinite=cfg.nonfinite)
-            tolerance = tolerance_for(cfg, self.plan.camera_metrics)
+            scored_sim, mask = sim, None
+            if cfg.register is not None:  # the frames as the Rust engine scores them, on the same path
+                st, pair = self._registered(real, sim)
+                registration, extent, scored_sim, mask = pair.registration, pair.extent, pair.sim, pair.mask
+            else:
+                st = pair_stats(real, sim, bits=cfg.bits, peak=cfg.numeric_peak, bins=cfg.bins,
+                                hist_range=cfg.hist_range, need=self.plan.image, nonfinite=cfg.nonfinite)
+                extent = _extent(real) if cfg.peak == "range" else None
             temperature = None if cfg.unit is None else TemperatureErrors.of_frames(
-                scored_real, scored_sim, mask=mask, unit=cfg.unit, tolerance=tolerance)
+                real, scored_sim, mask=mask, unit=cfg.unit, tolerance=tolerance_for(cfg, self.plan.camera_metrics))
         except FidelityError as exc:
             return Outcome(index, None, str(exc))
-        extent = _extent(scored_real if mask is None else scored_real[mask]) if cfg.peak == "range" else None
         inputs = {"real": array_fingerprint(real), "sim": array_fingerprint(sim)} if self.fingerprint else None
         return Outcome(index, st, None, real.shape, real.dtype.name, extent,
                        registration if cfg.register_each else None, inputs, temperature)
 
-    def _registration(self, real: np.ndarray, sim: np.ndarray) -> Any:
-        """The plan's registration, or with ``register_each`` the pair's own (its confidence
-        is in the pair's row; the run counts the unsure ones instead of warning per pair)."""
-        if real.shape != sim.shape:
-            raise ShapeError(f"real and sim frames differ in shape: {real.shape} vs {sim.shape}")
-        if not self.plan.config.register_each:
-            return self.plan.registration
+    def _registered(self, real: np.ndarray, sim: np.ndarray) -> tuple[PairStats, RegisteredPair]:
+        """The pair scored through the plan's registration or, with ``register_each``, its
+        own (whose confidence is in the pair's row: the run counts the unsure ones instead
+        of warning per pair), as the engine scores a file pair."""
+        plan, cfg = self.plan, self.plan.config
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RegistrationWarning)
-            return find_registration(real, sim, self.plan.config)
+            pair = score_registered(real, sim, plan.pair_request(), model=cfg.register, method=cfg.register_method,
+                                    registration=None if cfg.register_each else plan.registration,
+                                    extent=plan.real_extent)
+        st = PairStats(pair.stats, peak=cfg.numeric_peak or plan.default_peak, bins=plan.bin_label)
+        return st, pair
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
         for index, r, s in todo:

@@ -73,7 +73,7 @@ def _expected_make(plan: SequencePlan) -> tuple | None:
     value = plan.valid[0] if plan.valid is not None and dtype.kind in "ui" else 0
     pixel = np.full((1, 1), value, dtype=dtype)
     try:
-        return _make(_core.pair_stats(pixel, pixel, plan.kernel_request()), plan.keep_hist)
+        return _make(_core.pair_stats(pixel, pixel, plan.pair_request()), plan.keep_hist)
     except FidelityError:
         return None
 
