@@ -178,7 +178,14 @@ mod tests {
         assert_eq!(plan.check(plan.bytes, Error::Registration), Ok(()));
         let err = plan.check(640 << 20, Error::Registration).unwrap_err();
         let Error::Registration(m) = &err else { panic!("{err:?}") };
-        for part in ["registration (translation, auto)", "8192 x 8192", "6040846336 bytes (5.63 GiB)", "671088640 bytes", "max_bytes", "max_memory"] {
+        for part in [
+            "registration (translation, auto)",
+            "8192 x 8192",
+            "6040846336 bytes (5.63 GiB)",
+            "671088640 bytes",
+            "max_bytes",
+            "max_memory",
+        ] {
             assert!(m.contains(part), "{part}: {m}");
         }
         let held = Plan::new("warp", (10, 10), 9.0, 0).holding(50);
@@ -208,7 +215,8 @@ mod tests {
         assert!(matches!(&err, Error::Registration(m) if m.starts_with("registration: out of memory")), "{err:?}");
         // through a pool thread too
         let err = guard("ssim map", Error::Value, || {
-            let (a, b) = rayon::join(|| with_capacity::<u8>(4).capacity(), || collect::<u32>(usize::MAX / 8, 0..).len());
+            let (a, b) =
+                rayon::join(|| with_capacity::<u8>(4).capacity(), || collect::<u32>(usize::MAX / 8, 0..).len());
             Ok(a + b)
         })
         .unwrap_err();

@@ -339,7 +339,9 @@ pub fn pair_plan(shape: (usize, usize), real: &FrameData, req: &SeqRequest) -> (
             let widened = if matches!(real, FrameData::F16(_)) { 8.0 } else { 0.0 };
             (Plan::new("scoring a frame pair", shape, frames + widened, 0), Error::Value)
         }
-        Some(Warp::Fixed(_)) => (Plan::new("resampling and scoring a frame pair", shape, frames + 17.0, 0), Error::Value),
+        Some(Warp::Fixed(_)) => {
+            (Plan::new("resampling and scoring a frame pair", shape, frames + 17.0, 0), Error::Value)
+        }
         Some(Warp::Each(each)) => {
             let search = register::register_plan(shape, &each.options);
             let resampled = register::warp_plan(shape).bytes;

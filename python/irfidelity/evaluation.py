@@ -5,6 +5,10 @@ weights and from which inputs exist, which components are computed; only then is
 work done. A component with weight 0 is not computed at all (no histogram pass unless NMI
 is weighted, no moments unless SSIM is, no curve read without a curve weight), and one
 pass of the Rust kernel computes every image statistic the plan needs.
+
+Memory is planned too (docs/design.md §10): the frames (decoded within ``max_bytes``, the
+simulated one within what the real one leaves) and every step after them are checked
+against the budget before they allocate.
 """
 
 from __future__ import annotations
@@ -14,19 +18,27 @@ from typing import Any
 
 import numpy as np
 
+from . import budget
 from . import stats as _stats
 from .camera import CameraInputs, camera_components, describe_input
-from .alignment import aligned_pair, check_levels, find_registration
+from .alignment import aligned_pair, check_aligned, check_levels, find_registration
 from .config import ScoringConfig
 from .errors import FidelityError, RangeError, ShapeError
 from .results import FidelityReport, recorded_warnings
 from .scoring import image_components, plan_components, psnr_peak, score_components
 
-__all__ = ["evaluate"]
+__all__ = ["evaluate", "SCORING_BYTES"]
+
+#: Bytes a pixel that scoring a pair holds besides its frames: the masks of the real frame's
+#: range (finite values, and those within the mask); float16 frames add their float32 copies
+#: in the kernel (:data:`WIDENED_BYTES`).
+SCORING_BYTES = 3
+WIDENED_BYTES = 8
 
 
-def _load(x: Any, which: str, channel: str | None) -> np.ndarray:
-    """A frame from an array or a path; a multi-page TIFF is a sequence, not a frame."""
+def _load(x: Any, which: str, channel: str | None, max_bytes: int | None) -> np.ndarray:
+    """A frame from an array or a path (decoded within ``max_bytes``); a multi-page TIFF is a
+    sequence, not a frame."""
     if not isinstance(x, (str, os.PathLike)):
         return x
     from .frames import load_frame, page_count
@@ -36,42 +48,63 @@ def _load(x: Any, which: str, channel: str | None) -> np.ndarray:
         raise FidelityError(f"{which} {os.fsdecode(os.fspath(x))!r} is a multi-page TIFF of {pages} frames: "
                             f"score it as a sequence (irfidelity.score_sequence, or irfidelity score with both "
                             f"sides multi-page or directories), or load one page as an array", option=which)
-    return load_frame(x, channel=channel)
+    return load_frame(x, channel=channel, max_bytes=max_bytes)
+
+
+def _left(max_bytes: int | None, held: np.ndarray) -> int:
+    """What ``max_bytes`` leaves once ``held`` is in memory (at least 1 byte: a decode that
+    needs more is refused by its own plan)."""
+    return max(1, budget.resolve(max_bytes) - int(np.asarray(held).nbytes))
 
 
 def real_range(real: np.ndarray, mask: Any, nonfinite: str) -> float | None:
-    """``max − min`` of the real frame over the pixels that are scored (finite, unmasked)."""
+    """``max − min`` of the real frame over the pixels that are scored (finite, unmasked),
+    without copying them (masks of at most :data:`SCORING_BYTES` a pixel)."""
     values = np.asarray(real)
-    if mask is not None:
-        values = values[np.asarray(mask, dtype=bool)]
+    where = None if mask is None else np.asarray(mask, dtype=bool)
     if values.dtype.kind == "f":
-        values = values[np.isfinite(values)] if nonfinite == "mask" else values
-        if values.size and not np.isfinite(values).all():
+        finite = np.isfinite(values)
+        scored_finite = finite if where is None else finite | ~where
+        if nonfinite != "mask" and not scored_finite.all():
             return None  # the kernel reports the non-finite values with their position
-    if values.size == 0:
+        where = finite if where is None else finite & where
+    if values.size == 0 or (where is not None and not where.any()):
         return None
-    return float(values.max()) - float(values.min())
+    if where is None:
+        return float(values.max()) - float(values.min())
+    bounds = np.finfo(values.dtype) if values.dtype.kind == "f" else np.iinfo(values.dtype)
+    return float(values.max(where=where, initial=bounds.min)) - float(values.min(where=where, initial=bounds.max))
 
 
-def _registered(r: np.ndarray, s: np.ndarray, mask: Any, config: ScoringConfig, sources: dict
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
+def _registered(r: np.ndarray, s: np.ndarray, mask: Any, config: ScoringConfig, sources: dict,
+                max_bytes: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
     """Register the simulated frame onto the real one and resample it (docs/registration.md):
     float64 frames, the scored mask, and the PSNR peak of the original sample type (a bit
-    depth applies to the integer frames only)."""
+    depth applies to the integer frames only). Both steps are planned against ``max_bytes``
+    before the registration starts."""
     r, s = np.asarray(r), np.asarray(s)
     numeric_peak = config.peak if isinstance(config.peak, float) else None
     peak, valid = _stats.peak_and_valid(r.dtype, config.bits, numeric_peak)
     check_levels(r, valid, "real")
     check_levels(s, valid, "sim")
-    reg = find_registration(r, s, config, mask)
+    check_aligned(r, s, mask, max_bytes)
+    reg = find_registration(r, s, config, mask, max_bytes)
     sources["registration"] = reg
-    return (*aligned_pair(r, s, reg, mask), peak)
+    return (*aligned_pair(r, s, reg, mask, max_bytes=max_bytes), peak)
+
+
+def _check_scoring(r: Any, s: Any, mask: Any, max_bytes: int | None) -> None:
+    """The plan of scoring an unregistered pair: its frames and mask, and what scoring adds."""
+    r, s = np.asarray(r), np.asarray(s)
+    per_pixel = SCORING_BYTES + (WIDENED_BYTES if r.dtype == np.float16 else 0)
+    held = budget.nbytes(r, s, None if mask is None else np.asarray(mask))
+    budget.check("scoring a frame pair", r.shape, held + per_pixel * r.size, max_bytes)
 
 
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any,
-                 inputs: dict, sources: dict) -> _stats.PairStats:
-    r = _load(real, "real", config.real_channel)
-    s = _load(sim, "sim", config.sim_channel)
+                 inputs: dict, sources: dict, max_bytes: int | None) -> _stats.PairStats:
+    r = _load(real, "real", config.real_channel, max_bytes)
+    s = _load(sim, "sim", config.sim_channel, _left(max_bytes, r) if isinstance(sim, (str, os.PathLike)) else None)
     sources.update(real=r, sim=s, mask=mask)
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
                   dtype=np.asarray(r).dtype.name)
@@ -79,9 +112,11 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
     numeric_peak = config.peak if isinstance(config.peak, float) else None
     default_peak = None
     if config.register is not None:
-        r, s, mask, default_peak = _registered(r, s, mask, config, sources)
+        r, s, mask, default_peak = _registered(r, s, mask, config, sources, max_bytes)
         sources.update(sim=s, mask=mask)
         bits, numeric_peak = None, default_peak
+    elif np.ndim(r) == 2:
+        _check_scoring(r, s, mask, max_bytes)
     try:
         st = _stats.pair_stats(r, s, bits=bits, peak=numeric_peak, bins=config.bins,
                                hist_range=config.hist_range, mask=mask, need=components, nonfinite=config.nonfinite)
@@ -102,7 +137,8 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
 
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
              real_sitf: Any = None, sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-             mask: Any = None, config: ScoringConfig | None = None, **options: Any) -> FidelityReport:
+             mask: Any = None, config: ScoringConfig | None = None, max_bytes: int | None = None,
+             **options: Any) -> FidelityReport:
     """Fidelity of a simulator on one scene (paper eq. 15) with its five components.
 
     Parameters
@@ -124,6 +160,13 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         ``False`` excludes a pixel pair from the image components.
     config : ScoringConfig, mapping or TOML/JSON path, optional
         What decides the score (weights, bits, peak, bins, ...); default: the defaults.
+    max_bytes : int, optional
+        The memory budget of the pair's work (default
+        :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): decoding, registration, resampling and
+        statistics are each planned against it before they allocate; over budget is a
+        :class:`FrameError` (decoding), :class:`RegistrationError` (registration) or
+        :class:`FidelityError` naming the step, the frame size and the bytes (docs/design.md
+        §10). Not part of the configuration: it never changes a score.
     **options
         Any :class:`~irfidelity.ScoringConfig` field (``weights=``, ``bits=``, ``peak=``,
         ``bins=``, ``missing=``, ...; ``channel=`` sets both frame channels); overrides
@@ -167,7 +210,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         components, metrics, inputs, compared = camera_components(camera, weights, cfg)
         sources: dict[str, Any] = {"curves": compared}
         if image_plan:
-            st = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources)
+            st = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources, max_bytes)
             image, image_metrics = image_components(st, image_plan, cfg)
             components.update(image)
             metrics.update(image_metrics)

@@ -145,19 +145,20 @@ class FidelityReport:
     registration: dict | None = None
     sources: dict = field(default_factory=dict, repr=False, compare=False)
 
-    def to_html(self, path: str | os.PathLike | None = None) -> str:
+    def to_html(self, path: str | os.PathLike | None = None, *, max_bytes: int | None = None) -> str:
         """A self-contained HTML report (figures embedded, no network): the verdict, the frames
         and their difference, the SSIM map, the joint histogram, the curves. Written to
         ``path`` when given; returned either way. Needs matplotlib (``irfidelity[report]``).
 
         The frames and curves are those this report was computed from; a report read back with
         :meth:`from_dict` has only its numbers, and the page says which sections are missing.
+        ``max_bytes``: the memory budget (:func:`irfidelity.report.render_pair_html`).
         """
         from .report import render_pair_html, write_html
 
         src = self.sources
         html = render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
-                                curves=src.get("curves"))
+                                curves=src.get("curves"), max_bytes=max_bytes)
         return write_html(html, path)
 
     def _repr_html_(self) -> str:

@@ -26,7 +26,9 @@ fn check_budget(
         "value" => Error::Value,
         "registration" => Error::Registration,
         "frame" => Error::Frame,
-        other => return Err(Error::Value(format!("kind must be 'value', 'registration' or 'frame', got {other:?}")).into()),
+        other => {
+            return Err(Error::Value(format!("kind must be 'value', 'registration' or 'frame', got {other:?}")).into())
+        }
     };
     Ok(Plan { operation, shape, bytes }.check(max_bytes.unwrap_or(crate::io::DEFAULT_MAX_BYTES), kind)?)
 }

@@ -13,8 +13,8 @@ use super::args;
 use super::dtypes::SUPPORTED_DTYPES;
 use crate::budget;
 use crate::io::{self, DecodeOptions};
-use crate::Error;
 use crate::noise::{self, FrameSample, NoiseSums, PassOptions, Window, PARTS};
+use crate::Error;
 
 /// Sufficient statistics of a recording for the 3-D noise decomposition (see
 /// `irfidelity.noise` for the public face). Mergeable and serialisable.
@@ -80,7 +80,8 @@ impl PyNoiseSums {
     }
     /// Per-pixel temporal population variance, shape (rows, cols).
     fn pixel_var<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v = py.detach(|| budget::guard("the temporal-variance frame", Error::Value, || Ok(self.inner.pixel_var())))?;
+        let v =
+            py.detach(|| budget::guard("the temporal-variance frame", Error::Value, || Ok(self.inner.pixel_var())))?;
         to_array2(py, v, (self.inner.rows, self.inner.cols))
     }
     /// Mean of every row of every frame, shape (frames, rows).

@@ -335,7 +335,8 @@ fn pass_plan(layout: &Layout, frames: usize, allocates: bool, schedule: Schedule
         8.0 + 32.0 * (1 + alive) as f64
     };
     let line_sums = 2 * budget::size_of_vec::<f64>(frames.saturating_mul(window.rows + window.cols));
-    let frame = if allocates { budget::size_of_vec::<u8>(layout.full.0 * layout.full.1 * layout.dtype.size()) } else { 0 };
+    let frame =
+        if allocates { budget::size_of_vec::<u8>(layout.full.0 * layout.full.1 * layout.dtype.size()) } else { 0 };
     let in_flight = frame.saturating_mul((1 + workers * schedule.batch) as u64);
     let operation = format!(
         "the 3-D noise pass ({workers} worker{}, {} frame{} read at a time each)",
@@ -500,8 +501,8 @@ fn planned_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSum
             if cancel.load(Ordering::Relaxed) {
                 break;
             }
-            let result =
-                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sum_chunk(c, &mut local))).unwrap_or_else(|p| {
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sum_chunk(c, &mut local)))
+                .unwrap_or_else(|p| {
                     let err = budget::refused_error(&*p)
                         .unwrap_or_else(|| Error::Value("internal error while summing frames".into()));
                     Err((1 + c * chunk, err))
@@ -570,5 +571,65 @@ fn append_piece(total: &mut NoiseSums, piece: Piece) -> Result<()> {
             }
             Acc::Float(_) => Err(Error::Value("internal: integer frame sums for a float pass".into())),
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An in-memory cube read as if each frame were decoded (the plan counts the frames).
+    struct Decoded<'a>(ArraySource<'a>);
+
+    impl FrameSource for Decoded<'_> {
+        fn len(&self) -> usize {
+            self.0.len()
+        }
+        fn label(&self, i: usize) -> String {
+            self.0.label(i)
+        }
+        fn with_frames(&self, range: Range<usize>, visit: &mut dyn FnMut(&[FrameRef<'_>]) -> Result<()>) -> Result<()> {
+            self.0.with_frames(range, visit)
+        }
+        fn allocates(&self) -> bool {
+            true
+        }
+    }
+
+    fn frames(n: usize) -> Vec<u16> {
+        (0..n).map(|i| (1000 + (i * 7919) % 97) as u16).collect()
+    }
+
+    #[test]
+    fn a_tight_budget_runs_fewer_workers_reading_fewer_frames_with_the_same_sums() {
+        let (t, v, h) = (21, 16, 24);
+        let data = frames(t * v * h);
+        let source = Decoded(ArraySource { data: Samples::U16(&data), frames: t, rows: v, cols: h });
+        let opts = |max_bytes| PassOptions { workers: 3, max_bytes, ..Default::default() };
+        let free = run_pass(&source, &opts(None)).unwrap();
+        let layout = Layout { full: (v, h), dtype: Dtype::U16, window: Window { row0: 0, col0: 0, rows: v, cols: h } };
+        let least = Schedule::new(&layout, t, 1, 1);
+        let tight = pass_plan(&layout, t, true, least).bytes;
+        assert_eq!(schedule(&layout, t, true, 3, tight).unwrap(), least);
+        assert_eq!(schedule(&layout, t, true, 3, u64::MAX).unwrap(), Schedule::new(&layout, t, 3, BATCH));
+        assert_eq!(run_pass(&source, &opts(Some(tight))).unwrap(), free);
+        let err = run_pass(&source, &opts(Some(tight - 1))).unwrap_err();
+        assert!(matches!(&err, Error::Value(m) if m.contains("the 3-D noise pass (1 worker, 1 frame read")), "{err:?}");
+        // a cube in memory is not counted: only the sums
+        let borrowed = ArraySource { data: Samples::U16(&data), frames: t, rows: v, cols: h };
+        assert_eq!(run_pass(&borrowed, &opts(Some(tight))).unwrap(), free);
+    }
+
+    #[test]
+    fn float_passes_run_fewer_workers_with_the_same_sums_bit_for_bit() {
+        let (t, v, h) = (70, 8, 10);
+        let data: Vec<f32> = frames(t * v * h).iter().map(|&x| x as f32 * 0.37).collect();
+        let source = ArraySource { data: Samples::F32(&data), frames: t, rows: v, cols: h };
+        let opts = |max_bytes| PassOptions { workers: 2, max_bytes, ..Default::default() };
+        let layout = Layout { full: (v, h), dtype: Dtype::F32, window: Window { row0: 0, col0: 0, rows: v, cols: h } };
+        let one = pass_plan(&layout, t, false, Schedule::new(&layout, t, 1, BATCH)).bytes;
+        assert!(one < pass_plan(&layout, t, false, Schedule::new(&layout, t, 2, BATCH)).bytes);
+        assert_eq!(run_pass(&source, &opts(Some(one))).unwrap(), run_pass(&source, &opts(None)).unwrap());
+        assert!(run_pass(&source, &opts(Some(one - 1))).is_err());
     }
 }

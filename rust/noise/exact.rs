@@ -15,8 +15,8 @@
 //! remaining part is `N²·SS_tvh = N²·SS_total − Σ others`: all exact, in 256 bits.
 
 use super::wide::U256;
-use crate::budget;
 use super::{Decomposition, FrameSample, Region, Shape};
+use crate::budget;
 use crate::{Error, Result};
 
 /// Per-pixel sums of squares: u64 while a square fits 32 bits (8/16-bit samples), u128
@@ -51,7 +51,11 @@ impl IntAcc {
     pub fn new(pixels: usize, wide: bool, (lo, hi): (i64, i64)) -> IntAcc {
         IntAcc {
             pixel_sum: budget::filled(pixels, 0),
-            pixel_sq: if wide { PixelSq::Wide(budget::filled(pixels, 0)) } else { PixelSq::Narrow(budget::filled(pixels, 0)) },
+            pixel_sq: if wide {
+                PixelSq::Wide(budget::filled(pixels, 0))
+            } else {
+                PixelSq::Narrow(budget::filled(pixels, 0))
+            },
             row_sums: Vec::new(),
             col_sums: Vec::new(),
             lo,

@@ -186,7 +186,10 @@ impl FloatAcc {
 
     pub fn pixel_mean(&self, frames: usize) -> Vec<f64> {
         let t = frames as f64;
-        budget::collect(self.pivot.len(), (0..self.pivot.len()).map(|i| self.pivot[i] + (self.sum[i] + self.sum_c[i]) / t))
+        budget::collect(
+            self.pivot.len(),
+            (0..self.pivot.len()).map(|i| self.pivot[i] + (self.sum[i] + self.sum_c[i]) / t),
+        )
     }
 
     pub fn pixel_var(&self, frames: usize) -> Vec<f64> {

@@ -175,6 +175,17 @@ mod tests {
     }
 
     #[test]
+    fn storage_the_system_refuses_is_the_operations_error() {
+        let err = crate::budget::guard("registration", crate::Error::Registration, || {
+            Ok(Buffer::<f64>::filled(usize::MAX / 16, 0.0).len())
+        })
+        .unwrap_err();
+        assert!(matches!(&err, crate::Error::Registration(m) if m.contains("out of memory")), "{err:?}");
+        let err = crate::budget::guard("x", crate::Error::Value, || Ok(Buffer::<f32>::scratch(usize::MAX / 8).len()));
+        assert!(err.is_err());
+    }
+
+    #[test]
     fn the_store_keeps_at_most_its_budget() {
         let big = SPARE_BYTES / std::mem::size_of::<f32>();
         let (a, b) = (Buffer::filled(big, 0.0f32), Buffer::filled(big, 0.0f32));

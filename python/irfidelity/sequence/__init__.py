@@ -20,6 +20,7 @@ import dataclasses
 import os
 from typing import Any, Callable
 
+from .. import budget
 from ..camera import CameraInputs
 from ..config import ScoringConfig
 from ..errors import FidelityError
@@ -63,7 +64,8 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
                    config: ScoringConfig | None = None, workers: int | None = None,
                    progress: bool | Callable[[int, int], Any] = True, client: Any = None,
                    csv: str | os.PathLike | None = None, resume: bool = False, chunk_size: int = 16,
-                   max_pixels: int | None = None, max_bytes: int | None = None, **options: Any) -> SequenceReport:
+                   max_pixels: int | None = None, max_bytes: int | None = None, max_memory: int | None = None,
+                   **options: Any) -> SequenceReport:
     """Score a simulated sequence against the real one, frame by frame and pooled.
 
     Parameters
@@ -89,8 +91,19 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     resume : bool
         Keep the frames of an earlier run on ``csv`` whose records are intact and whose files
         are unchanged; score the rest.
-    max_pixels, max_bytes : decoding limits per frame (:func:`irfidelity.load_frame`); a frame
-        beyond them is that frame's error row.
+    max_pixels : int, optional
+        The decoding limit per frame in pixels (:func:`irfidelity.load_frame`); a frame beyond
+        it is that frame's error row.
+    max_bytes : int, optional
+        The memory budget of one frame pair's work, bytes (default
+        :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): both frames decoded, their float64
+        copies, registration, resampling and statistics are planned against it before they
+        allocate; a pair over budget is that frame's error row, never the end of the run.
+    max_memory : int, optional
+        The memory budget of the run, bytes: each pair gets ``max_memory // workers`` (the
+        smaller of that and ``max_bytes`` when both are given), so the run holds at most
+        ``workers`` × that per-pair budget plus a small fixed overhead (docs/design.md §10).
+        With ``client``, per Dask task.
 
     Returns
     -------
@@ -109,11 +122,15 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     cfg = ScoringConfig.resolve(config, **options)
     if resume and csv is None:
         raise FidelityError("resuming needs the CSV of the interrupted run", option="csv")
-    run = RunOptions(workers=_positive("workers", workers, allow_none=True), progress=progress, client=client,
+    workers = _positive("workers", workers, allow_none=True)
+    threads = workers if workers is not None or client is None else 1  # a Dask task runs one thread by default
+    pair_budget = budget.per_pair(max_bytes, max_memory, threads)
+    run = RunOptions(workers=workers, progress=progress, client=client,
                      csv=None if csv is None else os.fspath(csv), resume=bool(resume),
-                     chunk_size=_positive("chunk_size", chunk_size), max_pixels=max_pixels, max_bytes=max_bytes)
-    real_seq = as_sequence(real, "real", cfg.real_channel, max_pixels, max_bytes)
-    sim_seq = as_sequence(sim, "sim", cfg.sim_channel, max_pixels, max_bytes)
+                     chunk_size=_positive("chunk_size", chunk_size), max_pixels=max_pixels, max_bytes=pair_budget,
+                     max_memory=max_memory)
+    real_seq = as_sequence(real, "real", cfg.real_channel, max_pixels, pair_budget)
+    sim_seq = as_sequence(sim, "sim", cfg.sim_channel, max_pixels, pair_budget)
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError("empty sequences: nothing to score")
     pairing = _pairing(real_seq, sim_seq, cfg)

@@ -24,7 +24,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from .. import _core
-from ..alignment import aligned_pair, find_registration
+from ..alignment import aligned_pair, check_aligned, find_registration
 from ..errors import FidelityError, ShapeError
 from ..frames import FrameSequence
 from ..registration import RegistrationWarning, from_engine
@@ -44,7 +44,8 @@ class Backend(Protocol):
 
 @dataclass(frozen=True)
 class Decoding:
-    """How frame files are decoded (limits do not change a score, only what is refused)."""
+    """How frame pairs are read and held (limits do not change a score, only what is
+    refused): the threads, the pixel limit per frame, and the memory budget of a pair's work."""
 
     workers: int | None = None
     max_pixels: int | None = None
@@ -135,8 +136,8 @@ def _extent(frame: np.ndarray) -> tuple[float, float] | None:
 
 
 class ArrayLoop:
-    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan):
-        self.real, self.sim, self.plan = real, sim, plan
+    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, max_bytes: int | None = None):
+        self.real, self.sim, self.plan, self.max_bytes = real, sim, plan, max_bytes
 
     def _one(self, index: int, r: int, s: int) -> Outcome:
         cfg = self.plan.config
@@ -147,8 +148,10 @@ class ArrayLoop:
             bits, mask, hist_range = cfg.bits, None, cfg.hist_range
             scored_real, scored_sim = real, sim
             if cfg.register is not None:  # the frames as the Rust engine scores them
+                check_aligned(real, sim, None, self.max_bytes)
                 registration = self._registration(real, sim)
-                scored_real, scored_sim, mask = aligned_pair(real, sim, registration, valid=self.plan.valid)
+                scored_real, scored_sim, mask = aligned_pair(real, sim, registration, valid=self.plan.valid,
+                                                             max_bytes=self.max_bytes)
                 bits, numeric_peak = None, numeric_peak or self.plan.default_peak
                 hist_range = self.plan.hist_range if self.plan.hist_range is not None else hist_range
             st = pair_stats(scored_real, scored_sim, bits=bits, peak=numeric_peak, bins=cfg.bins, hist_range=hist_range,
@@ -168,7 +171,7 @@ class ArrayLoop:
             return self.plan.registration
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RegistrationWarning)
-            return find_registration(real, sim, self.plan.config)
+            return find_registration(real, sim, self.plan.config, max_bytes=self.max_bytes)
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
         for index, r, s in todo:
@@ -186,4 +189,4 @@ def choose_backend(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, 
         return DaskBackend(real, sim, plan, decoding, client, chunk_size)
     if files:
         return RustEngine(real, sim, plan, decoding)
-    return ArrayLoop(real, sim, plan)
+    return ArrayLoop(real, sim, plan, decoding.max_bytes)

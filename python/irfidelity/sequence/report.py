@@ -84,16 +84,17 @@ class SequenceReport:
     delay: dict | None = None
     sources: dict = field(default_factory=dict, repr=False, compare=False)
 
-    def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10) -> str:
+    def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10,
+                max_bytes: int | None = None) -> str:
         """A self-contained HTML report (figures embedded, no network): the pooled verdict, the
         components over time with failed frames marked, the spread of per-frame fidelity, the
         ``worst`` frames (with thumbnails when the frames can still be read), the failures and
         the curves. Written to ``path`` when given; returned either way. Needs matplotlib
-        (``irfidelity[report]``)."""
+        (``irfidelity[report]``). ``max_bytes``: the memory budget of a thumbnail pair."""
         from ..report import render_sequence_html, write_html
 
         html = render_sequence_html(self, worst=worst, frames=self.sources.get("frames"),
-                                    curves=self.sources.get("curves"))
+                                    curves=self.sources.get("curves"), max_bytes=max_bytes)
         return write_html(html, path)
 
     def _repr_html_(self) -> str:

@@ -7,6 +7,7 @@ import os
 from dataclasses import dataclass
 from typing import Any, Callable
 
+from .. import budget
 from ..errors import FidelityError
 from ..frames import FrameSequence
 from ..registration import Registration
@@ -36,7 +37,9 @@ class RunOptions:
     resume: bool = False
     chunk_size: int = 16
     max_pixels: int | None = None
+    #: The per-pair memory budget (already ``max_memory // workers`` when a run budget was given).
     max_bytes: int | None = None
+    max_memory: int | None = None
 
 
 def _names(seq: FrameSequence, index: int | None) -> str | None:
@@ -149,8 +152,8 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
             if plan.dtype is None:
                 scorer.deliver([Outcome(i, None, _unreadable(real, r)) for i, r, _ in todo])
             else:
-                backend = choose_backend(real, sim, plan, Decoding(options.workers, options.max_pixels, options.max_bytes),
-                                         options.client, options.chunk_size)
+                decoding = Decoding(options.workers, options.max_pixels, options.max_bytes)
+                backend = choose_backend(real, sim, plan, decoding, options.client, options.chunk_size)
                 backend.run(todo, scorer.deliver)
         frames = [scorer.entries[i] for i in range(total)]
         if log is not None:
@@ -168,7 +171,8 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
         registration=registration_summary(plan, frames),
         delay=None if pairing.delay is None else {**pairing.delay.to_dict(), "unpaired": pairing.unpaired},
         run={"pair_by": pairing.rule, "workers": options.workers,
-             "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed},
+             "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed,
+             "max_bytes": budget.resolve(options.max_bytes), "max_memory": options.max_memory},
         sources={"frames": _loader(real, sim, pairing), "curves": plan.camera_objects}, **pooled)
 
 
