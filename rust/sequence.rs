@@ -42,6 +42,21 @@ use crate::register::{self, Affine, Interp, Source as WarpSource};
 use crate::stats::{self, HistRequest, PairStats, Request};
 use crate::{Error, Result};
 
+/// `$body` with `$v` bound to the samples of a [`FrameData`], whatever their type.
+macro_rules! on_samples {
+    ($data:expr, |$v:ident| $body:expr) => {
+        match $data {
+            FrameData::U8($v) => $body,
+            FrameData::U16($v) => $body,
+            FrameData::I16($v) => $body,
+            FrameData::U32($v) => $body,
+            FrameData::F16($v) => $body,
+            FrameData::F32($v) => $body,
+            FrameData::F64($v) => $body,
+        }
+    };
+}
+
 /// Where one frame lives: a file and (for multi-page TIFF) a page.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Source {
@@ -134,23 +149,10 @@ impl FixedWarp {
 
     /// The real frame as float64, and the simulated frame resampled onto it with the mask of
     /// the pixels it covers (NaN elsewhere).
-    fn align(&self, real: &FrameData, sim: &FrameData, rows: usize, cols: usize) -> (Vec<f64>, Vec<f64>, Vec<bool>) {
-        macro_rules! on_samples {
-            ($data:expr, |$v:ident| $body:expr) => {
-                match $data {
-                    FrameData::U8($v) => $body,
-                    FrameData::U16($v) => $body,
-                    FrameData::I16($v) => $body,
-                    FrameData::U32($v) => $body,
-                    FrameData::F16($v) => $body,
-                    FrameData::F32($v) => $body,
-                    FrameData::F64($v) => $body,
-                }
-            };
-        }
-        let real = real.to_f64();
+    fn align(&self, real: &FrameData, sim: &FrameData, rows: usize, cols: usize) -> Result<Aligned> {
+        let real = float64(real)?;
         let (aligned, valid) = on_samples!(sim, |v| self.resample(v, rows, cols));
-        (real, aligned, valid)
+        Ok((real, aligned, valid))
     }
 
     /// The simulated frame resampled onto the real frame's pixels, with the mask of the
@@ -159,6 +161,15 @@ impl FixedWarp {
         let src = WarpSource { data: sim, rows, cols, valid: None };
         register::warp(&src, &self.to_source, self.interp, rows, cols, f64::NAN)
     }
+}
+
+/// A registered pair: the real frame as float64, the simulated one resampled onto it, and
+/// the mask of the pixels it covers.
+type Aligned = (Vec<f64>, Vec<f64>, Vec<bool>);
+
+/// The samples as float64 (exact), in storage reserved fallibly.
+fn float64(data: &FrameData) -> Result<Vec<f64>> {
+    on_samples!(data, |v| budget::try_collect(v.len(), v.iter().map(|x| x.to_f64())))
 }
 
 fn interp_of(order: u32) -> Result<Interp> {
@@ -182,8 +193,8 @@ impl EachWarp {
     ) -> Result<(register::Registration, Scored)> {
         check_pair(r, s, kreq)?;
         let (rows, cols) = (r.rows, r.cols);
-        let real = r.data.to_f64();
-        let sim = s.data.to_f64();
+        let real = float64(&r.data)?;
+        let sim = float64(&s.data)?;
         let reg = register::register_frames(
             &register::Frame::new(&real, rows, cols, None, "real")?,
             &register::Frame::new(&sim, rows, cols, None, "simulated")?,
@@ -371,7 +382,7 @@ type Scored = (PairStats, Option<(f64, f64)>);
 /// Score a pair through a fixed registration: the overlap only, both frames as float64.
 fn score_aligned(r: &Frame, s: &Frame, warp: &FixedWarp, kreq: &Request, want_extent: bool) -> Result<Scored> {
     check_pair(r, s, kreq)?;
-    let (real, aligned, overlap) = warp.align(&r.data, &s.data, r.rows, r.cols);
+    let (real, aligned, overlap) = warp.align(&r.data, &s.data, r.rows, r.cols)?;
     overlap_stats(&real, &aligned, &overlap, kreq, want_extent)
 }
 

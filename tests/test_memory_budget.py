@@ -57,7 +57,7 @@ try:
         out["valid"] = int(valid.sum())
     elif op == "noise3d":
         nz = irf.noise3d(job["paths"], **kw)
-        out["sigma"] = nz.sigma["tvh"]
+        out["sigma"] = nz.sigma
     elif op == "sequence":
         seq = irf.score_sequence(job["real"], job["sim"], progress=False, **kw)
         out["errors"] = [f["error"] for f in seq.frames]
@@ -95,11 +95,11 @@ def write_png(path: Path, frame: np.ndarray) -> str:
 
 
 def smooth_pair(rows: int, cols: int, shift: tuple[int, int] = (2, -3)) -> tuple[np.ndarray, np.ndarray]:
-    """A smooth random scene and a shifted copy (registrable, uint16)."""
+    """A smooth random scene and a shifted copy (registrable, 12-bit levels in uint16)."""
     rng = np.random.default_rng(7)
     coarse = rng.random((rows // 8 + 4, cols // 8 + 4))
     big = cv2.resize(coarse, ((cols // 8 + 4) * 8, (rows // 8 + 4) * 8), interpolation=cv2.INTER_CUBIC)
-    big = (1000 + 3000 * big + rng.normal(0, 5, big.shape)).astype(np.uint16)
+    big = np.clip(1000 + 2000 * big + rng.normal(0, 5, big.shape), 0, 4095).astype(np.uint16)
     real = big[16:16 + rows, 16:16 + cols]
     sim = big[16 - shift[0]:16 - shift[0] + rows, 16 - shift[1]:16 - shift[1] + cols]
     return np.ascontiguousarray(real), np.ascontiguousarray(sim)
@@ -118,7 +118,7 @@ def test_evaluate_8k_scores_unregistered_and_refuses_registration() -> None:
     rec = run_child(op="evaluate")
     assert rec["kind"] == "ok" and 0 < rec["fidelity"] <= 1, rec
     rec = run_child(op="evaluate", kwargs={"register": "rigid"})
-    assert_refused(rec, "RegistrationError", "resampling and scoring a registered pair")
+    assert_refused(rec, "RegistrationError", "registration (rigid, method auto)")
 
 
 def test_ssim_map_8k_within_the_budget_and_refused_beyond_it() -> None:
@@ -143,12 +143,23 @@ def test_to_html_8k_takes_the_bounded_path() -> None:
     assert_refused(rec, "FidelityError", "the HTML report of a frame pair")
 
 
-def test_noise3d_8k_files_are_refused_naming_the_pass(tmp_path: Path) -> None:
+def test_noise3d_8k_files_plan_the_whole_measurement(tmp_path: Path) -> None:
     frame = np.full((BIG, BIG), 1000, dtype=np.uint16)
     paths = [write_png(tmp_path / f"n{i}.png", frame + i) for i in range(8)]
+    # the default budget: the spectra are refused before the pass starts; without them the
+    # sums fit, not with a worker's accumulator and two frames in flight
     rec = run_child(op="noise3d", frames=False, paths=paths)
+    assert_refused(rec, "FidelityError", "the 3-D noise decomposition and spectra (spectra=False needs less)")
+    assert rec["maxrss"] < 1 * GIB, rec
+    rec = run_child(op="noise3d", frames=False, paths=paths, kwargs={"spectra": False})
     assert_refused(rec, "FidelityError", "the 3-D noise pass (1 worker, 1 frame read at a time each)")
     assert rec["maxrss"] < 1 * GIB, rec
+    # 3 GiB: one worker decoding 4 frames at a time instead of two workers decoding 8
+    rec = run_child(cap=4 * GIB + GIB // 2, op="noise3d", frames=False, paths=paths,
+                    kwargs={"spectra": False, "max_bytes": 3 * GIB, "workers": 2})
+    assert rec["kind"] == "ok", rec
+    assert rec["sigma"]["tvh"] == 0 and rec["sigma"]["vh"] == 0 and rec["sigma"]["t"] > 2, rec
+    assert rec["maxrss"] < 3 * GIB + GIB // 2, rec
 
 
 def test_register_each_sequence_8k_pair_is_an_error_row(tmp_path: Path) -> None:
@@ -192,13 +203,29 @@ def test_over_budget_errors_name_the_step_everywhere() -> None:
             irf.register(real, sim, max_bytes=bad)
 
 
+def _decoding_peak(path: str) -> int:
+    """The smallest budget that decodes ``path`` (bisection on load_frame)."""
+    lo, hi = 1, 1 << 24
+    while lo < hi:
+        mid = (lo + hi) // 2
+        try:
+            irf.load_frame(path, max_bytes=mid)
+            hi = mid
+        except FrameError:
+            lo = mid + 1
+    return lo
+
+
 def test_decoding_within_the_pair_budget(tmp_path: Path) -> None:
     real, sim = smooth_pair(64, 80)
     pr, ps = write_png(tmp_path / "r.png", real), write_png(tmp_path / "s.png", sim)
     assert irf.evaluate(pr, ps, bits=12, max_bytes=1 << 20).fidelity == irf.evaluate(real, sim, bits=12).fidelity
     # the simulated frame is decoded within what the real one leaves
+    decoding = _decoding_peak(ps)
+    assert decoding >= sim.nbytes
     with pytest.raises(FrameError, match=r"s\.png: decoding .* exceeds the decoding budget .*\(max_bytes\)"):
-        irf.evaluate(pr, ps, bits=12, max_bytes=real.nbytes + 100)
+        irf.evaluate(pr, ps, bits=12, max_bytes=decoding + real.nbytes - 1)
+    assert irf.evaluate(pr, ps, bits=12, max_bytes=decoding + real.nbytes + 4 * real.size).fidelity > 0
 
 
 def test_budget_does_not_change_the_answers() -> None:
