@@ -68,7 +68,9 @@ except irf.errors.FidelityError as exc:
     out.update(kind="error", type=type(exc).__name__, message=str(exc))
 except MemoryError as exc:
     out.update(kind="memory_error", message=str(exc))
-out["maxrss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+# the peak resident size of this process (ru_maxrss would count the parent's at the fork too)
+with open("/proc/self/status") as f:
+    out["maxrss"] = next(int(line.split()[1]) * 1024 for line in f if line.startswith("VmHWM:"))
 print(json.dumps(out))
 """
 

@@ -24,6 +24,7 @@ __all__ = ["DEFAULT_MAX_BYTES", "resolve", "per_pair", "parse_size", "check", "n
 DEFAULT_MAX_BYTES: int = int(_core.default_max_bytes())
 
 _UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
+_MOST = (1 << 64) - 1
 
 
 def _positive_int(value: Any, name: str) -> int:
@@ -97,5 +98,5 @@ def check(operation: str, shape: tuple[int, ...], bytes_needed: float, max_bytes
     peak, more than ``max_bytes`` (None: the default): a :class:`FidelityError`
     (``kind="registration"``: :class:`RegistrationError`) naming the operation, the frame size,
     the bytes needed, the budget and how to raise it."""
-    rows, cols = (int(shape[0]), int(shape[1])) if len(shape) >= 2 else (1, int(shape[0]) if shape else 1)
-    _core.check_budget(operation, (rows, cols), int(math.ceil(bytes_needed)), resolve(max_bytes), kind)
+    needed = min(int(math.ceil(bytes_needed)), _MOST)  # beyond counting is beyond any budget
+    _core.check_budget(operation, (int(shape[0]), int(shape[1])), needed, resolve(max_bytes), kind)

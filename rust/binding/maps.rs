@@ -84,7 +84,7 @@ fn ssim_map<'py>(
         Ok((PyArray2::from_owned_array(py, map), m.mean))
     };
     with_frame_dtype!(py, real.dtype(), |T| on_slices::<T, _>(real, sim, |r, s| {
-        finish(py.detach(|| maps::ssim_map_sampled(r, s, rows, cols, &params, valid, step))?)
+        finish(py.detach(|| maps::ssim_map(r, s, rows, cols, &params, valid, step))?)
     }))
     .flatten()
     .unwrap_or_else(|| Err(unsupported(real, sim)))

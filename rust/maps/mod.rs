@@ -21,4 +21,4 @@ mod ssim;
 
 pub use frame::SsimParams;
 pub use multiscale::{max_scales, ms_ssim, ms_ssim_plan, MsSsim, MS_SSIM_WEIGHTS};
-pub use ssim::{ssim_map, ssim_map_plan, ssim_map_sampled, SsimMap};
+pub use ssim::{ssim_map, ssim_map_plan, SsimMap};

@@ -43,24 +43,12 @@ pub struct SsimMap {
     pub mean: f64,
 }
 
-/// The SSIM map of two `rows × cols` row-major frames. `valid`: the allowed range of integer
-/// values (the declared bit depth); values outside it, NaN or Inf are a range error naming
-/// the first of them.
+/// The SSIM map of two `rows × cols` row-major frames, every `step`-th row and column of it
+/// (1: the whole map; more: what a display of the map shows, the same values as
+/// `map[::step, ::step]` of the whole map and the same mean, without holding the whole map).
+/// `valid`: the allowed range of integer values (the declared bit depth); values outside
+/// it, NaN or Inf are a range error naming the first of them.
 pub fn ssim_map<T: Sample>(
-    real: &[T],
-    sim: &[T],
-    rows: usize,
-    cols: usize,
-    params: &SsimParams,
-    valid: Option<(i64, i64)>,
-) -> Result<SsimMap> {
-    ssim_map_sampled(real, sim, rows, cols, params, valid, 1)
-}
-
-/// [`ssim_map`] keeping only every `step`-th row and column of the map (what a display of the
-/// map shows: the same values as `map[::step, ::step]` of the whole map, and the same mean,
-/// without holding the whole map).
-pub fn ssim_map_sampled<T: Sample>(
     real: &[T],
     sim: &[T],
     rows: usize,
@@ -94,7 +82,7 @@ pub(crate) fn band_scratch_bytes(cols: usize, params: &SsimParams) -> u64 {
     values.saturating_mul(std::mem::size_of::<f64>() as u64)
 }
 
-/// The peak of [`ssim_map_sampled`] besides the frames: the map kept and every pool
+/// The peak of [`ssim_map`] besides the frames: the map kept and every pool
 /// thread's band buffers.
 pub fn ssim_map_plan(shape: (usize, usize), params: &SsimParams, step: usize) -> Plan {
     let step = step.max(1);
@@ -176,7 +164,7 @@ fn run<T: Sample, const CS: bool>(
         let mut out = slots.as_ref().map(|s| s[b].lock().unwrap_or_else(|e| e.into_inner()));
         let (check, ssim, cs) = SCRATCH.with(|scratch| {
             let mut scratch = scratch.borrow_mut();
-            let sink = out.as_deref_mut().map(|o| Sink { rows: &mut **o, step });
+            let sink = out.as_deref_mut().map(|o| Sink { rows: o, step });
             band_sums::<T, CS>(&band, &window, params, valid, sink, &mut scratch)
         });
         Ok(BandResult { check, ssim, cs })
@@ -358,7 +346,7 @@ mod tests {
         let (rows, cols) = (70, 45); // bands of 32 rows: a partial last band
         let (real, sim) = frames(rows, cols);
         let p = SsimParams::paper(4095.0);
-        let got = ssim_map(&real, &sim, rows, cols, &p, Some((0, 4095))).unwrap();
+        let got = ssim_map(&real, &sim, rows, cols, &p, Some((0, 4095)), 1).unwrap();
         let rf: Vec<f64> = real.iter().map(|&v| v as f64).collect();
         let sf: Vec<f64> = sim.iter().map(|&v| v as f64).collect();
         let want = direct(&rf, &sf, rows, cols, &p);
@@ -396,15 +384,15 @@ mod tests {
     fn flat_frames_have_documented_values() {
         let (rows, cols) = (12, 11);
         let p = SsimParams::paper(255.0);
-        let same = ssim_map(&vec![7u8; rows * cols], &vec![7u8; rows * cols], rows, cols, &p, None).unwrap();
+        let same = ssim_map(&vec![7u8; rows * cols], &vec![7u8; rows * cols], rows, cols, &p, None, 1).unwrap();
         assert!(same.map.iter().all(|&v| v == 1.0) && same.mean == 1.0);
         let (a, b) = (200.0f64, 50.0f64);
         let want = (2.0 * a * b + p.c1()) / (a * a + b * b + p.c1());
-        let diff = ssim_map(&vec![200u8; rows * cols], &vec![50u8; rows * cols], rows, cols, &p, None).unwrap();
+        let diff = ssim_map(&vec![200u8; rows * cols], &vec![50u8; rows * cols], rows, cols, &p, None, 1).unwrap();
         assert!(diff.map.iter().all(|&v| (v - want).abs() < 1e-15));
         let (_, cs) = ssim_means(&vec![200u8; rows * cols], &vec![50u8; rows * cols], rows, cols, &p, None).unwrap();
         assert!((cs - 1.0).abs() < 1e-15);
-        let zeros = ssim_map(&vec![0.0f32; rows * cols], &vec![0.0f32; rows * cols], rows, cols, &p, None).unwrap();
+        let zeros = ssim_map(&vec![0.0f32; rows * cols], &vec![0.0f32; rows * cols], rows, cols, &p, None, 1).unwrap();
         assert_eq!(zeros.mean, 1.0);
     }
 
@@ -431,15 +419,35 @@ mod tests {
     }
 
     #[test]
+    fn sampled_maps_are_the_displayed_part_of_the_map() {
+        let (rows, cols) = (70, 45);
+        let (real, sim) = frames(rows, cols);
+        let p = SsimParams::paper(4095.0);
+        let whole = ssim_map(&real, &sim, rows, cols, &p, None, 1).unwrap();
+        let map = &whole.map;
+        for step in [2, 3, 31, 100] {
+            let part = ssim_map(&real, &sim, rows, cols, &p, None, step).unwrap();
+            assert_eq!((part.rows, part.cols), (rows.div_ceil(step), cols.div_ceil(step)));
+            let at = |r: usize| (0..cols).step_by(step).map(move |c| map[r * cols + c]);
+            assert_eq!(part.map, (0..rows).step_by(step).flat_map(at).collect::<Vec<f64>>(), "{step}");
+            assert_eq!(part.mean, whole.mean);
+        }
+        assert!(ssim_map(&real, &sim, rows, cols, &p, None, 0).is_err());
+        // the plan counts the map kept and the band buffers
+        let (full, shown) = (ssim_map_plan((rows, cols), &p, 1), ssim_map_plan((rows, cols), &p, 3));
+        assert_eq!(full.bytes - shown.bytes, 8 * (70 * 45 - 24 * 15));
+    }
+
+    #[test]
     fn bad_inputs_are_errors_not_panics() {
         let p = SsimParams::paper(255.0);
-        assert!(ssim_map(&[0u8; 100], &[0u8; 100], 10, 10, &p, None).is_err()); // 10 < 11
-        assert!(ssim_map(&[0u8; 120], &[0u8; 121], 11, 11, &p, None).is_err());
+        assert!(ssim_map(&[0u8; 100], &[0u8; 100], 10, 10, &p, None, 1).is_err()); // 10 < 11
+        assert!(ssim_map(&[0u8; 120], &[0u8; 121], 11, 11, &p, None, 1).is_err());
         let mut nan = vec![0.5f32; 144];
         nan[100] = f32::NAN;
-        let e = ssim_map(&nan, &vec![0.5f32; 144], 12, 12, &p, None).unwrap_err();
+        let e = ssim_map(&nan, &vec![0.5f32; 144], 12, 12, &p, None, 1).unwrap_err();
         assert!(format!("{e}").contains("(row 8, col 4)"), "{e}");
-        let e = ssim_map(&[300u16; 144], &[0u16; 144], 12, 12, &p, Some((0, 255))).unwrap_err();
+        let e = ssim_map(&[300u16; 144], &[0u16; 144], 12, 12, &p, Some((0, 255)), 1).unwrap_err();
         assert!(format!("{e}").contains("value 300 at (row 0, col 0)"), "{e}");
     }
 }
