@@ -1,4 +1,4 @@
-"""Peak memory of each operation with the default memory budget (docs/design.md §10).
+"""Peak memory of each operation with the default memory budget (docs/design.md §14).
 
     python benches/bench_memory.py [--sizes 640x512,8192x8192] [--workers 2]
 

@@ -1,4 +1,4 @@
-//! The memory budget (docs/design.md §10): every allocation proportional to a frame is
+//! The memory budget (docs/design.md §14): every allocation proportional to a frame is
 //! planned from the frame's shape before it happens, and large buffers are allocated
 //! fallibly, so running out of memory is an [`Error`], never an abort.
 //!

@@ -15,7 +15,7 @@
 //! out at the tail, when threads run out of pairs.
 //!
 //! Memory: each pair is planned against the per-pair budget (`max_bytes`, docs/design.md
-//! §10) once its real frame is decoded ([`pair_plan`]): both frames, their float64 copies,
+//! §14) once its real frame is decoded ([`pair_plan`]): both frames, their float64 copies,
 //! registration and resampling. A pair over budget is that pair's error; the simulated frame
 //! is decoded within what the real one leaves.
 //!
@@ -35,6 +35,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crate::budget::{self, Plan};
+use crate::fingerprint::{self, Fingerprint};
 use crate::hist::Entropies;
 use crate::io::{self, DecodeOptions, Frame, FrameData};
 use crate::kernel::Sample;
@@ -102,6 +103,9 @@ pub struct SeqRequest {
     /// Registration: the simulated frame is resampled onto the real one and only the
     /// overlap is scored (both frames as float64).
     pub warp: Option<Warp>,
+    /// Fingerprint both input files of every pair, in the same read as the decode
+    /// ([`crate::fingerprint`]; [`PairOutcome::fingerprints`]).
+    pub fingerprint: bool,
 }
 
 /// How pairs are registered before scoring.
@@ -242,6 +246,7 @@ impl Default for SeqRequest {
             max_pixels: io::DEFAULT_MAX_PIXELS,
             max_bytes: None,
             warp: None,
+            fingerprint: false,
         }
     }
 }
@@ -263,6 +268,9 @@ pub struct PairOutcome {
     pub real_extent: Option<(f64, f64)>,
     /// The pair's own registration ([`Warp::Each`]), when it was found.
     pub registration: Option<register::Registration>,
+    /// With [`SeqRequest::fingerprint`]: the fingerprints of the real and the simulated file,
+    /// of the bytes decoded; None when a file changed while it was decoded.
+    pub fingerprints: Option<(Fingerprint, Fingerprint)>,
 }
 
 /// (min, max) over the finite values; None when there are none.
@@ -322,9 +330,37 @@ fn prefix(err: Error, what: &str) -> Error {
     }
 }
 
-fn decode(src: &Source, channel: &Option<String>, req: &SeqRequest, max_bytes: u64) -> Result<Frame> {
+/// Files up to this share of the decoding budget are read whole, hashed and decoded from
+/// memory when fingerprints are asked for (the buffer is held beside the decode).
+const WHOLE_FILE_SHARE: u64 = 8;
+
+/// Decode a frame and, with [`SeqRequest::fingerprint`], fingerprint the bytes decoded: a
+/// first page held in memory is hashed as read; a later page of a stack, or a file beyond
+/// the in-memory share, gets the digest taken before decoding if the file did not change
+/// meanwhile (the module notes of [`crate::fingerprint`]). `max_bytes` bounds the decode,
+/// the file's bytes held in memory included.
+fn decode(
+    src: &Source,
+    channel: &Option<String>,
+    req: &SeqRequest,
+    max_bytes: u64,
+) -> Result<(Frame, Option<Fingerprint>)> {
     let opts = DecodeOptions { channel: channel.clone(), max_pixels: req.max_pixels, max_bytes, page: src.page };
-    io::decode_frame(&src.path, &opts)
+    if !req.fingerprint {
+        return Ok((io::decode_frame(&src.path, &opts)?, None));
+    }
+    if src.page == 0 {
+        if let Some((bytes, fp)) = fingerprint::read_whole(&src.path, opts.max_bytes / WHOLE_FILE_SHARE)? {
+            let held = budget::size_of_vec::<u8>(bytes.len());
+            let opts = DecodeOptions { max_bytes: max_bytes.saturating_sub(held), ..opts };
+            let frame = io::decode_bytes(&bytes, &src.path.display().to_string(), &opts)?;
+            return Ok((frame, Some(fp)));
+        }
+    }
+    let before = fingerprint::digest_before(&src.path);
+    let frame = io::decode_frame(&src.path, &opts)?;
+    let fp = before.filter(|(state, _)| fingerprint::unchanged(&src.path, state)).map(|(_, fp)| fp);
+    Ok((frame, fp))
 }
 
 /// Bytes of one sample of `data`.
@@ -409,11 +445,12 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
         entropies: None,
         real_extent: None,
         registration: None,
+        fingerprints: None,
     };
     let body = || -> Result<PairStats> {
         let what = || format!("{} vs {}", real.label(), sim.label());
         let max_bytes = req.max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES);
-        let r = decode(real, &req.real_channel, req, max_bytes)?;
+        let (r, real_fp) = decode(real, &req.real_channel, req, max_bytes)?;
         out.shape = Some((r.rows, r.cols));
         out.dtype = Some(r.data.dtype_name());
         let (plan, kind) = pair_plan((r.rows, r.cols), &r.data, req);
@@ -422,7 +459,8 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
             out.real_extent = extent(&r.data);
         }
         let held = budget::size_of_vec::<u8>(r.data.len() * sample_bytes(&r.data));
-        let s = decode(sim, &req.sim_channel, req, max_bytes.saturating_sub(held))?;
+        let (s, sim_fp) = decode(sim, &req.sim_channel, req, max_bytes.saturating_sub(held))?;
+        out.fingerprints = real_fp.zip(sim_fp);
         if (r.rows, r.cols) != (s.rows, s.cols) {
             return Err(Error::Shape(format!(
                 "{}: real and sim frames differ in shape: ({}, {}) vs ({}, {})",
@@ -964,6 +1002,23 @@ mod tests {
         stream.finish().unwrap();
         idx.sort_unstable();
         assert_eq!(idx, (0..n).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn fingerprints_are_of_the_files_decoded() {
+        // a first page read whole, and later pages of a stack hashed before decoding
+        let png = |i: usize| Source::new(data(&format!("thermal/cptv_v2_frame{i:03}.png")), 0);
+        let real = vec![png(0), Source::new(data(STACK), 0), Source::new(data(STACK), 7)];
+        let sim = vec![png(1), Source::new(data(STACK), 3), Source::new(data(STACK), 9)];
+        let req = SeqRequest { fingerprint: true, ..sse_only() };
+        for o in collect(&real, &sim, &req, 2) {
+            let (r, s) = o.fingerprints.expect("both files fingerprinted");
+            for (fp, src) in [(r, &real[o.index]), (s, &sim[o.index])] {
+                assert_eq!(fp.digest, fingerprint::file_digest(&src.path).unwrap());
+                assert_eq!(fp.size, std::fs::metadata(&src.path).unwrap().len());
+            }
+        }
+        assert!(collect(&real, &sim, &sse_only(), 1).iter().all(|o| o.fingerprints.is_none()));
     }
 
     #[test]

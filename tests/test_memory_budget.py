@@ -1,4 +1,4 @@
-"""One memory budget for a pair's work and a run's (docs/design.md §10): every operation on
+"""One memory budget for a pair's work and a run's (docs/design.md §14): every operation on
 large legal frames either refuses, before allocating, with the library's error naming it, or
 takes a bounded path — in a child process under an address-space cap, which exits normally
 (no signal, no MemoryError) — and the bounded paths give the same answers."""
@@ -112,7 +112,7 @@ def smooth_pair(rows: int, cols: int, shift: tuple[int, int] = (2, -3)) -> tuple
 
 def test_register_8k_is_refused_before_it_allocates() -> None:
     rec = run_child(op="register")
-    assert_refused(rec, "RegistrationError", "registration (translation, method auto)")
+    assert_refused(rec, "RegistrationError", "registration (translation, method phase)")
     assert rec["maxrss"] < 1 * GIB, rec  # the two frames, nothing of the search
 
 
@@ -120,7 +120,7 @@ def test_evaluate_8k_scores_unregistered_and_refuses_registration() -> None:
     rec = run_child(op="evaluate")
     assert rec["kind"] == "ok" and 0 < rec["fidelity"] <= 1, rec
     rec = run_child(op="evaluate", kwargs={"register": "rigid"})
-    assert_refused(rec, "RegistrationError", "registration (rigid, method auto)")
+    assert_refused(rec, "RegistrationError", "registration (rigid, method phase)")
 
 
 def test_ssim_map_8k_within_the_budget_and_refused_beyond_it() -> None:
@@ -178,7 +178,7 @@ def test_register_each_sequence_8k_pair_is_an_error_row(tmp_path: Path) -> None:
     assert rec["kind"] == "ok", rec
     errors = rec["errors"]
     assert errors[0] is None and errors[2] is None, errors
-    assert "registration (translation, method auto) and scoring of a frame pair" in errors[1], errors
+    assert "registration (translation, method phase) and scoring of a frame pair" in errors[1], errors
     assert f"{BIG} x {BIG} pixel frames" in errors[1] and "max_bytes" in errors[1], errors
     assert all(0 < f <= 1 for i, f in enumerate(rec["fidelity"]) if i != 1), rec["fidelity"]
 
@@ -307,7 +307,7 @@ def test_max_memory_is_shared_by_the_workers(tmp_path: Path) -> None:
                              max_bytes=10 << 20, register="translation", register_each=True, progress=False)
     assert seq.run["max_bytes"] == 1 << 20
     assert seq.failed == [0, 1, 2]
-    assert all("registration (translation, method auto) and scoring of a frame pair" in f["error"] for f in seq.frames)
+    assert all("registration (translation, method phase) and scoring of a frame pair" in f["error"] for f in seq.frames)
     assert budget.per_pair(None, None, 4) is None and budget.per_pair(3 << 20, None, 4) == 3 << 20
     with pytest.raises(FidelityError, match="leaves nothing"):
         budget.per_pair(None, 3, 4)

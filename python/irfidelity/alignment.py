@@ -6,7 +6,7 @@ frame as float64, the simulated frame resampled onto it (:meth:`Registration.app
 the overlap as the mask, so pixels the simulated frame does not cover never count. The bit
 depth is checked on the integer frames first, since the resampled ones are floats.
 
-Memory (docs/design.md §10): :func:`aligned_pair` plans its peak before resampling (both
+Memory (docs/design.md §14): :func:`aligned_pair` plans its peak before resampling (both
 frames as given, the real one as float64, the resampled one with its overlap, the scored
 mask: :data:`ALIGNED_BYTES` a pixel besides the frames) against ``max_bytes``.
 """

@@ -1,4 +1,4 @@
-"""The memory budget (docs/design.md §10), Python side.
+"""The memory budget (docs/design.md §14), Python side.
 
 ``max_bytes`` bounds everything one frame pair's work holds at its peak: both frames (as
 decoded or given), their float64 copies, registration, resampling, statistics, maps and

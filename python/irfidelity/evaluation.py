@@ -6,7 +6,7 @@ work done. A component with weight 0 is not computed at all (no histogram pass u
 is weighted, no moments unless SSIM is, no curve read without a curve weight), and one
 pass of the Rust kernel computes every image statistic the plan needs.
 
-Memory is planned too (docs/design.md §10): the frames (decoded within ``max_bytes``, the
+Memory is planned too (docs/design.md §14): the frames (decoded within ``max_bytes``, the
 simulated one within what the real one leaves) and every step after them are checked
 against the budget before they allocate.
 """
@@ -166,7 +166,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         statistics are each planned against it before they allocate; over budget is a
         :class:`FrameError` (decoding), :class:`RegistrationError` (registration) or
         :class:`FidelityError` naming the step, the frame size and the bytes (docs/design.md
-        §10). Not part of the configuration: it never changes a score.
+        §14). Not part of the configuration: it never changes a score.
     **options
         Any :class:`~irfidelity.ScoringConfig` field (``weights=``, ``bits=``, ``peak=``,
         ``bins=``, ``missing=``, ...; ``channel=`` sets both frame channels); overrides
@@ -188,10 +188,16 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     Examples
     --------
     >>> import numpy as np, irfidelity as irf
-    >>> real = np.arange(64, dtype=np.uint16).reshape(8, 8)
-    >>> rep = irf.evaluate(real, real + 1, bits=14, weights="psnr=0.5,ssim=0.5")
-    >>> round(rep.metrics["psnr_db"], 2), rep.components["ssim"] > 0.99
-    (84.29, True)
+    >>> real = np.arange(64, dtype=np.uint16).reshape(8, 8)    # a scene spanning 63 of 16383 counts
+    >>> rep = irf.evaluate(real, real + 1, bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
+    >>> round(rep.metrics["psnr_db"], 2), rep.metrics["psnr_peak"], rep.components["ssim"] > 0.99
+    (35.99, 63.0, True)
+    >>> round(rep.fidelity, 3), rep.grade
+    (0.978, 'excellent')
+
+    ``peak="range"`` measures PSNR against the real frame's own range (max − min); against the
+    14-bit full scale, a scene this narrow would pin the psnr component near 1 whatever the
+    simulator does (a :class:`~irfidelity.errors.PeakWarning` says so).
 
     References
     ----------

@@ -1,5 +1,5 @@
 //! What registration and warping hold at their peak, estimated from the frame shape before
-//! anything is allocated (docs/design.md §10).
+//! anything is allocated (docs/design.md §14).
 //!
 //! Registration's working memory, besides the two frames it is given, is a few float64
 //! planes with their masks (9 bytes a pixel each: the frames converted, smoothed, their

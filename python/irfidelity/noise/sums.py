@@ -4,7 +4,7 @@ and :func:`noise_sums` (one pass over a 3-D array or a frame sequence, in Rust).
 A pass keeps per-pixel temporal sums and per-frame row and column sums, O(V·H + T·(V+H))
 memory, never the cube; it is planned against the memory budget ``max_bytes`` in Rust
 (fewer workers, or fewer frames decoded at once, when that fits and more would not;
-docs/design.md §10). Integer frames are summed exactly, so merging the sums of
+docs/design.md §14). Integer frames are summed exactly, so merging the sums of
 disjoint frame ranges equals one pass over all of them, bit for bit; Dask spreads a long
 recording this way (map :func:`noise_sums` over frame ranges, reduce with
 :meth:`NoiseSums.merge` in frame order).

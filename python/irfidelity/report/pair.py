@@ -1,6 +1,6 @@
 """The single-pair report: :func:`render_pair_html`.
 
-Memory (docs/design.md §10): whatever the frame size, the page needs display-size copies
+Memory (docs/design.md §14): whatever the frame size, the page needs display-size copies
 only. The difference's statistics and the fallback histograms are summed over bands of rows
 (:data:`BAND_PIXELS` at a time), the SSIM map is computed keeping only its displayed pixels
 (:func:`irfidelity.maps.sampled_ssim_map`, the same values and mean), so besides the frames
@@ -98,7 +98,7 @@ def render_pair_html(
     >>> y, x = np.mgrid[0:120, 0:160]
     >>> real = (3000 + 200 * np.sin(x / 9.0) + 50 * np.cos(y / 5.0)).astype(np.uint16)
     >>> sim = (real // 2 + 1600).astype(np.uint16)
-    >>> rep = irf.evaluate(real, sim, bits=14, missing="renormalize")
+    >>> rep = irf.evaluate(real, sim, bits=14, peak="range", missing="renormalize")
     >>> page = render_pair_html(rep.to_dict(), real=real, sim=sim)
     >>> page.startswith("<!DOCTYPE html>"), "Not shown: no MTF curves were given" in page
     (True, True)
