@@ -9,7 +9,7 @@ same as ``ru_maxrss`` except that ``ru_maxrss`` of a child also counts its paren
 at the fork), the operation's own peak above what the child held before it (the high-water
 mark reset through ``/proc/self/clear_refs``; Linux), and what happened: ``ok``, or the
 library's refusal (over the budget, before allocating). With the
-default 2 GiB budget a registered 8192 x 8192 pair and its 3-D noise are refused; the others
+default 2 GiB budget an 8192 x 8192 registration and its 3-D noise are refused; the others
 take their bounded paths. A benchmark, not a test: numbers depend on the machine (threads,
 allocator).
 """
@@ -42,7 +42,7 @@ def start():  # the resident size now, with the high-water mark reset to it (Lin
 
 rows, cols = job["shape"]
 real = sim = None
-if job["op"] in ("evaluate", "evaluate registered", "ssim_map", "to_html"):
+if job["op"] in ("register", "evaluate", "evaluate registered", "ssim_map", "to_html"):
     real, sim = np.load(job["real"]), np.load(job["sim"])
 peak = status("VmHWM:")
 before = start()
@@ -50,6 +50,8 @@ out = {"status": "ok"}
 try:
     if job["op"] == "decode":
         irf.load_frame(job["png"][0])
+    elif job["op"] == "register":
+        irf.register(real, sim)
     elif job["op"] == "evaluate":
         irf.evaluate(real, sim)
     elif job["op"] == "evaluate registered":
@@ -69,7 +71,7 @@ out.update(peak=max(peak, status("VmHWM:")), added=status("VmHWM:") - before)
 print(json.dumps(out))
 """
 
-OPS = ["decode", "evaluate", "evaluate registered", "ssim_map", "noise3d (8 frames)", "to_html"]
+OPS = ["decode", "register", "evaluate", "evaluate registered", "ssim_map", "noise3d (8 frames)", "to_html"]
 
 
 def scene(rows: int, cols: int, shift: tuple[int, int] = (2, -3)) -> tuple[np.ndarray, np.ndarray]:

@@ -163,6 +163,30 @@ def test_noise3d_8k_files_plan_the_whole_measurement(tmp_path: Path) -> None:
     assert rec["sigma"]["tvh"] == 0 and rec["sigma"]["vh"] == 0 and rec["sigma"]["t"] > 2, rec
     assert rec["maxrss"] < 3 * GIB + GIB // 2, rec
 
+def test_a_runs_peak_is_its_workers_times_the_pair_budget(tmp_path: Path) -> None:
+    # four 8192² pairs on two workers: each pair gets max_memory // 2, so the run holds at
+    # most max_memory besides the interpreter (the frames alone: 256 MiB a pair)
+    frame = np.full((BIG, BIG), 1000, dtype=np.uint16)
+    real, sim = tmp_path / "real", tmp_path / "sim"
+    real.mkdir()
+    sim.mkdir()
+    for i in range(4):
+        write_png(real / f"f{i}.png", frame + i)
+        write_png(sim / f"f{i}.png", frame + 2 * i)
+    max_memory = 2 * (256 << 20) + (64 << 20)
+    rec = run_child(op="sequence", frames=False, real=str(real), sim=str(sim),
+                    kwargs={"workers": 2, "max_memory": max_memory, "bits": 12})
+    assert rec["kind"] == "ok" and rec["errors"] == [None] * 4, rec
+    assert rec["run"]["max_bytes"] == max_memory // 2
+    assert rec["maxrss"] < max_memory + (256 << 20), rec  # + the interpreter and libraries
+    # half the budget: every pair is its own error row (the simulated frame does not fit
+    # what the real one leaves), the run ends normally
+    rec = run_child(op="sequence", frames=False, real=str(real), sim=str(sim),
+                    kwargs={"workers": 2, "max_memory": max_memory // 2, "bits": 12})
+    assert rec["kind"] == "ok" and all("max_bytes" in e for e in rec["errors"]), rec
+    assert rec["maxrss"] < max_memory, rec
+
+
 
 def test_register_each_sequence_8k_pair_is_an_error_row(tmp_path: Path) -> None:
     small_real, small_sim = smooth_pair(96, 128)
@@ -319,7 +343,7 @@ def test_sizes_parse(text: str, want: int) -> None:
     assert budget.parse_size(text) == want
 
 
-@pytest.mark.parametrize("text", ["", "G", "-1G", "2X", "0", "1e9", "0.1"])
+@pytest.mark.parametrize("text", ["", "G", "-1G", "2X", "0", "1e9", "0.1", "8388608T", "99999999999T"])
 def test_bad_sizes_are_refused(text: str) -> None:
     with pytest.raises(FidelityError, match="size"):
         budget.parse_size(text)

@@ -25,6 +25,7 @@ DEFAULT_MAX_BYTES: int = int(_core.default_max_bytes())
 
 _UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
 _MOST = (1 << 64) - 1
+_LARGEST = 1 << 63  # the core takes budgets in 1..2^63-1
 
 
 def _positive_int(value: Any, name: str) -> int:
@@ -84,6 +85,8 @@ def parse_size(text: str) -> int:
     value = float(found.group(1)) * _UNITS[found.group(2).lower()]
     if not (math.isfinite(value) and value >= 1):
         raise FidelityError(f"expected a size of at least 1 byte, got {text!r}", option="max_memory")
+    if value >= _LARGEST:
+        raise FidelityError(f"expected a size below 8 EiB (2^63 bytes), got {text!r}", option="max_memory")
     return int(value)
 
 
