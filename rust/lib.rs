@@ -2,6 +2,7 @@
 //! slices. The PyO3 binding (`irfidelity._core`) is behind the `python` feature, so
 //! `cargo test` needs no Python.
 
+pub mod budget;
 pub mod error;
 pub mod fingerprint;
 pub mod hist;

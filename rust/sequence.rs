@@ -14,6 +14,11 @@
 //! with its own pair, so it stays on its thread (no oversubscription) and only spreads
 //! out at the tail, when threads run out of pairs.
 //!
+//! Memory: each pair is planned against the per-pair budget (`max_bytes`, docs/design.md
+//! §14) once its real frame is decoded ([`pair_plan`]): both frames, their float64 copies,
+//! registration and resampling. A pair over budget is that pair's error; the simulated frame
+//! is decoded within what the real one leaves.
+//!
 //! Outcomes reach the consumer through [`stream_pairs`]: a bounded queue of
 //! [`QUEUE_PER_WORKER`] outcomes per worker, filled in completion order. A worker whose
 //! outcome finds the queue full waits before decoding its next pair (back-pressure), so a
@@ -29,6 +34,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use crate::budget::{self, Plan};
 use crate::fingerprint::{self, Fingerprint};
 use crate::hist::Entropies;
 use crate::io::{self, DecodeOptions, Frame, FrameData};
@@ -76,7 +82,8 @@ pub struct SeqRequest {
     /// real frame's range).
     pub real_extent: bool,
     pub max_pixels: u64,
-    /// Decoding budget per frame, in bytes (`DecodeOptions::max_bytes`); `None` = the default.
+    /// The memory budget of one pair's work, in bytes (decoding both frames included);
+    /// `None` = [`io::DEFAULT_MAX_BYTES`].
     pub max_bytes: Option<u64>,
     /// Registration: the simulated frame is resampled onto the real one and only the
     /// overlap is scored (both frames as float64).
@@ -168,6 +175,21 @@ pub struct PairSlices<'a, T> {
 }
 
 impl Warp {
+    /// What scoring a `shape` pair through this registration holds besides the frames as
+    /// given, and the kind of error over budget: the real frame as float64, the resampled
+    /// frame, its overlap and the scored mask (18 bytes a pixel) or, when the pair is
+    /// registered first, registration's working memory if that is more.
+    pub fn plan(&self, shape: (usize, usize)) -> (Plan, budget::Kind) {
+        let scoring = Plan::new("resampling and scoring a registered pair", shape, 18.0, 0);
+        match self {
+            Warp::Fixed(_) => (scoring, Error::Value),
+            Warp::Each(each) => {
+                let search = register::register_plan(shape, &each.options);
+                (if search.bytes > scoring.bytes { search } else { scoring }, Error::Registration)
+            }
+        }
+    }
+
     /// Score a pair through this registration, the one path of every registered pair (files
     /// of a sequence, arrays of a sequence, a single pair): integer levels checked against
     /// `kreq.valid`; with [`Warp::Each`] the pair registered (over `mask`); the simulated
@@ -202,7 +224,7 @@ impl Warp {
             None => overlap,
             Some(mask) => overlap.iter().zip(mask).map(|(&covered, &keep)| covered && keep).collect(),
         };
-        let real: Vec<f64> = real.iter().map(|v| v.to_f64()).collect();
+        let real = budget::try_collect(real.len(), real.iter().map(|v| v.to_f64()))?;
         let (stats, extent) = overlap_stats(&real, &aligned, &scored, kreq, want_extent)?;
         Ok(Aligned { registration, stats, extent, sim: aligned, scored })
     }
@@ -350,19 +372,22 @@ const WHOLE_FILE_SHARE: u64 = 8;
 /// Decode a frame and, with [`SeqRequest::fingerprint`], fingerprint the bytes decoded: a
 /// first page held in memory is hashed as read; a later page of a stack, or a file beyond
 /// the in-memory share, gets the digest taken before decoding if the file did not change
-/// meanwhile (the module notes of [`crate::fingerprint`]).
-fn decode(src: &Source, channel: &Option<String>, req: &SeqRequest) -> Result<(Frame, Option<Fingerprint>)> {
-    let opts = DecodeOptions {
-        channel: channel.clone(),
-        max_pixels: req.max_pixels,
-        max_bytes: req.max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES),
-        page: src.page,
-    };
+/// meanwhile (the module notes of [`crate::fingerprint`]). `max_bytes` bounds the decode,
+/// the file's bytes held in memory included.
+fn decode(
+    src: &Source,
+    channel: &Option<String>,
+    req: &SeqRequest,
+    max_bytes: u64,
+) -> Result<(Frame, Option<Fingerprint>)> {
+    let opts = DecodeOptions { channel: channel.clone(), max_pixels: req.max_pixels, max_bytes, page: src.page };
     if !req.fingerprint {
         return Ok((io::decode_frame(&src.path, &opts)?, None));
     }
     if src.page == 0 {
         if let Some((bytes, fp)) = fingerprint::read_whole(&src.path, opts.max_bytes / WHOLE_FILE_SHARE)? {
+            let held = budget::size_of_vec::<u8>(bytes.len());
+            let opts = DecodeOptions { max_bytes: max_bytes.saturating_sub(held), ..opts };
             let frame = io::decode_bytes(&bytes, &src.path.display().to_string(), &opts)?;
             return Ok((frame, Some(fp)));
         }
@@ -371,6 +396,42 @@ fn decode(src: &Source, channel: &Option<String>, req: &SeqRequest) -> Result<(F
     let frame = io::decode_frame(&src.path, &opts)?;
     let fp = before.filter(|(state, _)| fingerprint::unchanged(&src.path, state)).map(|(_, fp)| fp);
     Ok((frame, fp))
+}
+
+/// Bytes of one sample of `data`.
+fn sample_bytes(data: &FrameData) -> usize {
+    match data {
+        FrameData::U8(_) => 1,
+        FrameData::U16(_) | FrameData::I16(_) | FrameData::F16(_) => 2,
+        FrameData::U32(_) | FrameData::F32(_) => 4,
+        FrameData::F64(_) => 8,
+    }
+}
+
+/// What one pair of `shape` frames whose real frame is `real` holds at its peak under `req`
+/// (both frames in their sample type throughout), and the kind of error over budget is:
+/// - unregistered: the kernel's float32 copies of float16 frames;
+/// - a fixed warp: the real frame as float64, the simulated one resampled and its overlap;
+/// - registering each pair: both frames as float64, then registration's working memory
+///   ([`register::register_plan`]) or the resampled frame and its overlap, whichever is more.
+pub fn pair_plan(shape: (usize, usize), real: &FrameData, req: &SeqRequest) -> (Plan, budget::Kind) {
+    let frames = 2.0 * sample_bytes(real) as f64;
+    match &req.warp {
+        None => {
+            let widened = if matches!(real, FrameData::F16(_)) { 8.0 } else { 0.0 };
+            (Plan::new("scoring a frame pair", shape, frames + widened, 0), Error::Value)
+        }
+        Some(Warp::Fixed(_)) => {
+            (Plan::new("resampling and scoring a frame pair", shape, frames + 17.0, 0), Error::Value)
+        }
+        Some(Warp::Each(each)) => {
+            let search = register::register_plan(shape, &each.options);
+            let resampled = register::warp_plan(shape).bytes;
+            let held = Plan::new("", shape, frames + 16.0, 0).bytes;
+            let operation = format!("{} and scoring of a frame pair", search.operation);
+            (Plan { operation, shape, bytes: search.bytes.max(resampled).saturating_add(held) }, Error::Registration)
+        }
+    }
 }
 
 /// A pair's statistics, and the real frame's (min, max) over the pixels scored when asked.
@@ -402,15 +463,19 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
         fingerprints: None,
     };
     let body = || -> Result<PairStats> {
-        let (r, real_fp) = decode(real, &req.real_channel, req)?;
+        let what = || format!("{} vs {}", real.label(), sim.label());
+        let max_bytes = req.max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES);
+        let (r, real_fp) = decode(real, &req.real_channel, req, max_bytes)?;
         out.shape = Some((r.rows, r.cols));
         out.dtype = Some(r.data.dtype_name());
+        let (plan, kind) = pair_plan((r.rows, r.cols), &r.data, req);
+        plan.check(max_bytes, kind).map_err(|e| prefix(e, &what()))?;
         if req.real_extent && req.warp.is_none() {
             out.real_extent = extent(&r.data);
         }
-        let (s, sim_fp) = decode(sim, &req.sim_channel, req)?;
+        let held = budget::size_of_vec::<u8>(r.data.len() * sample_bytes(&r.data));
+        let (s, sim_fp) = decode(sim, &req.sim_channel, req, max_bytes.saturating_sub(held))?;
         out.fingerprints = real_fp.zip(sim_fp);
-        let what = || format!("{} vs {}", real.label(), sim.label());
         if (r.rows, r.cols) != (s.rows, s.cols) {
             return Err(Error::Shape(format!(
                 "{}: real and sim frames differ in shape: ({}, {}) vs ({}, {})",
@@ -446,14 +511,17 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
     let res = catch_unwind(AssertUnwindSafe(body));
     out.stats = match res {
         Ok(r) => r,
-        Err(payload) => {
-            let msg = payload
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| payload.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "panic".into());
-            Err(Error::Value(format!("{} vs {}: internal error: {msg}", real.label(), sim.label())))
-        }
+        Err(payload) => match budget::refused_error(&*payload) {
+            Some(err) => Err(prefix(err, &format!("{} vs {}", real.label(), sim.label()))),
+            None => {
+                let msg = payload
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| payload.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "panic".into());
+                Err(Error::Value(format!("{} vs {}: internal error: {msg}", real.label(), sim.label())))
+            }
+        },
     };
     out
 }

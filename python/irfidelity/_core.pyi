@@ -22,6 +22,7 @@ __all__ = [
     "REGISTRATION_MODELS",
     "SUPPORTED_DTYPES",
     "applied_matrix",
+    "check_budget",
     "default_max_bytes",
     "default_max_pixels",
     "file_digests",
@@ -151,6 +152,12 @@ def score_pairs(
 ) -> list[_PairOutcome] | None: ...
 def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats | None, bool]: ...
 
+# ---- the memory budget (rust/binding/budget.rs) ---------------------------------------------
+
+def check_budget(
+    operation: str, shape: tuple[int, int], bytes: int, max_bytes: int | None = None, kind: str = "value"
+) -> None: ...
+
 # ---- file fingerprints (rust/binding/fingerprint.rs) -------------------------------------
 
 def file_digests(paths: list[str | os.PathLike[str]]) -> list[int | None]: ...
@@ -169,6 +176,8 @@ def ssim_map(
     k1: float,
     k2: float,
     valid: tuple[int, int] | None = None,
+    step: int = 1,
+    max_bytes: int | None = None,
 ) -> tuple[npt.NDArray[np.float64], float]: ...
 def ms_ssim(
     real: npt.NDArray[Any],
@@ -181,6 +190,7 @@ def ms_ssim(
     k2: float,
     valid: tuple[int, int] | None = None,
     scales: int | None = None,
+    max_bytes: int | None = None,
 ) -> tuple[float, list[float], list[float], list[float]]: ...
 def max_scales(rows: int, cols: int, win_size: int) -> int: ...
 # ---- 3-D noise (rust/binding/noise.rs) ------------------------------------------------------
@@ -216,6 +226,7 @@ def noise_sums_array(
     limits: tuple[int, int] | None = None,
     window: tuple[int, int, int, int] | None = None,
     workers: int = 0,
+    max_bytes: int | None = None,
 ) -> NoiseSums: ...
 def noise_sums_paths(
     paths: list[str | os.PathLike[str]],
@@ -249,6 +260,8 @@ def register_frames(
     method: str,
     max_shift: float | None = None,
     mask: npt.NDArray[np.bool_] | None = None,
+    *,
+    max_bytes: int | None = None,
 ) -> tuple[tuple[float, float, float, float, float, float], str, float, float, bool]: ...
 def warp_frame(
     frame: npt.NDArray[Any],
@@ -256,6 +269,8 @@ def warp_frame(
     order: int,
     shape: tuple[int, int],
     mask: npt.NDArray[np.bool_] | None = None,
+    *,
+    max_bytes: int | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]: ...
 def score_registered(
     real: npt.NDArray[Any],
@@ -267,6 +282,7 @@ def score_registered(
     order: int = 3,
     mask: npt.NDArray[np.bool_] | None = None,
     extent: bool = False,
+    max_bytes: int | None = None,
 ) -> tuple[
     PairStats,
     tuple[tuple[float, float, float, float, float, float], str, float, float, bool] | None,

@@ -7,6 +7,10 @@ each file pair: integer levels checked against the bit depth, the pair registere
 registration found before applied), the simulated frame resampled onto the real one, and the
 statistics computed over the overlap (and the mask), both frames as float64, in one Rust call
 with the GIL released.
+
+Memory (docs/design.md §14): the one call plans its peak before it starts (the frames as
+given, registration's working memory or the real frame as float64, the resampled one with its
+overlap and the scored mask, whichever is more) against ``max_bytes``.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
+from .budget import resolve
 from .config import ScoringConfig
 from .errors import ShapeError
 from .registration import DEFAULT_ORDER, Registration, from_engine, warn_if_unsure
@@ -52,9 +57,10 @@ class RegisteredPair:
 
 def score_registered(real: Any, sim: Any, request: PairRequest, *, model: str | None = None,
                      method: str | None = None, registration: Registration | None = None, mask: Any = None,
-                     extent: bool = False) -> RegisteredPair:
+                     extent: bool = False, max_bytes: int | None = None) -> RegisteredPair:
     """Register ``sim`` onto ``real`` (``model``, ``method``) or apply ``registration``, and
-    compute what ``request`` asks for over the overlap, in one Rust call.
+    compute what ``request`` asks for over the overlap, in one Rust call planned against the
+    memory budget ``max_bytes`` (default :data:`irfidelity.budget.DEFAULT_MAX_BYTES`).
 
     ``request.valid`` bounds the integer samples before they are resampled; a searched
     registration of low confidence warns (:class:`~irfidelity.RegistrationWarning`).
@@ -71,7 +77,8 @@ def score_registered(real: Any, sim: Any, request: PairRequest, *, model: str | 
             raise ShapeError(f"sim has shape {r.shape}, the registration was made for {tuple(registration.shape)}")
         search, matrix = None, tuple(float(v) for v in registration.matrix.ravel())
     raw, found, span, aligned, scored = _core.score_registered(r, s, request, search=search, matrix=matrix,
-                                                               order=DEFAULT_ORDER, mask=mask, extent=extent)
+                                                               order=DEFAULT_ORDER, mask=mask, extent=extent,
+                                                               max_bytes=resolve(max_bytes))
     if found is not None:
         registration = from_engine(found, str(model), r.shape)
         warn_if_unsure(registration)
@@ -79,9 +86,11 @@ def score_registered(real: Any, sim: Any, request: PairRequest, *, model: str | 
     return RegisteredPair(raw, registration, span, aligned, scored)
 
 
-def find_registration(real: np.ndarray, sim: np.ndarray, config: ScoringConfig, mask: Any = None) -> Any:
-    """The registration of ``sim`` onto ``real`` that ``config`` asks for (model, method)."""
+def find_registration(real: np.ndarray, sim: np.ndarray, config: ScoringConfig, mask: Any = None,
+                      max_bytes: int | None = None) -> Any:
+    """The registration of ``sim`` onto ``real`` that ``config`` asks for (model, method),
+    within the memory budget ``max_bytes``."""
     from .registration import register
 
     return register(real, sim, model=config.register, method=config.register_method,
-                    mask=None if mask is None else np.asarray(mask, dtype=bool))
+                    mask=None if mask is None else np.asarray(mask, dtype=bool), max_bytes=max_bytes)

@@ -5,6 +5,10 @@ weights and from which inputs exist, which components are computed; only then is
 work done. A component with weight 0 is not computed at all (no histogram pass unless NMI
 is weighted, no moments unless SSIM is, no curve read without a curve weight), and one
 pass of the Rust kernel computes every image statistic the plan needs.
+
+Memory is planned too (docs/design.md §14): the frames (decoded within ``max_bytes``, the
+simulated one within what the real one leaves) and every step after them are checked
+against the budget before they allocate.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from . import budget
 from . import stats as _stats
 from .camera import CameraInputs, camera_components, describe_input
 from .alignment import score_registered
@@ -23,11 +28,18 @@ from .results import FidelityReport, recorded_warnings
 from .scoring import image_components, plan_components, psnr_peak, score_components
 from .temperature import TemperatureErrors, scoring_config, temperature_scores, to_temperature, tolerance_for
 
-__all__ = ["evaluate"]
+__all__ = ["evaluate", "SCORING_BYTES"]
+
+#: Bytes a pixel that scoring a pair holds besides its frames: the masks of the real frame's
+#: range (finite values, and those within the mask); float16 frames add their float32 copies
+#: in the kernel (:data:`WIDENED_BYTES`).
+SCORING_BYTES = 3
+WIDENED_BYTES = 8
 
 
-def _load(x: Any, which: str, channel: str | None) -> np.ndarray:
-    """A frame from an array or a path; a multi-page TIFF is a sequence, not a frame."""
+def _load(x: Any, which: str, channel: str | None, max_bytes: int | None) -> np.ndarray:
+    """A frame from an array or a path (decoded within ``max_bytes``); a multi-page TIFF is a
+    sequence, not a frame."""
     if not isinstance(x, (str, os.PathLike)):
         return x
     from .frames import load_frame, page_count
@@ -37,16 +49,22 @@ def _load(x: Any, which: str, channel: str | None) -> np.ndarray:
         raise FidelityError(f"{which} {os.fsdecode(os.fspath(x))!r} is a multi-page TIFF of {pages} frames: "
                             f"score it as a sequence (irfidelity.score_sequence, or irfidelity score with both "
                             f"sides multi-page or directories), or load one page as an array", option=which)
-    return load_frame(x, channel=channel)
+    return load_frame(x, channel=channel, max_bytes=max_bytes)
 
 
-def _registered(r: Any, s: Any, mask: Any, components: tuple, config: ScoringConfig, sources: dict
-                ) -> tuple[_stats.PairStats, float | None]:
+def _left(max_bytes: int | None, held: np.ndarray) -> int:
+    """What ``max_bytes`` leaves once ``held`` is in memory (at least 1 byte: a decode that
+    needs more is refused by its own plan)."""
+    return max(1, budget.resolve(max_bytes) - int(np.asarray(held).nbytes))
+
+
+def _registered(r: Any, s: Any, mask: Any, components: tuple, config: ScoringConfig, sources: dict,
+                max_bytes: int | None) -> tuple[_stats.PairStats, float | None]:
     """Register the simulated frame onto the real one, resample it and compute the statistics
     over the overlap in one Rust call (:func:`irfidelity.alignment.score_registered`,
-    docs/registration.md): the statistics (with the PSNR peak of the original sample type; a
-    bit depth bounds the integer frames only) and the real frame's range over the scored
-    pixels."""
+    docs/registration.md), planned against ``max_bytes`` before it starts: the statistics
+    (with the PSNR peak of the original sample type; a bit depth bounds the integer frames
+    only) and the real frame's range over the scored pixels."""
     r, s = np.asarray(r), np.asarray(s)
     peak, valid = _stats.peak_and_valid(r.dtype, config.bits, config.numeric_peak)
     scored = np.dtype(np.float64)
@@ -54,24 +72,34 @@ def _registered(r: Any, s: Any, mask: Any, components: tuple, config: ScoringCon
                                           full=_stats.full_range(scored, None, peak), nonfinite=config.nonfinite,
                                           valid=valid)
     pair = score_registered(r, s, request, model=config.register, method=config.register_method, mask=mask,
-                            extent="psnr" in components)
+                            extent="psnr" in components, max_bytes=max_bytes)
     sources.update(sim=pair.sim, mask=pair.mask, sim_unregistered=s, registration=pair.registration)
     span = None if pair.extent is None else pair.extent[1] - pair.extent[0]
     return _stats.PairStats(pair.stats, peak=peak, bins=bins), span
 
 
+def _check_scoring(r: Any, s: Any, mask: Any, max_bytes: int | None) -> None:
+    """The plan of scoring an unregistered pair: its frames and mask, and what scoring adds."""
+    r, s = np.asarray(r), np.asarray(s)
+    per_pixel = SCORING_BYTES + (WIDENED_BYTES if r.dtype == np.float16 else 0)
+    held = budget.nbytes(r, s, None if mask is None else np.asarray(mask))
+    budget.check("scoring a frame pair", r.shape, held + per_pixel * r.size, max_bytes)
+
+
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any,
-                 inputs: dict, sources: dict) -> _stats.PairStats:
-    r = _load(real, "real", config.real_channel)
-    s = _load(sim, "sim", config.sim_channel)
+                 inputs: dict, sources: dict, max_bytes: int | None) -> _stats.PairStats:
+    r = _load(real, "real", config.real_channel, max_bytes)
+    s = _load(sim, "sim", config.sim_channel, _left(max_bytes, r) if isinstance(sim, (str, os.PathLike)) else None)
     if config.unit is not None:
         r, s = to_temperature(r, real, "real", config), to_temperature(s, sim, "sim", config)
     sources.update(real=r, sim=s, mask=mask)
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
                   dtype=np.asarray(r).dtype.name)
+    if config.register is None and np.ndim(r) == 2:
+        _check_scoring(r, s, mask, max_bytes)
     try:
         if config.register is not None:
-            st, span = _registered(r, s, mask, components, config, sources)
+            st, span = _registered(r, s, mask, components, config, sources, max_bytes)
         else:
             st = _stats.pair_stats(r, s, bits=config.bits, peak=config.numeric_peak, bins=config.bins,
                                    hist_range=config.hist_range, mask=mask, need=components,
@@ -93,7 +121,8 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
 
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
              real_sitf: Any = None, sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-             real_mrtd: Any = None, sim_mrtd: Any = None, mask: Any = None, config: ScoringConfig | None = None, **options: Any) -> FidelityReport:
+             real_mrtd: Any = None, sim_mrtd: Any = None, mask: Any = None, config: ScoringConfig | None = None,
+             max_bytes: int | None = None, **options: Any) -> FidelityReport:
     """Fidelity of a simulator on one scene (paper eq. 15) with its five components.
 
     Parameters
@@ -123,6 +152,13 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         ``False`` excludes a pixel pair from the image components.
     config : ScoringConfig, mapping or TOML/JSON path, optional
         What decides the score (weights, bits, peak, bins, ...); default: the defaults.
+    max_bytes : int, optional
+        The memory budget of the pair's work (default
+        :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): decoding, registration, resampling and
+        statistics are each planned against it before they allocate; over budget is a
+        :class:`FrameError` (decoding), :class:`RegistrationError` (registration) or
+        :class:`FidelityError` naming the step, the frame size and the bytes (docs/design.md
+        §14). Not part of the configuration: it never changes a score.
     **options
         Any :class:`~irfidelity.ScoringConfig` field (``weights=``, ``bits=``, ``peak=``,
         ``bins=``, ``missing=``, ...; ``channel=`` sets both frame channels); overrides
@@ -174,7 +210,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         components, metrics, inputs, compared = camera_components(camera, weights, cfg)
         sources: dict[str, Any] = {"curves": compared}
         if image_plan or in_unit:
-            st = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources)
+            st = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources, max_bytes)
             image, image_metrics = image_components(st, image_plan, cfg)
             components.update(image)
             metrics.update(image_metrics)

@@ -5,7 +5,8 @@ The paper's component f5 is the *global* SSIM of the whole frame (:func:`irfidel
 The literature usually quotes the mean of a windowed SSIM map instead; :func:`ssim_map` gives
 that number (scikit-image's ``structural_similarity`` with the paper's settings) and the map
 itself, which shows *where* the simulator departs from the camera. Both run in Rust
-(``rust/maps/``), in float64, with the GIL released.
+(``rust/maps/``), in float64, with the GIL released, and are planned against the memory
+budget ``max_bytes`` before they allocate (docs/design.md §14).
 """
 
 from __future__ import annotations
@@ -15,10 +16,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _core
+from .budget import resolve
 from .errors import FidelityError
 from .stats import _frame_pair, peak_and_valid
 
-__all__ = ["SSIMMap", "ssim_map", "ms_ssim", "MS_SSIM_WEIGHTS"]
+__all__ = ["SSIMMap", "ssim_map", "ms_ssim", "sampled_ssim_map", "MS_SSIM_WEIGHTS"]
 
 #: The scale weights β₁..β₅ of Wang, Simoncelli & Bovik (2003), finest scale first.
 MS_SSIM_WEIGHTS: tuple[float, ...] = tuple(_core.MS_SSIM_WEIGHTS)
@@ -99,6 +101,7 @@ def ssim_map(
     win_size: int = 11,
     k1: float = 0.01,
     k2: float = 0.03,
+    max_bytes: int | None = None,
 ) -> SSIMMap:
     r"""Windowed SSIM map of Wang et al. (2004), Gaussian window, float64.
 
@@ -140,6 +143,9 @@ def ssim_map(
         Positive constants (0.01, 0.03 in the paper). With them the map is defined on flat
         regions: two flat windows of values a and b give ``(2ab + C1)/(a² + b² + C1)``
         (1 when a = b). Use :func:`irfidelity.ssim` for the paper's constant-free global SSIM.
+    max_bytes : int, optional
+        The memory budget (default :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): the frames,
+        the map (8 bytes a pixel) and each thread's band buffers must fit.
 
     Returns
     -------
@@ -154,7 +160,8 @@ def ssim_map(
     ShapeError
         Frames of different shapes or dtypes, not 2-D, or smaller than the window.
     FidelityError
-        Float frames without ``peak``; a parameter out of its domain.
+        Float frames without ``peak``; a parameter out of its domain; frames whose map does
+        not fit ``max_bytes``.
 
     Examples
     --------
@@ -176,7 +183,28 @@ def ssim_map(
     """
     r, s, data_range, valid = _frames(real, sim, bits, peak)
     window = _window(sigma, win_size, k1, k2)
-    values, mean = _core.ssim_map(r, s, peak=data_range, valid=valid, **window)
+    values, mean = _core.ssim_map(r, s, peak=data_range, valid=valid, max_bytes=resolve(max_bytes), **window)
+    return SSIMMap(map=values, mean=mean, peak=data_range, **window)
+
+
+def sampled_ssim_map(real, sim, step: int, *, peak: float, max_bytes: int | None = None) -> SSIMMap:
+    """:func:`ssim_map` with the paper's window, keeping only ``map[::step, ::step]`` (the
+    same values, and the same ``mean`` of the whole map, without holding the whole map): what
+    a display of the map needs.
+
+    Examples
+    --------
+    >>> import numpy as np, irfidelity as irf
+    >>> real = np.random.default_rng(1).integers(0, 4096, (64, 80)).astype(np.uint16)
+    >>> sim = real // 2 + 100
+    >>> whole, part = irf.ssim_map(real, sim, bits=12), sampled_ssim_map(real, sim, 3, peak=4095.0)
+    >>> bool(np.array_equal(whole.map[::3, ::3], part.map)), whole.mean == part.mean
+    (True, True)
+    """
+    r, s, data_range, valid = _frames(real, sim, None, peak)
+    window = _window(1.5, 11, 0.01, 0.03)
+    values, mean = _core.ssim_map(r, s, peak=data_range, valid=valid, step=int(step), max_bytes=resolve(max_bytes),
+                                  **window)
     return SSIMMap(map=values, mean=mean, peak=data_range, **window)
 
 
@@ -191,6 +219,7 @@ def ms_ssim(
     win_size: int = 11,
     k1: float = 0.01,
     k2: float = 0.03,
+    max_bytes: int | None = None,
 ) -> float:
     r"""Multi-scale SSIM of Wang, Simoncelli & Bovik (2003).
 
@@ -223,6 +252,10 @@ def ms_ssim(
     scales : int, optional
         M, 1..5; default: the cap above. More scales than the cap is a :class:`FidelityError`
         naming the cap. ``scales=1`` gives ``max(ssim_map(...).mean, 0)``.
+    max_bytes : int, optional
+        The memory budget (default :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): the frames
+        and two consecutive coarser scales of both as float64 (at most 5 bytes a pixel of
+        the frames) must fit.
 
     Returns
     -------
@@ -254,6 +287,7 @@ def ms_ssim(
     ):
         raise FidelityError(f"scales must be an integer between 1 and 5, got {scales!r}")
     value, _weights, _ssim, _cs = _core.ms_ssim(
-        r, s, peak=data_range, valid=valid, scales=None if scales is None else int(scales), **window
+        r, s, peak=data_range, valid=valid, scales=None if scales is None else int(scales),
+        max_bytes=resolve(max_bytes), **window
     )
     return value

@@ -30,6 +30,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import _core
+from .budget import resolve
 from .config_fields import REGISTRATION_METHODS, REGISTRATION_MODELS
 from .errors import FidelityError, RegistrationWarning, ShapeError
 from .stats import _as_frame
@@ -132,7 +133,8 @@ class Registration:
         return math.sqrt(abs(m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]))
 
     # -- applying it ----------------------------------------------------------------
-    def apply(self, sim: Any, *, order: int = DEFAULT_ORDER, mask: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    def apply(self, sim: Any, *, order: int = DEFAULT_ORDER, mask: Any = None,
+              max_bytes: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Resample the simulated frame onto the real frame's pixels.
 
         ``out(q) = sim(M⁻¹·q)`` with bilinear (``order=1``) or Keys bicubic (``order=3``,
@@ -149,6 +151,10 @@ class Registration:
             Interpolation order.
         mask : bool array, optional
             False marks simulated pixels that must not be used.
+        max_bytes : int, optional
+            The memory budget (default :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): the frame,
+            its mask and the output (9 bytes a pixel) must fit, else a :class:`FidelityError`
+            before anything is allocated (docs/design.md §14).
 
         Returns
         -------
@@ -175,7 +181,7 @@ class Registration:
             if mask.shape != frame.shape:
                 raise ShapeError(f"mask has shape {mask.shape}, sim has {frame.shape}")
         m = self.applied_matrix()
-        return _core.warp_frame(frame, tuple(m.ravel()), int(order), tuple(self.shape), mask)
+        return _core.warp_frame(frame, tuple(m.ravel()), int(order), tuple(self.shape), mask, max_bytes=resolve(max_bytes))
 
     def applied_matrix(self) -> np.ndarray:
         """The matrix :meth:`apply` uses: integer-snapped for near-whole-pixel translations."""
@@ -242,7 +248,7 @@ def _check_choice(value: Any, name: str, choices: tuple) -> str:
 
 
 def register(real: Any, sim: Any, *, model: str = "translation", method: str = DEFAULT_METHOD,
-             max_shift: float | None = None, mask: Any = None) -> Registration:
+             max_shift: float | None = None, mask: Any = None, max_bytes: int | None = None) -> Registration:
     """Find the transform that takes the simulated frame onto the real one.
 
     The transform ``M`` (simulated → real pixel coordinates) of the model that best
@@ -276,6 +282,10 @@ def register(real: Any, sim: Any, *, model: str = "translation", method: str = D
         confined to it; a best match beyond it raises. Default: up to half the frame.
     mask : bool array, optional
         False excludes a pixel position in both frames (dead pixels, burned-in overlays).
+    max_bytes : int, optional
+        The memory budget (default :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): the frames
+        and the search's working memory must fit, else a :class:`RegistrationError` before
+        anything is allocated (docs/design.md §14 has the estimates).
 
     Returns
     -------
@@ -287,7 +297,7 @@ def register(real: Any, sim: Any, *, model: str = "translation", method: str = D
         A flat frame, too few valid pixels, no overlap, a match beyond ``max_shift``, or an
         ambiguous match (confidence below 0.1: periodic patterns such as bar targets,
         unrelated or featureless frames). The message says which. Never an identity
-        transform in place of an answer.
+        transform in place of an answer. Also frames too large for ``max_bytes``.
     ShapeError
         Frames of different shapes, not 2-D, or of an unsupported dtype.
 
@@ -336,7 +346,8 @@ def register(real: Any, sim: Any, *, model: str = "translation", method: str = D
         mask = np.ascontiguousarray(mask, dtype=bool)
         if mask.shape != r.shape:
             raise ShapeError(f"mask has shape {mask.shape}, frames have {r.shape}")
-    reg = from_engine(_core.register_frames(r, s, model, method, max_shift, mask), model, r.shape)
+    found = _core.register_frames(r, s, model, method, max_shift, mask, max_bytes=resolve(max_bytes))
+    reg = from_engine(found, model, r.shape)
     warn_if_unsure(reg, stacklevel=3)
     return reg
 

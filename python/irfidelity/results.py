@@ -282,17 +282,18 @@ class FidelityReport(ReportBase):
                 "membership": dict(self.membership), "component_grades": dict(self.component_grades),
                 "grade": self.grade}
 
-    def to_html(self, path: str | os.PathLike | None = None) -> str:
+    def to_html(self, path: str | os.PathLike | None = None, *, max_bytes: int | None = None) -> str:
         """A self-contained HTML report (figures embedded, no network): the verdict, the frames
         and their difference, the SSIM map, the joint histogram, the curves. Written to
         ``path`` when given; returned either way. Needs matplotlib (``irfidelity[report]``).
 
         The frames and curves are those this report was computed from; a report read back with
         :meth:`from_dict` has only its numbers, and the page says which sections are missing.
+        ``max_bytes``: the memory budget (:func:`irfidelity.report.render_pair_html`).
         """
         from .report import write_html
 
-        return write_html(self._render(), path)
+        return write_html(self._render(max_bytes=max_bytes), path)
 
     def _render(self, *, fragment: bool = False, **options: Any) -> str:
         from .report import render_pair_html
@@ -300,7 +301,7 @@ class FidelityReport(ReportBase):
         src = self.sources
         return render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
                                 curves=src.get("curves"), sim_unregistered=src.get("sim_unregistered"),
-                                fragment=fragment)
+                                fragment=fragment, **options)
 
     def _own_dict(self) -> dict:
         return {"grading": self.grading}

@@ -629,17 +629,22 @@ def _psnr_over_range(real, sim, bits, rule: str, mask) -> float:
 
 def real_range(real: np.ndarray, mask: Any, nonfinite: str) -> float | None:
     """``max − min`` of the real frame over the pixels that are scored (finite, unmasked): the
-    PSNR peak ``"range"``; None when no pixel is scored."""
+    PSNR peak ``"range"``; None when no pixel is scored. The values are not copied (the
+    masks it makes are one byte a pixel: the memory plan of scoring counts them)."""
     values = np.asarray(real)
-    if mask is not None:
-        values = values[np.asarray(mask, dtype=bool)]
+    where = None if mask is None else np.asarray(mask, dtype=bool)
     if values.dtype.kind == "f":
-        values = values[np.isfinite(values)] if nonfinite == "mask" else values
-        if values.size and not np.isfinite(values).all():
+        finite = np.isfinite(values)
+        scored_finite = finite if where is None else finite | ~where
+        if nonfinite != "mask" and not scored_finite.all():
             return None  # the kernel reports the non-finite values with their position
-    if values.size == 0:
+        where = finite if where is None else finite & where
+    if values.size == 0 or (where is not None and not where.any()):
         return None
-    return float(values.max()) - float(values.min())
+    if where is None:
+        return float(values.max()) - float(values.min())
+    bounds = np.finfo(values.dtype) if values.dtype.kind == "f" else np.iinfo(values.dtype)
+    return float(values.max(where=where, initial=bounds.min)) - float(values.min(where=where, initial=bounds.max))
 
 
 def ssim(real, sim, *, alpha: float = 1.0, beta: float = 1.0, gamma: float = 1.0, mask=None, nonfinite="raise") -> SSIM:

@@ -82,8 +82,8 @@ fn default_max_pixels() -> u64 {
     io::DEFAULT_MAX_PIXELS
 }
 
-/// The default decoding budget in bytes (640 MiB: a 16384 x 16384 16-bit frame plus the
-/// decoder's working memory).
+/// The default memory budget of a frame pair's work in bytes, decoding included
+/// (`io::DEFAULT_MAX_BYTES`, docs/design.md §14).
 #[pyfunction]
 fn default_max_bytes() -> u64 {
     io::DEFAULT_MAX_BYTES

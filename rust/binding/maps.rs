@@ -6,8 +6,11 @@ use numpy::ndarray::Array2;
 use numpy::{PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
+use super::args;
 use super::dtypes::SUPPORTED_DTYPES;
+use super::register::nbytes;
 use crate::maps::{self, SsimParams};
+use crate::Error;
 
 /// `run` on both frames as slices of `T`, or `None` when either is not a readable `T` array.
 fn on_slices<T: numpy::Element, R>(
@@ -49,10 +52,12 @@ fn unsupported(real: &Bound<'_, PyUntypedArray>, sim: &Bound<'_, PyUntypedArray>
     )))
 }
 
-/// `ssim_map(real, sim, *, peak, sigma, win_size, k1, k2, valid)` -> `(map, mean)`: see
-/// `irfidelity.maps.ssim_map`.
+/// `ssim_map(real, sim, *, peak, sigma, win_size, k1, k2, valid, step=1, max_bytes=None)`
+/// -> `(map, mean)`: see `irfidelity.maps.ssim_map`. `step` keeps every `step`-th row and
+/// column of the map (the mean is that of the whole map); the frames and the map kept must
+/// fit `max_bytes`.
 #[pyfunction]
-#[pyo3(signature = (real, sim, *, peak, sigma, win_size, k1, k2, valid=None))]
+#[pyo3(signature = (real, sim, *, peak, sigma, win_size, k1, k2, valid=None, step=1, max_bytes=None))]
 #[allow(clippy::too_many_arguments)]
 fn ssim_map<'py>(
     py: Python<'py>,
@@ -64,25 +69,32 @@ fn ssim_map<'py>(
     k1: f64,
     k2: f64,
     valid: Option<(i64, i64)>,
+    step: usize,
+    #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, f64)> {
     let (rows, cols) = frame_shape(real, sim)?;
     let params = SsimParams { sigma, win_size, k1, k2, peak };
+    params.check()?;
+    maps::ssim_map_plan((rows, cols), &params, step)
+        .holding(nbytes(&[real, sim]))
+        .check(max_bytes.unwrap_or(crate::io::DEFAULT_MAX_BYTES), Error::Value)?;
     let finish = |m: maps::SsimMap| -> PyResult<(Bound<'py, PyArray2<f64>>, f64)> {
         let map = Array2::from_shape_vec((m.rows, m.cols), m.map)
             .map_err(|e| crate::Error::Value(format!("internal: map shape: {e}")))?;
         Ok((PyArray2::from_owned_array(py, map), m.mean))
     };
     with_frame_dtype!(py, real.dtype(), |T| on_slices::<T, _>(real, sim, |r, s| {
-        finish(py.detach(|| maps::ssim_map(r, s, rows, cols, &params, valid))?)
+        finish(py.detach(|| maps::ssim_map(r, s, rows, cols, &params, valid, step))?)
     }))
     .flatten()
     .unwrap_or_else(|| Err(unsupported(real, sim)))
 }
 
-/// `ms_ssim(real, sim, *, peak, sigma, win_size, k1, k2, valid, scales)` ->
-/// `(value, weights, ssim per scale, cs per scale)`: see `irfidelity.maps.ms_ssim`.
+/// `ms_ssim(real, sim, *, peak, sigma, win_size, k1, k2, valid, scales, max_bytes=None)` ->
+/// `(value, weights, ssim per scale, cs per scale)`: see `irfidelity.maps.ms_ssim`. The
+/// frames and the coarser scales must fit `max_bytes`.
 #[pyfunction]
-#[pyo3(signature = (real, sim, *, peak, sigma, win_size, k1, k2, valid=None, scales=None))]
+#[pyo3(signature = (real, sim, *, peak, sigma, win_size, k1, k2, valid=None, scales=None, max_bytes=None))]
 #[allow(clippy::too_many_arguments)]
 #[allow(clippy::type_complexity)]
 fn ms_ssim(
@@ -96,9 +108,14 @@ fn ms_ssim(
     k2: f64,
     valid: Option<(i64, i64)>,
     scales: Option<usize>,
+    #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<(f64, Vec<f64>, Vec<f64>, Vec<f64>)> {
     let (rows, cols) = frame_shape(real, sim)?;
     let params = SsimParams { sigma, win_size, k1, k2, peak };
+    params.check()?;
+    maps::ms_ssim_plan((rows, cols), &params)
+        .holding(nbytes(&[real, sim]))
+        .check(max_bytes.unwrap_or(crate::io::DEFAULT_MAX_BYTES), Error::Value)?;
     with_frame_dtype!(py, real.dtype(), |T| on_slices::<T, _>(real, sim, |r, s| {
         let m = py.detach(|| maps::ms_ssim(r, s, rows, cols, &params, valid, scales))?;
         Ok((m.value, m.weights, m.ssim, m.cs))

@@ -8,6 +8,7 @@ use pyo3::prelude::*;
 #[macro_use]
 mod dtypes;
 mod args;
+mod budget;
 mod fingerprint;
 mod io;
 mod maps;
@@ -40,6 +41,7 @@ impl From<crate::Error> for PyErr {
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     stats::register(m)?;
+    budget::register(m)?;
     io::register(m)?;
     sequence::register(m)?;
     fingerprint::register(m)?;

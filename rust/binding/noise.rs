@@ -10,8 +10,10 @@ use pyo3::types::{PyBytes, PyDict};
 
 use super::args;
 use super::dtypes::{contiguous, unsupported_dtype};
+use crate::budget;
 use crate::io::{self, DecodeOptions};
 use crate::noise::{self, FrameSample, NoiseSums, PassOptions, Window, PARTS};
+use crate::Error;
 
 /// Sufficient statistics of a recording for the 3-D noise decomposition (see
 /// `irfidelity.noise` for the public face). Mergeable and serialisable.
@@ -47,7 +49,7 @@ impl PyNoiseSums {
     }
     /// `{"mean", "ss": {part: float}, "ss_total"}`: sums of squares of the seven parts.
     fn decomposition<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = py.detach(|| self.inner.finish())?;
+        let d = py.detach(|| budget::guard("the 3-D noise decomposition", Error::Value, || self.inner.finish()))?;
         let out = PyDict::new(py);
         out.set_item("mean", d.mean)?;
         let ss = PyDict::new(py);
@@ -61,7 +63,7 @@ impl PyNoiseSums {
     /// Integer frames: `{part: N²·SS, ..., "total": N²·SS_total}` as exact Python ints; None
     /// for float frames.
     fn exact_ss<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let d = py.detach(|| self.inner.finish())?;
+        let d = py.detach(|| budget::guard("the 3-D noise decomposition", Error::Value, || self.inner.finish()))?;
         let Some(exact) = d.exact else { return Ok(None) };
         let from_bytes = py.import("builtins")?.getattr("int")?.getattr("from_bytes")?;
         let out = PyDict::new(py);
@@ -72,12 +74,13 @@ impl PyNoiseSums {
     }
     /// Per-pixel temporal mean, shape (rows, cols).
     fn pixel_mean<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v = py.detach(|| self.inner.pixel_mean());
+        let v = py.detach(|| budget::guard("the temporal-mean frame", Error::Value, || Ok(self.inner.pixel_mean())))?;
         to_array2(py, v, (self.inner.rows, self.inner.cols))
     }
     /// Per-pixel temporal population variance, shape (rows, cols).
     fn pixel_var<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v = py.detach(|| self.inner.pixel_var());
+        let v =
+            py.detach(|| budget::guard("the temporal-variance frame", Error::Value, || Ok(self.inner.pixel_var())))?;
         to_array2(py, v, (self.inner.rows, self.inner.cols))
     }
     /// Mean of every row of every frame, shape (frames, rows).
@@ -122,27 +125,31 @@ fn pass_options(
     limits: Option<(i64, i64)>,
     window: Option<(usize, usize, usize, usize)>,
     workers: usize,
+    max_bytes: Option<u64>,
 ) -> PassOptions {
-    PassOptions { workers, limits, window: window.map(|(row0, col0, rows, cols)| Window { row0, col0, rows, cols }) }
+    let window = window.map(|(row0, col0, rows, cols)| Window { row0, col0, rows, cols });
+    PassOptions { workers, limits, window, max_bytes }
 }
 
-/// `noise_sums_array(cube, *, limits=None, window=None, workers=0)`: one pass over a
-/// C-contiguous `(frames, rows, cols)` array of a supported dtype. `limits=(lo, hi)` is
-/// the valid range of integer samples; `window=(row0, col0, rows, cols)` a region.
+/// `noise_sums_array(cube, *, limits=None, window=None, workers=0, max_bytes=None)`: one
+/// pass over a C-contiguous `(frames, rows, cols)` array of a supported dtype. `limits=(lo,
+/// hi)` is the valid range of integer samples; `window=(row0, col0, rows, cols)` a region;
+/// `max_bytes` the pass's memory budget (the cube itself is the caller's and not counted).
 #[pyfunction]
-#[pyo3(signature = (cube, *, limits=None, window=None, workers=0))]
+#[pyo3(signature = (cube, *, limits=None, window=None, workers=0, max_bytes=None))]
 fn noise_sums_array(
     py: Python<'_>,
     cube: &Bound<'_, PyUntypedArray>,
     limits: Option<(i64, i64)>,
     window: Option<(usize, usize, usize, usize)>,
     #[pyo3(from_py_with = args::workers)] workers: usize,
+    #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<PyNoiseSums> {
     if cube.ndim() != 3 || !cube.is_c_contiguous() {
         return Err(crate::Error::Value("internal: the cube must be a C-contiguous 3-D array".into()).into());
     }
     let (frames, rows, cols) = (cube.shape()[0], cube.shape()[1], cube.shape()[2]);
-    let opts = pass_options(limits, window, workers);
+    let opts = pass_options(limits, window, workers, max_bytes);
     let dt = cube.dtype();
     let pass = with_frame_dtype!(py, &dt, |T| {
         let arr = cube.extract::<PyReadonlyArrayDyn<'_, T>>()?;
@@ -157,7 +164,8 @@ fn noise_sums_array(
 
 /// `noise_sums_paths(paths, pages, *, channel=None, max_pixels=None, max_bytes=None,
 /// limits=None, window=None, workers=0)`: one pass over frames decoded from files
-/// (`pages[i]` of `paths[i]`), on `workers` threads with the GIL released.
+/// (`pages[i]` of `paths[i]`), on `workers` threads with the GIL released. `max_bytes` is the
+/// pass's memory budget, the frames decoded included (each decode within it too).
 #[pyfunction]
 #[pyo3(signature = (paths, pages, *, channel=None, max_pixels=None, max_bytes=None, limits=None, window=None,
                     workers=0))]
@@ -177,7 +185,7 @@ fn noise_sums_paths(
         return Err(crate::Error::Value(format!("{} paths but {} pages", paths.len(), pages.len())).into());
     }
     let frames: Vec<(PathBuf, usize)> = paths.into_iter().zip(pages).collect();
-    let opts = pass_options(limits, window, workers);
+    let opts = pass_options(limits, window, workers, max_bytes);
     let decode = DecodeOptions {
         channel,
         max_pixels: max_pixels.unwrap_or(io::DEFAULT_MAX_PIXELS),

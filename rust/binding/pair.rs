@@ -8,7 +8,7 @@ use pyo3::prelude::*;
 
 use super::args::{self, PairRequest};
 use super::dtypes::{contiguous, mask_samples, unsupported_dtype};
-use super::register::{registration_tuple, shape_of, RegistrationTuple};
+use super::register::{mask_bytes, nbytes, registration_tuple, shape_of, RegistrationTuple};
 use super::stats::PyPairStats;
 use crate::kernel::Sample;
 use crate::register::{Method, Model, Options};
@@ -36,12 +36,13 @@ fn warp_of(search: Option<(String, String, Option<f64>)>, matrix: Option<[f64; 6
 }
 
 /// `score_registered(real, sim, request, *, search=None, matrix=None, order=3, mask=None,
-/// extent=False)`: register `sim` onto `real` (`search = (model, method, max_shift)`) or
+/// extent=False, max_bytes=None)`: register `sim` onto `real` (`search = (model, method, max_shift)`) or
 /// apply `matrix`, resample it with interpolation `order`, and compute the statistics
 /// `request` asks for over the overlap (and `mask`), both frames as float64. Frames: 2-D,
-/// C-contiguous, one shape and one supported dtype.
+/// C-contiguous, one shape and one supported dtype. The peak is planned against `max_bytes`
+/// (default: the default budget) before anything is allocated.
 #[pyfunction]
-#[pyo3(signature = (real, sim, request, *, search=None, matrix=None, order=3, mask=None, extent=false))]
+#[pyo3(signature = (real, sim, request, *, search=None, matrix=None, order=3, mask=None, extent=false, max_bytes=None))]
 #[allow(clippy::too_many_arguments)]
 fn score_registered<'py>(
     py: Python<'py>,
@@ -53,6 +54,7 @@ fn score_registered<'py>(
     order: u32,
     mask: Option<PyReadonlyArrayDyn<'py, bool>>,
     extent: bool,
+    #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<Registered<'py>> {
     let warp = warp_of(search, matrix, order)?;
     let shape = shape_of(real, "real")?;
@@ -61,6 +63,9 @@ fn score_registered<'py>(
         return Err(Error::Shape(message).into());
     }
     let mask = mask_samples(mask.as_ref(), shape)?;
+    let (plan, kind) = warp.plan(shape);
+    plan.holding(nbytes(&[real, sim]) + mask_bytes(mask))
+        .check(max_bytes.unwrap_or(crate::io::DEFAULT_MAX_BYTES), kind)?;
     let kreq = request.frame_request(None, shape, false);
     let dtype = real.dtype();
     let scored =
@@ -97,7 +102,11 @@ fn score_typed<T: numpy::Element + Sample>(
         shape,
         mask,
     };
-    py.detach(|| warp.score_pair(&pair, kreq, extent))
+    let (operation, kind): (&str, crate::budget::Kind) = match warp {
+        Warp::Each(_) => ("registration and scoring of a frame pair", Error::Registration),
+        Warp::Fixed(_) => ("resampling and scoring of a frame pair", Error::Value),
+    };
+    py.detach(|| crate::budget::guard(operation, kind, || warp.score_pair(&pair, kreq, extent)))
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

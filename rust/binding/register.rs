@@ -1,14 +1,29 @@
 //! Python wrappers of registration (`crate::register`): `register_frames`, `warp_frame` and
 //! `applied_matrix`.
 //! Arrays arrive 2-D and C-contiguous (the Python layer decides the layout), each in any
-//! supported sample type; conversion and search run with the GIL released.
+//! supported sample type; conversion and search run with the GIL released. Both are
+//! planned against `max_bytes` (the arrays given count as held) before anything is
+//! allocated, and memory the system refuses is an error too (`crate::budget`).
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
+use super::args;
 use super::dtypes::{mask_samples, unsupported_dtype};
+use crate::budget;
 use crate::register::{self, Affine, Frame, Interp, Method, Model, Options, Source};
+use crate::Error;
+
+/// Bytes of the arrays given (held throughout the call).
+pub(crate) fn nbytes(arrays: &[&Bound<'_, PyUntypedArray>]) -> u64 {
+    arrays.iter().map(|a| budget::size_of_vec::<u8>(a.len() * a.dtype().itemsize())).sum()
+}
+
+/// Bytes of an optional mask.
+pub(crate) fn mask_bytes(mask: Option<&[bool]>) -> u64 {
+    mask.map_or(0, |m| budget::size_of_vec::<bool>(m.len()))
+}
 
 /// A registration for Python: `(matrix as 6 floats row-major, method used, confidence,
 /// overlap, inverted)`.
@@ -50,9 +65,11 @@ pub(crate) fn flat(m: &Affine) -> [f64; 6] {
 
 /// Register `sim` onto `real`. Returns `(matrix as 6 floats row-major, method used,
 /// confidence, overlap, inverted)`; raises `RegistrationError` when the pair cannot be
-/// registered.
+/// registered, or when the registration's plan does not fit `max_bytes` (default: the
+/// default budget).
 #[pyfunction]
-#[pyo3(signature = (real, sim, model, method, max_shift=None, mask=None))]
+#[pyo3(signature = (real, sim, model, method, max_shift=None, mask=None, *, max_bytes=None))]
+#[allow(clippy::too_many_arguments)]
 fn register_frames(
     py: Python<'_>,
     real: &Bound<'_, PyUntypedArray>,
@@ -61,6 +78,7 @@ fn register_frames(
     method: &str,
     max_shift: Option<f64>,
     mask: Option<PyReadonlyArrayDyn<'_, bool>>,
+    #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<RegistrationTuple> {
     let opts = Options {
         model: Model::parse(model).map_err(PyErr::from)?,
@@ -73,11 +91,16 @@ fn register_frames(
         let message = format!("real and simulated frames differ in shape: {:?} vs {:?}", real.shape(), sim.shape());
         return Err(crate::Error::Shape(message).into());
     }
+    register::register_plan((rows, cols), &opts)
+        .holding(nbytes(&[real, sim]) + mask_bytes(mask))
+        .check(max_bytes.unwrap_or(crate::io::DEFAULT_MAX_BYTES), Error::Registration)?;
     let reg = with_samples!(py, real, "real", |real| with_samples!(py, sim, "simulated", |sim| py
         .detach(|| {
-            let real = Frame::new(real, rows, cols, mask, "real")?;
-            let sim = Frame::new(sim, rows, cols, mask, "simulated")?;
-            register::register_frames(&real, &sim, &opts)
+            budget::guard("registration", Error::Registration, || {
+                let real = Frame::new(real, rows, cols, mask, "real")?;
+                let sim = Frame::new(sim, rows, cols, mask, "simulated")?;
+                register::register_frames(&real, &sim, &opts)
+            })
         })
         .map_err(PyErr::from)))?;
     Ok(registration_tuple(&reg))
@@ -93,9 +116,9 @@ fn applied_matrix(matrix: [f64; 6]) -> [f64; 6] {
 /// Resample `frame` (the simulated frame) onto the real frame's `shape` through `matrix`
 /// (simulated → real coordinates, 6 floats row-major) with interpolation `order` (1
 /// bilinear, 3 bicubic). Returns `(float64 frame, bool mask of valid pixels)`; invalid
-/// pixels hold NaN.
+/// pixels hold NaN. The frame, its mask and the output must fit `max_bytes`.
 #[pyfunction]
-#[pyo3(signature = (frame, matrix, order, shape, mask=None))]
+#[pyo3(signature = (frame, matrix, order, shape, mask=None, *, max_bytes=None))]
 fn warp_frame<'py>(
     py: Python<'py>,
     frame: &Bound<'py, PyUntypedArray>,
@@ -103,6 +126,7 @@ fn warp_frame<'py>(
     order: u32,
     shape: (usize, usize),
     mask: Option<PyReadonlyArrayDyn<'py, bool>>,
+    #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<bool>>)> {
     let interp = Interp::from_order(order)
         .ok_or_else(|| crate::Error::Value(format!("order must be 1 (bilinear) or 3 (bicubic), got {order}")))
@@ -113,6 +137,9 @@ fn warp_frame<'py>(
         .map_err(PyErr::from)?;
     let (rows, cols) = shape_of(frame, "simulated")?;
     let mask = mask_samples(mask.as_ref(), (rows, cols))?;
+    register::warp_plan(shape)
+        .holding(nbytes(&[frame]) + mask_bytes(mask))
+        .check(max_bytes.unwrap_or(crate::io::DEFAULT_MAX_BYTES), Error::Value)?;
     let (values, valid) = warped(py, frame, (rows, cols), mask, &to_source, interp, shape)?;
     let values = Array2::from_shape_vec(shape, values).expect("warp returns rows × cols values");
     let valid = Array2::from_shape_vec(shape, valid).expect("warp returns rows × cols flags");
@@ -131,7 +158,8 @@ fn warped(
 ) -> PyResult<(Vec<f64>, Vec<bool>)> {
     with_samples!(py, frame, "simulated", |data| {
         let src = Source { data, rows, cols, valid: mask };
-        Ok(py.detach(|| register::warp(&src, to_source, interp, shape.0, shape.1, f64::NAN)))
+        let resample = || Ok(register::warp(&src, to_source, interp, shape.0, shape.1, f64::NAN));
+        Ok(py.detach(|| budget::guard("resampling", Error::Value, resample))?)
     })
 }
 

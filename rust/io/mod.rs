@@ -134,12 +134,14 @@ pub struct DecodeOptions {
 /// Default pixel limit: one 16384 x 16384 frame.
 pub const DEFAULT_MAX_PIXELS: u64 = 16384 * 16384;
 
-/// Default decoding budget, 640 MiB: the largest 16-bit frame the default pixel limit allows
-/// (16384 x 16384 x 2 bytes = 512 MiB, the common case of a big thermal frame) plus 128 MiB
-/// for the decoder's blocks, rows and scratch. Well under 1 GB, so a few workers decoding at
-/// once stay within a workstation's memory; a larger float32/float64 frame needs a larger
-/// budget, given explicitly.
-pub const DEFAULT_MAX_BYTES: u64 = 640 << 20;
+/// Default memory budget of one frame pair's work, 2 GiB (docs/design.md §14): decoding
+/// (this module checks its part), the float64 copies, registration, resampling, statistics
+/// and maps. Registering a 4096 x 4096 16-bit pair by any model and method holds up to about
+/// 1.8 GB at its peak (the two frames, their float64 copies and registration's planes,
+/// spectra and gradients); 2 GiB lets that be done with room to spare, and still refuses an
+/// 8192 x 8192 registration (about 5.6 GB) before it allocates. Decoding alone stays far
+/// below it: the largest 16-bit frame the default pixel limit allows takes 512 MiB.
+pub const DEFAULT_MAX_BYTES: u64 = 2 << 30;
 
 impl Default for DecodeOptions {
     fn default() -> Self {

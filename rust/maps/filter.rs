@@ -7,6 +7,7 @@
 //! of scikit-image's `structural_similarity(..., gaussian_weights=True)`, in the same order of
 //! axes and of taps.
 
+use crate::budget;
 use crate::kernel::Sample;
 
 /// Number of moment images: x, y, x² + y², x·y. SSIM needs the two variances only as their
@@ -94,7 +95,7 @@ impl<T: Sample> Band<'_, T> {
         let (out_rows, in_rows) = (self.y1 - self.y0, self.y1 - self.y0 + 2 * r);
         self.load(r, in_rows, &mut scratch.products);
         scratch.out_rows = out_rows;
-        scratch.columns.resize(MOMENTS * out_rows * cols, 0.0);
+        budget::resize(&mut scratch.columns, MOMENTS * out_rows * cols, 0.0);
         let (in_plane, out_plane) = (in_rows * cols, out_rows * cols);
         for s0 in (0..cols).step_by(STRIP) {
             let width = STRIP.min(cols - s0);
@@ -120,7 +121,7 @@ impl<T: Sample> Band<'_, T> {
     fn load(&self, radius: usize, in_rows: usize, products: &mut Vec<f64>) {
         let cols = self.cols;
         let plane = in_rows * cols;
-        products.resize(MOMENTS * plane, 0.0);
+        budget::resize(products, MOMENTS * plane, 0.0);
         let (pr, ps) = self.pivots;
         let (x, rest) = products.split_at_mut(plane);
         let (y, rest) = rest.split_at_mut(plane);
@@ -147,8 +148,8 @@ impl<T: Sample> Band<'_, T> {
     pub fn local_moments(&self, window: &Window, i: usize, scratch: &mut Scratch) {
         let (cols, r) = (self.cols, window.radius());
         let plane = scratch.out_rows * cols;
-        scratch.padded.resize(cols + 2 * r, 0.0);
-        scratch.local.resize(MOMENTS * cols, 0.0);
+        budget::resize(&mut scratch.padded, cols + 2 * r, 0.0);
+        budget::resize(&mut scratch.local, MOMENTS * cols, 0.0);
         for m in 0..MOMENTS {
             let padded = &mut scratch.padded;
             padded[r..r + cols].copy_from_slice(&scratch.columns[m * plane + i * cols..][..cols]);

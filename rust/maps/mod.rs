@@ -20,5 +20,5 @@ mod multiscale;
 mod ssim;
 
 pub use frame::SsimParams;
-pub use multiscale::{max_scales, ms_ssim, MsSsim, MS_SSIM_WEIGHTS};
-pub use ssim::{ssim_map, SsimMap};
+pub use multiscale::{max_scales, ms_ssim, ms_ssim_plan, MsSsim, MS_SSIM_WEIGHTS};
+pub use ssim::{ssim_map, ssim_map_plan, SsimMap};

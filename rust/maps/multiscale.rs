@@ -15,7 +15,8 @@
 //! structure at that scale) counts as 0, so MS-SSIM lies in [0, 1] and is never NaN.
 
 use super::frame::{check_shape, SsimParams};
-use super::ssim::ssim_means;
+use super::ssim::{band_scratch_bytes, ssim_means};
+use crate::budget::{self, Plan};
 use crate::error::{Error, Result};
 use crate::kernel::Sample;
 
@@ -72,18 +73,26 @@ pub fn ms_ssim<T: Sample>(
         Some(n) => return Err(Error::Value(format!("scales must be between 1 and 5, got {n}"))),
     };
     let (mut ssim, mut cs) = (Vec::with_capacity(count), Vec::with_capacity(count));
-    let first = ssim_means(real, sim, rows, cols, params, valid)?;
-    ssim.push(first.0);
-    cs.push(first.1);
-    let (mut r, mut s, mut shape) =
-        (halve(real, rows, cols), halve(sim, rows, cols), (rows.div_ceil(2), cols.div_ceil(2)));
-    for _ in 1..count {
-        let (m, c) = ssim_means(&r, &s, shape.0, shape.1, params, None)?;
-        ssim.push(m);
-        cs.push(c);
-        (r, s) = (halve(&r, shape.0, shape.1), halve(&s, shape.0, shape.1));
-        shape = (shape.0.div_ceil(2), shape.1.div_ceil(2));
-    }
+    budget::guard("MS-SSIM", Error::Value, || {
+        let first = ssim_means(real, sim, rows, cols, params, valid)?;
+        ssim.push(first.0);
+        cs.push(first.1);
+        if count == 1 {
+            return Ok(());
+        }
+        let (mut r, mut s, mut shape) =
+            (halve(real, rows, cols)?, halve(sim, rows, cols)?, (rows.div_ceil(2), cols.div_ceil(2)));
+        for k in 1..count {
+            let (m, c) = ssim_means(&r, &s, shape.0, shape.1, params, None)?;
+            ssim.push(m);
+            cs.push(c);
+            if k + 1 < count {
+                (r, s) = (halve(&r, shape.0, shape.1)?, halve(&s, shape.0, shape.1)?);
+                shape = (shape.0.div_ceil(2), shape.1.div_ceil(2));
+            }
+        }
+        Ok(())
+    })?;
     let total: f64 = MS_SSIM_WEIGHTS[..count].iter().sum();
     let weights: Vec<f64> = MS_SSIM_WEIGHTS[..count].iter().map(|w| w / total).collect();
     let terms = cs[..count - 1].iter().chain([&ssim[count - 1]]);
@@ -91,11 +100,26 @@ pub fn ms_ssim<T: Sample>(
     Ok(MsSsim { value, weights, ssim, cs })
 }
 
+/// The peak of [`ms_ssim`] besides the frames: two consecutive scales of both frames as
+/// float64 (the next is made while the last is held) and every pool thread's band buffers.
+pub fn ms_ssim_plan(shape: (usize, usize), params: &SsimParams) -> Plan {
+    let scales = max_scales(shape.0, shape.1, params.win_size).max(1);
+    let mut sizes = Vec::new();
+    let (mut r, mut c) = shape;
+    for _ in 1..scales {
+        (r, c) = (r.div_ceil(2), c.div_ceil(2));
+        sizes.push(2 * budget::size_of_vec::<f64>(r * c));
+    }
+    let halves = sizes.windows(2).map(|w| w[0] + w[1]).chain(sizes.first().copied()).max().unwrap_or(0);
+    let threads = rayon::current_num_threads() as u64;
+    Plan::new("MS-SSIM", shape, 0.0, halves.saturating_add(threads * band_scratch_bytes(shape.1, params)))
+}
+
 /// 2×2 averages of a `rows × cols` frame, `ceil(rows/2) × ceil(cols/2)`; an odd last row or
 /// column is averaged with itself.
-fn halve<T: Sample>(src: &[T], rows: usize, cols: usize) -> Vec<f64> {
+fn halve<T: Sample>(src: &[T], rows: usize, cols: usize) -> Result<Vec<f64>> {
     let (out_rows, out_cols) = (rows.div_ceil(2), cols.div_ceil(2));
-    let mut out = Vec::with_capacity(out_rows * out_cols);
+    let mut out = budget::try_with_capacity(out_rows * out_cols)?;
     for i in 0..out_rows {
         let (a, b) = (&src[2 * i * cols..(2 * i + 1) * cols], &src[(2 * i + 1).min(rows - 1) * cols..][..cols]);
         for j in 0..out_cols {
@@ -103,7 +127,7 @@ fn halve<T: Sample>(src: &[T], rows: usize, cols: usize) -> Vec<f64> {
             out.push(0.25 * (a[j0].to_f64() + a[j1].to_f64() + b[j0].to_f64() + b[j1].to_f64()));
         }
     }
-    out
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -122,9 +146,9 @@ mod tests {
     #[test]
     fn halving_averages_blocks_and_repeats_an_odd_edge() {
         let src = [1u8, 3, 5, 7, 9, 11]; // 2 × 3
-        assert_eq!(halve(&src, 2, 3), vec![5.0, 8.0]);
+        assert_eq!(halve(&src, 2, 3).unwrap(), vec![5.0, 8.0]);
         let src = [1u8, 3, 5]; // 1 × 3
-        assert_eq!(halve(&src, 1, 3), vec![2.0, 5.0]);
+        assert_eq!(halve(&src, 1, 3).unwrap(), vec![2.0, 5.0]);
     }
 
     #[test]

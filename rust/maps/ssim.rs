@@ -15,9 +15,10 @@
 use std::cell::RefCell;
 use std::sync::Mutex;
 
-use super::filter::{Band, Scratch, Window};
+use super::filter::{Band, Scratch, Window, MOMENTS};
 use super::frame::{check_shape, BandCheck, SsimParams};
-use crate::error::Result;
+use crate::budget::{self, Plan};
+use crate::error::{Error, Result};
 use crate::kernel::{map_units, Sample};
 use crate::stats::Neumaier;
 
@@ -29,20 +30,24 @@ const BAND_ROWS: usize = 32;
 /// alone: a pool thread takes tens of microseconds to wake.
 const PARALLEL_MIN_PIXELS: usize = 1 << 13;
 
-/// A windowed SSIM map and its means.
+/// A windowed SSIM map (or every `step`-th row and column of it) and its mean.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SsimMap {
+    /// Shape of `map`: `ceil(frame rows / step) × ceil(frame cols / step)`.
     pub rows: usize,
     pub cols: usize,
-    /// SSIM per pixel, row-major.
+    /// SSIM per pixel, row-major: frame pixel `(step·i, step·j)` at `i·cols + j`.
     pub map: Vec<f64>,
-    /// Mean SSIM over the map without its `(win_size − 1) / 2` border (scikit-image's mean).
+    /// Mean SSIM over the whole map without its `(win_size − 1) / 2` border (scikit-image's
+    /// mean), whatever the step.
     pub mean: f64,
 }
 
-/// The SSIM map of two `rows × cols` row-major frames. `valid`: the allowed range of integer
-/// values (the declared bit depth); values outside it, NaN or Inf are a range error naming
-/// the first of them.
+/// The SSIM map of two `rows × cols` row-major frames, every `step`-th row and column of it
+/// (1: the whole map; more: what a display of the map shows, the same values as
+/// `map[::step, ::step]` of the whole map and the same mean, without holding the whole map).
+/// `valid`: the allowed range of integer values (the declared bit depth); values outside
+/// it, NaN or Inf are a range error naming the first of them.
 pub fn ssim_map<T: Sample>(
     real: &[T],
     sim: &[T],
@@ -50,12 +55,40 @@ pub fn ssim_map<T: Sample>(
     cols: usize,
     params: &SsimParams,
     valid: Option<(i64, i64)>,
+    step: usize,
 ) -> Result<SsimMap> {
     params.check()?;
     check_shape(real.len(), sim.len(), rows, cols, params.win_size)?;
-    let mut map = vec![0.0; rows * cols];
-    let (mean, _) = run::<T, false>(real, sim, rows, cols, params, valid, Some(&mut map))?;
-    Ok(SsimMap { rows, cols, map, mean })
+    if step == 0 {
+        return Err(Error::Value("step must be at least 1".into()));
+    }
+    let (out_rows, out_cols) = (rows.div_ceil(step), cols.div_ceil(step));
+    budget::guard("SSIM map", Error::Value, || {
+        let mut map = budget::try_filled(out_rows * out_cols, 0.0)?;
+        let (mean, _) = run::<T, false>(real, sim, rows, cols, params, valid, Some((&mut map, step)))?;
+        Ok(SsimMap { rows: out_rows, cols: out_cols, map, mean })
+    })
+}
+
+/// Bytes of one pool thread's band buffers for frames `cols` wide (they stay with the
+/// thread for its next map).
+pub(crate) fn band_scratch_bytes(cols: usize, params: &SsimParams) -> u64 {
+    let (cols, radius) = (cols as u64, params.radius() as u64);
+    let in_rows = BAND_ROWS as u64 + 2 * radius;
+    // moment images of the input rows and of the filtered output rows, a padded row, the
+    // local moments, and a row of SSIM and of cs
+    let moments = MOMENTS as u64 * (in_rows + BAND_ROWS as u64 + 1);
+    let values = moments.saturating_mul(cols).saturating_add(3 * cols + 2 * radius);
+    values.saturating_mul(std::mem::size_of::<f64>() as u64)
+}
+
+/// The peak of [`ssim_map`] besides the frames: the map kept and every pool
+/// thread's band buffers.
+pub fn ssim_map_plan(shape: (usize, usize), params: &SsimParams, step: usize) -> Plan {
+    let step = step.max(1);
+    let kept = budget::size_of_vec::<f64>(shape.0.div_ceil(step) * shape.1.div_ceil(step));
+    let threads = rayon::current_num_threads() as u64;
+    Plan::new("the SSIM map", shape, 0.0, kept.saturating_add(threads * band_scratch_bytes(shape.1, params)))
 }
 
 /// The means of the SSIM map and of the contrast-structure term (MS-SSIM's per-scale term)
@@ -84,7 +117,31 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
-/// The means of SSIM and (with `CS`) of cs over the crop, writing the map when given.
+/// Where a band writes its rows of the map: every `step`-th row and column of the frame
+/// rows it covers.
+pub(crate) struct Sink<'a> {
+    pub rows: &'a mut [f64],
+    pub step: usize,
+}
+
+/// Each band's part of a map holding every `step`-th row and column of a `rows × cols` map:
+/// the sampled rows that fall in the band.
+fn band_slots(map: &mut [f64], rows: usize, cols: usize, step: usize) -> Vec<Mutex<&mut [f64]>> {
+    let out_cols = cols.div_ceil(step);
+    let mut rest = map;
+    let mut slots = Vec::with_capacity(rows.div_ceil(BAND_ROWS));
+    for y0 in (0..rows).step_by(BAND_ROWS) {
+        let y1 = (y0 + BAND_ROWS).min(rows);
+        let kept = y1.div_ceil(step) - y0.div_ceil(step);
+        let (mine, after) = std::mem::take(&mut rest).split_at_mut(kept * out_cols);
+        slots.push(Mutex::new(mine));
+        rest = after;
+    }
+    slots
+}
+
+/// The means of SSIM and (with `CS`) of cs over the crop, writing the map (every `step`-th
+/// row and column) when given.
 fn run<T: Sample, const CS: bool>(
     real: &[T],
     sim: &[T],
@@ -92,12 +149,13 @@ fn run<T: Sample, const CS: bool>(
     cols: usize,
     params: &SsimParams,
     valid: Option<(i64, i64)>,
-    map: Option<&mut [f64]>,
+    map: Option<(&mut [f64], usize)>,
 ) -> Result<(f64, f64)> {
     let window = Window::gaussian(params.sigma, params.radius());
     let units = rows.div_ceil(BAND_ROWS);
     // each band writes its own rows of the map
-    let slots: Option<Vec<Mutex<&mut [f64]>>> = map.map(|m| m.chunks_mut(BAND_ROWS * cols).map(Mutex::new).collect());
+    let step = map.as_ref().map_or(1, |m| m.1);
+    let slots = map.map(|(m, step)| band_slots(m, rows, cols, step));
     let parallel = rows * cols >= PARALLEL_MIN_PIXELS;
     let bands = map_units(units, parallel, |b| -> std::result::Result<BandResult, std::convert::Infallible> {
         let (y0, y1) = (b * BAND_ROWS, ((b + 1) * BAND_ROWS).min(rows));
@@ -106,8 +164,8 @@ fn run<T: Sample, const CS: bool>(
         let mut out = slots.as_ref().map(|s| s[b].lock().unwrap_or_else(|e| e.into_inner()));
         let (check, ssim, cs) = SCRATCH.with(|scratch| {
             let mut scratch = scratch.borrow_mut();
-            let rows_out = out.as_deref_mut().map(|o| &mut **o);
-            band_sums::<T, CS>(&band, &window, params, valid, rows_out, &mut scratch)
+            let sink = out.as_deref_mut().map(|o| Sink { rows: o, step });
+            band_sums::<T, CS>(&band, &window, params, valid, sink, &mut scratch)
         });
         Ok(BandResult { check, ssim, cs })
     });
@@ -143,7 +201,7 @@ fn band_sums<T: Sample, const CS: bool>(
     window: &Window,
     params: &SsimParams,
     valid: Option<(i64, i64)>,
-    out: Option<&mut [f64]>,
+    out: Option<Sink<'_>>,
     scratch: &mut Scratch,
 ) -> (BandCheck, Neumaier, Neumaier) {
     #[cfg(target_arch = "x86_64")]
@@ -161,7 +219,7 @@ fn band_sums_avx2<T: Sample, const CS: bool>(
     window: &Window,
     params: &SsimParams,
     valid: Option<(i64, i64)>,
-    out: Option<&mut [f64]>,
+    out: Option<Sink<'_>>,
     scratch: &mut Scratch,
 ) -> (BandCheck, Neumaier, Neumaier) {
     band_sums_impl::<T, CS>(band, window, params, valid, out, scratch)
@@ -173,28 +231,37 @@ fn band_sums_impl<T: Sample, const CS: bool>(
     window: &Window,
     params: &SsimParams,
     valid: Option<(i64, i64)>,
-    mut out: Option<&mut [f64]>,
+    mut out: Option<Sink<'_>>,
     scratch: &mut Scratch,
 ) -> (BandCheck, Neumaier, Neumaier) {
     let (rows, cols, pad) = (band.rows, band.cols, window.radius());
     let check = BandCheck::rows(band.real, band.sim, cols, band.y0, band.y1, valid);
     let constants = (params.c1(), params.c2());
     let (mut ssim, mut cs) = (Neumaier::default(), Neumaier::default());
-    let mut row_buf = vec![0.0; if out.is_some() { 0 } else { cols }];
-    let mut cs_row = vec![0.0; if CS { cols } else { 0 }];
+    let whole_rows = out.as_ref().is_some_and(|o| o.step == 1);
+    let mut row_buf = budget::filled(if whole_rows { 0 } else { cols }, 0.0);
+    let mut cs_row = budget::filled(if CS { cols } else { 0 }, 0.0);
+    let mut kept = 0; // sampled rows written so far
     band.filter_columns(window, scratch);
     for i in 0..band.y1 - band.y0 {
         band.local_moments(window, i, scratch);
-        let ssim_row = match out.as_deref_mut() {
-            Some(o) => &mut o[i * cols..(i + 1) * cols],
-            None => &mut row_buf[..],
+        let y = band.y0 + i;
+        let line = match out.as_mut() {
+            Some(o) if whole_rows => &mut o.rows[i * cols..(i + 1) * cols],
+            _ => &mut row_buf[..],
         };
-        ssim_row_of::<CS>(&scratch.local, cols, band.pivots, constants, ssim_row, &mut cs_row);
-        if (pad..rows - pad).contains(&(band.y0 + i)) {
-            ssim.add(ssim_row[pad..cols - pad].iter().sum());
+        ssim_row_of::<CS>(&scratch.local, cols, band.pivots, constants, line, &mut cs_row);
+        if (pad..rows - pad).contains(&y) {
+            ssim.add(line[pad..cols - pad].iter().sum());
             if CS {
                 cs.add(cs_row[pad..cols - pad].iter().sum());
             }
+        }
+        if let Some(o) = out.as_mut().filter(|o| !whole_rows && y % o.step == 0) {
+            let out_cols = cols.div_ceil(o.step);
+            let dst = &mut o.rows[kept * out_cols..(kept + 1) * out_cols];
+            dst.iter_mut().zip(row_buf.iter().step_by(o.step)).for_each(|(d, &v)| *d = v);
+            kept += 1;
         }
     }
     (check, ssim, cs)
@@ -279,7 +346,7 @@ mod tests {
         let (rows, cols) = (70, 45); // bands of 32 rows: a partial last band
         let (real, sim) = frames(rows, cols);
         let p = SsimParams::paper(4095.0);
-        let got = ssim_map(&real, &sim, rows, cols, &p, Some((0, 4095))).unwrap();
+        let got = ssim_map(&real, &sim, rows, cols, &p, Some((0, 4095)), 1).unwrap();
         let rf: Vec<f64> = real.iter().map(|&v| v as f64).collect();
         let sf: Vec<f64> = sim.iter().map(|&v| v as f64).collect();
         let want = direct(&rf, &sf, rows, cols, &p);
@@ -306,8 +373,9 @@ mod tests {
         let band = Band { real: &real, sim: &sim, rows, cols, y0: 0, y1: 32, pivots: (500.0, 300.0) };
         let mut a = vec![0.0; 32 * cols];
         let mut b = vec![0.0; 32 * cols];
-        let sa = band_sums_impl::<u16, true>(&band, &window, &p, None, Some(&mut a), &mut Scratch::default());
-        let sb = band_sums::<u16, true>(&band, &window, &p, None, Some(&mut b), &mut Scratch::default());
+        let sink = |rows| Some(Sink { rows, step: 1 });
+        let sa = band_sums_impl::<u16, true>(&band, &window, &p, None, sink(&mut a), &mut Scratch::default());
+        let sb = band_sums::<u16, true>(&band, &window, &p, None, sink(&mut b), &mut Scratch::default());
         assert_eq!(a, b);
         assert_eq!((sa.1.value(), sa.2.value()), (sb.1.value(), sb.2.value()));
     }
@@ -316,15 +384,15 @@ mod tests {
     fn flat_frames_have_documented_values() {
         let (rows, cols) = (12, 11);
         let p = SsimParams::paper(255.0);
-        let same = ssim_map(&vec![7u8; rows * cols], &vec![7u8; rows * cols], rows, cols, &p, None).unwrap();
+        let same = ssim_map(&vec![7u8; rows * cols], &vec![7u8; rows * cols], rows, cols, &p, None, 1).unwrap();
         assert!(same.map.iter().all(|&v| v == 1.0) && same.mean == 1.0);
         let (a, b) = (200.0f64, 50.0f64);
         let want = (2.0 * a * b + p.c1()) / (a * a + b * b + p.c1());
-        let diff = ssim_map(&vec![200u8; rows * cols], &vec![50u8; rows * cols], rows, cols, &p, None).unwrap();
+        let diff = ssim_map(&vec![200u8; rows * cols], &vec![50u8; rows * cols], rows, cols, &p, None, 1).unwrap();
         assert!(diff.map.iter().all(|&v| (v - want).abs() < 1e-15));
         let (_, cs) = ssim_means(&vec![200u8; rows * cols], &vec![50u8; rows * cols], rows, cols, &p, None).unwrap();
         assert!((cs - 1.0).abs() < 1e-15);
-        let zeros = ssim_map(&vec![0.0f32; rows * cols], &vec![0.0f32; rows * cols], rows, cols, &p, None).unwrap();
+        let zeros = ssim_map(&vec![0.0f32; rows * cols], &vec![0.0f32; rows * cols], rows, cols, &p, None, 1).unwrap();
         assert_eq!(zeros.mean, 1.0);
     }
 
@@ -351,15 +419,35 @@ mod tests {
     }
 
     #[test]
+    fn sampled_maps_are_the_displayed_part_of_the_map() {
+        let (rows, cols) = (70, 45);
+        let (real, sim) = frames(rows, cols);
+        let p = SsimParams::paper(4095.0);
+        let whole = ssim_map(&real, &sim, rows, cols, &p, None, 1).unwrap();
+        let map = &whole.map;
+        for step in [2, 3, 31, 100] {
+            let part = ssim_map(&real, &sim, rows, cols, &p, None, step).unwrap();
+            assert_eq!((part.rows, part.cols), (rows.div_ceil(step), cols.div_ceil(step)));
+            let at = |r: usize| (0..cols).step_by(step).map(move |c| map[r * cols + c]);
+            assert_eq!(part.map, (0..rows).step_by(step).flat_map(at).collect::<Vec<f64>>(), "{step}");
+            assert_eq!(part.mean, whole.mean);
+        }
+        assert!(ssim_map(&real, &sim, rows, cols, &p, None, 0).is_err());
+        // the plan counts the map kept and the band buffers
+        let (full, shown) = (ssim_map_plan((rows, cols), &p, 1), ssim_map_plan((rows, cols), &p, 3));
+        assert_eq!(full.bytes - shown.bytes, 8 * (70 * 45 - 24 * 15));
+    }
+
+    #[test]
     fn bad_inputs_are_errors_not_panics() {
         let p = SsimParams::paper(255.0);
-        assert!(ssim_map(&[0u8; 100], &[0u8; 100], 10, 10, &p, None).is_err()); // 10 < 11
-        assert!(ssim_map(&[0u8; 120], &[0u8; 121], 11, 11, &p, None).is_err());
+        assert!(ssim_map(&[0u8; 100], &[0u8; 100], 10, 10, &p, None, 1).is_err()); // 10 < 11
+        assert!(ssim_map(&[0u8; 120], &[0u8; 121], 11, 11, &p, None, 1).is_err());
         let mut nan = vec![0.5f32; 144];
         nan[100] = f32::NAN;
-        let e = ssim_map(&nan, &vec![0.5f32; 144], 12, 12, &p, None).unwrap_err();
+        let e = ssim_map(&nan, &vec![0.5f32; 144], 12, 12, &p, None, 1).unwrap_err();
         assert!(format!("{e}").contains("(row 8, col 4)"), "{e}");
-        let e = ssim_map(&[300u16; 144], &[0u16; 144], 12, 12, &p, Some((0, 255))).unwrap_err();
+        let e = ssim_map(&[300u16; 144], &[0u16; 144], 12, 12, &p, Some((0, 255)), 1).unwrap_err();
         assert!(format!("{e}").contains("value 300 at (row 0, col 0)"), "{e}");
     }
 }

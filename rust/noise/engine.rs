@@ -10,6 +10,13 @@
 //! hands on only its per-frame sums. Memory stays bounded: a worker does not start a float
 //! chunk more than `2·workers` chunks ahead of the last one appended (integer chunks hold
 //! only per-frame sums, which the result keeps anyway).
+//!
+//! The pass is planned against the memory budget once the first frame has fixed the shape
+//! ([`pass_plan`]): when the per-pixel sums of every worker and the frames in flight would
+//! not fit, fewer workers run (float results do not depend on their number) and, for
+//! integer frames read from files, fewer frames are decoded at once (integer sums do not
+//! depend on it either); when one worker reading one frame at a time does not fit, the pass
+//! is refused before it allocates its sums.
 
 use std::ops::Range;
 use std::path::PathBuf;
@@ -17,6 +24,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 
 use super::{Acc, Dtype, NoiseSums};
+use crate::budget::{self, Plan};
 use crate::io::{self, DecodeOptions, FrameData};
 use crate::{Error, Result};
 
@@ -38,6 +46,9 @@ pub struct PassOptions {
     pub limits: Option<(i64, i64)>,
     /// Region to analyse (default: whole frames).
     pub window: Option<Window>,
+    /// The memory budget of the pass in bytes (`None`: [`io::DEFAULT_MAX_BYTES`]); a cube
+    /// given in memory is the caller's and not counted.
+    pub max_bytes: Option<u64>,
 }
 
 /// Borrowed samples of one frame.
@@ -84,6 +95,10 @@ pub trait FrameSource: Sync {
     fn label(&self, i: usize) -> String;
     /// Read frames `range` and hand them to `visit` together.
     fn with_frames(&self, range: Range<usize>, visit: &mut dyn FnMut(&[FrameRef<'_>]) -> Result<()>) -> Result<()>;
+    /// Whether reading a frame allocates it (decoded from a file) rather than borrowing it.
+    fn allocates(&self) -> bool {
+        false
+    }
 }
 
 /// Frames of files (a TIFF page each), decoded by [`crate::io::decode_frame`].
@@ -106,6 +121,9 @@ impl FrameSource for PathSource {
         } else {
             format!("{}[{page}]", path.display())
         }
+    }
+    fn allocates(&self) -> bool {
+        true
     }
     fn with_frames(&self, range: Range<usize>, visit: &mut dyn FnMut(&[FrameRef<'_>]) -> Result<()>) -> Result<()> {
         let decoded: Vec<io::Frame> = range
@@ -277,6 +295,74 @@ fn effective_workers(workers: usize) -> usize {
     }
 }
 
+/// How a pass runs: worker threads, frames each reads at once, and frames per chunk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Schedule {
+    workers: usize,
+    batch: usize,
+    chunk: usize,
+}
+
+impl Schedule {
+    /// `workers` (at most one per chunk) reading `batch` frames at once, in chunks of
+    /// [`chunk_len`] frames for float frames (their result depends on it) and of one batch for
+    /// integer frames.
+    fn new(layout: &Layout, frames: usize, workers: usize, batch: usize) -> Schedule {
+        let chunk = if layout.dtype.is_int() { batch } else { chunk_len(frames) };
+        Schedule { workers: workers.clamp(1, Self::chunks(frames, chunk).max(1)), batch, chunk }
+    }
+
+    /// Chunks after the first frame (read on its own).
+    fn chunks(frames: usize, chunk: usize) -> usize {
+        frames.saturating_sub(1).div_ceil(chunk)
+    }
+}
+
+/// The peak of a pass over `frames` frames of `layout` run as `schedule`, besides a cube
+/// given in memory: the per-pixel sums of the total and of every worker (integer frames:
+/// each worker's accumulator; float frames: the pivot, and the chunks being summed or
+/// waiting to be appended, at most `2·workers` since no worker starts a chunk further
+/// ahead), the per-frame row and column sums (of the
+/// total and of the pieces handed on), and, when reading allocates frames, the first frame
+/// and every worker's batch.
+fn pass_plan(layout: &Layout, frames: usize, allocates: bool, schedule: Schedule) -> Plan {
+    let (window, workers) = (layout.window, schedule.workers);
+    let per_pixel = if layout.dtype.is_int() {
+        let square = if layout.dtype == Dtype::U32 { 16.0 } else { 8.0 };
+        (8.0 + square) * (1 + workers) as f64
+    } else {
+        let alive = (2 * workers).min(Schedule::chunks(frames, schedule.chunk));
+        8.0 + 32.0 * (1 + alive) as f64
+    };
+    let line_sums = 2 * budget::size_of_vec::<f64>(frames.saturating_mul(window.rows + window.cols));
+    let frame =
+        if allocates { budget::size_of_vec::<u8>(layout.full.0 * layout.full.1 * layout.dtype.size()) } else { 0 };
+    let in_flight = frame.saturating_mul((1 + workers * schedule.batch) as u64);
+    let operation = format!(
+        "the 3-D noise pass ({workers} worker{}, {} frame{} read at a time each)",
+        if workers == 1 { "" } else { "s" },
+        schedule.batch,
+        if schedule.batch == 1 { "" } else { "s" }
+    );
+    Plan::new(operation, (window.rows, window.cols), per_pixel, line_sums.saturating_add(in_flight))
+}
+
+/// The most workers (up to `requested`) and, for integer frames read from files, the largest
+/// batch that fit `max_bytes`; an error naming the smallest plan when none does.
+fn schedule(layout: &Layout, frames: usize, allocates: bool, requested: usize, max_bytes: u64) -> Result<Schedule> {
+    let batches: &[usize] = if allocates && layout.dtype.is_int() { &[BATCH, 4, 2, 1] } else { &[BATCH] };
+    for workers in (1..=requested.max(1)).rev() {
+        for &batch in batches {
+            let s = Schedule::new(layout, frames, workers, batch);
+            if pass_plan(layout, frames, allocates, s).bytes <= max_bytes {
+                return Ok(s);
+            }
+        }
+    }
+    let least = Schedule::new(layout, frames, 1, *batches.last().expect("a batch"));
+    pass_plan(layout, frames, allocates, least).check(max_bytes, Error::Value).map(|_| least)
+}
+
 /// A summed chunk of frames, waiting to be appended to the total in chunk order.
 enum Piece {
     /// Float frames: the chunk's own sums.
@@ -303,14 +389,21 @@ fn lock(m: &Mutex<Shared>) -> MutexGuard<'_, Shared> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-/// Run a pass over every frame of `source`.
+/// Run a pass over every frame of `source`, planned against `opts.max_bytes` (see the
+/// module notes); memory the system refuses is an error too.
 pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSums> {
+    budget::guard("the 3-D noise pass", Error::Value, || planned_pass(source, opts))
+}
+
+fn planned_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSums> {
     let n = source.len();
     if n == 0 {
         return Err(Error::Value("no frames to analyse".into()));
     }
+    let max_bytes = opts.max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES);
     let mut first: Option<NoiseSums> = None;
     let mut layout: Option<Layout> = None;
+    let mut plan: Option<Schedule> = None;
     source.with_frames(0..1, &mut |frames| {
         let frame = frames[0];
         let full = (frame.rows, frame.cols);
@@ -332,6 +425,7 @@ pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSum
             )));
         }
         let l = Layout { full, dtype: frame.samples.dtype(), window };
+        plan = Some(schedule(&l, n, source.allocates(), effective_workers(opts.workers), max_bytes)?);
         let mut sums = NoiseSums::new(window.rows, window.cols, l.dtype, opts.limits)?;
         add_batch(&mut sums, frames, &l, &|_| source.label(0))?;
         layout = Some(l);
@@ -339,15 +433,14 @@ pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSum
         Ok(())
     })?;
     let (first, layout) = (first.expect("first frame"), layout.expect("first frame"));
+    let Schedule { workers, batch, chunk } = plan.expect("first frame");
     let pivot = match &first.acc {
         Acc::Float(a) => Some(Arc::clone(&a.pivot)),
         Acc::Int(_) => None,
     };
     // Integer chunks cost only their per-frame sums, so they are short (the workers share
     // the frames evenly whatever the machine's load) and may run any distance ahead.
-    let chunk = if pivot.is_some() { chunk_len(n) } else { BATCH };
-    let chunks = (n - 1).div_ceil(chunk);
-    let workers = effective_workers(opts.workers).min(chunks.max(1));
+    let chunks = Schedule::chunks(n, chunk);
     let ahead = if pivot.is_some() { 2 * workers } else { usize::MAX / 2 };
     let shared =
         Mutex::new(Shared { total: first, pending: Default::default(), locals: Vec::new(), next: 0, error: None });
@@ -359,11 +452,11 @@ pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSum
     // worker count); integer chunks add into the worker's accumulator and hand on only
     // their per-frame sums (no per-chunk per-pixel arrays to allocate and merge).
     let add_range = |sums: &mut NoiseSums, start: usize, stop: usize| -> std::result::Result<(), (usize, Error)> {
-        for i in (start..stop).step_by(BATCH) {
+        for i in (start..stop).step_by(batch) {
             if cancel.load(Ordering::Relaxed) {
                 break;
             }
-            let batch = i..(i + BATCH).min(stop);
+            let batch = i..(i + batch).min(stop);
             let label = |k: usize| source.label(i + k);
             source.with_frames(batch, &mut |frames| add_batch(sums, frames, &layout, &label)).map_err(|e| (i, e))?;
         }
@@ -409,7 +502,11 @@ pub fn run_pass(source: &dyn FrameSource, opts: &PassOptions) -> Result<NoiseSum
                 break;
             }
             let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sum_chunk(c, &mut local)))
-                .unwrap_or_else(|_| Err((1 + c * chunk, Error::Value("internal error while summing frames".into()))));
+                .unwrap_or_else(|p| {
+                    let err = budget::refused_error(&*p)
+                        .unwrap_or_else(|| Error::Value("internal error while summing frames".into()));
+                    Err((1 + c * chunk, err))
+                });
             let mut st = lock(&shared);
             match result {
                 Ok(piece) => {
@@ -474,5 +571,65 @@ fn append_piece(total: &mut NoiseSums, piece: Piece) -> Result<()> {
             }
             Acc::Float(_) => Err(Error::Value("internal: integer frame sums for a float pass".into())),
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An in-memory cube read as if each frame were decoded (the plan counts the frames).
+    struct Decoded<'a>(ArraySource<'a>);
+
+    impl FrameSource for Decoded<'_> {
+        fn len(&self) -> usize {
+            self.0.len()
+        }
+        fn label(&self, i: usize) -> String {
+            self.0.label(i)
+        }
+        fn with_frames(&self, range: Range<usize>, visit: &mut dyn FnMut(&[FrameRef<'_>]) -> Result<()>) -> Result<()> {
+            self.0.with_frames(range, visit)
+        }
+        fn allocates(&self) -> bool {
+            true
+        }
+    }
+
+    fn frames(n: usize) -> Vec<u16> {
+        (0..n).map(|i| (1000 + (i * 7919) % 97) as u16).collect()
+    }
+
+    #[test]
+    fn a_tight_budget_runs_fewer_workers_reading_fewer_frames_with_the_same_sums() {
+        let (t, v, h) = (21, 16, 24);
+        let data = frames(t * v * h);
+        let source = Decoded(ArraySource { data: Samples::U16(&data), frames: t, rows: v, cols: h });
+        let opts = |max_bytes| PassOptions { workers: 3, max_bytes, ..Default::default() };
+        let free = run_pass(&source, &opts(None)).unwrap();
+        let layout = Layout { full: (v, h), dtype: Dtype::U16, window: Window { row0: 0, col0: 0, rows: v, cols: h } };
+        let least = Schedule::new(&layout, t, 1, 1);
+        let tight = pass_plan(&layout, t, true, least).bytes;
+        assert_eq!(schedule(&layout, t, true, 3, tight).unwrap(), least);
+        assert_eq!(schedule(&layout, t, true, 3, u64::MAX).unwrap(), Schedule::new(&layout, t, 3, BATCH));
+        assert_eq!(run_pass(&source, &opts(Some(tight))).unwrap(), free);
+        let err = run_pass(&source, &opts(Some(tight - 1))).unwrap_err();
+        assert!(matches!(&err, Error::Value(m) if m.contains("the 3-D noise pass (1 worker, 1 frame read")), "{err:?}");
+        // a cube in memory is not counted: only the sums
+        let borrowed = ArraySource { data: Samples::U16(&data), frames: t, rows: v, cols: h };
+        assert_eq!(run_pass(&borrowed, &opts(Some(tight))).unwrap(), free);
+    }
+
+    #[test]
+    fn float_passes_run_fewer_workers_with_the_same_sums_bit_for_bit() {
+        let (t, v, h) = (70, 8, 10);
+        let data: Vec<f32> = frames(t * v * h).iter().map(|&x| x as f32 * 0.37).collect();
+        let source = ArraySource { data: Samples::F32(&data), frames: t, rows: v, cols: h };
+        let opts = |max_bytes| PassOptions { workers: 2, max_bytes, ..Default::default() };
+        let layout = Layout { full: (v, h), dtype: Dtype::F32, window: Window { row0: 0, col0: 0, rows: v, cols: h } };
+        let one = pass_plan(&layout, t, false, Schedule::new(&layout, t, 1, BATCH)).bytes;
+        assert!(one < pass_plan(&layout, t, false, Schedule::new(&layout, t, 2, BATCH)).bytes);
+        assert_eq!(run_pass(&source, &opts(Some(one))).unwrap(), run_pass(&source, &opts(None)).unwrap());
+        assert!(run_pass(&source, &opts(Some(one - 1))).is_err());
     }
 }

@@ -16,6 +16,7 @@
 
 use super::wide::U256;
 use super::{Decomposition, FrameSample, Region, Shape};
+use crate::budget;
 use crate::{Error, Result};
 
 /// Per-pixel sums of squares: u64 while a square fits 32 bits (8/16-bit samples), u128
@@ -49,8 +50,12 @@ pub struct IntAcc {
 impl IntAcc {
     pub fn new(pixels: usize, wide: bool, (lo, hi): (i64, i64)) -> IntAcc {
         IntAcc {
-            pixel_sum: vec![0; pixels],
-            pixel_sq: if wide { PixelSq::Wide(vec![0; pixels]) } else { PixelSq::Narrow(vec![0; pixels]) },
+            pixel_sum: budget::filled(pixels, 0),
+            pixel_sq: if wide {
+                PixelSq::Wide(budget::filled(pixels, 0))
+            } else {
+                PixelSq::Narrow(budget::filled(pixels, 0))
+            },
             row_sums: Vec::new(),
             col_sums: Vec::new(),
             lo,
@@ -111,8 +116,8 @@ impl IntAcc {
         label: &dyn Fn(usize) -> String,
     ) -> Result<()> {
         let (base_rows, base_cols) = (self.row_sums.len(), self.col_sums.len());
-        self.row_sums.resize(base_rows + frames.len() * region.rows, 0);
-        self.col_sums.resize(base_cols + frames.len() * region.cols, 0);
+        budget::resize(&mut self.row_sums, base_rows + frames.len() * region.rows, 0);
+        budget::resize(&mut self.col_sums, base_cols + frames.len() * region.cols, 0);
         // 8/16-bit samples, at most 2^15 rows, columns and frames in the batch: every row,
         // column and batch sum fits i32, which halves the lanes' width
         let small = |n: usize| n <= 1 << 15;
@@ -277,19 +282,18 @@ impl IntAcc {
     }
 
     pub fn pixel_mean(&self, frames: usize) -> Vec<f64> {
-        self.pixel_sum.iter().map(|&s| s as f64 / frames as f64).collect()
+        budget::collect(self.pixel_sum.len(), self.pixel_sum.iter().map(|&s| s as f64 / frames as f64))
     }
 
     /// `(T·Σx² − (Σx)²) / T²` per pixel, the numerator exact in i128.
     pub fn pixel_var(&self, frames: usize) -> Vec<f64> {
         let t = frames as i128;
         let tt = (frames as f64) * (frames as f64);
-        (0..self.pixel_sum.len())
-            .map(|i| {
-                let s = self.pixel_sum[i] as i128;
-                (t * self.pixel_sq_at(i) as i128 - s * s) as f64 / tt
-            })
-            .collect()
+        let var = |i: usize| {
+            let s = self.pixel_sum[i] as i128;
+            (t * self.pixel_sq_at(i) as i128 - s * s) as f64 / tt
+        };
+        budget::collect(self.pixel_sum.len(), (0..self.pixel_sum.len()).map(var))
     }
 
     /// The exact decomposition (see the module documentation for the formulas).

@@ -12,6 +12,7 @@
 use std::sync::Arc;
 
 use super::{Decomposition, FrameSample, Region, Shape};
+use crate::budget;
 use crate::stats::{compensated_sum, two_sum, Neumaier};
 use crate::{Error, Result};
 
@@ -58,10 +59,10 @@ impl FloatAcc {
         let n = pivot.len();
         FloatAcc {
             pivot,
-            sum: vec![0.0; n],
-            sum_c: vec![0.0; n],
-            sq: vec![0.0; n],
-            sq_c: vec![0.0; n],
+            sum: budget::filled(n, 0.0),
+            sum_c: budget::filled(n, 0.0),
+            sq: budget::filled(n, 0.0),
+            sq_c: budget::filled(n, 0.0),
             row_sums: Vec::new(),
             col_sums: Vec::new(),
             min: f64::INFINITY,
@@ -91,11 +92,12 @@ impl FloatAcc {
             return Ok(());
         }
         if self.pivot.is_empty() {
-            let pivot: Vec<f64> = (0..rows).flat_map(|r| region.row(frames[0], r).iter().map(|v| v.to_f64())).collect();
+            let samples = (0..rows).flat_map(|r| region.row(frames[0], r).iter().map(|v| v.to_f64()));
+            let pivot: Vec<f64> = budget::collect(rows * cols, samples);
             *self = FloatAcc::with_pivot(Arc::new(pivot));
         }
         let base_rows = self.row_sums.len();
-        self.row_sums.resize(base_rows + frames.len() * rows, 0.0);
+        budget::resize(&mut self.row_sums, base_rows + frames.len() * rows, 0.0);
         // column sums: plain over blocks of COL_BLOCK rows, folded into compensated totals
         let mut col = vec![Neumaier::default(); frames.len() * cols];
         let mut col_block = vec![0.0; frames.len() * cols];
@@ -184,12 +186,15 @@ impl FloatAcc {
 
     pub fn pixel_mean(&self, frames: usize) -> Vec<f64> {
         let t = frames as f64;
-        (0..self.pivot.len()).map(|i| self.pivot[i] + (self.sum[i] + self.sum_c[i]) / t).collect()
+        budget::collect(
+            self.pivot.len(),
+            (0..self.pivot.len()).map(|i| self.pivot[i] + (self.sum[i] + self.sum_c[i]) / t),
+        )
     }
 
     pub fn pixel_var(&self, frames: usize) -> Vec<f64> {
         let t = frames as f64;
-        (0..self.pivot.len()).map(|i| self.within_pixel(i, t) / t).collect()
+        budget::collect(self.pivot.len(), (0..self.pivot.len()).map(|i| self.within_pixel(i, t) / t))
     }
 
     /// Σₜ (x − pixel mean)² of pixel `i` (never negative).

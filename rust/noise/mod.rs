@@ -73,6 +73,16 @@ impl Dtype {
         })
     }
 
+    /// Bytes of one sample.
+    pub fn size(self) -> usize {
+        match self {
+            Dtype::U8 => 1,
+            Dtype::U16 | Dtype::I16 | Dtype::F16 => 2,
+            Dtype::U32 | Dtype::F32 => 4,
+            Dtype::F64 => 8,
+        }
+    }
+
     pub fn is_int(self) -> bool {
         matches!(self, Dtype::U8 | Dtype::U16 | Dtype::I16 | Dtype::U32)
     }

@@ -4,6 +4,7 @@
 
 use super::bands;
 use super::pool::Buffer;
+use crate::budget;
 use crate::error::{Error, Result};
 use crate::kernel::Sample;
 
@@ -143,7 +144,8 @@ impl Plane {
                 line.iter_mut().zip(&wc).for_each(|(v, &u)| *v /= w * u);
             }
         } else {
-            let weights: Vec<f64> = self.valid.iter().map(|&ok| if ok { 1.0 } else { 0.0 }).collect();
+            let weights: Buffer<f64> =
+                Buffer::collect_exact(self.valid.len(), self.valid.iter().map(|&ok| if ok { 1.0 } else { 0.0 }));
             let den = convolve_separable(&weights, rows, cols, &kernel);
             for ((v, &d), &ok) in values.iter_mut().zip(&den).zip(&self.valid) {
                 *v = if ok && d > 0.0 { *v / d } else { 0.0 };
@@ -155,8 +157,8 @@ impl Plane {
     /// Half the resolution: the mean of each 2×2 block whose four pixels are valid.
     pub fn halved(&self) -> Plane {
         let (rows, cols) = (self.rows / 2, self.cols / 2);
-        let mut values = vec![0.0; rows * cols];
-        let mut valid = vec![false; rows * cols];
+        let mut values = budget::filled(rows * cols, 0.0);
+        let mut valid = budget::filled(rows * cols, false);
         for r in 0..rows {
             for c in 0..cols {
                 let idx = [(2 * r) * self.cols + 2 * c, (2 * r) * self.cols + 2 * c + 1];
@@ -173,7 +175,7 @@ impl Plane {
     /// Valid values mapped to [0, 1] between their `q`-th and `(1 − q)`-th quantiles,
     /// clamped: one scale for a joint histogram whatever the gain, offset and outliers.
     pub fn unit_range(&self, q: f64) -> Plane {
-        let mut sorted: Vec<f64> = self.valid_values().collect();
+        let mut sorted: Vec<f64> = budget::collect(self.n_valid, self.valid_values());
         if sorted.is_empty() {
             return self.clone();
         }
@@ -192,9 +194,9 @@ impl Plane {
     /// neighbours valid).
     pub fn gradient(&self) -> (Vec<f64>, Vec<f64>, Vec<bool>) {
         let (rows, cols) = (self.rows, self.cols);
-        let mut gx = vec![0.0; rows * cols];
-        let mut gy = vec![0.0; rows * cols];
-        let mut ok = vec![false; rows * cols];
+        let mut gx = budget::filled(rows * cols, 0.0);
+        let mut gy = budget::filled(rows * cols, 0.0);
+        let mut ok = budget::filled(rows * cols, false);
         for r in 1..rows.saturating_sub(1) {
             for c in 1..cols.saturating_sub(1) {
                 let i = r * cols + c;

@@ -67,7 +67,8 @@ pub fn rotation_scale(real: &Plane, sim: &Plane, with_scale: bool) -> RotationSc
 fn magnitude(plane: &Plane) -> Vec<f64> {
     let windowed = tapered(plane, &tukey(plane.rows, 1.0), &tukey(plane.cols, 1.0));
     let spec = fft::forward(&windowed, plane.rows, plane.cols);
-    spec.data.iter().map(|z| (z.re as f64 * z.re as f64 + z.im as f64 * z.im as f64).sqrt()).collect()
+    let modulus = |z: &fft::C32| (z.re as f64 * z.re as f64 + z.im as f64 * z.im as f64).sqrt();
+    crate::budget::collect(spec.data.len(), spec.data.iter().map(modulus))
 }
 
 /// Where one log-polar sample reads the half spectrum: the offsets of its four bilinear taps

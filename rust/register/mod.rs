@@ -31,6 +31,7 @@ mod image;
 mod logpolar;
 mod nmi;
 mod phase;
+mod plan;
 mod pool;
 mod refine;
 mod shifts;
@@ -41,8 +42,10 @@ mod window;
 pub use affine::{Affine, INTEGER_SNAP};
 pub use frame::Frame;
 pub use image::Plane;
+pub use plan::{register_plan, warp_plan};
 pub use warp::{coverage, warp, Interp, Source};
 
+use crate::budget;
 use crate::error::{Error, Result};
 use crate::kernel::Sample;
 
@@ -166,13 +169,20 @@ pub fn register<T: Sample, U: Sample>(
     opts: &Options,
 ) -> Result<Registration> {
     let (rows, cols) = shape;
-    let real = Frame::new(real, rows, cols, mask, "real")?;
-    let sim = Frame::new(sim, rows, cols, mask, "simulated")?;
-    register_frames(&real, &sim, opts)
+    budget::guard("registration", Error::Registration, || {
+        let real = Frame::new(real, rows, cols, mask, "real")?;
+        let sim = Frame::new(sim, rows, cols, mask, "simulated")?;
+        register_frames(&real, &sim, opts)
+    })
 }
 
-/// [`register`] on frames already wrapped.
+/// [`register`] on frames already wrapped. Memory the system refuses is an
+/// `Error::Registration` (the caller checks [`register_plan`] against its budget first).
 pub fn register_frames(real: &Frame, sim: &Frame, opts: &Options) -> Result<Registration> {
+    budget::guard("registration", Error::Registration, || search(real, sim, opts))
+}
+
+fn search(real: &Frame, sim: &Frame, opts: &Options) -> Result<Registration> {
     if (real.rows, real.cols) != (sim.rows, sim.cols) {
         return Err(Error::Shape(format!(
             "real and simulated frames differ in shape: ({}, {}) vs ({}, {})",

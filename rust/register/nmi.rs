@@ -19,6 +19,7 @@ use super::image::Plane;
 use super::phase::EXCLUSION;
 use super::warp::{warp, Interp, Source};
 use super::Model;
+use crate::budget;
 use crate::error::Result;
 use crate::stats::{pair_stats, HistRequest, Request};
 
@@ -121,7 +122,8 @@ fn correlation_at(real: &Plane, sim: &Plane, matrix: &Affine) -> f64 {
     let Some(to_sim) = matrix.inverse() else { return 0.0 };
     let src = Source { data: &sim.values[..], rows: sim.rows, cols: sim.cols, valid: Some(&sim.valid[..]) };
     let (values, valid) = warp(&src, &to_sim, Interp::Bilinear, real.rows, real.cols, 0.0);
-    let both: Vec<usize> = (0..values.len()).filter(|&i| valid[i] && real.valid[i]).collect();
+    let mut both: Vec<usize> = budget::with_capacity(values.len());
+    both.extend((0..values.len()).filter(|&i| valid[i] && real.valid[i]));
     if both.is_empty() {
         return 0.0;
     }
@@ -159,8 +161,8 @@ fn coarse_search(
     };
     let (ry, rx) = (reach(rc.rows), reach(rc.cols));
     let (rows, cols) = (rc.rows, rc.cols);
-    let mut shifted = vec![0.0; rows * cols];
-    let mut valid = vec![false; rows * cols];
+    let mut shifted = budget::filled(rows * cols, 0.0);
+    let mut valid = budget::filled(rows * cols, false);
     let mut surface = Vec::with_capacity(((2 * ry + 1) * (2 * rx + 1)) as usize);
     for dy in -ry..=ry {
         for dx in -rx..=rx {

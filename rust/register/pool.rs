@@ -9,12 +9,14 @@
 //! rotation search or a benchmark's repeats touches the same few pages again.
 //!
 //! Each thread keeps at most [`SPARE_BYTES`] per element type; a buffer that would exceed
-//! it is freed as usual.
+//! it is freed as usual. New storage is reserved fallibly ([`crate::budget`]): a refusal
+//! unwinds to the operation's guard and becomes its error.
 
 use std::cell::RefCell;
 use std::ops::{Deref, DerefMut};
 
 use super::fft::C32;
+use crate::budget;
 
 /// Bytes of spare buffers a thread keeps per element type.
 pub const SPARE_BYTES: usize = 16 << 20;
@@ -65,7 +67,7 @@ fn empty_with_capacity<T: Reusable>(len: usize) -> Vec<T> {
             v.clear();
             v
         }
-        None => Vec::with_capacity(len),
+        None => budget::with_capacity(len),
     }
 }
 
@@ -80,7 +82,7 @@ impl<T: Reusable> Buffer<T> {
     /// `len` elements of unspecified (but initialised) value, for a caller that writes every
     /// one of them: reused storage is not cleared first.
     pub fn scratch(len: usize) -> Buffer<T> {
-        let mut v = spare_with_capacity(len).unwrap_or_default();
+        let mut v = spare_with_capacity(len).unwrap_or_else(|| budget::with_capacity(len));
         v.truncate(len);
         v.resize(len, T::default());
         Buffer(v)
@@ -170,6 +172,17 @@ mod tests {
         let fourth: Buffer<f64> = Buffer::scratch(900);
         assert_eq!(fourth.as_ptr(), at, "scratch storage is reused too");
         assert_eq!(fourth.len(), 900);
+    }
+
+    #[test]
+    fn storage_the_system_refuses_is_the_operations_error() {
+        let err = crate::budget::guard("registration", crate::Error::Registration, || {
+            Ok(Buffer::<f64>::filled(usize::MAX / 16, 0.0).len())
+        })
+        .unwrap_err();
+        assert!(matches!(&err, crate::Error::Registration(m) if m.contains("out of memory")), "{err:?}");
+        let err = crate::budget::guard("x", crate::Error::Value, || Ok(Buffer::<f32>::scratch(usize::MAX / 8).len()));
+        assert!(err.is_err());
     }
 
     #[test]

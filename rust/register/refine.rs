@@ -26,6 +26,7 @@
 use super::affine::Affine;
 use super::bands::map_bands;
 use super::image::Plane;
+use super::pool::Buffer;
 use super::warp::{warp_into, Interp, Source};
 use super::Model;
 
@@ -102,7 +103,7 @@ fn refine_level(
     let mut best: Option<Refined> = None;
     let mut gain_offset = photometric;
     let n = real.rows * real.cols;
-    let mut warped = Plane::new(real.rows, real.cols, vec![0.0; n], vec![false; n]);
+    let mut warped = Plane::new(real.rows, real.cols, Buffer::filled(n, 0.0), Buffer::filled(n, false));
     let src = Source { data: &sim.values[..], rows: sim.rows, cols: sim.cols, valid: Some(&sim.valid[..]) };
     for iteration in 0..MAX_ITERATIONS {
         warp_into(&src, &to_sim, Interp::Bilinear, real.cols, 0.0, &mut warped.values, &mut warped.valid);
@@ -159,11 +160,13 @@ struct Photometric {
 /// the pixels valid in both (the median absolute residual of every [`SCALE_STRIDE`]-th pixel;
 /// the offset centres them).
 fn huber_threshold(real: &Plane, warped: &Plane, gain: f64, offset: f64) -> f64 {
-    let mut residuals: Vec<f64> = (0..real.values.len())
-        .step_by(SCALE_STRIDE)
-        .filter(|&i| real.valid[i] && warped.valid[i])
-        .map(|i| (real.values[i] - gain * warped.values[i] - offset).abs())
-        .collect();
+    let mut residuals: Vec<f64> = crate::budget::with_capacity(real.values.len().div_ceil(SCALE_STRIDE));
+    residuals.extend(
+        (0..real.values.len())
+            .step_by(SCALE_STRIDE)
+            .filter(|&i| real.valid[i] && warped.valid[i])
+            .map(|i| (real.values[i] - gain * warped.values[i] - offset).abs()),
+    );
     if residuals.is_empty() {
         return f64::INFINITY;
     }

@@ -10,6 +10,7 @@
 
 use super::affine::Affine;
 use super::bands;
+use crate::budget;
 use crate::kernel::Sample;
 
 /// Interpolation kernel.
@@ -206,8 +207,8 @@ pub fn warp<T: Sample>(
     out_cols: usize,
     fill: f64,
 ) -> (Vec<f64>, Vec<bool>) {
-    let mut values = vec![fill; out_rows * out_cols];
-    let mut valid = vec![false; out_rows * out_cols];
+    let mut values = budget::filled(out_rows * out_cols, fill);
+    let mut valid = budget::filled(out_rows * out_cols, false);
     warp_into(src, to_source, interp, out_cols, fill, &mut values, &mut valid);
     (values, valid)
 }
@@ -365,7 +366,7 @@ pub fn coverage(
     interp: Interp,
     (out_rows, out_cols): (usize, usize),
 ) -> usize {
-    let zeros = vec![0u8; rows * cols]; // any integer samples: only validity matters
+    let zeros = budget::filled(rows * cols, 0u8); // any integer samples: only validity matters
     let src = Source { data: &zeros[..], rows, cols, valid };
     match interp {
         Interp::Bilinear => coverage_with::<Linear, 2>(&src, to_source, out_rows, out_cols),

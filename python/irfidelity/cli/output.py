@@ -114,11 +114,20 @@ def _write_csv(report: Any, dest: str) -> None:
         fh.write(csv_line(_single_row(report)))
 
 
-def _write_html(report: Any, dest: str) -> None:
+def _write_html(report: Any, dest: str, max_bytes: int | None) -> None:
     to_html = getattr(report, "to_html", None)
     if to_html is None:
         raise FidelityError("HTML reports are not available in this installation", option="report")
-    to_html(dest)
+    to_html(dest, max_bytes=max_bytes)
+
+
+def _html_budget(a: argparse.Namespace, sequence: bool) -> int | None:
+    """The report's memory budget: ``--max-memory`` for a single pair, a worker's share of it
+    for a sequence's thumbnails."""
+    from ..budget import per_pair
+
+    max_memory = getattr(a, "max_memory", None)
+    return per_pair(None, max_memory, getattr(a, "workers", None)) if sequence else max_memory
 
 
 def write_outputs(report: Any, a: argparse.Namespace, *, sequence: bool) -> None:
@@ -128,7 +137,7 @@ def write_outputs(report: Any, a: argparse.Namespace, *, sequence: bool) -> None
     if getattr(a, "csv", None) is not None and not sequence:
         _write_csv(report, a.csv)
     if getattr(a, "report", None) is not None:
-        _write_html(report, a.report)
+        _write_html(report, a.report, _html_budget(a, sequence))
     if getattr(a, "save_config", None) is not None:
         report.config.save(a.save_config)
     if getattr(a, "json", None) != "-":

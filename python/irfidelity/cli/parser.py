@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..budget import parse_size
 from ..config import MISSING_MODES, NONFINITE_MODES, PAIRING_RULES, REGISTRATION_MODELS
 from ..curves.table import parse_columns, parse_where
 from ..errors import FidelityError
@@ -19,7 +20,8 @@ _FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "s
           "real_mrtd": "--real-bars", "sim_mrtd": "--sim-bars",
           "psnr_anchors": "--config", "ssim_exponents": "--config", "grades": "--config",
           "mtf_options": "--config", "sitf_options": "--config", "mrtd_options": "--config", "register": "--register",
-          "client": "--workers", "chunk_size": "--workers", "relative_humidity": "--humidity"}
+          "client": "--workers", "chunk_size": "--workers", "relative_humidity": "--humidity",
+          "max_bytes": "--max-memory"}
 
 #: Flags that override one calibration field (``ScoringConfig.calibration``): flag dest -> (field,
 #: metavar, help).
@@ -124,7 +126,7 @@ def _argument_type(parse):
     return convert
 
 
-_columns, _where = _argument_type(parse_columns), _argument_type(parse_where)
+_columns, _where, _size = _argument_type(parse_columns), _argument_type(parse_where), _argument_type(parse_size)
 
 
 def _add_score(sub: argparse._SubParsersAction) -> None:
@@ -228,6 +230,10 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
     o.add_argument("--save-config", metavar="PATH", help="write the scoring configuration used (TOML or JSON)")
     o.add_argument("--resume", action="store_true", help="sequences: keep the frames already scored in --csv")
     o.add_argument("--workers", type=_positive_int, metavar="N", help="sequences: parallel workers")
+    o.add_argument("--max-memory", type=_size, metavar="SIZE",
+                   help="memory budget of the run, e.g. 2G, 512M or bytes: a sequence's workers share it (each "
+                        "pair gets SIZE / workers), a single pair gets all of it; work that would need more is "
+                        "refused before it starts (a frame's error row in a sequence). Default: 2 GiB per pair")
     o.add_argument("--no-progress", action="store_true", help="sequences: no progress display")
 
 

@@ -91,7 +91,7 @@ def _sequence(a: argparse.Namespace, config: ScoringConfig, curves: dict) -> Any
         real = _pages(FrameSequence(a.real, channel=config.real_channel), a.pages)
         sim = _pages(FrameSequence(a.sim, channel=config.sim_channel), a.pages)
     return score_sequence(real, sim, config=config, workers=a.workers, progress=not a.no_progress, csv=a.csv,
-                          resume=a.resume, **curves)
+                          resume=a.resume, max_memory=a.max_memory, **curves)
 
 
 def _bars(path: str | None, side: str) -> str | None:
@@ -139,6 +139,6 @@ def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
                 raise UsageError(f"{name} {path!r}: no such file")
         from ..evaluation import evaluate
 
-        report = evaluate(a.real, a.sim, config=config, **curves)
+        report = evaluate(a.real, a.sim, config=config, max_bytes=a.max_memory, **curves)
     write_outputs(report, a, sequence=seq_real)
     return report, seq_real

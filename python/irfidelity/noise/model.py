@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import budget
 from ..errors import FidelityError, ShapeError
 from ..curves.sitf import netd as netd_of
 from .anova import PARTS, anova
@@ -16,10 +17,31 @@ from .checks import check_clipped, plane_fit, uniformity, warn_if_not_uniform
 from .spectra import NoiseSpectra, pattern_spectra
 from ..keywords import options_from
 from .options import NoiseOptions
-from .sums import NoiseSums, Region, as_sequence, noise_sums
+from .sums import NoiseSums, Planner, Region, as_sequence, noise_sums, sums_bytes
 
 __all__ = ["Noise3D", "noise3d"]
 
+
+#: Bytes a pixel that the decomposition and its checks hold after the pass, besides the
+#: sums: the temporal-mean frame (from the core) and a centred copy.
+_MAPS_BYTES = 16
+#: The same with the spectra: the fixed pattern, its periodograms and 2-D spectra, and a
+#: frame pair (decoded, as float64, and its difference). Measured 72 bytes a pixel of numpy
+#: arrays on 1024 × 1280 frames (tracemalloc), plus the core's temporal-mean frame and a
+#: decoded pair of at most 8-byte samples.
+_SPECTRA_BYTES = 96
+
+
+def _planner(spectra: bool, max_bytes: int | None) -> Planner:
+    """The check, before the pass, that what follows it fits ``max_bytes`` (the pass plans
+    itself in the core)."""
+    def plan(region: tuple[int, int], dtype: np.dtype) -> None:
+        pixels = region[0] * region[1]
+        per_pixel = _SPECTRA_BYTES if spectra else _MAPS_BYTES
+        what = "the 3-D noise decomposition" + (" and spectra (spectra=False needs less)" if spectra else "")
+        budget.check(what, region, sums_bytes(pixels, dtype) + per_pixel * pixels, max_bytes)
+
+    return plan
 
 
 @dataclass(frozen=True)
@@ -175,7 +197,8 @@ def noise3d(frames: Any, options: NoiseOptions | None = None, **keywords: Any) -
 
     The pass is streamed (Rust, GIL released, ``workers`` threads): memory O(V·H + T·(V+H)),
     never the cube; integer frames are summed exactly (the seven sums of squares add up to
-    the total exactly).
+    the total exactly). Everything is planned against ``max_bytes`` before the pass starts
+    (docs/design.md §14).
 
     Parameters
     ----------
@@ -215,6 +238,10 @@ def noise3d(frames: Any, options: NoiseOptions | None = None, **keywords: Any) -
         Channel of multi-channel files.
     workers : int, optional
         Threads (default: all cores); results do not depend on it.
+    max_bytes : int, optional
+        The memory budget (default :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): the pass
+        (:func:`irfidelity.noise.noise_sums`), then the sums with the decomposition's maps and
+        (``spectra=True``) the spectra; a cube given in memory is the caller's and not counted.
 
     Returns
     -------
@@ -230,6 +257,9 @@ def noise3d(frames: Any, options: NoiseOptions | None = None, **keywords: Any) -
         with ``saturated="raise"``.
     FrameError
         An unreadable frame file.
+    FidelityError
+        A bad option, or a recording whose pass or spectra do not fit ``max_bytes`` (the
+        message names the step, the frame size, the bytes needed and the budget).
 
     Warns
     -----
@@ -267,12 +297,15 @@ def noise3d(frames: Any, options: NoiseOptions | None = None, **keywords: Any) -
     opts = options_from(NoiseOptions, options, keywords, "options")
     corrected, level, detrend, roi = opts.corrected, opts.confidence, opts.detrend, opts.roi
     slope = opts.sitf_slope
+    planner = _planner(opts.spectra, opts.max_bytes)
     if isinstance(frames, NoiseSums):
         if roi is not None:
             raise FidelityError("roi applies when the sums are computed; NoiseSums already hold their region")
         sums = frames
+        planner((sums.rows, sums.cols), np.dtype(sums.dtype))
     else:
-        sums = noise_sums(frames, bits=opts.bits, roi=roi, channel=opts.channel, workers=opts.workers)
+        sums = noise_sums(frames, bits=opts.bits, roi=roi, channel=opts.channel, workers=opts.workers,
+                          max_bytes=opts.max_bytes, _planner=planner)
     t, v, h = sums.frames, sums.rows, sums.cols
     least = 3 if detrend == "plane" else 2
     if t < 2:

@@ -69,6 +69,7 @@ class NoiseOptions:
     saturated: str = "warn"
     channel: str | None = None
     workers: int | None = None
+    max_bytes: int | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.corrected, bool):

@@ -2,7 +2,9 @@
 and :func:`noise_sums` (one pass over a 3-D array or a frame sequence, in Rust).
 
 A pass keeps per-pixel temporal sums and per-frame row and column sums, O(V·H + T·(V+H))
-memory, never the cube. Integer frames are summed exactly, so merging the sums of
+memory, never the cube; it is planned against the memory budget ``max_bytes`` in Rust
+(fewer workers, or fewer frames decoded at once, when that fits and more would not;
+docs/design.md §14). Integer frames are summed exactly, so merging the sums of
 disjoint frame ranges equals one pass over all of them, bit for bit; Dask spreads a long
 recording this way (map :func:`noise_sums` over frame ranges, reduce with
 :meth:`NoiseSums.merge` in frame order).
@@ -11,12 +13,13 @@ recording this way (map :func:`noise_sums` over frame ranges, reduce with
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
 from .. import _core
+from ..budget import resolve
 from ..errors import FidelityError, FrameError, ShapeError
 from ..frames import FRAME_DTYPES, FrameSequence
 from ..stats import peak_and_valid
@@ -31,6 +34,18 @@ Region = tuple[int, int, int, int]
 
 #: Frames per call when a source must be read in Python (.npy frames): bounded memory.
 _PY_CHUNK = 16
+
+#: Called with the analysed region's ``(rows, cols)`` and the sample type before a pass
+#: allocates anything (how :func:`irfidelity.noise3d` plans what follows the pass).
+Planner = Callable[[tuple[int, int], np.dtype], None]
+
+
+def sums_bytes(pixels: int, dtype: np.dtype) -> int:
+    """Bytes of the per-pixel sums of a pass's result: exact sums of integer frames (Σx in
+    64 bits, Σx² in 64, or 128 for uint32), compensated sums and the pivot of float frames."""
+    if np.dtype(dtype).kind in "ui":
+        return pixels * (8 + (16 if np.dtype(dtype) == np.uint32 else 8))
+    return pixels * 40
 
 
 class NoiseSums:
@@ -163,17 +178,26 @@ def _workers(workers: int | None) -> int:
     return int(workers)
 
 
-def _from_array(cube: np.ndarray, bits: int | None, roi: Region | None, workers: int) -> NoiseSums:
+def _region(roi: Region | None, rows: int, cols: int) -> tuple[int, int]:
+    window = _window(roi, rows, cols)
+    return (rows, cols) if window is None else (window[2], window[3])
+
+
+def _from_array(cube: np.ndarray, bits: int | None, roi: Region | None, workers: int, max_bytes: int | None,
+                planner: Planner | None = None) -> NoiseSums:
     if cube.ndim != 3:
         raise ShapeError(f"frames: expected a 3-D array (frames, rows, cols), got shape {cube.shape}")
     _check_dtype(cube.dtype, "frames")
     if cube.shape[0] == 0 or cube.shape[1] == 0 or cube.shape[2] == 0:
         raise ShapeError(f"frames: empty array of shape {cube.shape}")
+    if planner is not None:
+        planner(_region(roi, cube.shape[1], cube.shape[2]), cube.dtype)
     cube = np.ascontiguousarray(cube)
     if not cube.dtype.isnative:
         cube = cube.astype(cube.dtype.newbyteorder("="))
     raw = _core.noise_sums_array(cube, limits=_limits(cube.dtype, bits),
-                                 window=_window(roi, cube.shape[1], cube.shape[2]), workers=workers)
+                                 window=_window(roi, cube.shape[1], cube.shape[2]), workers=workers,
+                                 max_bytes=resolve(max_bytes))
     return NoiseSums(raw, bits=bits)
 
 
@@ -187,24 +211,30 @@ def as_sequence(frames: Any, channel: str | None) -> FrameSequence:
                         f"or NoiseSums; got {type(frames).__name__}")
 
 
-def _from_sequence(seq: FrameSequence, bits: int | None, roi: Region | None, workers: int) -> NoiseSums:
+def _from_sequence(seq: FrameSequence, bits: int | None, roi: Region | None, workers: int, max_bytes: int | None,
+                   planner: Planner | None = None) -> NoiseSums:
     sources = seq.sources
     if any(path is None for path, _ in sources):
         # a FrameSequence over an array
-        return _from_array(np.stack([seq[i] for i in range(len(seq))]), bits, roi, workers)
+        return _from_array(np.stack([seq[i] for i in range(len(seq))]), bits, roi, workers, max_bytes, planner)
     first = seq[0]
     _check_dtype(first.dtype, seq.names[0])
     limits = _limits(first.dtype, bits)
     window = _window(roi, *first.shape)
+    if planner is not None:
+        planner(_region(roi, *first.shape), first.dtype)
+    del first
     if any(str(path).lower().endswith(".npy") for path, _ in sources):
-        return _chunked(seq, bits, roi, workers)
+        return _chunked(seq, bits, roi, workers, max_bytes)
+    budget = max_bytes if max_bytes is not None else seq.max_bytes
     raw = _core.noise_sums_paths([p for p, _ in sources], [g for _, g in sources], channel=seq.channel,
-                                 max_pixels=seq.max_pixels, max_bytes=seq.max_bytes, limits=limits, window=window,
+                                 max_pixels=seq.max_pixels, max_bytes=resolve(budget), limits=limits, window=window,
                                  workers=workers)
     return NoiseSums(raw, bits=bits)
 
 
-def _chunked(seq: FrameSequence, bits: int | None, roi: Region | None, workers: int) -> NoiseSums:
+def _chunked(seq: FrameSequence, bits: int | None, roi: Region | None, workers: int,
+             max_bytes: int | None) -> NoiseSums:
     """Frames the Rust decoders do not read (.npy): a few at a time, merged in order."""
     total: NoiseSums | None = None
     shape = None
@@ -218,14 +248,15 @@ def _chunked(seq: FrameSequence, bits: int | None, roi: Region | None, workers: 
                 raise ShapeError(f"{seq.names[i]}: frame of shape {frame.shape} and dtype {frame.dtype}, but the "
                                  f"first frame is {shape[0]} {shape[1]}; all frames must have one shape and dtype")
             block.append(frame)
-        part = _from_array(np.stack(block), bits, roi, workers)
+        part = _from_array(np.stack(block), bits, roi, workers, max_bytes)
         total = part if total is None else total.merge(part)
     assert total is not None
     return total
 
 
 def noise_sums(frames: Any, *, bits: int | None = None, roi: Region | None = None,
-               channel: str | None = None, workers: int | None = None) -> NoiseSums:
+               channel: str | None = None, workers: int | None = None, max_bytes: int | None = None,
+               _planner: Planner | None = None) -> NoiseSums:
     """One streamed pass over a recording: the sums the 3-D noise decomposition needs.
 
     Parameters
@@ -244,6 +275,12 @@ def noise_sums(frames: Any, *, bits: int | None = None, roi: Region | None = Non
         Channel of multi-channel files.
     workers : int, optional
         Threads (default: all cores). The result does not depend on it.
+    max_bytes : int, optional
+        The pass's memory budget (default :data:`irfidelity.budget.DEFAULT_MAX_BYTES`; for a
+        :class:`~irfidelity.FrameSequence`, its ``max_bytes`` when set): the per-pixel sums of
+        every worker and the frames decoded at once (an array given is the caller's and not
+        counted). Fewer workers, or fewer frames at once, run when that fits and more would
+        not; a :class:`FidelityError` when one worker reading one frame at a time does not fit.
 
     Returns
     -------
@@ -257,6 +294,8 @@ def noise_sums(frames: Any, *, bits: int | None = None, roi: Region | None = Non
         NaN/Inf (count and first position), or integers outside ``bits``.
     FrameError
         An unreadable frame file.
+    FidelityError
+        The pass does not fit ``max_bytes``.
 
     Examples
     --------
@@ -270,8 +309,8 @@ def noise_sums(frames: Any, *, bits: int | None = None, roi: Region | None = Non
     if bits is not None and (isinstance(bits, bool) or not isinstance(bits, (int, np.integer))):
         raise FidelityError(f"bits must be an integer, got {bits!r}")
     if isinstance(frames, np.ndarray):
-        return _from_array(frames, bits, roi, w)
+        return _from_array(frames, bits, roi, w, max_bytes, _planner)
     seq = as_sequence(frames, channel)
     if len(seq) == 0:
         raise FrameError("no frames")
-    return _from_sequence(seq, bits, roi, w)
+    return _from_sequence(seq, bits, roi, w, max_bytes, _planner)

@@ -7,7 +7,8 @@ Colour-blind-safe choices throughout: viridis for frames and counts, cividis for
 map, ColorBrewer's diverging RdBu for signed differences, and the Okabe–Ito palette with
 distinct line styles and markers for curves, so that no information is carried by hue alone.
 Large frames are subsampled for display (every k-th pixel, k chosen so the longer side is at
-most ``MAX_SIDE`` pixels); statistics are always computed on the full frames.
+most ``MAX_SIDE`` pixels) before anything is converted, so a figure holds display-size copies
+only; statistics are always computed on the full frames.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from ..errors import FidelityError
 
 __all__ = ["require_matplotlib", "raster", "colour_stops", "frame_range", "histograms_figure", "difference_limit",
            "ssim_range", "joint_histogram_figure", "curves_figure", "timeline_figure", "distribution_figure",
-           "thumbnails_figure", "panels_figure", "MAX_SIDE"]
+           "thumbnails_figure", "panels_figure", "MAX_SIDE", "display", "display_step"]
 
 #: Longest side, in pixels, of a frame as displayed.
 MAX_SIDE = 480
@@ -62,9 +63,14 @@ def _png(fig) -> bytes:
     return buf.getvalue()
 
 
+def display_step(shape: tuple[int, ...]) -> int:
+    """The subsampling step that brings a frame of ``shape`` to at most :data:`MAX_SIDE`."""
+    return max(1, math.ceil(max(shape) / MAX_SIDE))
+
+
 def display(frame: np.ndarray) -> tuple[np.ndarray, int]:
-    """``frame`` subsampled so its longer side is at most :data:`MAX_SIDE`, and the step."""
-    step = max(1, math.ceil(max(frame.shape) / MAX_SIDE))
+    """``frame`` subsampled so its longer side is at most :data:`MAX_SIDE` (a view), and the step."""
+    step = display_step(frame.shape)
     return frame[::step, ::step], step
 
 
@@ -89,22 +95,29 @@ def colour_stops(cmap: str, n: int = 9) -> list[str]:
     return [f"#{r:02x}{g:02x}{b:02x}" for r, g, b, _ in rgba]
 
 
-def raster(values: np.ndarray, cmap: str, lo: float, hi: float, *, outline: int | None = None) -> bytes:
+def raster(values: np.ndarray, cmap: str, lo: float, hi: float, *, outline: int | None = None,
+           shown_from: tuple[int, int] | None = None) -> bytes:
     """``values`` (subsampled for display) through a colour map as a PNG, one pixel per
     displayed value: no axes, so the page can scale it (pixelated) and draw the colour bar.
     NaN is grey; values beyond ``lo``/``hi`` take the end colours. ``outline``: a dotted white
-    rectangle ``outline`` frame pixels inside the border (the region an SSIM mean covers)."""
+    rectangle ``outline`` frame pixels inside the border (the region an SSIM mean covers).
+    ``shown_from``: ``values`` is already the display copy of a frame of this shape."""
     require_matplotlib()
     from matplotlib import colormaps
     from PIL import Image
 
-    shown, step = display(np.asarray(values, dtype=np.float64))
+    if shown_from is None:
+        shown, step = display(np.asarray(values))
+        shape = np.shape(values)
+    else:
+        shown, step, shape = np.asarray(values), display_step(shown_from), shown_from
+    shown = shown.astype(np.float64)
     scaled = (shown - lo) / (hi - lo if hi > lo else 1.0)
     rgb = colormaps[cmap].with_extremes(bad="#bbbbbb")(np.ma.masked_invalid(scaled), bytes=True)[..., :3]
     if outline is not None:
         rgb = np.ascontiguousarray(rgb)
         top, left = (outline + step - 1) // step, (outline + step - 1) // step
-        bottom, right = (values.shape[0] - outline - 1) // step, (values.shape[1] - outline - 1) // step
+        bottom, right = (shape[0] - outline - 1) // step, (shape[1] - outline - 1) // step
         if bottom > top and right > left:
             for r in (top, bottom):
                 rgb[r, left : right + 1 : 2] = 255
@@ -302,8 +315,7 @@ def thumbnails_figure(rows: list[tuple[str, np.ndarray, np.ndarray]]) -> bytes:
 
     cmap = colormaps["RdBu_r"]
     for i, (label, real, sim) in enumerate(rows):
-        r, _ = display(np.asarray(real, dtype=np.float64))
-        s, _ = display(np.asarray(sim, dtype=np.float64))
+        r, s = (display(np.asarray(f))[0].astype(np.float64) for f in (real, sim))
         lo, hi = _colour_range(r, s)
         d = s - r
         lim = float(np.nanmax(np.abs(d))) or 1.0

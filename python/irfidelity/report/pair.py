@@ -1,14 +1,23 @@
-"""The single-pair report: :func:`render_pair_html`."""
+"""The single-pair report: :func:`render_pair_html`.
+
+Memory (docs/design.md §14): whatever the frame size, the page needs display-size copies
+only. The difference's statistics and the fallback histograms are summed over bands of rows
+(:data:`BAND_PIXELS` at a time), the SSIM map is computed keeping only its displayed pixels
+(:func:`irfidelity.maps.sampled_ssim_map`, the same values and mean), so besides the frames
+the report holds a few bands, the coarser MS-SSIM scales (planned by :func:`~irfidelity.ms_ssim`)
+and, for float16 frames, the joint histogram's float32 copies.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import numpy as np
 
+from .. import budget
 from ..errors import FidelityError
-from ..maps import SSIMMap, ms_ssim, ssim_map
+from ..maps import SSIMMap, ms_ssim, sampled_ssim_map
 from ..stats import _as_frame, pair_stats
 from . import figures, sections
 from .bars import bars as bars_section
@@ -16,7 +25,15 @@ from .noise import noise as noise_section
 from .temperature import temperatures
 from .html import Missing, Raw, colour_bar, image, missing, page, panels, paragraph, section
 
-__all__ = ["render_pair_html"]
+__all__ = ["render_pair_html", "BAND_PIXELS"]
+
+#: Pixels of a band of rows when statistics are summed over the whole frames.
+BAND_PIXELS = 1 << 20
+#: Bytes a band's pixel takes at most: both frames as float64, their difference, its finite
+#: values and their squares, masks.
+_BAND_BYTES_PER_PIXEL = 40
+#: float16 frames: the kernel's float32 copies for the joint histogram, bytes a pixel.
+_WIDENED_BYTES = 8
 
 
 def render_pair_html(
@@ -33,6 +50,7 @@ def render_pair_html(
     peak: float | None = None,
     title: str | None = None,
     fragment: bool = False,
+    max_bytes: int | None = None,
 ) -> str:
     """One self-contained HTML page (or a ``<div>`` for notebooks) for a single frame pair.
 
@@ -69,6 +87,11 @@ def render_pair_html(
     title : str, optional
     fragment : bool
         Return a ``<div>`` (styles scoped to it) instead of a whole document.
+    max_bytes : int, optional
+        The memory budget (default :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): the frames and
+        what the page computes from them (display-size copies, bands of rows, the coarser
+        MS-SSIM scales) must fit, else a :class:`FidelityError` before anything is computed
+        (an MS-SSIM over budget is left out of the caption, which says why).
 
     Returns
     -------
@@ -99,11 +122,13 @@ def render_pair_html(
     curves = dict(curves or {})
     metrics = sections.mapping(d, "metrics")
     frames = _frames(real, sim, mask, registered=bool(d.get("registration")) or registration is not None)
+    if isinstance(frames, tuple):
+        _check_budget(*frames, max_bytes)
     body = [
         sections.header(title or "Fidelity report", _subtitle(d)),
         sections.verdict(d),
         sections.components(d),
-        *(_frame_sections(d, frames, ssim, joint_histogram, peak) if isinstance(frames, tuple) else
+        *(_frame_sections(d, frames, ssim, joint_histogram, peak, max_bytes) if isinstance(frames, tuple) else
           [missing(t, frames, anchor=a) for t, a in _FRAME_SECTIONS]),
         *([_overlay_section(frames, sim_unregistered)] if isinstance(frames, tuple) and sim_unregistered is not None
           else []),
@@ -151,6 +176,46 @@ def _frames(real: Any, sim: Any, mask: Any, registered: bool
     return r, s, m
 
 
+def _check_budget(real: np.ndarray, sim: np.ndarray, mask: np.ndarray | None, max_bytes: int | None) -> None:
+    """The page's plan: the frames and mask, a band of rows, and float16 frames' copies."""
+    widened = _WIDENED_BYTES * real.size if real.dtype == np.float16 else 0
+    band = _BAND_BYTES_PER_PIXEL * min(real.size, BAND_PIXELS)
+    budget.check("the HTML report of a frame pair", real.shape, budget.nbytes(real, sim, mask) + band + widened,
+                 max_bytes)
+
+
+def _bands(rows: int, cols: int) -> Iterator[slice]:
+    """Row slices of at most :data:`BAND_PIXELS` pixels (at least one row each)."""
+    step = max(1, BAND_PIXELS // max(cols, 1))
+    for start in range(0, rows, step):
+        yield slice(start, min(start + step, rows))
+
+
+def _finite_extent(*frames: np.ndarray) -> tuple[float, float] | None:
+    """(min, max) of the finite values of the frames, band by band; None when there are none."""
+    lo, hi = np.inf, -np.inf
+    for frame in frames:
+        for band in _bands(*frame.shape):
+            values = frame[band]
+            if values.dtype.kind == "f":
+                values = values[np.isfinite(values)]
+            if values.size:
+                lo, hi = min(lo, float(values.min())), max(hi, float(values.max()))
+    return (lo, hi) if lo <= hi else None
+
+
+def _histogram(frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.histogram(frame[np.isfinite(frame)], bins=256)``, counted band by band (the same
+    edges from the finite range, the same counts)."""
+    extent = _finite_extent(frame)
+    edges = np.histogram_bin_edges(np.asarray(extent if extent is not None else [], dtype=np.float64), bins=256)
+    counts = np.zeros(256, dtype=np.int64)
+    for band in _bands(*frame.shape):
+        values = frame[band]
+        counts += np.histogram(values[np.isfinite(values)] if values.dtype.kind == "f" else values, bins=edges)[0]
+    return counts, edges
+
+
 def _settings(d: Mapping) -> dict:
     out = {}
     for key in ("settings", "config"):
@@ -171,18 +236,17 @@ def _data_range(d: Mapping, real: np.ndarray, sim: np.ndarray, peak: float | Non
     bits = st.get("bits")
     if isinstance(bits, int) and not isinstance(bits, bool) and bits > 0:
         return float(2**bits - 1), f"the report's bits = {bits}"
-    both = np.concatenate([real.ravel(), sim.ravel()]).astype(np.float64)
-    both = both[np.isfinite(both)]
-    span = float(both.max() - both.min()) if both.size else 0.0
+    extent = _finite_extent(real, sim)
+    span = extent[1] - extent[0] if extent is not None else 0.0
     return (span if span > 0 else 1.0), "the frames' joint data range (the report records no peak or bits)"
 
 
-def _frame_sections(d, frames, ssim, joint, peak) -> list[Raw]:
+def _frame_sections(d, frames, ssim, joint, peak, max_bytes) -> list[Raw]:
     real, sim, mask = frames
     hist = _joint_histogram(d, real, sim, mask, joint)
     in_unit = [temperatures(d, real, sim, mask)] if sections.mapping(d, "config").get("unit") else []
     return [_frames_section(real, sim, hist), *in_unit, _difference_section(real, sim, mask),
-            _ssim_section(d, real, sim, mask, ssim, peak), _joint_section(hist)]
+            _ssim_section(d, real, sim, mask, ssim, peak, max_bytes), _joint_section(hist)]
 
 
 def _joint_histogram(d, real, sim, mask, given):
@@ -223,8 +287,8 @@ def _display_note(real: np.ndarray) -> str:
 def _frames_section(real, sim, hist) -> Raw:
     title = "Frames"
     if isinstance(hist, str):
-        counts_r, edges_r = np.histogram(real[np.isfinite(real)], bins=256)
-        counts_s, edges_s = np.histogram(sim[np.isfinite(sim)], bins=256)
+        counts_r, edges_r = _histogram(real)
+        counts_s, edges_s = _histogram(sim)
     else:
         counts, edges_r, edges_s = hist
         counts_r, counts_s = counts.sum(axis=1), counts.sum(axis=0)
@@ -240,22 +304,43 @@ def _frames_section(real, sim, hist) -> Raw:
     return section(title, body, anchor="frames")
 
 
-def _difference_section(real, sim, mask) -> Raw:
+def _difference(real: np.ndarray, sim: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
+    """``sim − real`` as float64, NaN where ``mask`` is False."""
     diff = sim.astype(np.float64) - real.astype(np.float64)
     if mask is not None:
         diff[~mask] = np.nan
-    valid = diff[np.isfinite(diff)]
-    if valid.size == 0:
+    return diff
+
+
+def _difference_stats(real, sim, mask) -> tuple[int, float, float, float]:
+    """Count, mean, RMS and largest magnitude of the finite differences, band by band."""
+    count, total, squares, largest = 0, 0.0, 0.0, 0.0
+    for band in _bands(*real.shape):
+        diff = _difference(real[band], sim[band], None if mask is None else mask[band])
+        valid = diff[np.isfinite(diff)]
+        if valid.size:
+            count += valid.size
+            total += float(valid.sum())
+            squares += float(np.square(valid).sum())
+            largest = max(largest, float(np.abs(valid).max()))
+    return count, total / max(count, 1), float(np.sqrt(squares / max(count, 1))), largest
+
+
+def _difference_section(real, sim, mask) -> Raw:
+    count, mean, rms, largest = _difference_stats(real, sim, mask)
+    if count == 0:
         return missing("Difference", "no valid pixel pair", anchor="difference")
-    limit = figures.difference_limit(diff)
-    body = panels([(figures.raster(diff, "RdBu_r", -limit, limit), "signed difference simulated minus real",
-                    "simulated − real")], single=True)
+    shown_mask = None if mask is None else figures.display(mask)[0]
+    shown = _difference(figures.display(real)[0], figures.display(sim)[0], shown_mask)
+    limit = figures.difference_limit(shown)
+    body = panels([(figures.raster(shown, "RdBu_r", -limit, limit, shown_from=real.shape),
+                    "signed difference simulated minus real", "simulated − real")], single=True)
     body += colour_bar(figures.colour_stops("RdBu_r"), _ticks(-limit, limit, 0.0), "simulated − real (grey levels)")
     caption = (f"Red: simulator brighter, blue: darker; scale ±{limit:.4g} (99.5th percentile of |difference|, "
-               f"beyond it the end colours). Mean (bias) {valid.mean():.4g}, RMS {np.sqrt(np.mean(valid**2)):.4g}, "
-               f"largest |difference| {np.abs(valid).max():.4g}." + _display_note(real))
-    if valid.size < diff.size:
-        caption += f" Grey: {diff.size - valid.size} pixels excluded (mask or non-finite)."
+               f"beyond it the end colours). Mean (bias) {mean:.4g}, RMS {rms:.4g}, "
+               f"largest |difference| {largest:.4g}." + _display_note(real))
+    if count < real.size:
+        caption += f" Grey: {real.size - count} pixels excluded (mask or non-finite)."
     return section("Difference", body + paragraph(caption, cls="caption"), anchor="difference")
 
 
@@ -306,9 +391,9 @@ def _overlay_section(frames, sim_unregistered) -> Raw:
     return section(title, images + bar + paragraph(caption, cls="caption"), anchor="overlay")
 
 
-def _ssim_section(d, real, sim, mask, given, peak) -> Raw:
+def _ssim_section(d, real, sim, mask, given, peak, max_bytes) -> Raw:
     title = "SSIM map"
-    border, extra = 5, ""
+    border, extra, shown_from = 5, "", None
     if given is not None:
         values = given.map if isinstance(given, SSIMMap) else np.asarray(given, dtype=np.float64)
         if values.shape != real.shape:
@@ -319,23 +404,24 @@ def _ssim_section(d, real, sim, mask, given, peak) -> Raw:
     else:
         data_range, source = _data_range(d, real, sim, peak)
         real, sim, outside, where = _overlap_crop(real, sim, mask)
+        step = figures.display_step(real.shape)
         try:
-            m = ssim_map(real, sim, peak=data_range)
+            m = sampled_ssim_map(real, sim, step, peak=data_range, max_bytes=max_bytes)
         except FidelityError as exc:
             return missing(title, f"the SSIM map cannot be computed: {exc}", anchor="ssim-map")
-        values = m.map
+        values, shown_from = m.map, real.shape
         if outside is not None:
-            values = np.where(outside, np.nan, values)
+            values = np.where(outside[::step, ::step], np.nan, values)
         extra = (f"Mean SSIM (Wang et al. 2004: 11×11 Gaussian window, σ = 1.5, K = 0.01, 0.03, data range "
                  f"L = {m.peak:g} from {source}; mean without the 5-pixel border) {m.mean:.6g}")
         try:
-            extra += f"; MS-SSIM {ms_ssim(real, sim, peak=m.peak):.6g}. "
-        except FidelityError:
-            extra += ". "
+            extra += f"; MS-SSIM {ms_ssim(real, sim, peak=m.peak, max_bytes=max_bytes):.6g}. "
+        except FidelityError as exc:
+            extra += f"; MS-SSIM not computed: {exc}. " if "max_bytes" in str(exc) else ". "
         extra += where
     lo = figures.ssim_range(values)
-    body = panels([(figures.raster(values, "cividis", lo, 1.0, outline=border), "windowed SSIM map", "local SSIM")],
-                  single=True)
+    body = panels([(figures.raster(values, "cividis", lo, 1.0, outline=border, shown_from=shown_from),
+                    "windowed SSIM map", "local SSIM")], single=True)
     body += colour_bar(figures.colour_stops("cividis"), _ticks(lo, 1.0), "local SSIM (1 = locally identical)")
     caption = (extra + "The paper's component f5 is the global SSIM of the whole frame; this windowed map shows "
                "where the frames differ (dotted: the region the mean covers)." + _display_note(real))

@@ -1,5 +1,6 @@
 """The sequence report: :func:`render_sequence_html`. One figure for the whole sequence (no
-per-frame figures), so a 1000-frame report costs about what a single pair does."""
+per-frame figures), so a 1000-frame report costs about what a single pair does; the
+thumbnails keep display-size copies of the frames they load, one pair at a time."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import budget
 from ..errors import FidelityError
 from . import alignment, figures, sections
 from .bars import bars as bars_section
@@ -29,6 +31,7 @@ def render_sequence_html(
     curves: Mapping[str, Any] | None = None,
     title: str | None = None,
     fragment: bool = False,
+    max_bytes: int | None = None,
 ) -> str:
     """One self-contained HTML page (or a ``<div>`` for notebooks) for a scored sequence.
 
@@ -50,6 +53,10 @@ def render_sequence_html(
     title : str, optional
     fragment : bool
         Return a ``<div>`` (styles scoped to it) instead of a whole document.
+    max_bytes : int, optional
+        The memory budget of a thumbnail pair (default
+        :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): each pair loaded must fit it (else the
+        thumbnails are left out with the reason); only display-size copies are kept.
 
     Returns
     -------
@@ -91,7 +98,7 @@ def render_sequence_html(
         missing("Components", "the report has no pooled result", anchor="components"),
         _timeline(d, rows),
         _distribution(rows),
-        _worst(rows, worst, frames, thumbnails),
+        _worst(rows, worst, frames, thumbnails, max_bytes),
         _failed(d, rows),
         _frame_stats(d),
         alignment.delay(d),
@@ -187,7 +194,7 @@ def _distribution(rows: list[dict]) -> Raw:
     return section(title, image(png, "histogram of per-frame fidelity", caption=caption), anchor="distribution")
 
 
-def _worst(rows: list[dict], worst: int, load: Callable | None, thumbnails: int) -> Raw:
+def _worst(rows: list[dict], worst: int, load: Callable | None, thumbnails: int, max_bytes: int | None) -> Raw:
     title = "Worst frames"
     scored = [(sections.as_float(r.get("fidelity")), i) for i, r in enumerate(rows) if not r.get("error")]
     scored = [(f, i) for f, i in scored if f is not None and np.isfinite(f)]
@@ -205,19 +212,20 @@ def _worst(rows: list[dict], worst: int, load: Callable | None, thumbnails: int)
                           *(comps.get(n) for n in names), *(sections.mapping(r, "metrics").get(k) for k in extra)])
     body = table(header, body_rows)
     if load is not None and thumbnails > 0:
-        body += _thumbnails(picked[:thumbnails], load)
+        body += _thumbnails(picked[:thumbnails], load, max_bytes)
     return section(title, body, anchor="worst")
 
 
-def _thumbnails(picked: list[dict], load: Callable) -> Raw:
+def _thumbnails(picked: list[dict], load: Callable, max_bytes: int | None) -> Raw:
     shown = []
     for pos, r in enumerate(picked):
         i = _index(r, pos)
         try:
-            real, sim = load(i)
-            real, sim = np.asarray(real, dtype=np.float64), np.asarray(sim, dtype=np.float64)
+            real, sim = (np.asarray(f) for f in load(i))
             if real.ndim != 2 or real.shape != sim.shape:
                 raise FidelityError(f"frames of shapes {real.shape} and {sim.shape}")
+            budget.check("a thumbnail pair", real.shape, budget.nbytes(real, sim), max_bytes)
+            real, sim = (figures.display(f)[0].astype(np.float64) for f in (real, sim))
         except (FidelityError, OSError, ValueError, TypeError, IndexError, KeyError) as exc:
             return paragraph(f"Thumbnails not shown: frame {i} could not be loaded ({exc}).", cls="note")
         shown.append((f"frame {i}", real, sim))

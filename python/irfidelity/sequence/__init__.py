@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
+from .. import budget
 from ..camera import CameraInputs
 from ..config import ScoringConfig
 from ..errors import FidelityError
@@ -73,7 +74,7 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         What decides the score; ScoringConfig fields given as keywords override it.
     run : RunOptions, optional
         How the run is carried out: ``workers``, ``progress``, ``client``, ``csv``,
-        ``resume``, ``chunk_size``, ``max_pixels``, ``max_bytes`` (each described in
+        ``resume``, ``chunk_size``, ``max_pixels``, ``max_bytes``, ``max_memory`` (each described in
         :class:`~irfidelity.sequence.RunOptions`). Without ``run``, these are keywords of
         their own; a run keyword given together with ``run`` is a FidelityError.
     **options
@@ -89,6 +90,9 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
           a time: memory does not grow with the run);
         * ``client`` (a ``dask.distributed.Client``) scores chunks of ``chunk_size`` pairs on
           the cluster (file sources only).
+        * ``max_bytes`` is the memory budget of one pair's work and ``max_memory`` that of the
+          run (``max_memory // workers`` a pair): a pair over budget is its frame's error row,
+          never the end of the run (docs/design.md §14).
 
     Returns
     -------

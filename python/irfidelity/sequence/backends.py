@@ -138,8 +138,10 @@ def _extent(frame: np.ndarray) -> tuple[float, float] | None:
 
 
 class ArrayLoop:
-    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, fingerprint: bool = False):
-        self.real, self.sim, self.plan, self.fingerprint = real, sim, plan, fingerprint
+    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, fingerprint: bool = False,
+                 max_bytes: int | None = None):
+        self.real, self.sim, self.plan = real, sim, plan
+        self.max_bytes, self.fingerprint = max_bytes, fingerprint
 
     def _one(self, index: int, r: int, s: int) -> Outcome:
         cfg = self.plan.config
@@ -171,7 +173,7 @@ class ArrayLoop:
             warnings.simplefilter("ignore", RegistrationWarning)
             pair = score_registered(real, sim, plan.pair_request(), model=cfg.register, method=cfg.register_method,
                                     registration=None if cfg.register_each else plan.registration,
-                                    extent=plan.real_extent)
+                                    extent=plan.real_extent, max_bytes=self.max_bytes)
         st = PairStats(pair.stats, peak=cfg.numeric_peak or plan.default_peak, bins=plan.bin_label)
         return st, pair
 
@@ -193,7 +195,7 @@ def choose_backend(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, 
         return DaskBackend(real, sim, plan, options, fingerprint)
     if files:
         return RustEngine(real, sim, plan, options, fingerprint)
-    return ArrayLoop(real, sim, plan, fingerprint)
+    return ArrayLoop(real, sim, plan, fingerprint, options.max_bytes)
 
 
 def engine_reads(real: FrameSequence, sim: FrameSequence) -> bool:

@@ -12,6 +12,7 @@ import os
 from dataclasses import dataclass, fields
 from typing import Any, Callable, Mapping
 
+from .. import budget
 from ..errors import FidelityError
 from ..keywords import options_from
 
@@ -48,9 +49,19 @@ class RunOptions:
         Keep the trusted frames of an earlier run on ``csv``; score the rest.
     chunk_size : int, default 16
         Pairs per Dask task.
-    max_pixels, max_bytes : int, optional
-        Decoding limits per frame (:func:`irfidelity.load_frame`); a frame beyond them is
-        that frame's error row.
+    max_pixels : int, optional
+        The decoding limit per frame in pixels (:func:`irfidelity.load_frame`); a frame beyond
+        it is that frame's error row.
+    max_bytes : int, optional
+        The memory budget of one frame pair's work, bytes (default
+        :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): both frames decoded, their float64
+        copies, registration, resampling and statistics are planned against it before they
+        allocate; a pair over budget is that frame's error row, never the end of the run.
+    max_memory : int, optional
+        The memory budget of the run, bytes: each pair gets ``max_memory // workers`` (the
+        smaller of that and ``max_bytes`` when both are given; ``max_bytes`` becomes that
+        per-pair budget), so the run holds at most ``workers`` × that budget plus a small fixed
+        overhead (docs/design.md §14). With ``client``, per Dask task (one thread by default).
 
     Examples
     --------
@@ -71,10 +82,13 @@ class RunOptions:
     chunk_size: int = 16
     max_pixels: int | None = None
     max_bytes: int | None = None
+    max_memory: int | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__  # frozen: the checked values replace the given ones
         set_(self, "workers", _positive("workers", self.workers, allow_none=True))
+        threads = self.workers if self.workers is not None or self.client is None else 1
+        set_(self, "max_bytes", budget.per_pair(self.max_bytes, self.max_memory, threads))
         set_(self, "chunk_size", _positive("chunk_size", self.chunk_size))
         set_(self, "csv", None if self.csv is None else os.fspath(self.csv))
         set_(self, "resume", bool(self.resume))

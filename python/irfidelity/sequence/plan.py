@@ -168,7 +168,7 @@ def _registration(real: FrameSequence, sim: FrameSequence, pairing: Pairing, con
         except FidelityError:
             continue
         try:
-            return find_registration(real_frame, sim_frame, config)
+            return find_registration(real_frame, sim_frame, config, max_bytes=real.max_bytes)
         except FidelityError as exc:
             raise type(exc)(f"registering the first readable pair ({real.names[r]} and {sim.names[s]}): {exc}",
                             option="register") from None

@@ -104,15 +104,16 @@ class SequenceReport(ReportBase):
     def __post_init__(self) -> None:
         self.frames = [f if isinstance(f, FrameEntry) else FrameEntry.from_mapping(f) for f in self.frames]
 
-    def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10) -> str:
+    def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10,
+                max_bytes: int | None = None) -> str:
         """A self-contained HTML report (figures embedded, no network): the pooled verdict, the
         components over time with failed frames marked, the spread of per-frame fidelity, the
         ``worst`` frames (with thumbnails when the frames can still be read), the failures and
         the curves. Written to ``path`` when given; returned either way. Needs matplotlib
-        (``irfidelity[report]``)."""
+        (``irfidelity[report]``). ``max_bytes``: the memory budget of a thumbnail pair."""
         from ..report import write_html
 
-        return write_html(self._render(worst=worst), path)
+        return write_html(self._render(worst=worst, max_bytes=max_bytes), path)
 
     def _render(self, *, fragment: bool = False, **options: Any) -> str:
         from ..report import render_sequence_html

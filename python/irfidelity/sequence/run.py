@@ -6,7 +6,7 @@ import hashlib
 import os
 from typing import Callable
 
-from .. import _core
+from .. import _core, budget
 from ..errors import FidelityError
 from ..frames import FrameSequence
 from ..schema import csv_columns
@@ -173,7 +173,8 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
         registration=registration_summary(plan, frames),
         delay=None if pairing.delay is None else {**pairing.delay.to_dict(), "unpaired": pairing.unpaired},
         run={"pair_by": pairing.rule, "workers": options.workers,
-             "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed},
+             "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed,
+             "max_bytes": budget.resolve(options.max_bytes), "max_memory": options.max_memory},
         sources={"frames": FramePairs(real, sim, pairing.pairs), "curves": plan.camera_objects}, **pooled)
 
 

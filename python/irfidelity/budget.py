@@ -1,0 +1,105 @@
+"""The memory budget (docs/design.md §14), Python side.
+
+``max_bytes`` bounds everything one frame pair's work holds at its peak: both frames (as
+decoded or given), their float64 copies, registration, resampling, statistics, maps and
+report images. Every step plans its peak from the frame shape and checks it before
+allocating; over budget is an error naming the operation, the frame size, the bytes
+needed and the budget (:func:`check`, the same check and message as the Rust core's). A
+run's ``max_memory`` is divided among its workers (:func:`per_pair`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from typing import Any
+
+from . import _core
+from .errors import FidelityError
+
+__all__ = ["DEFAULT_MAX_BYTES", "resolve", "per_pair", "parse_size", "check", "nbytes", "cpu_workers"]
+
+#: The default per-pair budget, bytes (``rust/io/mod.rs``: 2 GiB).
+DEFAULT_MAX_BYTES: int = int(_core.default_max_bytes())
+
+_UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
+_MOST = (1 << 64) - 1
+_LARGEST = 1 << 63  # the core takes budgets in 1..2^63-1
+
+
+def _positive_int(value: Any, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise FidelityError(f"{name} must be a positive number of bytes, got {value!r}", option=name)
+    return int(value)
+
+
+def resolve(max_bytes: int | None) -> int:
+    """The per-pair budget in bytes: ``max_bytes``, or :data:`DEFAULT_MAX_BYTES` for None."""
+    return DEFAULT_MAX_BYTES if max_bytes is None else _positive_int(max_bytes, "max_bytes")
+
+
+def cpu_workers() -> int:
+    """The threads a run uses when ``workers`` is not given (the cores this process may use)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def per_pair(max_bytes: int | None, max_memory: int | None, workers: int | None) -> int | None:
+    """The per-pair budget of a run of ``workers`` threads (None: :func:`cpu_workers`):
+    ``max_memory // workers``, or the smaller of that and ``max_bytes`` when both are given;
+    ``max_bytes`` without ``max_memory`` (None: the default).
+
+    Examples
+    --------
+    >>> per_pair(None, 4 << 30, 2) == 2 << 30
+    True
+    >>> per_pair(1 << 30, 4 << 30, 2) == 1 << 30
+    True
+    """
+    if max_bytes is not None:
+        max_bytes = _positive_int(max_bytes, "max_bytes")
+    if max_memory is None:
+        return max_bytes
+    share = _positive_int(max_memory, "max_memory") // (workers or cpu_workers())
+    if share < 1:
+        raise FidelityError(f"max_memory of {max_memory} bytes leaves nothing to each of {workers} workers",
+                            option="max_memory")
+    return share if max_bytes is None else min(share, max_bytes)
+
+
+def parse_size(text: str) -> int:
+    """A size in bytes from ``"2G"``, ``"512M"``, ``"64k"``, ``"1.5GiB"`` or plain bytes (``"1000"``);
+    K, M, G, T are powers of 1024.
+
+    Examples
+    --------
+    >>> parse_size("2G"), parse_size("512M"), parse_size("1000")
+    (2147483648, 536870912, 1000)
+    """
+    found = re.fullmatch(r"\s*(\d+(?:\.\d*)?|\.\d+)\s*([kmgt]?)(?:i?b)?\s*", str(text), re.IGNORECASE)
+    if found is None:
+        raise FidelityError(f"expected a size such as 2G, 512M or a number of bytes, got {text!r}", option="max_memory")
+    value = float(found.group(1)) * _UNITS[found.group(2).lower()]
+    if not (math.isfinite(value) and value >= 1):
+        raise FidelityError(f"expected a size of at least 1 byte, got {text!r}", option="max_memory")
+    if value >= _LARGEST:
+        raise FidelityError(f"expected a size below 8 EiB (2^63 bytes), got {text!r}", option="max_memory")
+    return int(value)
+
+
+def nbytes(*arrays: Any) -> int:
+    """Bytes of the arrays given (None counts nothing)."""
+    return sum(int(getattr(a, "nbytes", 0)) for a in arrays if a is not None)
+
+
+def check(operation: str, shape: tuple[int, ...], bytes_needed: float, max_bytes: int | None, *,
+          kind: str = "value") -> None:
+    """Raise when ``operation`` on frames of ``shape`` would hold ``bytes_needed`` at its
+    peak, more than ``max_bytes`` (None: the default): a :class:`FidelityError`
+    (``kind="registration"``: :class:`RegistrationError`) naming the operation, the frame size,
+    the bytes needed, the budget and how to raise it."""
+    needed = min(int(math.ceil(bytes_needed)), _MOST)  # beyond counting is beyond any budget
+    _core.check_budget(operation, (int(shape[0]), int(shape[1])), needed, resolve(max_bytes), kind)

@@ -1,0 +1,363 @@
+"""One memory budget for a pair's work and a run's (docs/design.md §14): every operation on
+large legal frames either refuses, before allocating, with the library's error naming it, or
+takes a bounded path — in a child process under an address-space cap, which exits normally
+(no signal, no MemoryError) — and the bounded paths give the same answers."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+import irfidelity as irf
+from irfidelity import budget
+from irfidelity.errors import FidelityError, FrameError, RegistrationError
+from irfidelity.maps import sampled_ssim_map
+from child_process import run_python
+
+BIG = 8192
+GIB = 1 << 30
+
+# The child: cap its address space, make two BIG x BIG uint16 frames (a smooth ramp and a
+# shifted copy, cheap to make), run one operation and print what happened as JSON.
+CHILD = r"""
+import json, resource, sys
+job = json.loads(sys.argv[1])
+resource.setrlimit(resource.RLIMIT_AS, (job["cap"], job["cap"]))
+out = {}
+try:
+    import numpy as np, irfidelity as irf
+    n = job["size"]
+    if job.get("frames", True):
+        ramp = (np.arange(n, dtype=np.uint32)[:, None] * 3 + np.arange(n, dtype=np.uint32)[None, :] * 5) % 4096
+        real = ramp.astype(np.uint16)
+        del ramp
+        sim = np.roll(real, (2, 3), axis=(0, 1))
+    op, kw = job["op"], job.get("kwargs", {})
+    if op == "register":
+        irf.register(real, sim, **kw)
+    elif op == "evaluate":
+        rep = irf.evaluate(real, sim, bits=12, **kw)
+        out["fidelity"] = rep.fidelity
+        if job.get("html"):
+            page = rep.to_html(**job.get("html_kwargs", {}))
+            out["html"] = len(page)
+            out["ssim_mean"] = "Mean SSIM" in page
+    elif op == "ssim_map":
+        m = irf.ssim_map(real, sim, bits=12, **kw)
+        out["mean"], out["shape"] = m.mean, list(m.map.shape)
+    elif op == "apply":
+        reg = irf.Registration.from_dict({"model": "translation", "method": "phase", "confidence": 1.0,
+                                          "overlap": 1.0, "matrix": [[1, 0, 2.5], [0, 1, -1.5]], "shape": [n, n]})
+        values, valid = reg.apply(sim, **kw)
+        out["valid"] = int(valid.sum())
+    elif op == "noise3d":
+        nz = irf.noise3d(job["paths"], **kw)
+        out["sigma"] = nz.sigma
+    elif op == "sequence":
+        seq = irf.score_sequence(job["real"], job["sim"], progress=False, **kw)
+        out["errors"] = [f["error"] for f in seq.frames]
+        out["fidelity"] = [f["fidelity"] for f in seq.frames]
+        out["run"] = seq.run
+    out["kind"] = "ok"
+except irf.errors.FidelityError as exc:
+    out.update(kind="error", type=type(exc).__name__, message=str(exc))
+except MemoryError as exc:
+    out.update(kind="memory_error", message=str(exc))
+# the peak resident size of this process (ru_maxrss would count the parent's at the fork too)
+with open("/proc/self/status") as f:
+    out["maxrss"] = next(int(line.split()[1]) * 1024 for line in f if line.startswith("VmHWM:"))
+print(json.dumps(out))
+"""
+
+
+def run_child(cap: int = 3 * GIB, size: int = BIG, timeout: float = 600, **job) -> dict:
+    job.update(cap=cap, size=size)
+    rec = run_python(CHILD, [json.dumps(job)], timeout=timeout)
+    assert rec["kind"] != "memory_error", rec
+    return rec
+
+
+def assert_refused(rec: dict, kind: str, operation: str, size: int = BIG) -> None:
+    """The library's error of ``kind``, naming the operation, the frame size, the bytes and the budget."""
+    assert rec["kind"] == "error" and rec["type"] == kind, rec
+    message = rec["message"]
+    assert operation in message and f"{size} x {size} pixel frames" in message, message
+    assert re.search(r"needs about \d+ bytes .* memory budget of \d+ bytes", message), message
+    assert "max_bytes" in message and "max_memory" in message, message
+
+
+def write_png(path: Path, frame: np.ndarray) -> str:
+    assert cv2.imwrite(str(path), frame)
+    return str(path)
+
+
+def smooth_pair(rows: int, cols: int, shift: tuple[int, int] = (2, -3)) -> tuple[np.ndarray, np.ndarray]:
+    """A smooth random scene and a shifted copy (registrable, 12-bit levels in uint16)."""
+    rng = np.random.default_rng(7)
+    coarse = rng.random((rows // 8 + 4, cols // 8 + 4))
+    big = cv2.resize(coarse, ((cols // 8 + 4) * 8, (rows // 8 + 4) * 8), interpolation=cv2.INTER_CUBIC)
+    big = np.clip(1000 + 2000 * big + rng.normal(0, 5, big.shape), 0, 4095).astype(np.uint16)
+    real = big[16:16 + rows, 16:16 + cols]
+    sim = big[16 - shift[0]:16 - shift[0] + rows, 16 - shift[1]:16 - shift[1] + cols]
+    return np.ascontiguousarray(real), np.ascontiguousarray(sim)
+
+
+# ------------------------------------------------------------------ large frames, capped
+
+
+def test_register_8k_is_refused_before_it_allocates() -> None:
+    rec = run_child(op="register")
+    assert_refused(rec, "RegistrationError", "registration (translation, method phase)")
+    assert rec["maxrss"] < 1 * GIB, rec  # the two frames, nothing of the search
+
+
+def test_evaluate_8k_scores_unregistered_and_refuses_registration() -> None:
+    rec = run_child(op="evaluate")
+    assert rec["kind"] == "ok" and 0 < rec["fidelity"] <= 1, rec
+    rec = run_child(op="evaluate", kwargs={"register": "rigid"})
+    assert_refused(rec, "RegistrationError", "registration (rigid, method phase)")
+
+
+def test_ssim_map_8k_within_the_budget_and_refused_beyond_it() -> None:
+    rec = run_child(op="ssim_map")
+    assert rec["kind"] == "ok" and rec["shape"] == [BIG, BIG] and 0 < rec["mean"] <= 1, rec
+    rec = run_child(op="ssim_map", kwargs={"max_bytes": 512 << 20})
+    assert_refused(rec, "FidelityError", "the SSIM map")
+
+
+def test_apply_8k_is_refused_beyond_the_budget() -> None:
+    rec = run_child(op="apply", kwargs={"max_bytes": 256 << 20})
+    assert_refused(rec, "FidelityError", "resampling (Registration.apply)")
+
+
+def test_to_html_8k_takes_the_bounded_path() -> None:
+    # the page needs display-size copies only: well within the budget, under a 3 GiB cap
+    rec = run_child(op="evaluate", html=True)
+    assert rec["kind"] == "ok" and rec["html"] > 10_000 and rec["ssim_mean"], rec
+    assert rec["maxrss"] < 2 * GIB, rec
+    # a budget below the frames themselves is refused, naming the report
+    rec = run_child(op="evaluate", html=True, html_kwargs={"max_bytes": 128 << 20})
+    assert_refused(rec, "FidelityError", "the HTML report of a frame pair")
+
+
+def test_noise3d_8k_files_plan_the_whole_measurement(tmp_path: Path) -> None:
+    frame = np.full((BIG, BIG), 1000, dtype=np.uint16)
+    paths = [write_png(tmp_path / f"n{i}.png", frame + i) for i in range(8)]
+    # the default budget: the spectra are refused before the pass starts; without them the
+    # sums fit, not with a worker's accumulator and two frames in flight
+    rec = run_child(op="noise3d", frames=False, paths=paths)
+    assert_refused(rec, "FidelityError", "the 3-D noise decomposition and spectra (spectra=False needs less)")
+    assert rec["maxrss"] < 1 * GIB, rec
+    rec = run_child(op="noise3d", frames=False, paths=paths, kwargs={"spectra": False})
+    assert_refused(rec, "FidelityError", "the 3-D noise pass (1 worker, 1 frame read at a time each)")
+    assert rec["maxrss"] < 1 * GIB, rec
+    # 3 GiB: one worker decoding 4 frames at a time instead of two workers decoding 8
+    rec = run_child(cap=4 * GIB + GIB // 2, op="noise3d", frames=False, paths=paths,
+                    kwargs={"spectra": False, "max_bytes": 3 * GIB, "workers": 2})
+    assert rec["kind"] == "ok", rec
+    assert rec["sigma"]["tvh"] == 0 and rec["sigma"]["vh"] == 0 and rec["sigma"]["t"] > 2, rec
+    assert rec["maxrss"] < 3 * GIB + GIB // 2, rec
+
+def test_a_runs_peak_is_its_workers_times_the_pair_budget(tmp_path: Path) -> None:
+    # four 8192² pairs on two workers: each pair gets max_memory // 2, so the run holds at
+    # most max_memory besides the interpreter (the frames alone: 256 MiB a pair)
+    frame = np.full((BIG, BIG), 1000, dtype=np.uint16)
+    real, sim = tmp_path / "real", tmp_path / "sim"
+    real.mkdir()
+    sim.mkdir()
+    for i in range(4):
+        write_png(real / f"f{i}.png", frame + i)
+        write_png(sim / f"f{i}.png", frame + 2 * i)
+    max_memory = 2 * (256 << 20) + (64 << 20)
+    rec = run_child(op="sequence", frames=False, real=str(real), sim=str(sim),
+                    kwargs={"workers": 2, "max_memory": max_memory, "bits": 12})
+    assert rec["kind"] == "ok" and rec["errors"] == [None] * 4, rec
+    assert rec["run"]["max_bytes"] == max_memory // 2
+    assert rec["maxrss"] < max_memory + (256 << 20), rec  # + the interpreter and libraries
+    # half the budget: every pair is its own error row (the simulated frame does not fit
+    # what the real one leaves), the run ends normally
+    rec = run_child(op="sequence", frames=False, real=str(real), sim=str(sim),
+                    kwargs={"workers": 2, "max_memory": max_memory // 2, "bits": 12})
+    assert rec["kind"] == "ok" and all("max_bytes" in e for e in rec["errors"]), rec
+    assert rec["maxrss"] < max_memory, rec
+
+
+
+def test_register_each_sequence_8k_pair_is_an_error_row(tmp_path: Path) -> None:
+    small_real, small_sim = smooth_pair(96, 128)
+    big = np.full((BIG, BIG), 1000, dtype=np.uint16)
+    real, sim = tmp_path / "real", tmp_path / "sim"
+    real.mkdir()
+    sim.mkdir()
+    for i, (r, s) in enumerate([(small_real, small_sim), (big, big), (small_real, small_sim)]):
+        write_png(real / f"f{i}.png", r)
+        write_png(sim / f"f{i}.png", s)
+    rec = run_child(op="sequence", frames=False, real=str(real), sim=str(sim),
+                    kwargs={"register": "translation", "register_each": True, "workers": 1})
+    assert rec["kind"] == "ok", rec
+    errors = rec["errors"]
+    assert errors[0] is None and errors[2] is None, errors
+    assert "registration (translation, method phase) and scoring of a frame pair" in errors[1], errors
+    assert f"{BIG} x {BIG} pixel frames" in errors[1] and "max_bytes" in errors[1], errors
+    assert all(0 < f <= 1 for i, f in enumerate(rec["fidelity"]) if i != 1), rec["fidelity"]
+
+
+# ------------------------------------------------------------------ plans and bounded paths
+
+
+def test_over_budget_errors_name_the_step_everywhere() -> None:
+    real, sim = smooth_pair(64, 80)
+    tiny = 10_000
+    with pytest.raises(RegistrationError, match=r"registration \(rigid, method phase\) of 64 x 80 pixel frames"):
+        irf.register(real, sim, model="rigid", method="phase", max_bytes=tiny)
+    with pytest.raises(FidelityError, match=r"the SSIM map of 64 x 80"):
+        irf.ssim_map(real, sim, bits=12, max_bytes=tiny)
+    with pytest.raises(FidelityError, match=r"MS-SSIM of 64 x 80"):
+        irf.ms_ssim(real, sim, bits=12, max_bytes=tiny)
+    with pytest.raises(FidelityError, match=r"scoring a frame pair of 64 x 80"):
+        irf.evaluate(real, sim, bits=12, max_bytes=tiny)
+    reg = irf.register(real, sim)
+    with pytest.raises(FidelityError, match=r"resampling \(Registration.apply\)"):
+        reg.apply(sim, max_bytes=tiny)
+    for bad in (0, -1, True, 1.5, "1G"):
+        with pytest.raises(FidelityError, match="max_bytes must be a positive number of bytes"):
+            irf.register(real, sim, max_bytes=bad)
+
+
+def _decoding_peak(path: str) -> int:
+    """The smallest budget that decodes ``path`` (bisection on load_frame)."""
+    lo, hi = 1, 1 << 24
+    while lo < hi:
+        mid = (lo + hi) // 2
+        try:
+            irf.load_frame(path, max_bytes=mid)
+            hi = mid
+        except FrameError:
+            lo = mid + 1
+    return lo
+
+
+def test_decoding_within_the_pair_budget(tmp_path: Path) -> None:
+    real, sim = smooth_pair(64, 80)
+    pr, ps = write_png(tmp_path / "r.png", real), write_png(tmp_path / "s.png", sim)
+    assert irf.evaluate(pr, ps, bits=12, max_bytes=1 << 20).fidelity == irf.evaluate(real, sim, bits=12).fidelity
+    # the simulated frame is decoded within what the real one leaves
+    decoding = _decoding_peak(ps)
+    assert decoding >= sim.nbytes
+    with pytest.raises(FrameError, match=r"s\.png: decoding .* exceeds the decoding budget .*\(max_bytes\)"):
+        irf.evaluate(pr, ps, bits=12, max_bytes=decoding + real.nbytes - 1)
+    assert irf.evaluate(pr, ps, bits=12, max_bytes=decoding + real.nbytes + 4 * real.size).fidelity > 0
+
+
+def test_budget_does_not_change_the_answers() -> None:
+    real, sim = smooth_pair(120, 160)
+    reg = irf.register(real, sim, model="rigid")
+    assert irf.register(real, sim, model="rigid", max_bytes=64 << 20) == reg
+    a = irf.evaluate(real, sim, bits=12, register="translation")
+    b = irf.evaluate(real, sim, bits=12, register="translation", max_bytes=64 << 20)
+    assert a.components == b.components and a.registration == b.registration
+
+
+def test_sampled_ssim_map_equals_the_displayed_part_of_the_map() -> None:
+    real, sim = smooth_pair(131, 97)
+    whole = irf.ssim_map(real, sim, bits=12)
+    for step in (1, 2, 3, 7, 40):
+        part = sampled_ssim_map(real, sim, step, peak=4095.0)
+        assert np.array_equal(part.map, whole.map[::step, ::step]), step
+        assert part.mean == whole.mean
+
+
+def test_report_statistics_are_those_of_the_whole_frames(monkeypatch: pytest.MonkeyPatch) -> None:
+    from irfidelity.report import pair
+
+    real, sim = smooth_pair(200, 300)
+    mask = np.ones(real.shape, dtype=bool)
+    mask[10:40, 50:90] = False
+    monkeypatch.setattr(pair, "BAND_PIXELS", 1000)  # many bands of a few rows
+    count, mean, rms, largest = pair._difference_stats(real, sim, mask)
+    diff = (sim.astype(np.float64) - real.astype(np.float64))[mask]
+    assert count == diff.size and largest == np.abs(diff).max()
+    assert mean == pytest.approx(diff.mean(), rel=1e-12) and rms == pytest.approx(np.sqrt(np.mean(diff**2)), rel=1e-12)
+    noisy = real.astype(np.float32)
+    noisy[3, 4], noisy[150, 7] = np.nan, np.inf
+    counts, edges = pair._histogram(noisy)
+    want_counts, want_edges = np.histogram(noisy[np.isfinite(noisy)], bins=256)
+    assert np.array_equal(counts, want_counts) and np.array_equal(edges, want_edges)
+
+
+def test_noise_pass_takes_fewer_workers_and_frames_when_the_budget_asks(tmp_path: Path) -> None:
+    rng = np.random.default_rng(3)
+    frames = rng.integers(900, 1100, (12, 64, 80), dtype=np.uint16)
+    paths = [write_png(tmp_path / f"f{i:02d}.png", f) for i, f in enumerate(frames)]
+    want = irf.noise.noise_sums(frames).exact_ss()
+    pixels, frame = 64 * 80, 64 * 80 * 2
+    lines = 2 * 8 * 12 * (64 + 80)
+    # two accumulators (the total and one worker's) and two frames in flight: nothing more fits
+    tight = 2 * 16 * pixels + lines + 2 * frame
+    got = irf.noise.noise_sums(paths, workers=2, max_bytes=tight)
+    assert got.exact_ss() == want
+    with pytest.raises(FidelityError, match=r"the 3-D noise pass \(1 worker, 1 frame read at a time each\) of 64 x 80"):
+        irf.noise.noise_sums(paths, max_bytes=tight - 1)
+    # float frames: fewer workers, the same sums bit for bit
+    floats = frames.astype(np.float32)
+    assert irf.noise.noise_sums(floats, workers=2).to_bytes() == irf.noise.noise_sums(floats, workers=2,
+                                                                                      max_bytes=100 * pixels).to_bytes()
+    with pytest.raises(FidelityError, match=r"spectra \(spectra=False needs less\)"):
+        irf.noise3d(frames, max_bytes=60 * pixels)
+    assert irf.noise3d(frames, spectra=False, max_bytes=60 * pixels).sigma == irf.noise3d(frames, spectra=False).sigma
+
+
+# ------------------------------------------------------------------ a run's budget
+
+
+def test_max_memory_is_shared_by_the_workers(tmp_path: Path) -> None:
+    real, sim = smooth_pair(64, 80)
+    seq = irf.score_sequence(np.stack([real] * 3), np.stack([sim] * 3), bits=12, workers=2, max_memory=8 << 20,
+                             progress=False)
+    assert seq.run["max_bytes"] == 4 << 20 and seq.run["max_memory"] == 8 << 20
+    assert not seq.failed
+    # files, registered on their own, each pair over its share: error rows, the run goes on
+    (tmp_path / "r").mkdir()
+    (tmp_path / "s").mkdir()
+    for i in range(3):
+        write_png(tmp_path / "r" / f"{i}.png", real)
+        write_png(tmp_path / "s" / f"{i}.png", sim)
+    seq = irf.score_sequence(tmp_path / "r", tmp_path / "s", bits=12, workers=2, max_memory=2 * (1 << 20),
+                             max_bytes=10 << 20, register="translation", register_each=True, progress=False)
+    assert seq.run["max_bytes"] == 1 << 20
+    assert seq.failed == [0, 1, 2]
+    assert all("registration (translation, method phase) and scoring of a frame pair" in f["error"] for f in seq.frames)
+    assert budget.per_pair(None, None, 4) is None and budget.per_pair(3 << 20, None, 4) == 3 << 20
+    with pytest.raises(FidelityError, match="leaves nothing"):
+        budget.per_pair(None, 3, 4)
+
+
+@pytest.mark.parametrize("text,want", [("2G", 2 << 30), ("512M", 512 << 20), ("1000", 1000), ("64k", 64 << 10),
+                                        ("1.5GiB", 3 << 29), (" 8 GB ", 8 << 30)])
+def test_sizes_parse(text: str, want: int) -> None:
+    assert budget.parse_size(text) == want
+
+
+@pytest.mark.parametrize("text", ["", "G", "-1G", "2X", "0", "1e9", "0.1", "8388608T", "99999999999T"])
+def test_bad_sizes_are_refused(text: str) -> None:
+    with pytest.raises(FidelityError, match="size"):
+        budget.parse_size(text)
+
+
+def test_cli_max_memory(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from irfidelity.cli import main
+
+    real, sim = smooth_pair(64, 80)
+    pr, ps = write_png(tmp_path / "r.png", real), write_png(tmp_path / "s.png", sim)
+    assert main(["score", pr, ps, "--bits", "12", "--max-memory", "64M"]) == 0
+    assert main(["score", pr, ps, "--bits", "12", "--max-memory", "lots"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--max-memory" in err[0] and "2G" in err[0], err
+    assert main(["score", pr, ps, "--bits", "12", "--register", "translation", "--max-memory", "100k"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "memory budget of 102400 bytes" in err[0] and "--max-memory" in err[0], err
