@@ -26,8 +26,9 @@ pub struct Frame<'a> {
     pub n_valid: usize,
     /// Mean of the valid pixels' working values (about 0).
     pub mean: f64,
-    /// The valid pixels' smallest and largest value, as given.
-    extremes: (f64, f64),
+    /// The valid pixels' smallest and largest value, as given (None: a plane of working
+    /// values, whose extremes are found when asked for).
+    extremes: Option<(f64, f64)>,
     pixels: Pixels<'a>,
 }
 
@@ -93,10 +94,19 @@ impl<'a> Frame<'a> {
                 // the sum's rounding, scaled, is all that separates the working mean from 0
                 let mean = if normal.shift.abs() > LARGE_SHIFT { samples.working_sum(normal) / n as f64 } else { 0.0 };
                 let pixels = Pixels::Samples { samples, normal, plane: OnceCell::new() };
-                return Ok(Frame { rows, cols, n_valid: n, mean, extremes: (lo, hi), pixels });
+                return Ok(Frame { rows, cols, n_valid: n, mean, extremes: Some((lo, hi)), pixels });
             }
         }
-        Ok(Plane::from_samples(data, rows, cols, mask, what)?.into())
+        Ok(Frame::normalised(Plane::from_samples(data, rows, cols, mask, what)?))
+    }
+
+    /// A frame of the plane's values as given: its valid values become working values.
+    fn normalised(mut plane: Plane) -> Frame<'static> {
+        let (lo, hi) = plane.range();
+        // scaled first, so that the mean of values near ±f64::MAX cannot overflow
+        plane.normalise(Normalisation::new(lo, hi, |_| 0.0));
+        plane.normalise(Normalisation { factor: 1.0, shift: plane.mean() });
+        Frame { extremes: Some((lo, hi)), ..Frame::from(plane) }
     }
 
     /// The frame as a float64 plane of working values with its mask (converted on the
@@ -123,7 +133,8 @@ impl<'a> Frame<'a> {
     /// The common value of the valid pixels (as given) if they are all equal (see
     /// [`flat_level`]).
     pub fn flat_level(&self) -> Option<f64> {
-        flat_level(self.extremes.0, self.extremes.1)
+        let (lo, hi) = self.extremes.unwrap_or_else(|| self.plane().range());
+        flat_level(lo, hi)
     }
 
     /// Row `r` of the tapered frame `(working value − mean)·w_row·w_cols[c]` (0 at invalid
@@ -146,17 +157,11 @@ impl<'a> Frame<'a> {
 }
 
 impl<'a> From<Cow<'a, Plane>> for Frame<'a> {
-    /// The plane's valid values become working values (a borrowed plane is copied first).
-    fn from(mut plane: Cow<'a, Plane>) -> Frame<'a> {
-        let extremes = plane.range();
-        let (lo, hi) = extremes;
-        // scaled first, so that the mean of values near ±f64::MAX cannot overflow
-        let scaling = Normalisation::new(lo, hi, |_| 0.0);
-        plane.to_mut().normalise(scaling);
-        let centre = Normalisation { factor: 1.0, shift: plane.mean() };
-        plane.to_mut().normalise(centre);
+    /// A plane of working values (made by registration from frames that were normalised,
+    /// such as a turned simulated frame), used as it is.
+    fn from(plane: Cow<'a, Plane>) -> Frame<'a> {
         let (rows, cols, n_valid, mean) = (plane.rows, plane.cols, plane.n_valid, plane.mean());
-        Frame { rows, cols, n_valid, mean, extremes, pixels: Pixels::Plane(plane) }
+        Frame { rows, cols, n_valid, mean, extremes: None, pixels: Pixels::Plane(plane) }
     }
 }
 
@@ -202,7 +207,7 @@ mod tests {
         let (rows, cols) = (5, 7);
         let data: Vec<u16> = (0..rows * cols).map(|i| ((i * 7919) % 1013) as u16).collect();
         let direct = Frame::new(&data, rows, cols, None, "real").unwrap();
-        let converted = Frame::from(Plane::from_samples(&data, rows, cols, None, "real").unwrap());
+        let converted = Frame::normalised(Plane::from_samples(&data, rows, cols, None, "real").unwrap());
         assert!(matches!(direct.pixels, Pixels::Samples { .. }));
         assert_eq!(direct.n_valid, converted.n_valid);
         assert!(direct.mean.abs() < 1e-15 && converted.mean.abs() < 1e-15);
@@ -285,7 +290,7 @@ mod tests {
         let mask = [true, true, true, false, true, true];
         let frame = Frame::new(&[1u8, 2, 3, 200, 4, 5], 2, 3, Some(&mask), "real").unwrap();
         assert_eq!((frame.n_valid, frame.mean), (5, 0.0));
-        assert_eq!(frame.extremes, (1.0, 5.0));
+        assert_eq!(frame.extremes, Some((1.0, 5.0)));
         assert!(Frame::new(&data, 3, 3, None, "real").is_err());
         assert!(Frame::new(&data, 2, 3, Some(&mask[..4]), "real").is_err());
     }

@@ -195,7 +195,7 @@ fn correlate_spectra(
     let (dy, dx) = newton_peak(&half, start, (iy as f64, ix as f64), sign);
     // X/|X|^½ times |X|^½ is the plain cross-power spectrum
     let flipped = match polarity {
-        Polarity::Either => polarity::screen(&half, |h| h * h.norm(), (iy, ix), sign),
+        Polarity::Either => polarity::screen(&half, |h| h * h.norm_sqr().sqrt(), (iy, ix), sign),
         Polarity::Positive => Vec::new(),
     };
     let peak = Peak { dy, dx, sign, height, confidence, rival, rival_flipped: false, beyond_limit };

@@ -54,7 +54,7 @@ pub fn check(real: &Frame, sim: &Frame, peak: (isize, isize)) -> Option<(f64, (i
 /// `sign` reaches [`CREDIBLE`] of the peak's.
 fn credible(c: &[[f64; 3]; 3], peak: (isize, isize), sign: f64) -> Vec<(isize, isize)> {
     let height = sign * c[1][1];
-    if !(height > 0.0) {
+    if height.is_nan() || height <= 0.0 {
         return Vec::new();
     }
     let mut out = Vec::new();
@@ -68,57 +68,80 @@ fn credible(c: &[[f64; 3]; 3], peak: (isize, isize), sign: f64) -> Vec<(isize, i
     out
 }
 
-/// `c(peak + (dy, dx))` for dy, dx in −1..=1 (up to a common positive factor): per column
-/// of the half spectrum, three phasor sums along it, then the column's phase.
+/// `c(peak + (dy, dx))` for dy, dx in −1..=1 (up to a common positive factor). Per column of
+/// the half spectrum, `y = x·e^{iθ·peak.0}` (θ = 2π·ky/rows) summed plainly and weighted by
+/// `cos θ` and `sin θ` gives the three row sums `Σ y·e^{iθ·dy}`; each is then turned by the
+/// column's phase. The column sums run in float32 lanes (a screen needs no more), folded
+/// into float64 per column.
 fn neighbourhood(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize, isize)) -> [[f64; 3]; 3] {
     let (rows, cols) = (spec.rows, spec.cols);
     let tau = 2.0 * std::f64::consts::PI;
-    // e^{i·2π·ky·(peak + dy)/rows}: at integer shifts every row (the Nyquist row too)
-    // counts once, whatever the sign of its frequency
-    let phasors: Vec<[C32; 3]> = (0..rows)
-        .map(|ky| {
-            let at = |dy: isize| {
-                let turns = ((ky as isize * (peak.0 + dy)).rem_euclid(rows as isize)) as f64 / rows as f64;
-                let z = C64::from_polar(1.0, tau * turns);
-                C32::new(z.re as f32, z.im as f32)
-            };
-            [at(-1), at(0), at(1)]
-        })
-        .collect();
+    // at integer shifts every row (the Nyquist row too) counts once, whatever the sign of
+    // its frequency
+    let phasor = |ky: usize, shift: isize| {
+        let turns = (ky as isize * shift).rem_euclid(rows as isize) as f64 / rows as f64;
+        let (sin, cos) = (tau * turns).sin_cos();
+        (cos as f32, sin as f32)
+    };
+    let (at_re, at_im): (Vec<f32>, Vec<f32>) = (0..rows).map(|ky| phasor(ky, peak.0)).unzip();
+    let (step_cos, step_sin): (Vec<f32>, Vec<f32>) = (0..rows).map(|ky| phasor(ky, 1)).unzip();
     let mut out = [[0.0f64; 3]; 3];
-    let mut column = vec![C32::default(); rows];
     for kx in 0..spec.width() {
+        let column = &spec.data[kx * rows..(kx + 1) * rows];
+        let [yr, yi, yr_cos, yi_cos, yr_sin, yi_sin] =
+            column_moments(column, &cross, [&at_re, &at_im, &step_cos, &step_sin]);
+        // Σ y·e^{iθ·dy} for dy = −1, 0, +1
+        let sums =
+            [C64::new(yr_cos + yi_sin, yi_cos - yr_sin), C64::new(yr, yi), C64::new(yr_cos - yi_sin, yi_cos + yr_sin)];
         // the rest of the spectrum is the conjugate mirror: weight 2, except the columns
         // that are their own mirror (DC, and Nyquist for even widths)
         let weight = if kx == 0 || (cols % 2 == 0 && kx == cols / 2) { 1.0 } else { 2.0 };
-        column.iter_mut().zip(&spec.data[kx * rows..(kx + 1) * rows]).for_each(|(x, &h)| *x = cross(h));
-        let sums = phasor_sums(&column, &phasors);
         for (dx, slot) in (-1isize..=1).zip(0..3) {
-            let turns = ((kx as isize * (peak.1 + dx)).rem_euclid(cols as isize)) as f64 / cols as f64;
+            let turns = (kx as isize * (peak.1 + dx)).rem_euclid(cols as isize) as f64 / cols as f64;
             let rot = C64::from_polar(weight, tau * turns);
-            for (dy, s) in sums.iter().enumerate() {
-                out[dy][slot] += (s * rot).re;
+            for (row, s) in out.iter_mut().zip(&sums) {
+                row[slot] += (s * rot).re;
             }
         }
     }
     out
 }
 
-/// `Σ_ky x[ky]·phasors[ky][j]` for j = 0, 1, 2, products in float32 summed in float64.
-fn phasor_sums(x: &[C32], phasors: &[[C32; 3]]) -> [C64; 3] {
-    let mut acc = [C64::default(); 3];
-    for (chunk, ph) in x.chunks(64).zip(phasors.chunks(64)) {
-        let mut part = [C32::default(); 3];
-        for (&v, p) in chunk.iter().zip(ph) {
-            for j in 0..3 {
-                part[j] += v * p[j];
-            }
-        }
-        for j in 0..3 {
-            acc[j] += C64::new(part[j].re as f64, part[j].im as f64);
+/// Lanes of the column sums.
+const LANES: usize = 8;
+
+/// For one column `x` (through `cross`) and per-row `at = (re, im)`, `step = (cos, sin)`:
+/// with `y = x·at`, the sums `Σ Re y, Σ Im y, Σ Re y·cos, Σ Im y·cos, Σ Re y·sin, Σ Im y·sin`.
+fn column_moments(column: &[C32], cross: &impl Fn(C32) -> C32, [at_re, at_im, cos, sin]: [&[f32]; 4]) -> [f64; 6] {
+    let n = column.len();
+    let (at_re, at_im, cos, sin) = (&at_re[..n], &at_im[..n], &cos[..n], &sin[..n]);
+    let (mut s_re, mut s_im, mut c_re, mut c_im, mut n_re, mut n_im) =
+        ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+    let whole = n - n % LANES;
+    for base in (0..whole).step_by(LANES) {
+        for k in 0..LANES {
+            let i = base + k;
+            let x = cross(column[i]);
+            let (yr, yi) = (x.re * at_re[i] - x.im * at_im[i], x.re * at_im[i] + x.im * at_re[i]);
+            s_re[k] += yr;
+            s_im[k] += yi;
+            c_re[k] += yr * cos[i];
+            c_im[k] += yi * cos[i];
+            n_re[k] += yr * sin[i];
+            n_im[k] += yi * sin[i];
         }
     }
-    acc
+    for i in whole..n {
+        let x = cross(column[i]);
+        let (yr, yi) = (x.re * at_re[i] - x.im * at_im[i], x.re * at_im[i] + x.im * at_re[i]);
+        s_re[0] += yr;
+        s_im[0] += yi;
+        c_re[0] += yr * cos[i];
+        c_im[0] += yi * cos[i];
+        n_re[0] += yr * sin[i];
+        n_im[0] += yi * sin[i];
+    }
+    [s_re, s_im, c_re, c_im, n_re, n_im].map(|acc| acc.iter().map(|&v| f64::from(v)).sum())
 }
 
 /// The lowest confidence `1 − r_rival/r_peak` over `candidates` judged on the pixels: `r` the
@@ -164,7 +187,8 @@ mod tests {
             let m = p.mean();
             p.values.iter().map(|v| (v - m) as f32).collect::<Vec<f32>>()
         };
-        let (mut a, b) = (fft::forward(&centred(real), real.rows, real.cols), fft::forward(&centred(sim), sim.rows, sim.cols));
+        let (mut a, b) =
+            (fft::forward(&centred(real), real.rows, real.cols), fft::forward(&centred(sim), sim.rows, sim.cols));
         a.data.iter_mut().zip(b.data.iter()).for_each(|(x, y)| *x *= y.conj());
         a
     }
@@ -223,5 +247,43 @@ mod tests {
             // and were one judged, it would not count
             assert_eq!(judge(&real, &sim, (0, 0), sign, &[(0, 1), (1, 1)], 64), None);
         }
+    }
+}
+
+#[cfg(test)]
+mod timing_tmp {
+    use super::super::fft;
+    use super::super::frame::Frame;
+    use super::super::logpolar::tests::scene;
+    use super::super::phase;
+    use super::*;
+    #[test]
+    fn time_parts() {
+        let (rows, cols) = (512, 640);
+        let values: Vec<f32> = scene(rows, cols, 3).iter().map(|&v| v as f32).collect();
+        let n = 50;
+        let t = std::time::Instant::now();
+        for _ in 0..n {
+            std::hint::black_box(Frame::new(&values, rows, cols, None, "r").unwrap().mean);
+        }
+        eprintln!("Frame::new {:?}", t.elapsed() / n);
+        let f = Frame::new(&values, rows, cols, None, "r").unwrap();
+        let t = std::time::Instant::now();
+        for _ in 0..n {
+            std::hint::black_box(phase::tapered_spectrum(&f));
+        }
+        eprintln!("tapered_spectrum {:?}", t.elapsed() / n);
+        let spec = phase::tapered_spectrum(&f);
+        let t = std::time::Instant::now();
+        for _ in 0..n {
+            std::hint::black_box(neighbourhood(&spec, |h| h * h.norm_sqr().sqrt(), (3, -2)));
+        }
+        eprintln!("neighbourhood {:?}", t.elapsed() / n);
+        let t = std::time::Instant::now();
+        for _ in 0..n {
+            std::hint::black_box(phase::correlate(&f, &f, None));
+        }
+        eprintln!("correlate {:?}", t.elapsed() / n);
+        let _ = fft::forward;
     }
 }
