@@ -1,17 +1,30 @@
 """Registration accuracy and speed: irfidelity vs scikit-image and OpenCV on real thermal frames.
 
 Cases: real frames from ``tests/data/thermal`` seen through known transforms, then made to
-differ as a simulator would — blurred (a different MTF), gain/offset-changed, noised — while the
-real frame gets its own noise:
+differ as a simulator would, by one of two simulators (``registration_cases.SIMULATORS``), while
+the real frame gets its own noise:
+
+- ``typical``: blurred (σ 0.5–1.2 px, a different MTF), gain (0.7–1.4) and offset (±200)
+  changed, noised (5–20 % of the scene's std);
+- ``close``: a simulator close to the camera — within 0.5 px of blur, the same grey levels,
+  0.2–1 % of the scene's range of noise, whole counts — where misregistration, not the
+  simulator, limits PSNR.
+
+Frames:
 
 - ``640×512 Lepton↑``: a 160×120 Lepton frame upscaled ×4 (cubic spline) — smooth at this scale;
 - ``640×512 XT-R``: a native 640×512 DJI Zenmuse XT-R frame (lightly smoothed, σ = 0.7 px,
   so that the known transform is exact up to the resampling error of a 5th-order spline);
+- ``640×512 Duo Pro R``: a native 640×512 FLIR Duo Pro R frame, a low-contrast scene (116
+  counts from coldest to hottest; σ = 0.7 px as above);
 - ``160×120 Lepton``: the Lepton frame itself (σ = 0.7 px).
 
 Transforms: shifts up to ±8 px (±4 px at 160×120); rigid adds a rotation within ±3°; similarity
 adds a scale within ±2 %. The error of a result is the worst displacement over the four frame
-corners between the found and the true map (pixels).
+corners between the found and the true map (pixels). Its *PSNR cost* is what it does to the
+metrics: the PSNR of the real frame against the simulated one registered by the found map,
+minus the same with the true map (both after the least-squares grey-level gain and offset;
+the largest absolute difference over the cases, in dB).
 
 Peers: scikit-image ``phase_cross_correlation`` (upsample_factor 10 and 100; and 100 on
 Hann-windowed frames) and OpenCV
@@ -25,7 +38,8 @@ Rust pool, OpenCV, OpenBLAS/OpenMP behind numpy and scikit-image) and the time i
 CPU time — core-for-core ratios that a busy machine disturbs little. ``--threads N`` lets every
 library use N threads and measures wall time instead.
 
-Usage: ``python benches/bench_register.py [--quick] [--repeat R] [--threads N] [--docs]``.
+Usage: ``python benches/bench_register.py [--quick] [--repeat R] [--threads N] [--models M,...]
+[--simulators S,...] [--docs]``.
 The table goes to bench-out/registration.md, the error-vs-time figure to
 bench-out/registration.png (``--docs``: docs/registration.png). The "Registration" section of
 docs/performance.md gives the ranges over several runs of this table.
@@ -63,25 +77,32 @@ CLOCK = time.process_time if THREADS == 1 else time.perf_counter
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benches"))
 
-from registration_cases import METHODS, run  # noqa: E402
+from registration_cases import METHODS, SIMULATORS, run  # noqa: E402
+
+
+def group(row) -> tuple[str, str, str]:
+    """The cases a row was measured on: frame, simulator, model."""
+    return row["frame"], row["simulator"], row["model"]
 
 
 def ratios(rows):
-    """Time ratio of each peer to ``irfidelity phase`` on the same frame and model."""
-    ref = {(r["frame"], r["model"]): r["time_ms"] for r in rows if r["method"] == "irfidelity phase"}
-    return {(r["frame"], r["model"], r["method"]): r["time_ms"] / ref[(r["frame"], r["model"])] for r in rows}
+    """Time ratio of each method to ``irfidelity phase`` on the same cases."""
+    ref = {group(r): r["time_ms"] for r in rows if r["method"] == "irfidelity phase"}
+    return {(*group(r), r["method"]): r["time_ms"] / ref[group(r)] for r in rows}
 
 
 def table(rows) -> str:
     rat = ratios(rows)
-    out = ["| frames | model | method | worst corner error (px) | median (px) | time / call (ms) | time ÷ irfidelity phase |",
-           "|---|---|---|---|---|---|---|"]
+    out = ["| frames | simulator | model | method | worst corner error (px) | median (px) | worst PSNR cost (dB) "
+           "| time / call (ms) | time ÷ irfidelity phase |",
+           "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         err = "failed" if np.isinf(r["worst"]) else f"{r['worst']:.3f}"
         if r["failed"] and not np.isinf(r["median"]):
             err += f" ({r['failed']} failed)"
-        out.append(f"| {r['frame']} | {r['model']} | {r['method']} | {err} | {r['median']:.3f} | {r['time_ms']:.1f} | "
-                   f"{rat[(r['frame'], r['model'], r['method'])]:.2f} |")
+        cost = "–" if np.isinf(r["psnr_cost"]) else f"{r['psnr_cost']:.3f}"
+        out.append(f"| {r['frame']} | {r['simulator']} | {r['model']} | {r['method']} | {err} | {r['median']:.3f} | {cost} "
+                   f"| {r['time_ms']:.1f} | {rat[(*group(r), r['method'])]:.2f} |")
     return "\n".join(out)
 
 
@@ -92,22 +113,22 @@ def figure(rows, path):
     import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
 
-    frames_ = list(dict.fromkeys(r["frame"] for r in rows))
-    models = list(METHODS)
+    frames_ = list(dict.fromkeys((r["frame"], r["simulator"]) for r in rows))
+    models = list(dict.fromkeys(r["model"] for r in rows))
     fig, axes = plt.subplots(len(frames_), len(models), figsize=(4.2 * len(models), 3.4 * len(frames_)), squeeze=False)
     styles = {"irfidelity phase": ("o", "C0"), "irfidelity auto": ("s", "C1"), "skimage pcc ×10": ("v", "C2"),
               "skimage pcc ×100": ("^", "C3"), "skimage pcc ×100 Hann": ("<", "C7"), "OpenCV phaseCorrelate": ("D", "C4"), "OpenCV ECC euclidean": ("P", "C5"),
               "OpenCV ECC affine": ("X", "C6")}
-    for i, f in enumerate(frames_):
+    for i, (f, simulator) in enumerate(frames_):
         for j, mo in enumerate(models):
             ax = axes[i][j]
             for r in rows:
-                if r["frame"] == f and r["model"] == mo:
+                if group(r) == (f, simulator, mo):
                     marker, color = styles[r["method"]]
                     worst = r["worst"] if np.isfinite(r["worst"]) else 100.0
                     ax.loglog(r["time_ms"], worst, marker, color=color, label=r["method"], ms=8)
                     ax.loglog(r["time_ms"], max(r["median"], 1e-4), marker, color=color, ms=5, alpha=0.4)
-            ax.set_title(f"{f}, {mo}", fontsize=9)
+            ax.set_title(f"{f}, {simulator} simulator, {mo}", fontsize=9)
             ax.set_xlabel("time per call (ms)")
             ax.set_ylabel("corner error (px)")
             ax.xaxis.set_minor_formatter(NullFormatter())
@@ -116,8 +137,16 @@ def figure(rows, path):
             ax.legend(fontsize=7)
     fig.suptitle("Registration: worst corner error (large marker; median faint) against time per call; "
                  "failed = 100 px", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.4 / fig.get_figheight()))  # room for the title
+    fig.savefig(path, dpi=72)
+
+
+def choose(ap, flag: str, given: str, known) -> tuple[str, ...]:
+    """The comma-separated names of ``given``, each one of ``known`` (else a usage error)."""
+    names = tuple(name for name in given.split(",") if name)
+    if not names or set(names) - set(known):
+        ap.error(f"{flag}: expected some of {','.join(known)}, got {given!r}")
+    return names
 
 
 def main():
@@ -126,12 +155,18 @@ def main():
     ap.add_argument("--cases", type=int, default=None, help="cases per frame and model (default 8)")
     ap.add_argument("--repeat", type=int, default=None, help="timed calls per case, best kept (default 3; quick 1)")
     ap.add_argument("--threads", type=int, default=1, help="threads for every library (default 1: CPU time, core for core)")
+    ap.add_argument("--models", default=",".join(METHODS),
+                    help=f"comma-separated models to run (default all: {','.join(METHODS)})")
+    ap.add_argument("--simulators", default=",".join(SIMULATORS),
+                    help=f"comma-separated simulated-frame kinds (default all: {','.join(SIMULATORS)})")
     ap.add_argument("--docs", action="store_true", help="write the figure to docs/registration.png")
     args = ap.parse_args()
+    models = choose(ap, "--models", args.models, METHODS)
+    simulators = choose(ap, "--simulators", args.simulators, SIMULATORS)
     n = args.cases or (3 if args.quick else 8)
     repeat = args.repeat or (2 if args.quick else 3)
     cv2.setRNGSeed(0)
-    rows = run(n, repeat, CLOCK)
+    rows = run(n, repeat, CLOCK, models=models, simulators=simulators)
     md = table(rows)
     print()
     print(md)

@@ -14,6 +14,11 @@ selector byte (decode options, see ``fuzz/src/lib.rs``) followed by a file:
   predictors, several pages; hostile: 16384² float64 RGBA in one strip, a single deflate strip
   of gigabytes, zero rows per strip, 0-sized tiles, offsets past the end, lying byte counts;
 
+* FLIR FFF/SEQ: raw counts in both byte orders, byte-swapped PNG, TIFF, JPEG-LS (CSQ), a
+  run of frames; hostile: a raw image claiming 65535², zeroed and short records, absurd Planck
+  constants, 100,000 directory entries, a bad version, trailing junk;
+* radiometric JPEG: the same frames in FLIR APP1 segments, reordered, missing, none;
+
 plus the small real files of ``tests/data``. Block seeds (``exr_piz_block``, ``exr_zip_block``)
 are the real PIZ and ZIP blocks of the EXR files in ``tests/data``, behind the 4-byte block
 header ``fuzz/src/lib.rs`` reads (width, height, channel sizes, selected channel).
@@ -431,6 +436,111 @@ def tiff_seeds() -> dict[str, bytes]:
 # ----------------------------------------------------------------------------------- main
 
 
+# ------------------------------------------------------------------------------ FLIR FFF / R-JPEG
+
+
+def fff(records, big_endian=False, version=100, entries=None) -> bytes:
+    """An FFF frame: 64-byte header, directory, then `records` ((type, body), in order); each
+    record's own first word (its byte order) is part of its body."""
+    e = ">" if big_endian else "<"
+    n = len(records) if entries is None else entries
+    head = bytearray(64)
+    head[:4] = b"FFF\0"
+    head[4:8] = b"FLIR"
+    head[20:32] = struct.pack(e + "III", version, 64, n)
+    pos = 64 + 32 * len(records)
+    directory = b""
+    for kind, body in records:
+        directory += struct.pack(e + "HHIIII", kind, 1, 100, 1, pos, len(body)) + bytes(12)
+        pos += len(body)
+    return bytes(head) + directory + b"".join(body for _, body in records)
+
+
+def raw_record(w, h, image: bytes, order="<") -> bytes:
+    return struct.pack(order + "HHH", 2, w, h) + bytes(26) + image
+
+
+def camera_record(order="<", r2=0.0125, b=1428.0, emissivity=0.95, length=0x468) -> bytes:
+    rec = bytearray(length)
+    fields = {0x20: emissivity, 0x24: 1.0, 0x28: 293.15, 0x2C: 293.15, 0x30: 293.15, 0x34: 1.0, 0x3C: 0.5,
+              0x58: 17096.0, 0x5C: b, 0x60: 1.0, 0x70: 0.006569, 0x74: 0.01262, 0x78: -0.002276, 0x7C: -0.00667,
+              0x80: 1.9, 0x30C: r2}
+    rec[0:2] = struct.pack(order + "H", 2)
+    for at, value in fields.items():
+        if at + 4 <= length:
+            rec[at:at + 4] = struct.pack(order + "f", value)
+    if 0x30C <= length:
+        rec[0x308:0x30C] = struct.pack(order + "i", -370)
+    if 0x38E <= length:
+        rec[0x384:0x38E] = struct.pack(order + "IIh", 1541416483, 84, -60)
+    rec[0xD4:0xDD] = b"Duo Pro R"
+    return bytes(rec[:length])
+
+
+def flir_small_frames() -> dict[str, bytes]:
+    w, h = 8, 6
+    counts = [(x * 37 + y * 11 + 2600) & 0xFFFF for y in range(h) for x in range(w)]
+    le = b"".join(struct.pack("<H", c) for c in counts)
+    be_rows = b"".join(b"\0" + b"".join(struct.pack(">H", c) for c in counts[y * w:(y + 1) * w]) for y in range(h))
+    swapped_rows = b"".join(b"\0" + b"".join(struct.pack("<H", c) for c in counts[y * w:(y + 1) * w]) for y in range(h))
+    tiff_image = tiff([grey_page(w, h)])
+    cam = camera_record()
+    frames = {
+        "raw_le": fff([(1, raw_record(w, h, le)), (0x20, cam)]),
+        "raw_be_dir": fff([(0x20, camera_record(">")), (1, raw_record(w, h, le))], big_endian=True),
+        "raw_be_record": fff([(1, raw_record(w, h, b"".join(struct.pack(">H", c) for c in counts), ">"))]),
+        "png_swapped": fff([(1, raw_record(w, h, png(w, h, 16, 0, swapped_rows))), (0x20, cam)]),
+        "png_be": fff([(1, raw_record(w, h, png(w, h, 16, 0, be_rows), ">"))]),
+        "png_rgb": fff([(1, raw_record(w, h, png(w, h, 8, 2, png_rows(w, h, 8, 2))))]),
+        "tiff": fff([(1, raw_record(w, h, tiff_image))]),
+        "csq_jpegls": fff([(1, raw_record(w, h, b"\xff\xd8\xff\xf7" + bytes(40)))]),
+        # hostile
+        "huge_claim": fff([(1, raw_record(65535, 65535, le))]),
+        "zeroed_raw": fff([(1, bytes(32) + le)]),
+        "zeroed_camera": fff([(1, raw_record(w, h, le)), (0x20, bytes(0x468))]),
+        "short_camera": fff([(1, raw_record(w, h, le)), (0x20, camera_record(length=0x100))]),
+        "bad_planck": fff([(1, raw_record(w, h, le)), (0x20, camera_record(r2=0.0, b=-1.0, emissivity=7.0))]),
+        "many_entries": fff([(1, raw_record(w, h, le))], entries=100000),
+        "bad_version": fff([(1, raw_record(w, h, le))], version=7),
+        "short_record": fff([(1, raw_record(w, h, le))])[:-5],
+        "dims_mismatch": fff([(1, raw_record(w + 1, h, png(w, h, 16, 0, be_rows), ">"))]),
+    }
+    frames["seq"] = frames["raw_le"] + frames["raw_be_dir"] + frames["png_swapped"]
+    frames["seq_junk"] = frames["raw_le"] + b"FFF\0" + bytes(70)
+    return frames
+
+
+def fff_seeds() -> dict[str, bytes]:
+    seeds = flir_small_frames()
+    for name in ("flirpy_frame_000000.fff", "flirpy_frame_000000_le.fff"):
+        real = (DATA / "radiometric" / name).read_bytes()
+        seeds[f"real_{name}_head"] = real[:4096]  # header, directory, first counts: truncated
+    return seeds
+
+
+def jpeg_with(fff_frame: bytes, segment=4000, order=None) -> bytes:
+    """A JPEG carrying `fff_frame` in FLIR APP1 segments (in `order` of indices), no image."""
+    parts = [fff_frame[i:i + segment] for i in range(0, len(fff_frame), segment)] or [b""]
+    last = len(parts) - 1
+    segs = [b"\xff\xe1" + struct.pack(">H", len(p) + 10) + b"FLIR\0\x01" + bytes([i, last]) + p
+            for i, p in enumerate(parts)]
+    order = range(len(segs)) if order is None else order
+    app0 = b"\xff\xe0" + struct.pack(">H", 16) + b"JFIF\0\x01\x01" + bytes(7)
+    return b"\xff\xd8" + app0 + b"".join(segs[i] for i in order) + b"\xff\xda\x00\x02\xff\xd9"
+
+
+def rjpeg_seeds() -> dict[str, bytes]:
+    frames = flir_small_frames()
+    seeds = {f"jpeg_{k}": jpeg_with(v, segment=64) for k, v in frames.items() if not k.startswith("seq")}
+    seeds["jpeg_reordered"] = jpeg_with(frames["png_swapped"], segment=100, order=[2, 0, 1, 3, 4, 5])
+    seeds["jpeg_missing"] = jpeg_with(frames["raw_le"], segment=100, order=[0, 2])
+    seeds["jpeg_plain"] = b"\xff\xd8\xff\xe0\x00\x10JFIF\x00\x01\x01" + bytes(7) + b"\xff\xd9"
+    for name in ("readthermal_flir_ax8.jpg", "readthermal_flir_example.jpg"):
+        real = (DATA / "radiometric" / name).read_bytes()
+        seeds[f"real_{name}_head"] = real[:8192]
+    return seeds
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "seeds")
@@ -441,6 +551,8 @@ def main() -> None:
         "decode_tiff": tiff_seeds(),
         "exr_piz_block": block_seeds({PIZ}),
         "exr_zip_block": block_seeds({ZIP, ZIPS}),
+        "decode_fff": fff_seeds(),
+        "decode_rjpeg": rjpeg_seeds(),
     }
     for target, seeds in targets.items():
         d = args.out / target

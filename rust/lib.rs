@@ -9,6 +9,7 @@ pub mod io;
 pub mod kernel;
 pub mod maps;
 pub mod noise;
+pub mod radiometry;
 pub mod register;
 pub mod sequence;
 pub mod stats;

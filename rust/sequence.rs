@@ -29,6 +29,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use crate::fingerprint::{self, Fingerprint};
 use crate::hist::Entropies;
 use crate::io::{self, DecodeOptions, Frame, FrameData};
 use crate::kernel::Sample;
@@ -80,6 +81,9 @@ pub struct SeqRequest {
     /// Registration: the simulated frame is resampled onto the real one and only the
     /// overlap is scored (both frames as float64).
     pub warp: Option<Warp>,
+    /// Fingerprint both input files of every pair, in the same read as the decode
+    /// ([`crate::fingerprint`]; [`PairOutcome::fingerprints`]).
+    pub fingerprint: bool,
 }
 
 /// How pairs are registered before scoring.
@@ -224,6 +228,7 @@ impl Default for SeqRequest {
             max_pixels: io::DEFAULT_MAX_PIXELS,
             max_bytes: None,
             warp: None,
+            fingerprint: false,
         }
     }
 }
@@ -245,6 +250,9 @@ pub struct PairOutcome {
     pub real_extent: Option<(f64, f64)>,
     /// The pair's own registration ([`Warp::Each`]), when it was found.
     pub registration: Option<register::Registration>,
+    /// With [`SeqRequest::fingerprint`]: the fingerprints of the real and the simulated file,
+    /// of the bytes decoded; None when a file changed while it was decoded.
+    pub fingerprints: Option<(Fingerprint, Fingerprint)>,
 }
 
 /// (min, max) over the finite values; None when there are none.
@@ -304,14 +312,34 @@ fn prefix(err: Error, what: &str) -> Error {
     }
 }
 
-fn decode(src: &Source, channel: &Option<String>, req: &SeqRequest) -> Result<Frame> {
+/// Files up to this share of the decoding budget are read whole, hashed and decoded from
+/// memory when fingerprints are asked for (the buffer is held beside the decode).
+const WHOLE_FILE_SHARE: u64 = 8;
+
+/// Decode a frame and, with [`SeqRequest::fingerprint`], fingerprint the bytes decoded: a
+/// first page held in memory is hashed as read; a later page of a stack, or a file beyond
+/// the in-memory share, gets the digest taken before decoding if the file did not change
+/// meanwhile (the module notes of [`crate::fingerprint`]).
+fn decode(src: &Source, channel: &Option<String>, req: &SeqRequest) -> Result<(Frame, Option<Fingerprint>)> {
     let opts = DecodeOptions {
         channel: channel.clone(),
         max_pixels: req.max_pixels,
         max_bytes: req.max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES),
         page: src.page,
     };
-    io::decode_frame(&src.path, &opts)
+    if !req.fingerprint {
+        return Ok((io::decode_frame(&src.path, &opts)?, None));
+    }
+    if src.page == 0 {
+        if let Some((bytes, fp)) = fingerprint::read_whole(&src.path, opts.max_bytes / WHOLE_FILE_SHARE)? {
+            let frame = io::decode_bytes(&bytes, &src.path.display().to_string(), &opts)?;
+            return Ok((frame, Some(fp)));
+        }
+    }
+    let before = fingerprint::digest_before(&src.path);
+    let frame = io::decode_frame(&src.path, &opts)?;
+    let fp = before.filter(|(state, _)| fingerprint::unchanged(&src.path, state)).map(|(_, fp)| fp);
+    Ok((frame, fp))
 }
 
 /// What every registered pair must satisfy before its frames become floats: one sample type,
@@ -360,15 +388,17 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
         entropies: None,
         real_extent: None,
         registration: None,
+        fingerprints: None,
     };
     let body = || -> Result<PairStats> {
-        let r = decode(real, &req.real_channel, req)?;
+        let (r, real_fp) = decode(real, &req.real_channel, req)?;
         out.shape = Some((r.rows, r.cols));
         out.dtype = Some(r.data.dtype_name());
         if req.real_extent && req.warp.is_none() {
             out.real_extent = extent(&r.data);
         }
-        let s = decode(sim, &req.sim_channel, req)?;
+        let (s, sim_fp) = decode(sim, &req.sim_channel, req)?;
+        out.fingerprints = real_fp.zip(sim_fp);
         let what = || format!("{} vs {}", real.label(), sim.label());
         if (r.rows, r.cols) != (s.rows, s.cols) {
             return Err(Error::Shape(format!(
@@ -908,6 +938,23 @@ mod tests {
         stream.finish().unwrap();
         idx.sort_unstable();
         assert_eq!(idx, (0..n).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn fingerprints_are_of_the_files_decoded() {
+        // a first page read whole, and later pages of a stack hashed before decoding
+        let png = |i: usize| Source::new(data(&format!("thermal/cptv_v2_frame{i:03}.png")), 0);
+        let real = vec![png(0), Source::new(data(STACK), 0), Source::new(data(STACK), 7)];
+        let sim = vec![png(1), Source::new(data(STACK), 3), Source::new(data(STACK), 9)];
+        let req = SeqRequest { fingerprint: true, ..sse_only() };
+        for o in collect(&real, &sim, &req, 2) {
+            let (r, s) = o.fingerprints.expect("both files fingerprinted");
+            for (fp, src) in [(r, &real[o.index]), (s, &sim[o.index])] {
+                assert_eq!(fp.digest, fingerprint::file_digest(&src.path).unwrap());
+                assert_eq!(fp.size, std::fs::metadata(&src.path).unwrap().len());
+            }
+        }
+        assert!(collect(&real, &sim, &sse_only(), 1).iter().all(|o| o.fingerprints.is_none()));
     }
 
     #[test]

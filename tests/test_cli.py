@@ -84,7 +84,7 @@ def test_edges_and_curves(tmp_path):
     (["score", REAL, SIM, "--bits", "12"], ["outside the valid range", REAL]),
     (["score", REAL, SIM, "--bits", "x"], ["--bits"]),
     (["score", REAL, SIM, "--bins", "0"], ["--bins"]),
-    (["score", REAL, SIM, "--bits", "14", "--peak", "3"], ["--peak", "bits"]),
+    (["score", REAL, SIM, "--bits", "12", "--peak", "3"], ["outside the valid range", REAL]),  # bits still bound
     (["score", REAL, SIM, "--real-mtf", "a.csv"], ["--sim-mtf", "--sim-edge"]),
     (["score", REAL, SIM, "--real-edge", "a.png", "--real-mtf", "b.csv"], ["--real-mtf", "--real-edge"]),
     (["score", REAL, SIM, "--real-sitf-columns", "T,counts"], ["--real-sitf-columns", "--real-sitf"]),

@@ -305,7 +305,6 @@ def test_bad_arguments_are_fidelity_errors():
     a = np.zeros((3, 4), dtype=np.uint16)
     for kwargs in (
         dict(bits=17),
-        dict(bits=12, peak=4095),
         dict(bins=0),
         dict(bins="many"),
         dict(hist_range="wide"),

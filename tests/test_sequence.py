@@ -174,8 +174,8 @@ def test_only_the_plan_is_computed(lepton):
     # the engine itself skips moments and histograms
     out = _core.score_pairs([str(real_path)], [str(real_path)], [0], [1],
                             request=KernelRequest(sse=True, moments=False, bins=None))
-    (_, st, err, shape, dtype, extent, registration), = out
-    assert extent is None and registration is None  # not asked for
+    (_, st, err, shape, dtype, extent, registration, fingerprints), = out
+    assert extent is None and registration is None and fingerprints is None  # not asked for
     assert err is None and st.has_sse and not st.has_moments and not st.has_hist
 
 
@@ -392,6 +392,9 @@ def test_dask_local_cluster_gives_identical_results(lepton, tmp_path):
     assert remote.frames == local.frames
     assert remote.metrics == local.metrics and remote.fidelity == local.fidelity
     assert sorted(int(r["index"]) for r in _rows(out)) == list(range(100))
+    # the workers fingerprinted the files they decoded: a resume trusts their records
+    resumed = score_sequence(real_path, sim_path, bits=14, hist_range="full", csv=out, resume=True, progress=False)
+    assert resumed.run["resumed"] == 100 and resumed.frames == local.frames and resumed.notes == local.notes
 
 
 _SIGINT_SCRIPT = textwrap.dedent(

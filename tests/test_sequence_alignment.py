@@ -17,6 +17,7 @@ import scipy.ndimage as ndi
 
 import irfidelity as irf
 from irfidelity.errors import FidelityError
+from irfidelity.registration import DEFAULT_METHOD
 from irfidelity.report import render_sequence_html
 
 DATA = pathlib.Path(__file__).parent / "data" / "thermal"
@@ -78,7 +79,7 @@ def test_every_pair_is_registered_on_its_own_and_scored_as_evaluate_scores_it(tm
     summary = from_files.registration
     assert summary["each"] and summary["frames"] == 6 and summary["model"] == "translation"
     assert summary["shift_dx"]["min"] == min(f["registration"]["shift"][1] for f in from_files.frames)
-    assert "registration per frame (translation, auto): 6 frames" in from_files.summary_text()
+    assert f"registration per frame (translation, {DEFAULT_METHOD}): 6 frames" in from_files.summary_text()
     rows = list(csv.DictReader(open(tmp_path / "f.csv")))
     assert [float(r["reg_dx"]) for r in rows] == [f["registration"]["shift"][1] for f in from_files.frames]
     assert all(float(r["reg_confidence"]) > 0.5 for r in rows)
@@ -176,10 +177,18 @@ def test_the_delay_between_two_sequences_is_found_and_frames_paired_by_it(delay,
     real, sim = panning(60, delay, view_shift)
     rep = quietly(irf.score_sequence, real, sim, max_delay=5, peak="range", progress=False)
     assert rep.delay["frames"] == delay and rep.delay["confidence"] > 0.5
-    assert len(rep.frames) == 60 - abs(delay) and not rep.failed
+    paired = [f for f in rep.frames if f["index"] not in rep.unpaired]
+    assert len(paired) == 60 - abs(delay) and not rep.failed
     assert len(rep.delay["unpaired"]["real"]) == len(rep.delay["unpaired"]["sim"]) == abs(delay)
+    # the frames the delay leaves at the ends are rows with the reason, not failures
+    assert len(rep.frames) == 60 + abs(delay) and len(rep.unpaired) == 2 * abs(delay)
+    for i in rep.unpaired:
+        f = rep.frames[i]
+        missing = "simulated" if f["sim"] is None else "real"
+        assert f["error"] == f"{f['real'] or f['sim']}: no {missing} frame pairs with it at delay {delay:+d}"
+        assert f["fidelity"] is None and f["real"] in rep.delay["unpaired"]["real"] + [None]
     # every pair is the right one: the pair scored alone gives the same numbers
-    first = rep.frames[0]
+    first = paired[0]
     real_index, sim_index = (0, delay) if delay >= 0 else (-delay, 0)
     assert (first["real"], first["sim"]) == (f"[{real_index}]", f"[{sim_index}]")
     alone = quietly(irf.evaluate, real[real_index], sim[sim_index], peak="range")
@@ -218,10 +227,33 @@ def test_delay_and_registration_together_from_files_on_the_cli(tmp_path):
     assert p.returncode == 0, p.stderr
     d = json.loads(out.read_text())
     assert d["delay"]["frames"] == 2 and d["run"]["pair_by"] == "delay"
-    assert len(d["frames"]) == 38 and not d["failed"]
+    # exit status 0: every paired frame scored; the 4 frames left at the ends are rows, not failures
+    assert len(d["frames"]) == 42 and not d["failed"] and d["unpaired"] == [38, 39, 40, 41]
     assert d["frames"][0]["real"] == "real_000.png" and d["frames"][0]["sim"] == "render_002.png"
     dy, dx = d["registration"]["shift"]
     assert abs(dy - 1.5) < 0.1 and abs(dx + 2.0) < 0.1
-    assert "delay: +2 frames" in p.stdout
+    assert "delay: +2 frames" in p.stdout and "38 scored, 0 failed, 4 without a partner at the delay" in p.stdout
     rows = list(csv.DictReader(open(tmp_path / "f.csv")))
-    assert len(rows) == 38 and {r["reg_dy"] for r in rows} == {repr(dy)}
+    assert len(rows) == 42 and {r["reg_dy"] for r in rows[:38]} == {repr(dy)}
+    assert [(r["real"], r["sim"], r["error"], r["fidelity"]) for r in rows[38:]] == [
+        ("real_038.png", "", "real_038.png: no simulated frame pairs with it at delay +2", ""),
+        ("real_039.png", "", "real_039.png: no simulated frame pairs with it at delay +2", ""),
+        ("", "render_000.png", "render_000.png: no real frame pairs with it at delay +2", ""),
+        ("", "render_001.png", "render_001.png: no real frame pairs with it at delay +2", "")]
+
+
+def test_thin_frames_find_their_delay_and_too_small_ones_are_refused(tmp_path):
+    real, sim = panning(60, 3)
+    line_real, line_sim = real[:, 64:65, :], sim[:, 64:65, :]  # a line-scan camera: 1 x 160 frames
+    rep = quietly(irf.score_sequence, line_real, line_sim, max_delay=5, peak="range", progress=False)
+    assert rep.delay["frames"] == 3 and not rep.failed
+    tiny = real[:, 64:65, 10:13]  # 1 x 3: nothing left to compare once offset and gain are out
+    with pytest.raises(FidelityError, match=r"the real frames of 1 x 3 pixels are too small to compare") as err:
+        irf.score_sequence(tiny, tiny, max_delay=2, progress=False)
+    assert err.value.option == "max_delay"
+    write_pngs(tmp_path / "real", tiny)
+    write_pngs(tmp_path / "sim", tiny)
+    p = subprocess.run([sys.executable, "-m", "irfidelity.cli", "score", tmp_path / "real", tmp_path / "sim",
+                        "--max-delay", "2", "--no-progress"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 2
+    assert p.stderr.count("\n") == 1 and "too small to compare" in p.stderr and "Traceback" not in p.stderr

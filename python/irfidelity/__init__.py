@@ -11,6 +11,7 @@ module: :mod:`irfidelity.curves` (MTF, slanted edge, SiTF, curve similarity),
 """
 
 from . import curves, fuzzy
+from . import targets
 from .config import ScoringConfig
 from .curves import Curve
 from .errors import FidelityError, FidelityWarning, FrameError, RangeError, RegistrationError, ShapeError
@@ -20,6 +21,7 @@ from .fuzzy import Weights
 from .maps import SSIMMap, ms_ssim, ssim_map
 from .noise import Noise3D, NoiseWarning, noise3d, noise_similarity
 from .results import FidelityReport
+from .radiometry import Radiometry, read_radiometry
 from .registration import Registration, RegistrationWarning, register
 from .sequence import SequenceReport, score_sequence
 from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
@@ -45,6 +47,9 @@ __all__ = [
     "load_frame",
     "FrameSequence",
     "Curve",
+    # physical units (docs/radiometry.md)
+    "read_radiometry",
+    "Radiometry",
     # where frames differ
     "ssim_map",
     "SSIMMap",

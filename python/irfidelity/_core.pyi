@@ -29,13 +29,16 @@ __all__ = [
     "ms_ssim",
     "noise_sums_array",
     "noise_sums_paths",
-    "page_count",
+    "page_chain",
     "pair_stats",
     "plain_moments",
     "plain_mse",
+    "radiometric_conversion",
+    "read_camera_info",
     "register_frames",
     "score_pairs",
     "ssim_map",
+    "tiff_ifds_read",
     "warp_frame",
 ]
 
@@ -98,8 +101,15 @@ def load_frame(
     *,
     max_bytes: int | None = None,
 ) -> npt.NDArray[Any]: ...
-def page_count(path: str | os.PathLike[str]) -> int: ...
+def page_chain(path: str | os.PathLike[str]) -> tuple[int, str | None]: ...
+def tiff_ifds_read() -> int: ...
 def list_channels(path: str | os.PathLike[str]) -> list[str]: ...
+def read_camera_info(
+    path: str | os.PathLike[str], page: int = 0, *, max_bytes: int | None = None
+) -> dict[str, Any]: ...
+def radiometric_conversion(
+    values: npt.NDArray[Any], calibration: Any, unit: str, inverse: bool
+) -> tuple[npt.NDArray[np.float64], int, int]: ...
 def default_max_pixels() -> int: ...
 def default_max_bytes() -> int: ...
 
@@ -108,9 +118,12 @@ def default_max_bytes() -> int: ...
 #: A pair's own registration (``request.register_each``): matrix (6 floats, row-major),
 #: method used, confidence, overlap, inverted.
 _PairRegistration = tuple[tuple[float, float, float, float, float, float], str, float, float, bool]
-#: ``(index, stats, error, shape, dtype, real extent, registration)``.
+#: A file's fingerprint: size, modification time (ns), XXH3-64 of the bytes decoded.
+_FileFingerprint = tuple[int, int, int]
+#: ``(index, stats, error, shape, dtype, real extent, registration, fingerprints)``.
 _PairOutcome = tuple[int, PairStats | None, str | None, tuple[int, int] | None, str | None,
-                    tuple[float, float] | None, _PairRegistration | None]
+                    tuple[float, float] | None, _PairRegistration | None,
+                    tuple[_FileFingerprint, _FileFingerprint] | None]
 
 def score_pairs(
     real_paths: list[str | os.PathLike[str]],
@@ -122,6 +135,7 @@ def score_pairs(
     workers: int = 0,
     progress: Callable[[int], Any] | None = None,
     on_result: Callable[[list[Any]], Any] | None = None,
+    fingerprints: bool = False,
 ) -> list[_PairOutcome] | None: ...
 def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats | None, bool]: ...
 

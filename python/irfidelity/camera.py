@@ -64,36 +64,43 @@ def describe_input(x: Any) -> Any:
     return type(x).__name__
 
 
-def _edge_curve(image: Any, what: str, config: ScoringConfig) -> Curve:
+def _edge_curve(image: Any, what: str, channel: str | None, config: ScoringConfig) -> Curve:
+    """The MTF of a slanted-edge image (an array, or a file read with ``channel``)."""
     from .curves import mtf_from_edge
-    from .frames import load_frame
 
-    source = os.fspath(image) if isinstance(image, (str, os.PathLike)) else None
-    if source is not None:
-        image = load_frame(source, channel=config.edge_channel)
+    is_file = isinstance(image, (str, os.PathLike))
     try:
-        return mtf_from_edge(image, name=what, edge_fit_order=config.edge_fit_order)
+        return mtf_from_edge(image, name=what, edge_fit_order=config.edge_fit_order,
+                             channel=channel if is_file else None)
     except FidelityError as exc:
-        raise FidelityError(f"{what}{f' ({source})' if source else ''}: {exc}") from None
+        raise type(exc)(f"{what}: {exc}", option=exc.option) from None
 
 
-def as_curve(x: Any, what: str, config: ScoringConfig, *, edge_ok: bool) -> Curve:
-    """A Curve from a Curve, an (x, y) pair, a CSV path, or (MTF only) an edge image/path."""
+def edge_channel(config: ScoringConfig, side: str) -> str | None:
+    """The channel of one side's slanted-edge image files (``side``: "real" or "sim"): its own
+    (``real_edge_channel``, ``sim_edge_channel``), else ``edge_channel``."""
+    own = config.real_edge_channel if side == "real" else config.sim_edge_channel
+    return own if own is not None else config.edge_channel
+
+
+def as_curve(x: Any, what: str, config: ScoringConfig, *, edge_side: str | None) -> Curve:
+    """A Curve from a Curve, an (x, y) pair, a CSV path, or (MTF only: ``edge_side`` "real" or
+    "sim") a slanted-edge image, an array or a path read with that side's edge channel."""
     if isinstance(x, Curve):
         return x
     if isinstance(x, (str, os.PathLike)):
         path = os.fspath(x)
-        if path.lower().endswith(_CURVE_EXTENSIONS):
+        if os.fsdecode(path).lower().endswith(_CURVE_EXTENSIONS):
             return Curve.from_csv(path, name=what)
-        if not edge_ok:
+        if edge_side is None:
             raise FidelityError(f"{what}: {path!r} is not a curve file ({', '.join(_CURVE_EXTENSIONS)})")
-        return _edge_curve(path, what, config)
-    if isinstance(x, np.ndarray) and x.ndim == 2 and edge_ok and min(x.shape) > 2:
-        return _edge_curve(x, what, config)
+        return _edge_curve(path, what, edge_channel(config, edge_side), config)
+    if isinstance(x, np.ndarray) and x.ndim == 2 and edge_side is not None and min(x.shape) > 2:
+        return _edge_curve(x, what, None, config)
     try:
         cx, cy = x
     except (TypeError, ValueError):
-        kinds = "a Curve, an (x, y) pair, a CSV path" + (" or an edge image (array or path)" if edge_ok else "")
+        kinds = "a Curve, an (x, y) pair, a CSV path" + (" or an edge image (array or path)" if edge_side else "")
         raise FidelityError(f"{what} must be {kinds}, got {type(x).__name__}") from None
     return Curve(cx, cy, name=what)
 
@@ -129,8 +136,8 @@ def _compare(kind: str, inputs: CameraInputs, config: ScoringConfig) -> tuple[fl
     if kind == "noise":
         return _compare_noise(inputs, config)
     real_in, sim_in = getattr(inputs, f"real_{kind}"), getattr(inputs, f"sim_{kind}")
-    real = as_curve(real_in, f"real {kind.upper()}", config, edge_ok=kind == "mtf")
-    sim = as_curve(sim_in, f"simulated {kind.upper()}", config, edge_ok=kind == "mtf")
+    real = as_curve(real_in, f"real {kind.upper()}", config, edge_side="real" if kind == "mtf" else None)
+    sim = as_curve(sim_in, f"simulated {kind.upper()}", config, edge_side="sim" if kind == "mtf" else None)
     if kind == "mtf":
         camera = CameraGeometry(ifov_mrad=config.ifov_mrad, pixel_pitch_um=config.pixel_pitch_um,
                                 focal_length_mm=config.focal_length_mm)

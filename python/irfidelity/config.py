@@ -13,80 +13,21 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import os
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from .config_fields import (MISSING_MODES, NONFINITE_MODES, PAIRING_RULES, REGISTRATION_METHODS, REGISTRATION_MODELS,
+                            ConfigError, bins_value, choice, curve_options, finite_numbers, grade_scale,
+                            hist_range_value, optional_int, optional_name, optional_positive, pairs, peak_value)
+from .config_file import read_config, toml_document
 from .errors import FidelityError
 from .fuzzy import GradeScale, Weights
 from .normalize import DEFAULT_PSNR_ANCHORS, psnr_curve_params
+from .registration import DEFAULT_METHOD
 
 __all__ = ["ScoringConfig", "MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "PAIRING_RULES"]
-
-MISSING_MODES = ("renormalize", "raise")
-NONFINITE_MODES = ("raise", "mask")
-REGISTRATION_MODELS = ("translation", "rigid", "similarity")
-REGISTRATION_METHODS = ("auto", "phase", "nmi")
-PAIRING_RULES = ("auto", "name", "order")
-PEAK_RULES = ("range",)
-
-
-class ConfigError(FidelityError):
-    """A scoring configuration value (or file) that is not valid; names the field."""
-
-    def __init__(self, field_name: str, message: str):
-        super().__init__(f"{field_name}: {message}", option=field_name)
-
-
-def _choice(name: str, value: Any, choices: tuple) -> str:
-    if isinstance(value, str):
-        key = value.lower().replace("normalise", "normalize")
-        if key in choices:
-            return key
-    raise ConfigError(name, f"expected one of {', '.join(choices)}; got {value!r}")
-
-
-def _optional_int(name: str, value: Any, lo: int, hi: int | None = None) -> int | None:
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < lo or (hi is not None and value > hi):
-        bound = f"{lo}..{hi}" if hi is not None else f">= {lo}"
-        raise ConfigError(name, f"expected an integer {bound}; got {value!r}")
-    return int(value)
-
-
-def _optional_positive(name: str, value: Any) -> float | None:
-    if value is None:
-        return None
-    if isinstance(value, bool):
-        raise ConfigError(name, f"expected a positive number; got {value!r}")
-    try:
-        number = float(value)
-    except (TypeError, ValueError, OverflowError):
-        raise ConfigError(name, f"expected a positive number; got {value!r}") from None
-    if not (number > 0 and math.isfinite(number)):
-        raise ConfigError(name, f"expected a positive finite number; got {value!r}")
-    return number
-
-
-def _numbers(name: str, value: Any, count: int) -> tuple[float, ...]:
-    try:
-        out = tuple(float(v) for v in value)
-    except (TypeError, ValueError, OverflowError):
-        raise ConfigError(name, f"expected {count} numbers; got {value!r}") from None
-    if len(out) != count or not all(math.isfinite(v) for v in out):
-        raise ConfigError(name, f"expected {count} finite numbers; got {value!r}")
-    return out
-
-
-def _optional_name(name: str, value: Any) -> str | None:
-    if value is None or (isinstance(value, str) and value):
-        return value
-    raise ConfigError(name, f"expected a non-empty name; got {value!r}")
-
 
 @dataclass(frozen=True)
 class ScoringConfig:
@@ -108,13 +49,18 @@ class ScoringConfig:
         The PSNR peak (eq. 5). None: ``2**bits - 1`` (the paper's choice), or the integer
         dtype's maximum; float frames need a number or ``"range"``. ``"range"``: the real
         frame's ``max - min``, for scenes that use a small part of the sensor's range (see
-        docs/interpretation.md).
+        docs/interpretation.md). ``bits`` and ``peak`` compose: ``bits`` still bounds the
+        values when ``peak`` (a number or ``"range"``) sets the PSNR peak (``bits=16,
+        peak=100``: values in ``0..65535``, PSNR peak 100; ``hist_range="full"`` is
+        ``0..2**bits - 1``).
     bins : int or "levels"
         Histogram bins for NMI (uniform over ``hist_range``), or one bin per grey level.
     hist_range : "data", "full" or (lo, hi)
         Histogram edges shared by both frames: their joint min..max, ``0..peak``, or given.
     psnr_anchors : ((dB, value), (dB, value))
-        The two points fixing eq. (6); default 30 dB -> 0.9, 45 dB -> 0.99.
+        The two points fixing eq. (6); default 30 dB -> 0.9, 45 dB -> 0.99. Both within
+        0.01..1000 dB, and giving a curve that rises there
+        (:func:`irfidelity.normalize.psnr_curve_params` states the bounds).
     ssim_exponents : (alpha, beta, gamma)
         Exponents of eq. (14).
     missing : "renormalize" or "raise"
@@ -126,7 +72,11 @@ class ScoringConfig:
     real_channel, sim_channel : str or None
         Channel of multi-channel frame files ("Y", "R", an EXR channel name, ...), per side.
     edge_channel : str or None
-        Channel of multi-channel slanted-edge images.
+        Channel of multi-channel slanted-edge image files, both sides (unless their own is
+        set).
+    real_edge_channel, sim_edge_channel : str or None
+        Channel of one side's slanted-edge image files, overriding ``edge_channel`` (a real
+        RGBA edge image scored against a grey simulated one: ``real_edge_channel="G"``).
     edge_fit_order : int
         Order (1..5) of the polynomial fitted to the edge location of slanted-edge images:
         5 follows lens curvature (ISO 12233:2023), 1 is the straight line of ISO 12233:2014.
@@ -134,8 +84,12 @@ class ScoringConfig:
         Camera geometry for converting curve frequencies between cycles/pixel, cycles/mrad
         and line pairs/mm (only needed when the two curves are in different units).
     mtf_options, sitf_options : mapping
-        Options of the curve comparisons (:func:`irfidelity.curves.mtf_similarity`,
-        :func:`irfidelity.curves.sitf_similarity`), e.g. ``{"points": 64}``.
+        Options of the curve comparisons (:func:`irfidelity.curves.mtf_similarity`:
+        ``smooth``, ``points``, ``alpha``, ``beta``; :func:`irfidelity.curves.sitf_similarity`:
+        ``window``, ``lo_frac``, ``hi_frac``, ``method``, ``points``, ``alpha``, ``beta``),
+        e.g. ``{"points": 64}``. Names and values are checked when the configuration is built;
+        ``points`` is a count or a list of at most
+        :data:`~irfidelity.curves.similarity.MAX_FEATURE_POINTS` (65536).
     grades : GradeScale
         Grade names and boundaries of the fuzzy evaluation.
     register : "translation", "rigid", "similarity" or None
@@ -143,7 +97,8 @@ class ScoringConfig:
         count the overlap only (:func:`irfidelity.register`). A sequence is registered once,
         on its first readable pair (fixed camera geometry), unless ``register_each``.
     register_method : "auto", "phase" or "nmi"
-        :func:`irfidelity.register`'s method.
+        :func:`irfidelity.register`'s method; default
+        :data:`irfidelity.registration.DEFAULT_METHOD`.
     register_each : bool
         Sequences: register every frame pair on its own (a moving simulated viewpoint),
         with the model of ``register``; each frame's transform is in its row.
@@ -154,6 +109,18 @@ class ScoringConfig:
     pair_by : "auto", "name" or "order"
         Sequences: pair frames by file name (``"auto"`` does when both sides are named
         files) or by position. With ``max_delay``, by position (``"name"`` is refused).
+
+    Examples
+    --------
+    >>> import irfidelity as irf
+    >>> cfg = irf.ScoringConfig(bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
+    >>> print(cfg.weights)
+    mtf=0, sitf=0, psnr=0.5, nmi=0, ssim=0.5, noise=0
+    >>> cfg.replace(bins="levels").bins, cfg.bins                 # frozen: replace makes a copy
+    ('levels', 256)
+    >>> cfg.save("scoring.toml")
+    >>> irf.ScoringConfig.load("scoring.toml") == cfg
+    True
     """
 
     weights: Weights = field(default_factory=Weights)
@@ -168,6 +135,8 @@ class ScoringConfig:
     real_channel: str | None = None
     sim_channel: str | None = None
     edge_channel: str | None = None
+    real_edge_channel: str | None = None
+    sim_edge_channel: str | None = None
     edge_fit_order: int = 5
     ifov_mrad: float | None = None
     pixel_pitch_um: float | None = None
@@ -176,7 +145,7 @@ class ScoringConfig:
     sitf_options: Mapping = field(default_factory=dict)
     grades: GradeScale = field(default_factory=GradeScale)
     register: str | None = None
-    register_method: str = "auto"
+    register_method: str = DEFAULT_METHOD
     register_each: bool = False
     max_delay: int = 0
     pair_by: str = "auto"
@@ -191,46 +160,40 @@ class ScoringConfig:
             out["weights"] = Weights.coerce(self.weights)
         except FidelityError as exc:
             raise ConfigError("weights", str(exc)) from None
-        out["bits"] = _optional_int("bits", self.bits, 1, 32)
-        out["peak"] = _peak(self.peak)
-        if out["bits"] is not None and isinstance(out["peak"], float):
-            raise ConfigError("peak", "a numeric peak and bits both set the PSNR peak; give one of them (bits "
-                                      "still bounds the values with the peak 'range')")
-        out["bins"] = _bins(self.bins)
-        out["hist_range"] = _hist_range(self.hist_range)
-        anchors = tuple(_numbers("psnr_anchors", a, 2) for a in _pairs("psnr_anchors", self.psnr_anchors))
+        out["bits"] = optional_int("bits", self.bits, 1, 32)
+        out["peak"] = peak_value(self.peak)
+        out["bins"] = bins_value(self.bins)
+        out["hist_range"] = hist_range_value(self.hist_range)
+        anchors = tuple(finite_numbers("psnr_anchors", a, 2) for a in pairs("psnr_anchors", self.psnr_anchors))
         try:
             psnr_curve_params(anchors)
         except FidelityError as exc:
             raise ConfigError("psnr_anchors", str(exc)) from None
         out["psnr_anchors"] = anchors
-        exponents = _numbers("ssim_exponents", self.ssim_exponents, 3)
+        exponents = finite_numbers("ssim_exponents", self.ssim_exponents, 3)
         if any(e < 0 for e in exponents):
             raise ConfigError("ssim_exponents", f"expected numbers >= 0; got {self.ssim_exponents!r}")
         out["ssim_exponents"] = exponents
-        out["missing"] = _choice("missing", self.missing, MISSING_MODES)
-        out["nonfinite"] = _choice("nonfinite", self.nonfinite, NONFINITE_MODES)
-        for name in ("real_channel", "sim_channel", "edge_channel"):
-            out[name] = _optional_name(name, getattr(self, name))
-        out["edge_fit_order"] = _optional_int("edge_fit_order", self.edge_fit_order, 1, 5)
+        out["missing"] = choice("missing", self.missing, MISSING_MODES)
+        out["nonfinite"] = choice("nonfinite", self.nonfinite, NONFINITE_MODES)
+        for name in ("real_channel", "sim_channel", "edge_channel", "real_edge_channel", "sim_edge_channel"):
+            out[name] = optional_name(name, getattr(self, name))
+        out["edge_fit_order"] = optional_int("edge_fit_order", self.edge_fit_order, 1, 5)
         for name in ("ifov_mrad", "pixel_pitch_um", "focal_length_mm"):
-            out[name] = _optional_positive(name, getattr(self, name))
+            out[name] = optional_positive(name, getattr(self, name))
         for name in ("mtf_options", "sitf_options"):
-            value = getattr(self, name)
-            if not isinstance(value, Mapping) or not all(isinstance(k, str) for k in value):
-                raise ConfigError(name, f"expected a mapping of option names to values; got {value!r}")
-            out[name] = dict(value)
+            out[name] = curve_options(name, getattr(self, name))
         if not isinstance(self.grades, GradeScale):
-            out["grades"] = _grades(self.grades)
-        out["register"] = None if self.register is None else _choice("register", self.register, REGISTRATION_MODELS)
-        out["register_method"] = _choice("register_method", self.register_method, REGISTRATION_METHODS)
+            out["grades"] = grade_scale(self.grades)
+        out["register"] = None if self.register is None else choice("register", self.register, REGISTRATION_MODELS)
+        out["register_method"] = choice("register_method", self.register_method, REGISTRATION_METHODS)
         if not isinstance(self.register_each, bool):
             raise ConfigError("register_each", f"expected true or false; got {self.register_each!r}")
         if self.register_each and out["register"] is None:
             raise ConfigError("register_each", "registers every pair with the model of register; set register to "
                                                "translation, rigid or similarity")
-        out["max_delay"] = _optional_int("max_delay", self.max_delay, 0, 1 << 20)
-        out["pair_by"] = _choice("pair_by", self.pair_by, PAIRING_RULES)
+        out["max_delay"] = optional_int("max_delay", self.max_delay, 0, 1 << 20)
+        out["pair_by"] = choice("pair_by", self.pair_by, PAIRING_RULES)
         if out["max_delay"] and out["pair_by"] == "name":
             raise ConfigError("pair_by", "frames paired by name have no delay to search; with max_delay the frames "
                                          "are paired by position, offset by the delay found (pair_by = auto or order)")
@@ -296,58 +259,40 @@ class ScoringConfig:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> ScoringConfig:
         """A configuration from a mapping (missing fields keep their defaults)."""
-        if not isinstance(data, Mapping):
-            raise FidelityError(f"config: expected a mapping of options; got {type(data).__name__}")
+        if not isinstance(data, Mapping) or not all(isinstance(k, str) for k in data):
+            raise FidelityError(f"config: expected a mapping of option names to values; got {type(data).__name__}",
+                                option="config")
         values = dict(data)
         values.pop("version", None)  # reports record it beside the options
         return cls().replace(**values)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> ScoringConfig:
-        """Read a configuration from a ``.toml`` or ``.json`` file (see :meth:`save`)."""
-        spath = os.fspath(path)
-        try:
-            with open(spath, "rb") as fh:
-                raw = fh.read()
-        except OSError as exc:
-            raise FidelityError(f"{spath}: cannot read the configuration: {exc.strerror or exc}") from None
-        try:
-            if spath.lower().endswith(".json"):
-                data = json.loads(raw.decode("utf-8"))
-            else:
-                data = tomllib.loads(raw.decode("utf-8"))
-        except (ValueError, UnicodeDecodeError) as exc:
-            kind = "JSON" if spath.lower().endswith(".json") else "TOML"
-            raise FidelityError(f"{spath}: not a valid {kind} configuration: {exc}") from None
-        data = data.get("scoring", data) if isinstance(data, dict) else data
+        """Read a configuration from a ``.toml`` or ``.json`` file (see :meth:`save`).
+
+        Files larger than :data:`~irfidelity.config_file.MAX_CONFIG_BYTES` (256 KiB) or nested
+        deeper than :data:`~irfidelity.config_file.MAX_CONFIG_DEPTH` (16) are refused before
+        parsing; every error is a :class:`~irfidelity.FidelityError` naming the file.
+        """
+        data = read_config(path)
         try:
             return cls.from_dict(data)
         except FidelityError as exc:
-            raise FidelityError(f"{spath}: {exc}") from None
+            raise FidelityError(f"{os.fsdecode(os.fspath(path))}: {exc}", option=exc.option) from None
 
     def save(self, path: str | os.PathLike) -> None:
         """Write the configuration as TOML (or JSON for a ``.json`` path)."""
         spath = os.fspath(path)
-        text = (json.dumps(self.to_dict(), indent=2) + "\n" if spath.lower().endswith(".json")
+        text = (json.dumps(self.to_dict(), indent=2) + "\n" if os.fsdecode(spath).lower().endswith(".json")
                 else self.to_toml())
         with open(spath, "w", encoding="utf-8") as fh:
             fh.write(text)
 
     def to_toml(self) -> str:
         """The configuration as TOML. TOML has no null: a field that is None is written as a
-        commented-out example."""
-        data = self.to_dict()
-        tables = {k: data.pop(k) for k in ("weights", "mtf_options", "sitf_options", "grades")}
-        lines = ["# irfidelity scoring configuration (irfidelity score --config FILE)"]
-        lines += [f"{k} = {_toml_value(v)}" if v is not None else f"# {k} = {_UNSET_EXAMPLES[k]}"
-                  for k, v in data.items()]
-        for name, table in tables.items():
-            lines += ["", f"[{name}]"]
-            lines += [f"{k} = {_toml_value(v)}" for k, v in table.items() if not isinstance(v, dict)]
-            for k, v in table.items():
-                if isinstance(v, dict):
-                    lines += ["", f"[{name}.{k}]"] + [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items()]
-        return "\n".join(lines) + "\n"
+        commented-out example. Keys that are not bare TOML keys are quoted."""
+        return toml_document(self.to_dict(), ("weights", "mtf_options", "sitf_options", "grades"), _UNSET_EXAMPLES,
+                             "irfidelity scoring configuration (irfidelity score --config FILE)")
 
 
 #: What a commented-out line shows for a field that is not set.
@@ -356,7 +301,9 @@ _UNSET_EXAMPLES = {
     "peak": '"range"       # or a number: the PSNR peak',
     "real_channel": '"Y"   # channel of the real frame files',
     "sim_channel": '"Y"    # channel of the simulated frame files',
-    "edge_channel": '"R"   # channel of slanted-edge images',
+    "edge_channel": '"R"   # channel of slanted-edge images (both sides)',
+    "real_edge_channel": '"G"   # channel of the real slanted-edge image, if it differs',
+    "sim_edge_channel": '"Y"    # channel of the simulated slanted-edge image, if it differs',
     "ifov_mrad": "0.5     # camera geometry for curve unit conversions",
     "pixel_pitch_um": "12.0",
     "focal_length_mm": "25.0",
@@ -364,61 +311,3 @@ _UNSET_EXAMPLES = {
 }
 
 
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, str):
-        return json.dumps(value)  # a TOML basic string is a JSON string
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    raise TypeError(f"cannot write {value!r} as TOML")
-
-
-def _pairs(name: str, value: Any) -> tuple:
-    try:
-        items = tuple(value)
-    except TypeError:
-        raise ConfigError(name, f"expected two (dB, value) pairs; got {value!r}") from None
-    if len(items) != 2:
-        raise ConfigError(name, f"expected two (dB, value) pairs; got {value!r}")
-    return items
-
-
-def _peak(value: Any) -> float | str | None:
-    if value is None:
-        return None
-    if isinstance(value, str):
-        return _choice("peak", value, PEAK_RULES)
-    return _optional_positive("peak", value)
-
-
-def _bins(value: Any) -> int | str:
-    if isinstance(value, str) and value == "levels":
-        return value
-    if isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= (1 << 20):
-        return int(value)
-    raise ConfigError("bins", f"expected an integer in 1..1048576 or 'levels'; got {value!r}")
-
-
-def _hist_range(value: Any) -> str | tuple:
-    if isinstance(value, str):
-        if value in ("data", "full"):
-            return value
-        raise ConfigError("hist_range", f"expected 'data', 'full' or (lo, hi); got {value!r}")
-    lo, hi = _numbers("hist_range", value, 2)
-    if not lo <= hi:
-        raise ConfigError("hist_range", f"expected lo <= hi; got {value!r}")
-    return (lo, hi)
-
-
-def _grades(value: Any) -> GradeScale:
-    if not isinstance(value, Mapping):
-        raise ConfigError("grades", f"expected a GradeScale or a mapping; got {type(value).__name__}")
-    try:
-        return GradeScale(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in value.items()})
-    except TypeError as exc:
-        raise ConfigError("grades", str(exc)) from None
-    except FidelityError as exc:
-        raise ConfigError("grades", str(exc)) from None

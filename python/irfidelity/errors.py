@@ -4,12 +4,17 @@ Every error raised by irfidelity derives from :class:`FidelityError`, itself a
 ``ValueError`` so that callers who only know the standard library still catch it.
 The Rust core raises these same classes (``rust/binding/mod.rs`` maps its error
 kinds here), so there is one hierarchy whatever layer failed.
+
+Every warning derives from :class:`FidelityWarning` and is defined here; the modules that
+issue one re-export it (``irfidelity.curves.edge.EdgeWarning`` is this module's class).
 """
 
 from __future__ import annotations
 
 __all__ = ["FidelityError", "FrameError", "ShapeError", "RangeError", "RegistrationError", "FidelityWarning",
-           "PeakWarning"]
+           "PeakWarning", "RegistrationWarning", "EdgeWarning", "CurveUnitsWarning", "NoiseWarning",
+           "AHPConsistencyWarning", "BarWarning", "BarClippingWarning", "BarSamplingWarning", "BarPolarityWarning",
+           "ColtmanWarning", "MRTDWarning", "RadiometryWarning"]
 
 
 class FidelityError(ValueError):
@@ -61,3 +66,67 @@ class FidelityWarning(UserWarning):
 class PeakWarning(FidelityWarning):
     """The PSNR peak is so far above the real frame's range that the ``psnr`` component is
     pinned near 1 for any simulated frame whose errors stay within the scene's range."""
+
+
+class RegistrationWarning(FidelityWarning):
+    """A registration was found but is unsure: a rival transform matches nearly as well
+    (confidence below :data:`irfidelity.registration.LOW_CONFIDENCE`). Check
+    ``reg.confidence`` before trusting the metrics computed on the registered pair."""
+
+
+class EdgeWarning(FidelityWarning):
+    """A slanted-edge measurement that ran, but whose conditions make the MTF doubtful:
+    clipped pixels, low contrast, an edge angle near 0°/45° or a critical angle, empty ESF bins."""
+
+
+class CurveUnitsWarning(FidelityWarning):
+    """Two curves are compared although the unit of an axis is unknown on both: the comparison
+    assumes they agree (the user's responsibility)."""
+
+
+class NoiseWarning(FidelityWarning):
+    """A 3-D noise result that may mislead: a scene that is not uniform (gradient or object),
+    or samples at the ends of the valid range (saturated or clipped pixels)."""
+
+
+class AHPConsistencyWarning(FidelityWarning):
+    """An AHP comparison matrix whose consistency ratio exceeds the threshold (Saaty: 0.1):
+    the judgements contradict each other too much for the weights to be trusted."""
+
+
+class BarWarning(FidelityWarning):
+    """A bar-target reading (:func:`irfidelity.curves.ctf_from_bars`) that ran, but whose
+    conditions make the CTF doubtful; the subclasses say which."""
+
+
+class BarClippingWarning(BarWarning):
+    """Pixels of the bar target sit at the clipping level (saturated bars or gaps): the bar
+    modulation is biased."""
+
+
+class BarSamplingWarning(BarWarning):
+    """Bars too narrow for the bar-modulation method (under about two pixels wide): the
+    modulation depends on where the samples fall on the bars; the fundamental-amplitude ratio
+    does not."""
+
+
+class BarPolarityWarning(BarWarning):
+    """Inverted polarity: the bar centres read darker than the gaps in the target's own
+    polarity (contrast reversal, spurious resolution), or the target's polarity contradicts the
+    sign of the temperature difference it was given with."""
+
+
+class ColtmanWarning(FidelityWarning):
+    """A CTF ↔ MTF conversion (Coltman's series) had to take the curve as 0 beyond its last
+    frequency although it has not fallen to 0 there: values above a third of that frequency
+    miss terms."""
+
+
+class MRTDWarning(FidelityWarning):
+    """Frequencies left out of an MRTD curve: an MTF too small for the model, or bars that no
+    frame resolved at the threshold."""
+
+
+class RadiometryWarning(FidelityWarning):
+    """Some counts (or temperatures) lie outside the radiometric calibration's domain (no finite
+    temperature above 0 K) and became NaN; the message counts them."""

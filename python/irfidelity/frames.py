@@ -16,20 +16,24 @@ import glob as _glob
 import os
 import re
 import stat
-from collections.abc import Iterable, Iterator, Sequence
-from typing import Any, Union, overload
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from typing import Any, NamedTuple, Union, overload
 
 import numpy as np
 
 from . import _core
-from .errors import FrameError
+from .errors import FidelityError, FrameError, RangeError
 
-__all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "natural_key", "display_name"]
+__all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "page_chain", "PageChain", "natural_key",
+           "display_name"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
 #: File extensions a directory or glob source picks up (case-insensitive).
-FRAME_EXTENSIONS = (".exr", ".png", ".tif", ".tiff", ".npy")
+FRAME_EXTENSIONS = (".exr", ".png", ".tif", ".tiff", ".npy", ".fff", ".seq")
+
+#: Extensions of files that may hold several frames (pages), each a frame of a sequence.
+MULTIPAGE_EXTENSIONS = (".tif", ".tiff", ".seq")
 
 #: dtypes a frame may have (the dtypes the metrics accept).
 FRAME_DTYPES = tuple(np.dtype(t) for t in _core.SUPPORTED_DTYPES)
@@ -127,14 +131,17 @@ def load_frame(
     page: int = 0,
     max_pixels: int | None = None,
     max_bytes: int | None = None,
+    unit: str | None = None,
+    **overrides: float,
 ) -> np.ndarray:
-    """Load one frame as a 2-D numpy array in the file's own sample type.
+    """Load one frame as a 2-D numpy array in the file's own sample type, or in kelvin or °C.
 
     Parameters
     ----------
     path : str or os.PathLike
-        An OpenEXR, PNG or TIFF file (recognised by its magic bytes), or a ``.npy`` file
-        holding a 2-D array (or a 3-D stack, indexed by ``page``).
+        An OpenEXR, PNG or TIFF file, a FLIR FFF or SEQ file or a radiometric JPEG (FLIR or
+        DJI; recognised by their magic bytes), or a ``.npy`` file holding a 2-D array (or a
+        3-D stack, indexed by ``page``). FLIR files give their raw counts (uint16).
     channel : str, optional
         Channel to decode. EXR: a channel name such as ``"Y"``, ``"R"``, ``"left.Y"``
         (``"part.channel"`` in multi-part files; a bare name works when unique).
@@ -142,7 +149,11 @@ def load_frame(
         Default: the only channel, or ``"Y"`` if present; files with several colour
         channels and no ``"Y"`` raise :class:`FrameError` listing the channels.
     page : int, default 0
-        Page of a multi-page TIFF (or frame of a 3-D ``.npy`` stack).
+        Page of a multi-page TIFF, frame of a FLIR SEQ (or of a 3-D ``.npy`` stack). A page costs one
+        directory read whatever its place: the file's chain of pages is walked once and kept.
+        In a TIFF whose chain of pages breaks (a truncated file, a chain that loops back;
+        :func:`page_chain`), the pages before the break load as usual (page 0 too) and a page
+        from the break on raises :class:`FrameError` naming where and why the chain breaks.
     max_pixels : int, optional
         Refuse files whose header claims more pixels (default 16384 * 16384). Checked
         before the pixel buffer is allocated.
@@ -151,6 +162,13 @@ def load_frame(
         block, samples, decompression scratch, metadata), planned from the headers before
         allocating (default :func:`default_max_bytes`, 640 MiB). A file that would need more
         is a :class:`FrameError` naming the budget.
+    unit : {"C", "K"}, optional
+        Return temperatures (float64) in this unit instead of counts: a radiometric file's
+        counts are converted with its calibration (:func:`irfidelity.read_radiometry`); a
+        float frame is taken as already in this unit and returned as it is.
+    **overrides : float
+        With ``unit``: calibration fields replacing the file's (``emissivity=0.98``,
+        ``reflected_temperature=20``, ...; see :class:`irfidelity.Radiometry`).
 
     Returns
     -------
@@ -163,7 +181,33 @@ def load_frame(
     FrameError
         The file is missing, unreadable, truncated, corrupt, unsupported (deep or
         subsampled EXR, palette TIFF, ...) or larger than ``max_pixels`` / ``max_bytes``; the message
-        names the path and the reason.
+        names the path and the reason. With ``unit``: integer counts without a calibration,
+        or no count within the calibration's domain.
+    FidelityError
+        With ``unit``: an override that is unknown or out of its range, naming the field.
+
+    Examples
+    --------
+    The FLIR Lepton frame shipped with the package (14-bit counts in a 16-bit PNG):
+
+    >>> from importlib import resources
+    >>> import irfidelity as irf
+    >>> from irfidelity.frames import list_channels
+    >>> with resources.as_file(resources.files("irfidelity") / "data" / "cptv_v2_frame000.png") as path:
+    ...     frame, channels = irf.load_frame(path), list_channels(path)
+    >>> frame.shape, frame.dtype.name, channels
+    ((120, 160), 'uint16', ['Y'])
+    >>> irf.load_frame("missing.png")
+    Traceback (most recent call last):
+    ...
+    irfidelity.errors.FrameError: missing.png: cannot open: ...
+
+    A radiometric JPEG (FLIR AX8, shipped with the package) as counts and as temperatures:
+
+    >>> with resources.as_file(resources.files("irfidelity") / "data" / "readthermal_flir_ax8.jpg") as path:
+    ...     counts, kelvin = irf.load_frame(path), irf.load_frame(path, unit="K")
+    >>> counts.dtype.name, kelvin.dtype.name, bool(250 < kelvin.mean() < 330)
+    ('uint16', 'float64', True)
     """
     try:
         spath = os.fspath(path)
@@ -177,8 +221,38 @@ def load_frame(
     if channel is not None and not isinstance(channel, str):
         raise FrameError(f"{spath}: channel must be a string, got {channel!r}")
     if _is_npy(spath):
-        return _load_npy(spath, channel, page, max_pixels)
-    return _core.load_frame(spath, channel, page, max_pixels, max_bytes=max_bytes)
+        frame = _load_npy(spath, channel, page, max_pixels)
+    else:
+        frame = _core.load_frame(spath, channel, page, max_pixels, max_bytes=max_bytes)
+    if unit is None and not overrides:
+        return frame
+    return _in_unit(spath, frame, page, max_bytes, unit, overrides)
+
+
+def _in_unit(path: str, frame: np.ndarray, page: int, max_bytes: int | None, unit: str | None,
+             overrides: dict[str, float]) -> np.ndarray:
+    """A loaded frame in a temperature unit (``load_frame``'s ``unit``)."""
+    from .radiometry import UNITS, read_radiometry
+
+    if unit not in UNITS:
+        given = f"got {unit!r}" if unit is not None else f"calibration overrides ({', '.join(overrides)}) need one"
+        raise FidelityError(f"{path}: unit must be 'C' or 'K'; {given}", option="unit")
+    if frame.dtype.kind == "f":
+        if overrides:
+            raise FidelityError(f"{path}: a float frame is taken as already in {unit}; calibration overrides "
+                                f"({', '.join(overrides)}) apply to radiometric counts only", option="unit")
+        return frame
+    if _is_npy(path):
+        raise FrameError(f"{path}: integer counts without a radiometric calibration cannot become temperatures "
+                         f"(unit={unit!r}): only FLIR files (FFF, SEQ, radiometric JPEG) carry one")
+    try:
+        calibration = read_radiometry(path, page=page, max_bytes=max_bytes)
+    except FrameError as exc:
+        raise FrameError(f"{exc}; integer counts without one cannot become temperatures (unit={unit!r})") from None
+    try:
+        return np.asarray(calibration.temperature(frame, unit, **overrides), dtype=np.float64)
+    except RangeError as exc:
+        raise FrameError(str(exc)) from None
 
 
 def list_channels(path: PathLike) -> list[str]:
@@ -194,16 +268,74 @@ def list_channels(path: PathLike) -> list[str]:
     return list(_core.list_channels(spath))
 
 
-def page_count(path: PathLike) -> int:
-    """Number of pages: TIFF IFDs, the first axis of a 3-D ``.npy``, else 1."""
+class PageChain(NamedTuple):
+    """The pages of a frame file (:func:`page_chain`)."""
+
+    #: Pages that can be found: a TIFF's pages up to the end of its chain or to where it breaks.
+    pages: int
+    #: Why a TIFF's chain of pages breaks after ``pages`` pages (naming the file, the page and
+    #: the reason), or None when nothing is missing.
+    broken: str | None
+
+
+def page_chain(path: PathLike) -> PageChain:
+    """The pages of a frame file that can be found, and why the rest cannot.
+
+    A multi-page TIFF links its pages in a chain of directories (IFDs), each pointing to the
+    next. The chain is walked once (and kept for decoding the pages). When it breaks before
+    its end -- the file is truncated (``"truncated at page k: ..."``), a directory points back
+    to an earlier one (``"the IFD chain loops back at page k: ..."``) or into the header, or
+    there are more than 10 million pages -- the pages before the break can still be read,
+    and ``broken`` says why page ``k = pages`` and any after it cannot.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A TIFF, OpenEXR, PNG or ``.npy`` file.
+
+    Returns
+    -------
+    PageChain
+        ``(pages, broken)``: 1 page for EXR and PNG, the first axis of a 3-D ``.npy``
+        (else 1); ``broken`` is None unless a TIFF's chain breaks.
+
+    Raises
+    ------
+    FrameError
+        The file cannot be read, or not even its first page can be found.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np, irfidelity as irf
+    >>> path = os.path.join(tempfile.mkdtemp(), "stack.npy")
+    >>> np.save(path, np.zeros((3, 4, 4), np.uint16))
+    >>> irf.frames.page_chain(path)
+    PageChain(pages=3, broken=None)
+    """
     spath = os.fspath(path)
     if _is_npy(spath):
         try:
             a = np.load(spath, mmap_mode="r", allow_pickle=False)
         except (OSError, ValueError, EOFError, TypeError) as e:
             raise FrameError(f"{spath}: corrupt or invalid .npy file: {e}") from None
-        return int(a.shape[0]) if getattr(a, "ndim", 0) == 3 else 1
-    return int(_core.page_count(spath))
+        return PageChain(int(a.shape[0]) if getattr(a, "ndim", 0) == 3 else 1, None)
+    pages, broken = _core.page_chain(spath)
+    return PageChain(int(pages), broken)
+
+
+def page_count(path: PathLike) -> int:
+    """Number of pages: TIFF IFDs, the first axis of a 3-D ``.npy``, else 1.
+
+    A TIFF whose chain of pages breaks before its end (a truncated file, a loop) raises
+    :class:`FrameError` naming where and why: its number of pages is not known.
+    :func:`page_chain` gives the pages before the break, and :class:`FrameSequence` reads
+    them, with the break as a frame that fails to load.
+    """
+    pages, broken = page_chain(path)
+    if broken is not None:
+        raise FrameError(broken)
+    return pages
 
 
 def display_name(name: str) -> str:
@@ -221,7 +353,47 @@ def natural_key(text: str) -> list[Any]:
 
 
 def _is_tiff(path: str) -> bool:
-    return path.lower().endswith((".tif", ".tiff"))
+    return path.lower().endswith(MULTIPAGE_EXTENSIONS)
+
+
+Entry = tuple[Union[str, None], int, str]  # (path, page, display name); path None for an array
+
+
+class _Column(Sequence[Any]):
+    """A read-only view of one field of a sequence's entries: indexing costs O(1) (the
+    properties are read once per frame while a run goes, so they must not copy the list)."""
+
+    __slots__ = ("_entries", "_field")
+
+    def __init__(self, entries: list[Entry], field: Callable[[Entry], Any]) -> None:
+        self._entries, self._field = entries, field
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    @overload
+    def __getitem__(self, index: int) -> Any: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> list[Any]: ...
+
+    def __getitem__(self, index: int | slice) -> Any:
+        if isinstance(index, slice):
+            return [self._field(e) for e in self._entries[index]]
+        return self._field(self._entries[index])
+
+    def __iter__(self) -> Iterator[Any]:
+        return map(self._field, self._entries)
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, (list, tuple, _Column)):
+            return list(self) == list(other)
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return repr(list(self))
 
 
 class FrameSequence(Sequence[np.ndarray]):
@@ -238,8 +410,12 @@ class FrameSequence(Sequence[np.ndarray]):
 
         Files are ordered naturally (``frame_2`` before ``frame_10``); an explicit list
         keeps its order. Multi-page TIFFs inside a directory, glob or list are expanded
-        into their pages (a cheap header walk); pixels are only decoded when a frame is
-        accessed.
+        into their pages (one walk over the file's chain of pages, kept for decoding them);
+        pixels are only decoded when a frame is accessed. A TIFF whose chain of pages
+        breaks (a truncated file, a chain that loops back; :func:`page_chain`) gives the
+        pages before the break and one more frame, ``"file.tif[k]"`` at the break, whose
+        loading raises :class:`FrameError` naming the file and why the chain breaks there:
+        a sequence run reports it as a failed frame, never drops the rest silently.
     channel : str, optional
         Channel passed to :func:`load_frame` for every file.
     max_pixels, max_bytes : int, optional
@@ -249,7 +425,22 @@ class FrameSequence(Sequence[np.ndarray]):
     -----
     ``len(seq)``, ``seq[i]`` (a 2-D array), ``seq[a:b]`` (a new ``FrameSequence``),
     iteration, and ``seq.names`` (display names such as ``"frame_0003.png"`` or
-    ``"stack.tif[3]"``) are supported. Errors raise :class:`FrameError` naming the path.
+    ``"stack.tif[3]"``) are supported. ``names``, ``entries`` and ``sources`` are read-only
+    views (``list(seq.names)`` for a list). Errors raise :class:`FrameError` naming the path.
+
+    Examples
+    --------
+    >>> import os, numpy as np, irfidelity as irf
+    >>> os.mkdir("run")
+    >>> for i in (1, 2, 10):
+    ...     np.save(f"run/frame_{i}.npy", np.full((3, 5), i, dtype=np.uint16))
+    >>> seq = irf.FrameSequence("run")               # natural order: frame_2 before frame_10
+    >>> seq
+    FrameSequence(3 frames: frame_1.npy, frame_2.npy, frame_10.npy)
+    >>> [int(frame[0, 0]) for frame in seq], seq[1:].names
+    ([1, 2, 10], ['frame_2.npy', 'frame_10.npy'])
+    >>> irf.FrameSequence(np.zeros((4, 3, 5), dtype=np.uint16))      # a 3-D array
+    FrameSequence(4 frames: [0], [1], [2], ...)
     """
 
     def __init__(
@@ -265,7 +456,7 @@ class FrameSequence(Sequence[np.ndarray]):
         self.max_bytes = max_bytes
         self._array: np.ndarray | None = None
         # entries: (path, page, display name); for arrays: (None, index, name)
-        self._entries: list[tuple[str | None, int, str]]
+        self._entries: list[Entry]
         if isinstance(source, np.ndarray):
             if source.ndim != 3:
                 raise FrameError(f"array source: expected a 3-D array (frames, rows, cols), got shape {source.shape}")
@@ -282,7 +473,7 @@ class FrameSequence(Sequence[np.ndarray]):
             raise FrameError(f"{source!r}: not a directory, glob, file, list of paths or 3-D array")
 
     @classmethod
-    def _subset(cls, parent: FrameSequence, entries: list[tuple[str | None, int, str]]) -> FrameSequence:
+    def _subset(cls, parent: FrameSequence, entries: list[Entry]) -> FrameSequence:
         new = cls.__new__(cls)
         new.channel = parent.channel
         new.max_pixels = parent.max_pixels
@@ -291,7 +482,7 @@ class FrameSequence(Sequence[np.ndarray]):
         new._entries = entries
         return new
 
-    def _from_path(self, spath: str) -> list[tuple[str | None, int, str]]:
+    def _from_path(self, spath: str) -> list[Entry]:
         if os.path.isdir(spath):
             names = [
                 n
@@ -312,15 +503,17 @@ class FrameSequence(Sequence[np.ndarray]):
             return self._expand(hits, label_dirs=False)
         raise FrameError(f"{spath}: no such file or directory")
 
-    def _expand(self, paths: list[str], *, label_dirs: bool) -> list[tuple[str | None, int, str]]:
-        out: list[tuple[str | None, int, str]] = []
+    def _expand(self, paths: list[str], *, label_dirs: bool) -> list[Entry]:
+        out: list[Entry] = []
         for p in paths:
             base = display_name(os.path.basename(p) or p)
             if _is_tiff(p):
                 try:
-                    n = page_count(p)
+                    n, broken = page_chain(p)
                 except FrameError:
-                    n = 1  # unreadable: one frame, whose decode reports why
+                    n, broken = 1, None  # not even page 0 is found: one frame, whose decode says why
+                if broken is not None:
+                    n += 1  # the page at the break: its decode names why the chain breaks
                 if n > 1:
                     out.extend((p, i, f"{base}[{i}]") for i in range(n))
                     continue
@@ -332,7 +525,7 @@ class FrameSequence(Sequence[np.ndarray]):
     def __len__(self) -> int:
         return len(self._entries)
 
-    def _load(self, entry: tuple[str | None, int, str]) -> np.ndarray:
+    def _load(self, entry: Entry) -> np.ndarray:
         path, page, _ = entry
         if path is None:
             assert self._array is not None
@@ -373,14 +566,14 @@ class FrameSequence(Sequence[np.ndarray]):
             yield self._load(entry)
 
     @property
-    def names(self) -> list[str]:
+    def names(self) -> Sequence[str]:
         """Display name of each frame: file name, ``"file.tif[3]"`` for TIFF pages, ``"[i]"`` for arrays."""
-        return [e[2] for e in self._entries]
+        return _Column(self._entries, _name)
 
     @property
-    def entries(self) -> list[tuple[str | None, int, str]]:
+    def entries(self) -> Sequence[Entry]:
         """``(path, page, display name)`` of each frame (path None for a 3-D array source)."""
-        return list(self._entries)
+        return _Column(self._entries, _whole)
 
     @property
     def is_files(self) -> bool:
@@ -388,11 +581,23 @@ class FrameSequence(Sequence[np.ndarray]):
         return self._array is None
 
     @property
-    def sources(self) -> list[tuple[str | None, int]]:
+    def sources(self) -> Sequence[tuple[str | None, int]]:
         """``(path, page)`` of each frame (``(None, i)`` for a 3-D array source)."""
-        return [(e[0], e[1]) for e in self._entries]
+        return _Column(self._entries, _source)
 
     def __repr__(self) -> str:
         head = ", ".join(self.names[:3])
         more = ", ..." if len(self) > 3 else ""
         return f"FrameSequence({len(self)} frames: {head}{more})"
+
+
+def _name(entry: Entry) -> str:
+    return entry[2]
+
+
+def _whole(entry: Entry) -> Entry:
+    return entry
+
+
+def _source(entry: Entry) -> tuple[str | None, int]:
+    return entry[0], entry[1]

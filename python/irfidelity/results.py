@@ -18,6 +18,8 @@ from typing import Any, Mapping
 from .config import ScoringConfig
 from .errors import FidelityError
 from .fuzzy import COMPONENTS, PAPER_COMPONENTS, Weights
+from . import readback
+from .readback import Fields, check_json, shared_fields
 from .schema import from_json, to_json
 
 __all__ = ["FidelityReport", "component_lines", "recorded_warnings", "reading_report"]
@@ -29,6 +31,7 @@ def reading_report(cls: type, data: Any) -> Iterator[dict]:
     anything that is not one."""
     if not isinstance(data, Mapping):
         raise FidelityError(f"not a {cls.__name__} dict: got {type(data).__name__}")
+    check_json(data, "report")
     try:
         yield from_json(dict(data))
     except KeyError as exc:
@@ -127,6 +130,18 @@ class FidelityReport:
         The registration applied before the image components (``config.register``):
         :meth:`irfidelity.Registration.to_dict` — model, method, matrix, shift, angle, scale,
         confidence, overlap. The image components then count the overlap only.
+
+    Examples
+    --------
+    >>> import json, numpy as np, irfidelity as irf
+    >>> real = np.arange(64, dtype=np.uint16).reshape(8, 8)    # a scene spanning 63 counts
+    >>> rep = irf.evaluate(real, real + 1, bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
+    >>> round(rep.fidelity, 3), rep.grade, rep.component_grades
+    (0.978, 'excellent', {'psnr': 'excellent', 'ssim': 'excellent'})
+    >>> rep.skipped                                              # not computed, and why
+    {'mtf': 'weight 0', 'sitf': 'weight 0', 'nmi': 'weight 0'}
+    >>> irf.FidelityReport.from_dict(json.loads(json.dumps(rep.to_dict()))) == rep
+    True
     """
 
     fidelity: float
@@ -190,14 +205,12 @@ class FidelityReport:
     def from_dict(cls, data: Mapping[str, Any]) -> FidelityReport:
         """A report from :meth:`to_dict`'s output; FidelityError naming what is wrong otherwise."""
         with reading_report(cls, data) as d:
-            return cls(fidelity=float(d["fidelity"]), grade=str(d["grade"]), components=dict(d["components"]),
-                       weights=Weights.coerce(d["weights"]), metrics=dict(d.get("metrics", {})),
-                       component_grades=dict(d.get("component_grades", {})),
-                       membership=dict(d.get("membership", {})), skipped=dict(d.get("skipped", {})),
-                       config=ScoringConfig.from_dict(d.get("config", {})),
-                       version=str(d.get("irfidelity", "unknown")), grading=dict(d.get("grading", {})),
-                       notes=list(d.get("notes", [])), inputs=dict(d.get("inputs", {})),
-                       registration=_registration_dict(d.get("registration")))
+            fields = Fields(d, "report")
+            return cls(fidelity=fields.require("fidelity", readback.fraction),
+                       grade=fields.require("grade", readback.text),
+                       grading=fields.get("grading", readback.grading, {}),
+                       registration=fields.get("registration", readback.optional(readback.registration)),
+                       **shared_fields(fields))
 
     @property
     def grades(self) -> tuple:
@@ -218,14 +231,6 @@ class FidelityReport:
 
     def __str__(self) -> str:
         return self.summary_text()
-
-
-def _registration_dict(value: Any) -> dict | None:
-    if value is None:
-        return None
-    if not isinstance(value, Mapping):
-        raise FidelityError(f"registration must be a mapping or null, got {type(value).__name__}")
-    return dict(value)
 
 
 def registration_line(reg: Mapping[str, Any]) -> str:

@@ -389,23 +389,29 @@ def _frame_pair(real, sim) -> tuple[np.ndarray, np.ndarray]:
 
 
 def peak_and_valid(dtype: np.dtype, bits, peak):
-    """The PSNR peak and (for integer frames) the allowed value range."""
-    if bits is not None and peak is not None:
-        raise FidelityError("bits and a peak both set the PSNR peak; give one of them", option="peak")
+    """The PSNR peak and (for integer frames) the allowed value range.
+
+    ``bits`` bounds integer values to ``[0, 2**bits - 1]`` and makes ``2**bits - 1`` the
+    default peak; a numeric ``peak`` sets the peak, with or without ``bits``.
+    """
     is_int = dtype.kind in "ui"
+    top = valid = None
     if bits is not None:
         if not is_int:
             raise FidelityError("a bit depth applies to integer frames; give a peak for float frames", option="bits")
         width = dtype.itemsize * 8
         if not (isinstance(bits, (int, np.integer)) and 1 <= bits <= width):
-            raise FidelityError(f"bits must be an integer in 1..{width} for {dtype} frames, got {bits!r}")
+            raise FidelityError(f"bits must be an integer in 1..{width} for {dtype} frames, got {bits!r}",
+                                option="bits")
         top = (1 << int(bits)) - 1
-        return float(top), (0, top)
+        valid = (0, top)
     if peak is not None:
         peak = float(peak)
         if not (peak > 0 and np.isfinite(peak)):
-            raise FidelityError(f"peak must be a positive finite number, got {peak!r}")
-        return peak, None
+            raise FidelityError(f"peak must be a positive finite number, got {peak!r}", option="peak")
+        return peak, valid
+    if top is not None:
+        return float(top), valid
     if is_int:
         info = np.iinfo(dtype)
         # unsigned: the dtype's maximum; signed: its full range (as scikit-image does)
@@ -414,12 +420,13 @@ def peak_and_valid(dtype: np.dtype, bits, peak):
 
 
 def full_range(dtype: np.dtype, bits: int | None, peak: float | None) -> tuple[float, float] | None:
-    """The edges of ``hist_range="full"``: ``0..2**bits - 1`` or ``0..peak``; a signed integer
-    dtype's whole range when neither is given; None for float frames without a peak."""
+    """The edges of ``hist_range="full"``: ``0..2**bits - 1`` (the values' range, also when a
+    peak is given), else ``0..peak``; a signed integer dtype's whole range when neither is
+    given; None for float frames without a peak."""
     if bits is None and peak is None and dtype.kind == "i":
         info = np.iinfo(dtype)
         return float(info.min), float(info.max)
-    top, _ = peak_and_valid(dtype, bits, peak)
+    top, _ = peak_and_valid(dtype, bits, None if bits is not None else peak)
     return None if top is None else (0.0, float(top))
 
 
@@ -497,6 +504,20 @@ def pair_stats(
     nonfinite : "raise" or "mask"
         NaN/Inf in float frames: a :class:`RangeError` with counts and the first position,
         or exclude those pairs (counted in ``PairStats.nonfinite``).
+
+    Examples
+    --------
+    >>> import numpy as np, irfidelity as irf
+    >>> real = np.array([[100, 200], [300, 400]], dtype=np.uint16)
+    >>> sim = np.array([[101, 199], [302, 400]], dtype=np.uint16)
+    >>> st = irf.pair_stats(real, sim, bits=14)
+    >>> st.n, st.mse(), round(st.psnr(), 2), st.nmi().value
+    (4, 1.5, 82.53, 1.0)
+
+    Statistics merge: those of two frames are the statistics of their union.
+
+    >>> st.merge(irf.pair_stats(real, real, bits=14)).mse()     # (6 + 0) / 8
+    0.75
     """
     r, s = _frame_pair(real, sim)
     if nonfinite not in ("raise", "mask"):
@@ -541,7 +562,16 @@ _DEFAULT_PEAK = {np.dtype(t): peak_and_valid(np.dtype(t), None, None)[0] for t i
 
 
 def mse(real, sim, *, mask=None) -> float:
-    """Mean squared error of two frames, exact for integer frames."""
+    """Mean squared error of two frames, exact for integer frames.
+
+    Examples
+    --------
+    >>> import numpy as np, irfidelity as irf
+    >>> real = np.array([[100, 200], [300, 400]], dtype=np.uint16)
+    >>> sim = np.array([[101, 199], [302, 400]], dtype=np.uint16)
+    >>> irf.mse(real, sim)                        # (1 + 1 + 4 + 0) / 4
+    1.5
+    """
     if mask is None:
         # plain 2-D C-contiguous arrays of one dtype: straight to the kernel (None otherwise)
         value = _core.plain_mse(real, sim)
@@ -550,11 +580,33 @@ def mse(real, sim, *, mask=None) -> float:
     return pair_stats(real, sim, need=("mse",), mask=mask).mse()
 
 
-def psnr(real, sim, *, bits: int | None = None, peak: float | None = None, mask=None) -> float:
+def psnr(real, sim, *, bits: int | None = None, peak: float | str | None = None, mask=None) -> float:
     """PSNR in dB (paper eq. 5), ``10·log10(peak²/MSE)``; ``+inf`` for identical frames.
 
-    ``peak = 2**bits − 1`` when ``bits`` is given; float frames need ``peak``.
+    ``peak``: a number; ``"range"``, the real frame's ``max − min`` over the counted pixels
+    (those of ``mask``), as :func:`irfidelity.evaluate` with ``peak="range"``; default
+    ``2**bits − 1`` when ``bits`` is given (which also bounds integer values to
+    ``[0, 2**bits − 1]``), else the integer dtype's maximum. Float frames need ``peak``.
+
+    Examples
+    --------
+    >>> import numpy as np, irfidelity as irf
+    >>> real = np.array([[100, 200], [300, 400]], dtype=np.uint16)
+    >>> sim = np.array([[101, 199], [302, 400]], dtype=np.uint16)
+    >>> round(irf.psnr(real, sim, bits=14), 2)     # 10·log10(16383² / 1.5)
+    82.53
+    >>> round(irf.psnr(real, sim, peak=300), 2)    # against the scene's range, 400 − 100
+    47.78
+    >>> irf.psnr(real, real, bits=14)
+    inf
+    >>> real = np.array([[100, 110], [120, 130]], dtype=np.uint16)
+    >>> round(irf.psnr(real, real + 3, peak="range"), 4)   # 10·log10(30² / 3²)
+    20.0
+    >>> round(irf.psnr(real, real + 3, bits=12, peak=100), 4)
+    30.4576
     """
+    if isinstance(peak, str):
+        return _psnr_over_range(real, sim, bits, peak, mask)
     if mask is None and bits is None:
         pk = _DEFAULT_PEAK.get(getattr(real, "dtype", None)) if peak is None else peak
         if pk is not None:
@@ -564,10 +616,33 @@ def psnr(real, sim, *, bits: int | None = None, peak: float | None = None, mask=
     return pair_stats(real, sim, bits=bits, peak=peak, need=("psnr",), mask=mask).psnr()
 
 
+def _psnr_over_range(real, sim, bits, rule: str, mask) -> float:
+    """PSNR with the peak ``"range"``: the real frame's max − min over the counted pixels."""
+    if rule != "range":
+        raise FidelityError(f"peak must be a positive number or 'range', got {rule!r}", option="peak")
+    r, s = _frame_pair(real, sim)
+    st = pair_stats(r, s, bits=bits, need=("psnr",), mask=mask)  # checks the values, the mask, NaN/Inf
+    counted = r if mask is None else r[np.asarray(mask)]
+    span = float(counted.max()) - float(counted.min()) if counted.size else 0.0
+    if not span > 0:
+        raise FidelityError("the PSNR peak 'range' needs a real frame with more than one value over the counted "
+                            f"pixels (its range is {span:g})", option="peak")
+    return st.psnr(span)
+
+
 def ssim(real, sim, *, alpha: float = 1.0, beta: float = 1.0, gamma: float = 1.0, mask=None, nonfinite="raise") -> SSIM:
     """Global (whole-image) SSIM, eqs. 11–14, no stabilising constants (the paper's form).
 
     Returns an :class:`SSIM` with ``.value .luminance .contrast .structure``.
+
+    Examples
+    --------
+    >>> import numpy as np, irfidelity as irf
+    >>> real = np.array([[100, 200], [300, 400]], dtype=np.uint16)
+    >>> sim = np.array([[101, 199], [302, 400]], dtype=np.uint16)
+    >>> s = irf.ssim(real, sim)
+    >>> round(s.value, 5), round(s.luminance, 5), round(s.contrast, 5), round(s.structure, 5)
+    (0.99995, 1.0, 1.0, 0.99995)
     """
     if mask is None and nonfinite == "raise":
         # plain 2-D C-contiguous arrays of one dtype: straight to the kernel (None otherwise)
@@ -584,6 +659,20 @@ def nmi(real, sim, *, bins: int | str = 256, hist_range="data", bits=None, peak=
     Returns an :class:`NMI` with ``.value .h_real .h_sim .h_joint .mi .bins``. NMI = 1
     means a one-to-one grey-level relation, not equality. Depends on ``bins``: see the
     README's numerical notes.
+
+    Examples
+    --------
+    >>> import numpy as np, irfidelity as irf
+    >>> real = np.array([[100, 200], [300, 400]], dtype=np.uint16)
+    >>> sim = np.array([[101, 199], [302, 400]], dtype=np.uint16)
+    >>> irf.nmi(real, sim).value               # each real grey level has its own simulated one
+    1.0
+    >>> irf.nmi(real, 500 - real).value         # inverted: still one-to-one
+    1.0
+    >>> merged = np.array([[100, 100], [300, 400]], dtype=np.uint16)     # two levels merged
+    >>> n = irf.nmi(real, merged)
+    >>> round(n.value, 4), n.h_real, n.h_sim, n.mi        # MI / ((H(R) + H(S)) / 2) = 1.5 / 1.75
+    (0.8571, 2.0, 1.5, 1.5)
     """
     st = pair_stats(real, sim, bins=bins, hist_range=hist_range, bits=bits, peak=peak, need=("nmi",), mask=mask)
     return st.nmi()

@@ -84,6 +84,7 @@ impl KernelRequest {
             max_pixels: self.max_pixels.unwrap_or(crate::io::DEFAULT_MAX_PIXELS),
             max_bytes: self.max_bytes,
             warp,
+            fingerprint: false,
         })
     }
 }

@@ -1,4 +1,4 @@
-//! Python wrappers of the frame decoders (`crate::io`): `load_frame`, `page_count`,
+//! Python wrappers of the frame decoders (`crate::io`): `load_frame`, `page_chain`,
 //! `list_channels`, and the default limits. Decoding runs with the GIL released; the decoded `Vec` is handed to
 //! numpy without a copy.
 
@@ -55,10 +55,19 @@ fn load_frame<'py>(
     to_array(py, frame, &path.display().to_string())
 }
 
-/// Number of pages of a (multi-page) TIFF; 1 for EXR and PNG.
+/// The pages of a frame file: `(pages found, why the TIFF's IFD chain breaks after them or
+/// None)`; 1 page for EXR and PNG.
 #[pyfunction]
-fn page_count(py: Python<'_>, path: PathBuf) -> PyResult<usize> {
-    Ok(py.detach(|| io::page_count(&path))?)
+fn page_chain(py: Python<'_>, path: PathBuf) -> PyResult<(usize, Option<String>)> {
+    let chain = py.detach(|| io::page_chain(&path))?;
+    Ok((chain.pages, chain.broken))
+}
+
+/// How many TIFF IFDs the page-chain walk has read in this process (a test hook: a file's
+/// pages cost one walk over its chain).
+#[pyfunction]
+fn tiff_ifds_read() -> u64 {
+    io::ifds_read()
 }
 
 /// Selectable channel names of a frame file.
@@ -82,7 +91,8 @@ fn default_max_bytes() -> u64 {
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_frame, m)?)?;
-    m.add_function(wrap_pyfunction!(page_count, m)?)?;
+    m.add_function(wrap_pyfunction!(page_chain, m)?)?;
+    m.add_function(wrap_pyfunction!(tiff_ifds_read, m)?)?;
     m.add_function(wrap_pyfunction!(list_channels, m)?)?;
     m.add_function(wrap_pyfunction!(default_max_pixels, m)?)?;
     m.add_function(wrap_pyfunction!(default_max_bytes, m)?)?;

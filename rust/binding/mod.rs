@@ -12,6 +12,7 @@ mod fingerprint;
 mod io;
 mod maps;
 mod noise;
+mod radiometry;
 mod register;
 mod sequence;
 mod stats;
@@ -44,5 +45,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     maps::register(m)?;
     noise::register(m)?;
     register::register(m)?;
+    radiometry::register(m)?;
     Ok(())
 }

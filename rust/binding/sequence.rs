@@ -37,7 +37,8 @@ fn outcome_tuple<'py>(py: Python<'py>, o: PairOutcome) -> PyResult<Bound<'py, Py
     let registration = o
         .registration
         .map(|r| (super::register::flat(&r.matrix), r.method.name(), r.confidence, r.overlap, r.inverted));
-    (o.index, stats, err, o.shape, o.dtype, o.real_extent, registration).into_pyobject(py)
+    let fingerprints = o.fingerprints.map(|(r, s)| ((r.size, r.mtime_ns, r.digest), (s.size, s.mtime_ns, s.digest)));
+    (o.index, stats, err, o.shape, o.dtype, o.real_extent, registration, fingerprints).into_pyobject(py)
 }
 
 /// Where outcomes go: a Python callback (streaming), or slots in index order (collecting).
@@ -110,13 +111,16 @@ fn poll<'py>(
 }
 
 /// `score_pairs(real_paths, sim_paths, real_pages=None, sim_pages=None, *, request,
-/// workers=0, progress=None, on_result=None)`
+/// workers=0, progress=None, on_result=None, fingerprints=False)`
 ///
 /// Decode and score every pair `(real_paths[i] page real_pages[i], sim_paths[i] page
 /// sim_pages[i])` on `workers` threads (0 = all cores) with the GIL released, as
 /// `request` (an `irfidelity.stats.KernelRequest`) says. Each outcome is a tuple
-/// `(index, PairStats | None, error_message | None, (rows, cols) | None, dtype_name | None)`;
-/// a frame that cannot be read or scored gives an error message for its index only.
+/// `(index, PairStats | None, error_message | None, (rows, cols) | None, dtype_name | None,
+/// real_extent | None, registration | None, fingerprints | None)`; a frame that cannot be
+/// read or scored gives an error message for its index only. With `fingerprints`, the last
+/// item is `((size, mtime_ns, xxh3), (size, mtime_ns, xxh3))` of the real and the simulated
+/// file, of the bytes that were decoded (None when a file changed while it was decoded).
 ///
 /// * `on_result=None`: returns the list of outcomes in index order.
 /// * `on_result=callable`: outcomes are streamed as they finish (completion order), in
@@ -129,7 +133,7 @@ fn poll<'py>(
 /// callback) stops new pairs from starting, waits for the ones in flight and raises.
 #[pyfunction]
 #[pyo3(signature = (real_paths, sim_paths, real_pages=None, sim_pages=None, *, request, workers=0,
-                    progress=None, on_result=None))]
+                    progress=None, on_result=None, fingerprints=false))]
 #[allow(clippy::too_many_arguments)]
 fn score_pairs<'py>(
     py: Python<'py>,
@@ -141,11 +145,13 @@ fn score_pairs<'py>(
     #[pyo3(from_py_with = args::workers)] workers: usize,
     progress: Option<Bound<'py, PyAny>>,
     on_result: Option<Bound<'py, PyAny>>,
+    fingerprints: bool,
 ) -> PyResult<Option<Bound<'py, PyList>>> {
     let real = sources(real_paths, real_pages, "real")?;
     let sim = sources(sim_paths, sim_pages, "sim")?;
     let n = real.len();
-    let mut stream = sequence::stream_pairs(real, sim, request.sequence_request()?, workers)?;
+    let req = sequence::SeqRequest { fingerprint: fingerprints, ..request.sequence_request()? };
+    let mut stream = sequence::stream_pairs(real, sim, req, workers)?;
     let mut delivery = match on_result {
         Some(cb) => Delivery::Stream(cb),
         None => Delivery::Collect((0..n).map(|_| None).collect()),

@@ -1,10 +1,13 @@
 //! Frame decoding: OpenEXR (`exr` crate), PNG (`image` crate) and TIFF (`tiff` crate),
-//! as plain Rust with no Python types, so the sequence engine can decode frames from its
-//! own threads.
+//! and the raw counts and calibration of radiometric FLIR files (FFF, SEQ, radiometric JPEG:
+//! `flir.rs`, `seq.rs`, `rjpeg.rs`), as plain Rust with no Python types, so the sequence
+//! engine can decode frames from its own threads.
 //!
 //! * [`decode_frame`] decodes one 2-D frame (one channel, one page) in the file's own
 //!   sample type ([`FrameData`]); float16 stays float16.
-//! * [`page_count`] counts the pages of a (multi-page) TIFF; 1 for other formats.
+//! * [`page_chain`] finds the pages of a (multi-page) TIFF, and where a broken IFD chain
+//!   breaks, or the frames of a FLIR SEQ; [`page_count`] counts them (1 for other formats).
+//! * [`read_camera_info`] reads a radiometric file's calibration ([`CameraInfo`]).
 //! * [`list_channels`] lists the channels one may select.
 //! * [`decode_bytes`] is the same decoder over an in-memory buffer (used by the fuzz target).
 //!
@@ -23,13 +26,21 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 
 use crate::{Error, Result};
+use tiff_pages::FileKey;
 
 mod exr;
+mod flir;
 #[cfg(feature = "fuzzing")]
 pub mod fuzzing;
 mod piz;
 mod raster;
+mod rjpeg;
+mod seq;
+mod tiff_pages;
 mod zip;
+
+pub use flir::CameraInfo;
+pub use tiff_pages::ifds_read;
 
 /// Decoded samples of one frame, row-major, in the file's own sample type.
 #[derive(Debug, Clone, PartialEq)]
@@ -142,6 +153,10 @@ pub(crate) enum Format {
     Exr,
     Png,
     Tiff,
+    /// FLIR FFF, or a FLIR SEQ (FFF frames one after another)
+    Flir,
+    /// JPEG: read only when radiometric (FLIR segments)
+    Jpeg,
 }
 
 fn sniff(head: &[u8]) -> Option<Format> {
@@ -155,6 +170,10 @@ fn sniff(head: &[u8]) -> Option<Format> {
         || head.starts_with(b"MM\0+")
     {
         Some(Format::Tiff)
+    } else if flir::is_fff(head) {
+        Some(Format::Flir)
+    } else if head.starts_with(&[0xFF, 0xD8, 0xFF]) {
+        Some(Format::Jpeg)
     } else {
         None
     }
@@ -235,15 +254,19 @@ enum Op<'a> {
     Decode(&'a DecodeOptions),
     Pages,
     Channels,
+    Radiometry(&'a DecodeOptions),
 }
 
 enum OpOut {
     Frame(Frame),
-    Pages(usize),
+    /// Pages found, and why the chain breaks after them (if it does).
+    Pages(usize, Option<Reason>),
     Channels(Vec<String>),
+    Radiometry(Box<CameraInfo>),
 }
 
-fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>) -> std::result::Result<OpOut, Reason> {
+/// Run `op` on a stream; `key` identifies the file it reads (the TIFF page cache's key).
+fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>, key: Option<&FileKey>) -> std::result::Result<OpOut, Reason> {
     let mut head = [0u8; 8];
     let mut got = 0;
     while got < head.len() {
@@ -259,24 +282,40 @@ fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>) -> std::result::Result<
         if got == 0 {
             "empty file (not an EXR, PNG or TIFF image)".to_string()
         } else {
-            "unsupported file format (not an OpenEXR, PNG or TIFF image by its magic bytes)".to_string()
+            "unsupported file format (not an OpenEXR, PNG, TIFF or radiometric FLIR image by its magic bytes)"
+                .to_string()
         }
     })?;
     if let Op::Decode(o) = op {
-        if o.page != 0 && format != Format::Tiff {
-            return Err(format!("page {} out of range (only TIFF files have several pages)", o.page));
+        if o.page != 0 && format != Format::Tiff && format != Format::Flir {
+            return Err(format!("page {} out of range (only TIFF and FLIR SEQ files have several pages)", o.page));
         }
     }
     match (format, op) {
         (Format::Exr, Op::Decode(o)) => exr::decode(reader, o).map(OpOut::Frame),
         (Format::Exr, Op::Channels) => exr::channels(reader).map(OpOut::Channels),
-        (Format::Exr, Op::Pages) => exr::channels(reader).map(|_| OpOut::Pages(1)),
+        (Format::Exr, Op::Pages) => exr::channels(reader).map(|_| OpOut::Pages(1, None)),
         (Format::Png, Op::Decode(o)) => raster::decode_png(reader, o).map(OpOut::Frame),
         (Format::Png, Op::Channels) => raster::png_channels(reader).map(OpOut::Channels),
-        (Format::Png, Op::Pages) => raster::png_channels(reader).map(|_| OpOut::Pages(1)),
-        (Format::Tiff, Op::Decode(o)) => raster::decode_tiff(reader, o).map(OpOut::Frame),
-        (Format::Tiff, Op::Channels) => raster::tiff_channels(reader).map(OpOut::Channels),
-        (Format::Tiff, Op::Pages) => raster::tiff_page_count(reader).map(OpOut::Pages),
+        (Format::Png, Op::Pages) => raster::png_channels(reader).map(|_| OpOut::Pages(1, None)),
+        (Format::Tiff, Op::Decode(o)) => raster::decode_tiff(reader, o, key).map(OpOut::Frame),
+        (Format::Tiff, Op::Channels) => raster::tiff_channels(reader, key).map(OpOut::Channels),
+        (Format::Tiff, Op::Pages) => {
+            raster::tiff_page_chain(reader, key).map(|(pages, broken)| OpOut::Pages(pages, broken))
+        }
+        (Format::Flir, Op::Decode(o)) => seq::decode(reader, o).map(OpOut::Frame),
+        (Format::Flir, Op::Channels) => seq::page_count(reader).map(|_| OpOut::Channels(vec!["Y".to_string()])),
+        (Format::Flir, Op::Pages) => seq::page_count(reader).map(|n| OpOut::Pages(n, None)),
+        (Format::Flir, Op::Radiometry(o)) => seq::camera_info(reader, o).map(|c| OpOut::Radiometry(Box::new(c))),
+        (Format::Jpeg, Op::Decode(o)) => rjpeg::decode(reader, o).map(OpOut::Frame),
+        (Format::Jpeg, Op::Channels) => {
+            rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Channels(vec!["Y".to_string()]))
+        }
+        (Format::Jpeg, Op::Pages) => rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Pages(1, None)),
+        (Format::Jpeg, Op::Radiometry(o)) => rjpeg::camera_info(reader, o).map(|c| OpOut::Radiometry(Box::new(c))),
+        (Format::Exr | Format::Png | Format::Tiff, Op::Radiometry(_)) => {
+            Err("no radiometric calibration: only FLIR files (FFF, SEQ, radiometric JPEG) carry one".to_string())
+        }
     }
 }
 
@@ -306,28 +345,50 @@ pub(crate) fn open_regular(path: &Path) -> std::result::Result<File, Reason> {
     Ok(file)
 }
 
-/// Whether the file starts with a TIFF signature (errors are left to the full decode path).
-fn is_tiff(path: &Path) -> bool {
+/// The file's format by its signature (errors are left to the full decode path).
+fn sniff_path(path: &Path) -> Option<Format> {
     let mut head = [0u8; 8];
     let n = open_regular(path).ok().and_then(|mut f| std::io::Read::read(&mut f, &mut head).ok()).unwrap_or(0);
-    sniff(&head[..n]) == Some(Format::Tiff)
+    sniff(&head[..n])
+}
+
+/// The read buffer for a file: small for a TIFF, whose decoder seeks to each directory and
+/// chunk it reads (every seek refills the buffer, and large chunks bypass it), larger for
+/// the formats read front to back.
+fn buffer_size(file: &File) -> usize {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileExt;
+        let mut head = [0u8; 8];
+        if let Ok(n) = file.read_at(&mut head, 0) {
+            if sniff(&head[..n]) == Some(Format::Tiff) {
+                return 1 << 13;
+            }
+        }
+    }
+    1 << 16
 }
 
 fn run_on_path(path: &Path, op: Op<'_>) -> Result<OpOut> {
     let name = path.display().to_string();
     let file = open_regular(path).map_err(|reason| frame_err(&name, reason))?;
-    let reader = BufReader::with_capacity(1 << 16, file);
-    guarded(&name, || run_op(reader, &op))
+    let key = file.metadata().map(|meta| FileKey::of(path, &meta)).ok();
+    let reader = BufReader::with_capacity(buffer_size(&file), file);
+    guarded(&name, || run_op(reader, &op, key.as_ref()))
 }
 
-/// Decode one frame (one channel of one page) of an OpenEXR, PNG or TIFF file.
+/// Decode one frame (one channel of one page) of an OpenEXR, PNG or TIFF file, or the raw counts of
+/// a radiometric FLIR file (FFF, one frame of a SEQ, radiometric JPEG).
 ///
-/// Errors are `Error::Frame("{path}: {reason}")`.
+/// A page of a multi-page TIFF costs one IFD read, whatever its place: the file's chain of
+/// pages is walked once and kept (`tiff_pages`). A page before the place where a broken
+/// chain breaks (a truncated file, a loop) decodes; a page from there on is an error naming
+/// why. Errors are `Error::Frame("{path}: {reason}")`.
 pub fn decode_frame(path: &Path, opts: &DecodeOptions) -> Result<Frame> {
-    if opts.page > 0 && is_tiff(path) {
-        // later pages of a multi-page TIFF: this thread's open decoder knows the IFD offsets
+    if opts.page > 0 && sniff_path(path) == Some(Format::Flir) {
+        // later frames of a SEQ: the file's frame index is kept
         let name = path.display().to_string();
-        return guarded(&name, || raster::decode_tiff_page_cached(path, opts));
+        return guarded(&name, || seq::decode_cached(path, opts));
     }
     match run_on_path(path, Op::Decode(opts))? {
         OpOut::Frame(f) => Ok(f),
@@ -337,17 +398,52 @@ pub fn decode_frame(path: &Path, opts: &DecodeOptions) -> Result<Frame> {
 
 /// Decode one frame from an in-memory file; `name` is used in error messages.
 pub fn decode_bytes(bytes: &[u8], name: &str, opts: &DecodeOptions) -> Result<Frame> {
-    match guarded(name, || run_op(Cursor::new(bytes), &Op::Decode(opts)))? {
+    match guarded(name, || run_op(Cursor::new(bytes), &Op::Decode(opts), None))? {
         OpOut::Frame(f) => Ok(f),
         _ => unreachable!("decode returns a frame"),
     }
 }
 
-/// Number of pages: the IFD count of a TIFF, 1 for EXR and PNG.
-pub fn page_count(path: &Path) -> Result<usize> {
+/// The calibration of a radiometric FLIR file (frame `opts.page` of a SEQ): a FrameError for
+/// files without one.
+pub fn read_camera_info(path: &Path, opts: &DecodeOptions) -> Result<CameraInfo> {
+    match run_on_path(path, Op::Radiometry(opts))? {
+        OpOut::Radiometry(c) => Ok(*c),
+        _ => unreachable!("read_camera_info returns a calibration"),
+    }
+}
+
+/// The pages of a frame file: how many can be read, and why the rest cannot.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PageChain {
+    /// Pages found: the IFDs of a TIFF's chain up to its end or to where it breaks; 1 for
+    /// EXR and PNG.
+    pub pages: usize,
+    /// When a TIFF's IFD chain breaks before its end, why (`"{path}: truncated at page k:
+    /// ..."`, `"{path}: the IFD chain loops back at page k: ..."`): page `pages` and any
+    /// after it cannot be read. None when the chain ends properly.
+    pub broken: Option<String>,
+}
+
+/// The pages of a frame file, in one pass over a TIFF's IFD chain (kept for decoding its
+/// pages). An error when not even the first page can be found.
+pub fn page_chain(path: &Path) -> Result<PageChain> {
     match run_on_path(path, Op::Pages)? {
-        OpOut::Pages(n) => Ok(n),
-        _ => unreachable!("page_count returns a count"),
+        OpOut::Pages(pages, broken) => {
+            Ok(PageChain { pages, broken: broken.map(|why| format!("{}: {why}", path.display())) })
+        }
+        _ => unreachable!("page_chain returns pages"),
+    }
+}
+
+/// Number of pages: the IFD count of a TIFF, 1 for EXR and PNG. A TIFF whose IFD chain
+/// breaks before its end is an error naming where and why ([`page_chain`] gives the pages
+/// before the break).
+pub fn page_count(path: &Path) -> Result<usize> {
+    let chain = page_chain(path)?;
+    match chain.broken {
+        Some(why) => Err(Error::Frame(why)),
+        None => Ok(chain.pages),
     }
 }
 

@@ -8,14 +8,12 @@
 //! checked against the decoding budget (`max_bytes`) from the header before allocating; PNG
 //! metadata chunks are either skipped (ICC profiles, text) or bounded.
 
-use std::cell::RefCell;
-use std::fs::File;
-use std::io::{BufRead, BufReader, Seek, SeekFrom};
-use std::path::Path;
+use std::io::{BufRead, Read, Seek, SeekFrom};
 
 use tiff::decoder::{ChunkType, Decoder as TiffDecoder, DecodingSampleType, Limits as TiffLimits};
 use tiff::ColorType as TiffColor;
 
+use super::tiff_pages::{self, FileKey};
 use super::{check_budget, check_size, product, select_channel, DecodeOptions, Frame, FrameData, Reason};
 
 // ----------------------------------------------------------------------------- sample bytes
@@ -281,7 +279,7 @@ fn tiff_names(c: TiffColor) -> Result<Vec<String>, Reason> {
     Ok((0..n).map(|i| i.to_string()).collect())
 }
 
-fn tiff_open<R: BufRead + Seek>(mut reader: R) -> Result<TiffDecoder<R>, Reason> {
+fn tiff_open<R: Read + Seek>(mut reader: R) -> Result<TiffDecoder<R>, Reason> {
     let file_len = reader.seek(SeekFrom::End(0)).map_err(|e| format!("read error: {e}"))?;
     reader.rewind().map_err(|e| format!("read error: {e}"))?;
     let mut limits = TiffLimits::default();
@@ -291,27 +289,35 @@ fn tiff_open<R: BufRead + Seek>(mut reader: R) -> Result<TiffDecoder<R>, Reason>
     TiffDecoder::new(reader).map_err(tiff_err).map(|d| d.with_limits(limits))
 }
 
-pub(super) fn tiff_page_count<R: BufRead + Seek>(reader: R) -> Result<usize, Reason> {
-    let mut dec = tiff_open(reader)?;
-    let mut n = 1usize;
-    while dec.more_images() {
-        dec.next_image().map_err(|e| format!("page {n}: {}", tiff_err(e)))?;
-        n += 1;
-        if n > 10_000_000 {
-            return Err("corrupt TIFF file: more than 10 million pages".to_string());
-        }
-    }
-    Ok(n)
+/// The pages of the TIFF `reader` holds (`key`: the file's identity, for the page cache).
+pub(super) fn tiff_page_chain<R: Read + Seek>(
+    mut reader: R,
+    key: Option<&FileKey>,
+) -> Result<(usize, Option<Reason>), Reason> {
+    let chain = tiff_pages::chain(&mut reader, key)?;
+    Ok((chain.pages(), chain.broken.clone()))
 }
 
-pub(super) fn tiff_channels<R: BufRead + Seek>(reader: R) -> Result<Vec<String>, Reason> {
-    let mut dec = tiff_open(reader)?;
+/// The first page's channel names.
+pub(super) fn tiff_channels<R: Read + Seek>(mut reader: R, key: Option<&FileKey>) -> Result<Vec<String>, Reason> {
+    let chain = tiff_pages::chain(&mut reader, key)?;
+    let mut dec = tiff_open(chain.one_page(reader, 0)?)?;
     tiff_names(dec.colortype().map_err(tiff_err)?)
 }
 
-pub(super) fn decode_tiff<R: BufRead + Seek>(reader: R, o: &DecodeOptions) -> Result<Frame, Reason> {
-    let mut dec = tiff_open(reader)?;
-    decode_tiff_page(&mut dec, o)
+/// Decode page `o.page`: the chain of pages from the cache (by `key`, the file's identity)
+/// or walked once, then that page alone (whatever its place in the chain).
+pub(super) fn decode_tiff<R: Read + Seek>(
+    mut reader: R,
+    o: &DecodeOptions,
+    key: Option<&FileKey>,
+) -> Result<Frame, Reason> {
+    let chain = tiff_pages::chain(&mut reader, key)?;
+    let view = chain.one_page(reader, o.page)?;
+    // in a multi-page file, say which page failed
+    let in_page = |e: Reason| if chain.pages() > 1 { format!("page {}: {e}", o.page) } else { e };
+    let mut dec = tiff_open(view).map_err(in_page)?;
+    decode_tiff_page(&mut dec, o).map_err(in_page)
 }
 
 /// How one page's samples are stored: chunks (strips or tiles) of `chunk` pixels in a grid
@@ -347,7 +353,7 @@ impl ChunkGrid {
 }
 
 /// The page's chunk layout; checked before the decoder divides by a chunk size.
-fn chunk_grid<R: BufRead + Seek>(dec: &mut TiffDecoder<R>, spp: usize, c: usize) -> Result<ChunkGrid, Reason> {
+fn chunk_grid<R: Read + Seek>(dec: &mut TiffDecoder<R>, spp: usize, c: usize) -> Result<ChunkGrid, Reason> {
     let (w, h) = dec.dimensions().map_err(tiff_err)?;
     let (w, h) = (w as usize, h as usize);
     let (cw, ch) = match dec.get_chunk_type() {
@@ -375,7 +381,7 @@ fn chunk_grid<R: BufRead + Seek>(dec: &mut TiffDecoder<R>, spp: usize, c: usize)
 }
 
 /// The selected channel of every chunk into a frame of `T`.
-fn read_chunks<T: Plain, R: BufRead + Seek>(dec: &mut TiffDecoder<R>, g: &ChunkGrid) -> Result<Vec<T>, Reason> {
+fn read_chunks<T: Plain, R: Read + Seek>(dec: &mut TiffDecoder<R>, g: &ChunkGrid) -> Result<Vec<T>, Reason> {
     let mut out = vec![T::default(); g.width * g.height];
     let mut scratch: Vec<T> = Vec::new();
     for k in 0..g.chunks() {
@@ -398,16 +404,8 @@ fn read_chunks<T: Plain, R: BufRead + Seek>(dec: &mut TiffDecoder<R>, g: &ChunkG
     Ok(out)
 }
 
-/// Decode page `o.page` with an open decoder (which remembers the IFD offsets it has seen).
-fn decode_tiff_page<R: BufRead + Seek>(dec: &mut TiffDecoder<R>, o: &DecodeOptions) -> Result<Frame, Reason> {
-    if o.page > 0 {
-        dec.seek_to_image(o.page).map_err(|e| match e {
-            tiff::TiffError::FormatError(tiff::TiffFormatError::ImageFileDirectoryNotFound) => {
-                format!("page {} out of range", o.page)
-            }
-            other => format!("page {}: {}", o.page, tiff_err(other)),
-        })?;
-    }
+/// Decode the decoder's current page.
+fn decode_tiff_page<R: Read + Seek>(dec: &mut TiffDecoder<R>, o: &DecodeOptions) -> Result<Frame, Reason> {
     let (w, h) = dec.dimensions().map_err(tiff_err)?;
     check_size(w as u64, h as u64, o.max_pixels)?;
     let color = dec.colortype().map_err(tiff_err)?;
@@ -445,88 +443,6 @@ fn decode_tiff_page<R: BufRead + Seek>(dec: &mut TiffDecoder<R>, o: &DecodeOptio
         _ => FrameData::F64(read_chunks(dec, &g)?),
     };
     Ok(Frame { rows: h as usize, cols: w as usize, data })
-}
-
-// ----------------------------------------------------------------------------- TIFF pages in order
-
-/// What identifies a file's content for the page cursor: the same path may be replaced by
-/// rename (a new inode) or rewritten in place (same inode, new change time even when the
-/// modification time is set back), and either may keep the length and mtime.
-#[derive(Clone, Debug, PartialEq)]
-struct FileKey {
-    path: std::path::PathBuf,
-    len: u64,
-    modified: Option<std::time::SystemTime>,
-    #[cfg(unix)]
-    unix: (u64, u64, i64, i64), // device, inode, ctime seconds, ctime nanoseconds
-}
-
-impl FileKey {
-    fn of(path: &Path) -> Result<FileKey, Reason> {
-        let meta = std::fs::metadata(path).map_err(|e| format!("cannot open: {e}"))?;
-        #[cfg(unix)]
-        let unix = {
-            use std::os::unix::fs::MetadataExt;
-            (meta.dev(), meta.ino(), meta.ctime(), meta.ctime_nsec())
-        };
-        Ok(FileKey {
-            path: path.to_path_buf(),
-            len: meta.len(),
-            modified: meta.modified().ok(),
-            #[cfg(unix)]
-            unix,
-        })
-    }
-}
-
-/// An open decoder of a multi-page TIFF, kept per thread between calls. Reading page k
-/// from a fresh decoder walks the k earlier IFDs; a sequence read page by page would
-/// cost O(n²) header reads. The decoder remembers every IFD offset it has walked.
-struct PageCursor {
-    key: FileKey,
-    dec: TiffDecoder<BufReader<File>>,
-    /// Highest page decoded so far: every IFD up to it is known to the decoder.
-    max_page: usize,
-}
-
-/// Cursors per thread: a real and a simulated sequence (and a spare) stay open together.
-const CURSORS_PER_THREAD: usize = 4;
-
-thread_local! {
-    static CURSORS: RefCell<Vec<PageCursor>> = const { RefCell::new(Vec::new()) };
-}
-
-/// Decode page `o.page` (> 0) of the TIFF at `path`, reusing this thread's open decoder of
-/// that file when it has one. A file replaced or rewritten on disk gets a new decoder.
-pub(super) fn decode_tiff_page_cached(path: &Path, o: &DecodeOptions) -> Result<Frame, Reason> {
-    let key = FileKey::of(path)?;
-    // Take the cursor out while decoding: a decoder error or a panic (caught further up)
-    // then simply drops it instead of leaving a half-moved decoder behind.
-    let cached = CURSORS.with(|c| {
-        let mut v = c.borrow_mut();
-        v.iter().position(|cur| cur.key == key).map(|i| v.remove(i))
-    });
-    let mut cur = match cached {
-        Some(cur) => cur,
-        None => {
-            let file = super::open_regular(path)?;
-            let dec = tiff_open(BufReader::with_capacity(1 << 16, file))?;
-            PageCursor { key, dec, max_page: 0 }
-        }
-    };
-    if o.page > cur.max_page {
-        // The decoder extends its IFD list only when walking on from the last known IFD:
-        // stand on it first (an O(1) seek), then walk forward.
-        cur.dec.seek_to_image(cur.max_page).map_err(|e| format!("page {}: {}", cur.max_page, tiff_err(e)))?;
-    }
-    let frame = decode_tiff_page(&mut cur.dec, o)?;
-    cur.max_page = cur.max_page.max(o.page);
-    CURSORS.with(|c| {
-        let mut v = c.borrow_mut();
-        v.insert(0, cur);
-        v.truncate(CURSORS_PER_THREAD);
-    });
-    Ok(frame)
 }
 
 #[cfg(test)]

@@ -218,7 +218,7 @@ fn truncations_and_bit_flips_never_panic() {
 }
 
 #[test]
-fn tiff_pages_through_the_thread_cursor_equal_fresh_decodes() {
+fn tiff_pages_through_the_kept_chain_equal_fresh_decodes() {
     let path = data("thermal/cptv_v2_all100frames_uint16.tif");
     let bytes = std::fs::read(&path).unwrap();
     let page = |k: usize| DecodeOptions { page: k, ..Default::default() };
@@ -240,6 +240,78 @@ fn tiff_pages_through_the_thread_cursor_equal_fresh_decodes() {
     std::fs::write(&copy, &other).unwrap();
     let want = decode_bytes(&other, "ref", &page(5)).unwrap();
     assert_eq!(decode_frame(&copy, &page(5)).unwrap(), want);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// (IFD offset, offset of its next-IFD field) of each page of a little-endian classic TIFF.
+fn classic_ifds(bytes: &[u8]) -> Vec<(usize, usize)> {
+    let u32_at = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize;
+    let mut out = Vec::new();
+    let mut at = u32_at(4);
+    while at != 0 {
+        let count = u16::from_le_bytes([bytes[at], bytes[at + 1]]) as usize;
+        out.push((at, at + 2 + 12 * count));
+        at = u32_at(at + 2 + 12 * count);
+    }
+    out
+}
+
+#[test]
+fn a_truncated_tiff_gives_the_pages_before_the_break_and_names_it() {
+    let bytes = std::fs::read(data("thermal/cptv_v2_all100frames_uint16.tif")).unwrap();
+    let ifds = classic_ifds(&bytes);
+    assert_eq!(ifds.len(), 100);
+    let cut = &bytes[..ifds[60].0 + 10]; // page 60's IFD: its entry count, then the file ends
+    let page = |k: usize| DecodeOptions { page: k, ..Default::default() };
+    for k in [0, 30, 59] {
+        assert_eq!(decode_bytes(cut, "cut", &page(k)).unwrap(), decode_bytes(&bytes, "whole", &page(k)).unwrap());
+    }
+    for k in [60, 61, 99, 100] {
+        let m = frame_msg(decode_bytes(cut, "cut", &page(k)));
+        let want = format!(
+            "cut: truncated at page 60: its IFD at byte {} (12 entries) runs past the end of the file ({} bytes); \
+             the 60 page(s) before it are found",
+            ifds[60].0,
+            cut.len()
+        );
+        assert_eq!(m, want);
+    }
+}
+
+#[test]
+fn a_looping_ifd_chain_is_read_up_to_the_loop() {
+    let bytes = std::fs::read(data("thermal/cptv_v2_all100frames_uint16.tif")).unwrap();
+    let ifds = classic_ifds(&bytes);
+    let dir = std::env::temp_dir().join(format!("irf-loop-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let page = |k: usize| DecodeOptions { page: k, ..Default::default() };
+    for (back, name) in [(40usize, "back.tif"), (99, "self.tif")] {
+        let mut looped = bytes.clone();
+        let field = ifds[99].1;
+        looped[field..field + 4].copy_from_slice(&(ifds[back].0 as u32).to_le_bytes());
+        let path = dir.join(name);
+        std::fs::write(&path, &looped).unwrap();
+        let chain = page_chain(&path).unwrap();
+        assert_eq!(chain.pages, 100);
+        let why = chain.broken.unwrap();
+        let want = format!(
+            "{}: the IFD chain loops back at page 100: page 99's next-IFD offset points back to page {back}'s IFD \
+             (byte {}); the 100 page(s) before it are found",
+            path.display(),
+            ifds[back].0
+        );
+        assert_eq!(why, want);
+        match page_count(&path) {
+            Err(Error::Frame(m)) => assert_eq!(m, why),
+            other => panic!("a looping chain has no page count: {other:?}"),
+        }
+        // every page, the one with the looping link too, decodes as in the intact file
+        for k in [0, back, 99] {
+            assert_eq!(decode_frame(&path, &page(k)).unwrap(), decode_bytes(&bytes, "whole", &page(k)).unwrap());
+        }
+        assert_eq!(frame_msg(decode_frame(&path, &page(100))), why);
+        assert_eq!(list_channels(&path).unwrap(), ["Y"]);
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

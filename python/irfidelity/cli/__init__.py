@@ -60,13 +60,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             return _run(a)
         except (UsageError, FidelityError, OSError, ValueError, OverflowError) as exc:
-            print(f"irfidelity {a.command}: error: {message(exc)}", file=sys.stderr)
+            print(f"irfidelity {a.command}: error: {message(exc, a)}", file=sys.stderr)
             return EXIT_USAGE
         except KeyboardInterrupt:
             print("irfidelity: interrupted", file=sys.stderr)
             return 130
         finally:
-            for line in warning_lines(caught):
+            for line in warning_lines(caught, a):
                 print(line, file=sys.stderr)
 
 

@@ -4,7 +4,10 @@ one-line messages (naming flags, never Python syntax)."""
 from __future__ import annotations
 
 import argparse
+import glob
 import json
+import os
+import re
 import sys
 from typing import Any
 
@@ -19,17 +22,63 @@ class UsageError(Exception):
     """A command-line mistake: printed as one line, exit status 2."""
 
 
-def message(exc: BaseException) -> str:
-    """One line for an error, naming the flag it concerns."""
-    text = " ".join(str(exc).split()) or type(exc).__name__
+def message(exc: BaseException, a: argparse.Namespace | None = None) -> str:
+    """One line for an error, naming the flag it concerns, in the command line's words (the
+    library's messages name keyword arguments and numpy calls)."""
+    text = cli_wording(" ".join(str(exc).split()) or type(exc).__name__, a)
     flag = flag_for(getattr(exc, "option", None))
     if flag is not None and flag not in text:
         text += f" ({flag})"
     return text
 
 
-def warning_lines(caught: list) -> list[str]:
-    return [f"irfidelity: warning: {w.category.__name__}: {message(w.message)}" for w in caught]
+def warning_lines(caught: list, a: argparse.Namespace | None = None) -> list[str]:
+    return [f"irfidelity: warning: {w.category.__name__}: {message(w.message, a)}" for w in caught]
+
+
+#: Which channel flags decode each input's files: (arguments holding paths, flags).
+_CHANNEL_FLAGS = (
+    (("real_mtf", "real_edge"), "--real-edge-channel (or --edge-channel for both edge images)"),
+    (("sim_mtf", "sim_edge"), "--sim-edge-channel (or --edge-channel for both edge images)"),
+    (("real", "real_noise"), "--real-channel (or --channel for both sides)"),
+    (("sim", "sim_noise"), "--sim-channel (or --channel for both sides)"),
+)
+_ANY_CHANNEL = "--channel (or --real-channel / --sim-channel; --edge-channel for edge images)"
+
+#: The library's advice for dtypes, as the command line gives it (the files are what to change).
+_DTYPE_ADVICE = {
+    "(e.g. sim.astype(real.dtype))": "(write the simulated frames in the real frames' sample type)",
+    "convert one so no silent rounding happens": "write the simulated frames in the real frames' sample type so no "
+                                                 "silent rounding happens",
+}
+
+
+def _literal_part(path: str) -> str:
+    """What the name of a file an input holds starts with: the path, or a glob's directory."""
+    if not glob.has_magic(path):
+        return path
+    return os.path.dirname(re.split(r"[*?\[]", path, maxsplit=1)[0])
+
+
+def _channel_flags(text: str, a: argparse.Namespace | None) -> str:
+    """The channel flags of the input whose file the message names (the longest match)."""
+    best, flags = 0, _ANY_CHANNEL
+    for names, side_flags in _CHANNEL_FLAGS:
+        for name in names:
+            path = getattr(a, name, None)
+            where = _literal_part(path) if isinstance(path, str) else ""
+            if where and where in text and len(where) > best:
+                best, flags = len(where), side_flags
+    return flags
+
+
+def cli_wording(text: str, a: argparse.Namespace | None = None) -> str:
+    """``text`` with the library's keyword-argument advice replaced by the flags to use."""
+    if "channel=..." in text:
+        text = text.replace("channel=...", _channel_flags(text, a))
+    for api, cli in _DTYPE_ADVICE.items():
+        text = text.replace(api, cli)
+    return text
 
 
 def _write_json(data: Any, dest: str) -> None:

@@ -7,6 +7,7 @@ import argparse
 from ..config import MISSING_MODES, NONFINITE_MODES, PAIRING_RULES, REGISTRATION_MODELS
 from ..curves.table import parse_columns, parse_where
 from ..errors import FidelityError
+from ..registration import DEFAULT_METHOD, METHODS
 
 __all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "flag_for"]
 
@@ -108,9 +109,11 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--config", metavar="FILE", help="scoring configuration (TOML or JSON; see 'irfidelity config')")
     g = s.add_argument_group("what decides the score")
     g.add_argument("--bits", type=_positive_int, metavar="N",
-                   help="bit depth of integer frames: values must be <= 2^N-1; default PSNR peak 2^N-1")
+                   help="bit depth of integer frames: values must be <= 2^N-1; default PSNR peak 2^N-1 "
+                        "(--peak overrides the peak; --bits still bounds the values)")
     g.add_argument("--peak", type=_peak, metavar="X|range",
-                   help="PSNR peak: a number (needed for float frames), or 'range' (the real frame's max - min)")
+                   help="PSNR peak: a number (needed for float frames), or 'range' (the real frame's max - min); "
+                        "with --bits, the values are still bounded by 2^N-1")
     g.add_argument("--weights", metavar="SPEC",
                    help="balanced (default, 1/5 each) | performance | image_quality | "
                         "'mtf=..,sitf=..,psnr=..,nmi=..,ssim=..,noise=..' (unnamed components 0; sum 1)")
@@ -126,7 +129,9 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--channel", metavar="C", help="channel of both frames' files (e.g. EXR 'Y', PNG 'R')")
     c.add_argument("--real-channel", metavar="C", help="channel of the real frames only")
     c.add_argument("--sim-channel", metavar="C", help="channel of the simulated frames only")
-    c.add_argument("--edge-channel", metavar="C", help="channel of multi-channel edge images")
+    c.add_argument("--edge-channel", metavar="C", help="channel of both sides' multi-channel edge images")
+    c.add_argument("--real-edge-channel", metavar="C", help="channel of the real edge image only")
+    c.add_argument("--sim-edge-channel", metavar="C", help="channel of the simulated edge image only")
     k = s.add_argument_group("camera curves (compared once; with sequences they count for every frame)")
     k.add_argument("--real-mtf", metavar="CSV|IMG", help="real MTF: a curve CSV (frequency, MTF) or an edge image")
     k.add_argument("--sim-mtf", metavar="CSV|IMG", help="simulated MTF: a curve CSV or an edge image")
@@ -157,6 +162,8 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--register", choices=REGISTRATION_MODELS, metavar="MODEL",
                    help="align the simulated frame to the real one first and score the overlap: translation, "
                         "rigid or similarity (a sequence is registered once, on its first pair)")
+    r.add_argument("--register-method", choices=METHODS, metavar="METHOD",
+                   help=f"how to register: {', '.join(METHODS)} (default {DEFAULT_METHOD}; docs/registration.md)")
     r.add_argument("--register-each", action="store_true", default=None,
                    help="sequences: register every frame pair on its own (with --register's model)")
     r.add_argument("--max-delay", type=_non_negative_int, metavar="N",

@@ -9,7 +9,7 @@ from typing import Any
 
 from ..config import ScoringConfig
 from ..errors import FidelityError
-from ..frames import FrameSequence, page_count
+from ..frames import MULTIPAGE_EXTENSIONS, FrameSequence, page_chain
 from ..fuzzy import Weights
 from .output import UsageError, write_outputs
 
@@ -17,8 +17,9 @@ __all__ = ["score_command"]
 
 #: Flags that set a ScoringConfig field of the same name.
 _CONFIG_FLAGS = ("bits", "peak", "bins", "hist_range", "missing", "nonfinite", "channel", "real_channel",
-                 "sim_channel", "edge_channel", "edge_fit_order", "ifov_mrad", "pixel_pitch_um", "focal_length_mm", "register",
-                 "register_each", "max_delay", "pair_by")
+                 "sim_channel", "edge_channel", "real_edge_channel", "sim_edge_channel", "edge_fit_order", "ifov_mrad",
+                 "pixel_pitch_um", "focal_length_mm", "register", "register_method", "register_each", "max_delay",
+                 "pair_by")
 
 
 def _config(a: argparse.Namespace) -> ScoringConfig:
@@ -32,12 +33,16 @@ def _config(a: argparse.Namespace) -> ScoringConfig:
 
 
 def _is_sequence(path: str) -> bool:
-    """A directory, a glob pattern, or a multi-page TIFF."""
+    """A directory, a glob pattern, or a multi-page TIFF or FLIR SEQ (a TIFF whose chain of
+    pages breaks too: its readable pages are scored, the break is a failed frame)."""
     if os.path.isdir(path):
         return True
     if not os.path.exists(path):
         return glob.has_magic(path)
-    return path.lower().endswith((".tif", ".tiff")) and page_count(path) > 1
+    if not path.lower().endswith(MULTIPAGE_EXTENSIONS):
+        return False
+    pages, broken = page_chain(path)
+    return pages > 1 or broken is not None
 
 
 def _curve(a: argparse.Namespace, side: str, kind: str) -> Any:

@@ -52,13 +52,14 @@ Imaging (2022), doi:10.2352/EI.2022.34.9.IQSP-357 (the polynomial edge fit of sf
 from __future__ import annotations
 
 import math
+import os
 import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ..errors import FidelityError, FidelityWarning
+from ..errors import EdgeWarning, FidelityError
 from .curve import Curve
 from .mtf import apodization, mtf_from_esf
 
@@ -80,11 +81,6 @@ MIN_SNR = 5
 MIN_ROWS = 8
 #: edge angles (degrees from the pixel grid) at which the 4x phase pattern repeats too soon
 CRITICAL_ANGLES = (math.degrees(math.atan(0.25)), math.degrees(math.atan(0.5)))  # 14.04°, 26.57°
-
-
-class EdgeWarning(FidelityWarning):
-    """A slanted-edge measurement that ran, but whose conditions make the MTF doubtful:
-    clipped pixels, low contrast, an edge angle near 0°/45° or a critical angle, empty ESF bins."""
 
 
 def _warn(msg: str) -> None:
@@ -126,7 +122,8 @@ class EdgeFit:
 
 def mtf_from_edge(image: Any, *, edge_fit_order: int = 5, oversample: int = 4, window: Any = "hamming",
                   orientation: str = "auto", max_freq: float | None = 1.0, correct: bool = True,
-                  clip: tuple[float, float] | None = None, name: str | None = None) -> Curve:
+                  clip: tuple[float, float] | None = None, name: str | None = None,
+                  channel: str | None = None) -> Curve:
     """Slanted-edge MTF of a region of interest holding one edge (ISO 12233:2023 e-SFR).
 
     Each pixel at column ``j`` of row ``i`` is binned at its distance ``j - e(i)`` to the
@@ -145,9 +142,10 @@ def mtf_from_edge(image: Any, *, edge_fit_order: int = 5, oversample: int = 4, w
 
     Parameters
     ----------
-    image : 2-D array_like
+    image : 2-D array_like, or a path
         The ROI: integer (8/16-bit ...) or float pixels, one edge crossing it from side to
-        side, either polarity (dark-to-bright or bright-to-dark).
+        side, either polarity (dark-to-bright or bright-to-dark). A path (str or
+        ``os.PathLike``) is read with :func:`irfidelity.load_frame`; errors then name it.
     edge_fit_order : int
         Order of the polynomial fitted to the per-row edge locations, 1..5: 5 (default) as
         ISO 12233:2023 (follows an edge bent by lens distortion), 1 = the straight line of
@@ -169,7 +167,10 @@ def mtf_from_edge(image: Any, *, edge_fit_order: int = 5, oversample: int = 4, w
         Values at or beyond which a pixel counts as clipped. Default: the integer dtype's
         range; none for float images.
     name : str, optional
-        Label of the curve.
+        Label of the curve (default: the file name for a path).
+    channel : str, optional
+        The channel of a multi-channel image file (``"R"``, ``"Y"``, an EXR channel name, ...;
+        :func:`irfidelity.load_frame`); only with a path.
 
     Returns
     -------
@@ -219,6 +220,17 @@ def mtf_from_edge(image: Any, *, edge_fit_order: int = 5, oversample: int = 4, w
     >>> round(c.meta["angle_deg"], 1), c.x_unit
     (5.7, 'cy/px')
     """
+    if isinstance(image, (str, os.PathLike)):
+        path = os.fsdecode(os.fspath(image))
+        try:
+            return mtf_from_edge(_load_edge(path, channel), edge_fit_order=edge_fit_order, oversample=oversample,
+                                 window=window, orientation=orientation, max_freq=max_freq, correct=correct,
+                                 clip=clip, name=name or os.path.basename(path))
+        except FidelityError as exc:
+            raise type(exc)(exc if path in str(exc) else f"{path}: {exc}", option=exc.option) from None
+    if channel is not None:
+        raise FidelityError("channel= selects a channel of an image file; for an array, pass the 2-D array of "
+                            "that channel", option="channel")
     pixels, is_integer = _edge_pixels(image)
     order, factor = _check_options(edge_fit_order, oversample)
     _warn_clipping(pixels, clip if clip is not None else _dtype_range(image))
@@ -243,6 +255,12 @@ def mtf_from_edge(image: Any, *, edge_fit_order: int = 5, oversample: int = 4, w
 
 
 # --------------------------------------------------------------------------- input
+def _load_edge(path: str, channel: str | None) -> np.ndarray:
+    from ..frames import load_frame  # only when a path is given
+
+    return load_frame(path, channel=channel)
+
+
 def _edge_pixels(image: Any) -> tuple[np.ndarray, bool]:
     raw = np.asarray(image)
     if raw.ndim != 2:

@@ -97,11 +97,16 @@ def _trapz(y: np.ndarray, x: np.ndarray) -> float:
     return float(np.sum((y[1:] + y[:-1]) * np.diff(x)) / 2)
 
 
+#: Most feature points a curve comparison samples (a count or an explicit array): far more
+#: than any measured curve resolves, and a bound on the memory a comparison takes.
+MAX_FEATURE_POINTS = 1 << 16
+
+
 def feature_points(real: Any, sim: Any, points: Any = 64) -> np.ndarray:
     """Feature abscissae over the overlap of both curves' x ranges (paper §1.2).
 
-    ``points`` is a count (>= 2; uniform over the overlap, end points included) or an
-    explicit array that must lie inside the overlap.
+    ``points`` is a count (2 .. :data:`MAX_FEATURE_POINTS`; uniform over the overlap, end
+    points included) or an explicit array of as many values that must lie inside the overlap.
 
     Examples
     --------
@@ -116,14 +121,17 @@ def feature_points(real: Any, sim: Any, points: Any = 64) -> np.ndarray:
     if np.ndim(points) == 0:
         try:
             n = int(points)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise FidelityError(f"points must be an integer or an array, got {points!r}") from None
-        if n != points or n < 2:
-            raise FidelityError(f"points must be an integer >= 2, got {points!r}")
+        if n != points or not 2 <= n <= MAX_FEATURE_POINTS:
+            raise FidelityError(f"points must be an integer in 2..{MAX_FEATURE_POINTS}, got {points!r}")
         return np.linspace(lo, hi, n)
-    p = np.asarray(points, dtype=np.float64).ravel()
-    if p.size < 2 or not np.isfinite(p).all():
-        raise FidelityError("explicit feature points must be at least 2 finite values")
+    try:
+        p = np.asarray(points, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        raise FidelityError(f"points must be an integer or an array of numbers, got {points!r}") from None
+    if not 2 <= p.size <= MAX_FEATURE_POINTS or not np.isfinite(p).all():
+        raise FidelityError(f"explicit feature points must be 2..{MAX_FEATURE_POINTS} finite values")
     if p.min() < lo or p.max() > hi:
         raise FidelityError(f"feature points must lie within the overlap {lo:g}..{hi:g} of both curves "
                             f"(got {p.min():g}..{p.max():g}); curves are never extrapolated")

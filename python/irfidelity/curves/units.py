@@ -52,7 +52,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..errors import FidelityError, FidelityWarning
+from ..errors import CurveUnitsWarning, FidelityError
 
 __all__ = ["UNITS", "Unit", "CameraGeometry", "CurveUnitsWarning", "canonical_unit", "unit_from_header",
            "convert"]
@@ -119,11 +119,6 @@ def _normalise(text: str) -> str:
 
 _SPELLING_TO_SYMBOL = {_normalise(sp): u.symbol for u in UNITS.values() for sp in u.spellings}
 _SPELLING_TO_SYMBOL.update({_normalise(u.symbol): u.symbol for u in UNITS.values()})
-
-
-class CurveUnitsWarning(FidelityWarning):
-    """Two curves are compared although the unit of an axis is unknown on both: the comparison
-    assumes they agree (the user's responsibility)."""
 
 
 def canonical_unit(unit: str | None, *, what: str = "unit") -> str | None:

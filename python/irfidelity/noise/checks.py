@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FidelityWarning, RangeError
+from ..errors import NoiseWarning, RangeError
 from .quantiles import f_ppf
 
 __all__ = ["NoiseWarning", "UNIFORMITY_LIMIT", "uniformity", "plane_fit", "check_clipped"]
@@ -39,11 +39,6 @@ UNIFORMITY_LIMIT = 0.10
 SIGNIFICANCE = 0.001
 #: Box averages at least this many times what random fixed-pattern noise would leave.
 LOW_FREQUENCY_RATIO = 2.0
-
-
-class NoiseWarning(FidelityWarning):
-    """A 3-D noise result that may mislead: a scene that is not uniform (gradient or object),
-    or samples at the ends of the valid range (saturated or clipped pixels)."""
 
 
 def plane_fit(mean_map: np.ndarray) -> np.ndarray:

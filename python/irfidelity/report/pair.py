@@ -75,7 +75,7 @@ def render_pair_html(
     >>> y, x = np.mgrid[0:120, 0:160]
     >>> real = (3000 + 200 * np.sin(x / 9.0) + 50 * np.cos(y / 5.0)).astype(np.uint16)
     >>> sim = (real // 2 + 1600).astype(np.uint16)
-    >>> rep = irf.evaluate(real, sim, bits=14, missing="renormalize")
+    >>> rep = irf.evaluate(real, sim, bits=14, peak="range", missing="renormalize")
     >>> page = render_pair_html(rep.to_dict(), real=real, sim=sim)
     >>> page.startswith("<!DOCTYPE html>"), "Not shown: no MTF curves were given" in page
     (True, True)

@@ -190,7 +190,9 @@ def mtf(curves: Mapping, metrics: Mapping) -> Raw:
     real_c, sim_c = curves.get("real_mtf"), curves.get("sim_mtf")
     xy = [curve_xy(real_c), curve_xy(sim_c)]
     if any(v is None for v in xy):
-        return missing(title, "no MTF curves were given (curves={'real_mtf': ..., 'sim_mtf': ...})", anchor="mtf")
+        return missing(title, "no MTF curves were given (real_mtf= and sim_mtf= of evaluate or score_sequence: "
+                              "curves, CSV files or slanted-edge images; on the command line --real-mtf/--sim-mtf "
+                              "or --real-edge/--sim-edge)", anchor="mtf")
     notes = []
     entries = []
     for (name, c, style, key), (x, y) in zip(
@@ -218,8 +220,8 @@ def sitf(curves: Mapping, metrics: Mapping) -> Raw:
     real_c, sim_c = curves.get("real_sitf"), curves.get("sim_sitf")
     xy = [curve_xy(real_c), curve_xy(sim_c)]
     if any(v is None for v in xy):
-        return missing(title, "no SiTF curves were given (curves={'real_sitf': ..., 'sim_sitf': ...})",
-                       anchor="sitf")
+        return missing(title, "no SiTF curves were given (real_sitf= and sim_sitf= of evaluate or score_sequence: "
+                              "curves or CSV files; on the command line --real-sitf/--sim-sitf)", anchor="sitf")
     notes = []
     entries = []
     for (name, c, style, key), (x, y) in zip(
@@ -232,8 +234,8 @@ def sitf(curves: Mapping, metrics: Mapping) -> Raw:
                 from ..curves import sitf_fit
 
                 fit = _fit(sitf_fit((x, y)))
-                notes.append(f"The {name} linear portion was fitted here with irfidelity.curves.sitf_fit's defaults "
-                             f"(pass curves['{key}'] to show the fit that was scored).")
+                notes.append(f"The {name} linear portion was fitted here with irfidelity.curves.sitf_fit's defaults; "
+                             "the slope scored (in the caption) follows the configuration's sitf_options.")
             except (FidelityError, ValueError) as exc:
                 notes.append(f"No linear fit of the {name} SiTF: {exc}")
         entries.append({"name": name, "x": x, "y": y, "style": style, "fit": fit})

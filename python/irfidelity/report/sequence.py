@@ -88,7 +88,7 @@ def render_sequence_html(
         missing("Verdict", "the report has no pooled result", anchor="verdict"),
         sections.components(verdict_source) if pooled else
         missing("Components", "the report has no pooled result", anchor="components"),
-        _timeline(rows),
+        _timeline(d, rows),
         _distribution(rows),
         _worst(rows, worst, frames, thumbnails),
         _failed(d, rows),
@@ -118,8 +118,17 @@ def _index(row: Mapping, position: int) -> int:
     return int(v) if isinstance(v, (int, np.integer)) and not isinstance(v, bool) else position
 
 
+def _unpaired(d: Mapping) -> set[int]:
+    """Rows of frames without a partner at the delay: not failures."""
+    listed = d.get("unpaired")
+    if not isinstance(listed, (list, tuple)):
+        return set()
+    return {int(i) for i in listed if isinstance(i, (int, np.integer)) and not isinstance(i, bool)}
+
+
 def _failed_indices(d: Mapping, rows: list[dict]) -> list[int]:
-    from_rows = [_index(r, i) for i, r in enumerate(rows) if r.get("error")]
+    alone = _unpaired(d)
+    from_rows = [_index(r, i) for i, r in enumerate(rows) if r.get("error") and _index(r, i) not in alone]
     listed = d.get("failed")
     if isinstance(listed, (list, tuple)):
         from_rows = sorted(set(from_rows) | {int(i) for i in listed if isinstance(i, (int, np.integer))})
@@ -148,7 +157,7 @@ def _series(rows: list[dict]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     return index, series
 
 
-def _timeline(rows: list[dict]) -> Raw:
+def _timeline(d: Mapping, rows: list[dict]) -> Raw:
     title = "Components over the sequence"
     if not rows:
         return missing(title, "the report lists no frames", anchor="timeline")
@@ -156,7 +165,7 @@ def _timeline(rows: list[dict]) -> Raw:
     if not any(np.isfinite(v).any() for v in series.values()):
         return missing(title, "no frame was scored", anchor="timeline")
     order = np.argsort(index, kind="stable")
-    failed = index[[bool(rows[i].get("error")) for i in range(len(rows))]]
+    failed = np.array(_failed_indices(d, rows), dtype=np.int64)
     png = figures.timeline_figure(index[order], {k: v[order] for k, v in series.items()}, np.sort(failed))
     caption = ("Per-frame components f and fidelity (black) against the frame index; "
                f"{len(failed)} failed frames marked × (and a thin line) at the bottom.")
@@ -216,7 +225,8 @@ def _thumbnails(picked: list[dict], load: Callable) -> Raw:
 
 def _failed(d: Mapping, rows: list[dict]) -> Raw:
     title = "Failed frames"
-    errs = [(_index(r, i), r) for i, r in enumerate(rows) if r.get("error")]
+    alone = _unpaired(d)
+    errs = [(_index(r, i), r) for i, r in enumerate(rows) if r.get("error") and _index(r, i) not in alone]
     indices = _failed_indices(d, rows)
     if not indices:
         return missing(title, "every frame was scored" if rows else "the report lists no frames", anchor="failed")

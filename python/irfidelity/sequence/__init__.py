@@ -9,7 +9,8 @@ frame and pooled. The package, in the order a run goes through it:
 * :mod:`.plan` — what is computed, fixed before any pair is scored;
 * :mod:`.backends` — where pairs are scored: the Rust engine, Dask, or an array loop;
 * :mod:`.outcomes` — a scored pair as a report entry (the same functions as ``evaluate``);
-* :mod:`.log`, :mod:`.fingerprint` — the streamed CSV and what makes resuming safe;
+* :mod:`.log`, :mod:`.sidecar`, :mod:`.lock`, :mod:`.fingerprint`, :mod:`.resume` — the
+  streamed CSV and what makes resuming safe;
 * :mod:`.pooling` — the merged statistics of every scored frame;
 * :mod:`.run` — one run, start to end; :mod:`.report` — its result.
 """
@@ -85,10 +86,12 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         Score chunks of ``chunk_size`` pairs on the cluster (file sources only).
     csv : path, optional
         Stream one row per frame as frames finish (flushed), with ``csv + ".pairstats"`` (what
-        a resume trusts) and ``csv + ".lock"``; see :mod:`irfidelity.sequence.log`.
+        a resume trusts) and, while the run writes, ``csv + ".lock"``; see
+        :mod:`irfidelity.sequence.log`.
     resume : bool
         Keep the frames of an earlier run on ``csv`` whose records are intact and whose files
-        are unchanged; score the rest.
+        are unchanged; score the rest (records are read one at a time: memory does not grow
+        with the run).
     max_pixels, max_bytes : decoding limits per frame (:func:`irfidelity.load_frame`); a frame
         beyond them is that frame's error row.
 
@@ -101,10 +104,11 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     Examples
     --------
     >>> import numpy as np, irfidelity as irf
-    >>> real = np.arange(3 * 64, dtype=np.uint16).reshape(3, 8, 8)
-    >>> rep = irf.score_sequence(real, real + 1, bits=14, weights="psnr=1", progress=False)
-    >>> len(rep.frames), round(rep.metrics["psnr_db"], 2)
-    (3, 84.29)
+    >>> ramp = np.arange(64, dtype=np.uint16).reshape(8, 8)      # a scene spanning 63 counts
+    >>> real = np.stack([ramp, ramp.T, ramp[::-1]])               # three frames
+    >>> rep = irf.score_sequence(real, real + 1, bits=14, peak="range", weights="psnr=1", progress=False)
+    >>> len(rep.frames), rep.failed, round(rep.metrics["psnr_db"], 2), rep.metrics["psnr_peak"]
+    (3, [], 35.99, 63.0)
     """
     cfg = ScoringConfig.resolve(config, **options)
     if resume and csv is None:

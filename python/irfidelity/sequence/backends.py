@@ -12,6 +12,9 @@ as pairs finish, in any order.
   paths on every worker).
 * :class:`ArrayLoop` — arrays and ``.npy`` files: a Python loop over
   :func:`irfidelity.pair_stats` (each call itself parallel in Rust).
+
+With ``Decoding.fingerprint`` (a run that keeps a log), every outcome carries the
+fingerprints of what was scored (:mod:`.fingerprint`), taken by the backend as it reads.
 """
 
 from __future__ import annotations
@@ -29,10 +32,11 @@ from ..errors import FidelityError, ShapeError
 from ..frames import FrameSequence
 from ..registration import RegistrationWarning, from_engine
 from ..stats import KernelRequest, PairStats, pair_stats
+from .fingerprint import array_fingerprint, file_fingerprint
 from .outcomes import Outcome
 from .plan import SequencePlan
 
-__all__ = ["Backend", "RustEngine", "DaskBackend", "ArrayLoop", "choose_backend", "Todo"]
+__all__ = ["Backend", "RustEngine", "DaskBackend", "ArrayLoop", "choose_backend", "engine_reads", "Todo"]
 
 Todo = list[tuple[int, int, int]]  # (index, real index, sim index)
 Deliver = Callable[[list[Outcome]], None]
@@ -49,6 +53,7 @@ class Decoding:
     workers: int | None = None
     max_pixels: int | None = None
     max_bytes: int | None = None
+    fingerprint: bool = False  # fingerprint what is scored, for a resumable log
 
 
 def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
@@ -61,22 +66,25 @@ def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
     return [(p, page) for p, page, _ in entries]
 
 
-def _outcomes(todo: Todo, rows: list, plan: SequencePlan) -> list[Outcome]:
-    """Outcomes from the engine's ``(k, stats, error, shape, dtype, real extent,
-    registration)`` tuples (k indexes ``todo``)."""
-    out = []
-    for k, raw, err, shape, dtype, extent, found in rows:
-        stats = None if raw is None else PairStats(raw, bins=plan.bin_label)
-        registration = None if found is None else from_engine(found, str(plan.config.register), shape)
-        out.append(Outcome(todo[k][0], stats, err, None if shape is None else tuple(shape), dtype, extent,
-                           registration))
-    return out
-
-
 class RustEngine:
     def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, decoding: Decoding):
         self.real, self.sim = _file_sources(real), _file_sources(sim)
         self.plan, self.decoding = plan, decoding
+
+    def _outcomes(self, todo: Todo, rows: list) -> list[Outcome]:
+        """Outcomes from the engine's ``(k, stats, error, shape, dtype, real extent,
+        registration, fingerprints)`` tuples (k indexes ``todo``)."""
+        plan, out = self.plan, []
+        for k, raw, err, shape, dtype, extent, found, fingerprints in rows:
+            index, r, s = todo[k]
+            stats = None if raw is None else PairStats(raw, bins=plan.bin_label)
+            registration = None if found is None else from_engine(found, str(plan.config.register), shape)
+            inputs = None if fingerprints is None else {
+                "real": file_fingerprint(*self.real[r], *fingerprints[0]),
+                "sim": file_fingerprint(*self.sim[s], *fingerprints[1])}
+            out.append(Outcome(index, stats, err, None if shape is None else tuple(shape), dtype, extent,
+                               registration, inputs))
+        return out
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
         request = self.plan.kernel_request(self.decoding.max_pixels, self.decoding.max_bytes)
@@ -84,15 +92,18 @@ class RustEngine:
         sim = [self.sim[s] for _, _, s in todo]
         _core.score_pairs([p for p, _ in real], [p for p, _ in sim], [g for _, g in real], [g for _, g in sim],
                           request=request, workers=int(self.decoding.workers or 0),
-                          on_result=lambda rows: deliver(_outcomes(todo, rows, self.plan)))
+                          on_result=lambda rows: deliver(self._outcomes(todo, rows)),
+                          fingerprints=self.decoding.fingerprint)
 
 
 def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: list, request: KernelRequest,
-                workers: int) -> list:
-    """Run on a Dask worker: score one chunk with the Rust engine; statistics as bytes."""
+                workers: int, fingerprints: bool = False) -> list:
+    """Run on a Dask worker: score one chunk with the Rust engine; statistics as bytes (the
+    files' fingerprints, taken by the worker as it decoded them, come back with them)."""
     from irfidelity import _core as core
 
-    out = core.score_pairs(real_paths, sim_paths, real_pages, sim_pages, request=request, workers=workers)
+    out = core.score_pairs(real_paths, sim_paths, real_pages, sim_pages, request=request, workers=workers,
+                           fingerprints=fingerprints)
     return [(k, None if st is None else st.to_bytes(), *rest) for k, st, *rest in out]
 
 
@@ -115,15 +126,16 @@ class DaskBackend(RustEngine):
             real = [self.real[r] for _, r, _ in chunk]
             sim = [self.sim[s] for _, _, s in chunk]
             future = self.client.submit(score_chunk, [p for p, _ in real], [p for p, _ in sim],
-                                        [g for _, g in real], [g for _, g in sim], request, workers, pure=False)
+                                        [g for _, g in real], [g for _, g in sim], request, workers,
+                                        self.decoding.fingerprint, pure=False)
             futures[future] = chunk
         try:
             for future in as_completed(list(futures)):
                 chunk = futures.pop(future)
                 rows = future.result()
                 future.release()
-                deliver(_outcomes(chunk, [(k, None if data is None else _core.PairStats.from_bytes(data), *rest)
-                                          for k, data, *rest in rows], self.plan))
+                deliver(self._outcomes(chunk, [(k, None if data is None else _core.PairStats.from_bytes(data), *rest)
+                                               for k, data, *rest in rows]))
         finally:
             if futures:
                 self.client.cancel(list(futures))
@@ -135,8 +147,8 @@ def _extent(frame: np.ndarray) -> tuple[float, float] | None:
 
 
 class ArrayLoop:
-    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan):
-        self.real, self.sim, self.plan = real, sim, plan
+    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, fingerprint: bool = False):
+        self.real, self.sim, self.plan, self.fingerprint = real, sim, plan, fingerprint
 
     def _one(self, index: int, r: int, s: int) -> Outcome:
         cfg = self.plan.config
@@ -156,8 +168,9 @@ class ArrayLoop:
         except FidelityError as exc:
             return Outcome(index, None, str(exc))
         extent = _extent(scored_real if mask is None else scored_real[mask]) if cfg.peak == "range" else None
+        inputs = {"real": array_fingerprint(real), "sim": array_fingerprint(sim)} if self.fingerprint else None
         return Outcome(index, st, None, real.shape, real.dtype.name, extent,
-                       registration if cfg.register_each else None)
+                       registration if cfg.register_each else None, inputs)
 
     def _registration(self, real: np.ndarray, sim: np.ndarray) -> Any:
         """The plan's registration, or with ``register_each`` the pair's own (its confidence
@@ -178,7 +191,7 @@ class ArrayLoop:
 def choose_backend(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, decoding: Decoding,
                    client: Any, chunk_size: int) -> Backend:
     """The Rust engine for files it decodes, Dask when a client is given, else the array loop."""
-    files = _file_sources(real) is not None and _file_sources(sim) is not None
+    files = engine_reads(real, sim)
     if client is not None:
         if not files:
             raise FidelityError("a Dask client needs file sources (EXR/PNG/TIFF paths) for both sequences; "
@@ -186,4 +199,10 @@ def choose_backend(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, 
         return DaskBackend(real, sim, plan, decoding, client, chunk_size)
     if files:
         return RustEngine(real, sim, plan, decoding)
-    return ArrayLoop(real, sim, plan)
+    return ArrayLoop(real, sim, plan, decoding.fingerprint)
+
+
+def engine_reads(real: FrameSequence, sim: FrameSequence) -> bool:
+    """Whether the Rust engine (locally or on Dask) reads both sequences' files; if not, their
+    frames are scored as arrays."""
+    return _file_sources(real) is not None and _file_sources(sim) is not None

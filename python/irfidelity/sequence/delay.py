@@ -6,10 +6,13 @@ simulated one, and PSNR, NMI and SSIM then measure the scene's motion, not the s
 delay ``d`` in ``[-max_delay, max_delay]`` (real frame ``i`` shows what simulated frame
 ``i + d`` shows) is the one at which the two sequences *change* alike:
 
-1. the first frames of each side (:func:`window_length`) are reduced to thumbnails — block
-   means, at most :data:`THUMBNAIL` pixels on the long side, so that a displacement of a few
-   pixels (a registration's worth) hardly matters — each standardised (zero mean, unit
-   variance: gain and offset do not matter either);
+1. the first frames of each side (:func:`window_length`) are reduced to thumbnails — means
+   of square blocks, at most :data:`THUMBNAIL` pixels on the long side, so that a
+   displacement of a few pixels (a registration's worth) hardly matters; a frame thinner
+   than a block (a line-scan frame of 1 × N) is averaged across its whole thickness — each
+   standardised (zero mean, unit variance: gain and offset do not matter either). Frames
+   whose thumbnails have fewer than :data:`MIN_PIXELS` pixels are refused: standardising
+   leaves them too little to compare;
 2. each side's changes: the differences of consecutive thumbnails. The static scene, which
    would match at every delay, goes, and so does a slow drift (a camera's gain control),
    which would match at neighbouring delays; what moves stays;
@@ -37,7 +40,7 @@ import numpy as np
 from ..errors import FidelityError, FidelityWarning
 from ..frames import FrameSequence
 
-__all__ = ["Delay", "find_delay", "window_length", "THUMBNAIL", "WINDOW", "MIN_PAIRS"]
+__all__ = ["Delay", "find_delay", "window_length", "THUMBNAIL", "WINDOW", "MIN_PAIRS", "MIN_PIXELS"]
 
 #: Longest side of the thumbnails compared, in pixels.
 THUMBNAIL = 64
@@ -45,6 +48,8 @@ THUMBNAIL = 64
 WINDOW = 32
 #: Fewest frame pairs a candidate delay must be compared over.
 MIN_PAIRS = 4
+#: Fewest pixels of a thumbnail (standardising takes two degrees of freedom: offset and gain).
+MIN_PIXELS = 4
 #: The best correlation must stand this many times above what unrelated changes give.
 NOISE_FLOOR = 3.0
 #: Below this confidence the delay is refused as ambiguous; below UNSURE it warns.
@@ -74,16 +79,23 @@ def window_length(max_delay: int, n_real: int, n_sim: int) -> int:
     return min(n_real, n_sim, 2 * max_delay + WINDOW)
 
 
-def _thumbnail(frame: np.ndarray) -> np.ndarray:
-    """Block means (at most THUMBNAIL px on the long side), standardised; non-finite pixels
-    take the frame's finite mean."""
+def _thumbnail(frame: np.ndarray, which: str) -> np.ndarray:
+    """Block means (at most THUMBNAIL px on the long side; a block spans the whole of a
+    thinner side), standardised; non-finite pixels take the frame's finite mean. A
+    FidelityError when the thumbnail has fewer than MIN_PIXELS pixels."""
     f = np.asarray(frame, dtype=np.float64)
+    size = max(1, math.ceil(max(f.shape) / THUMBNAIL)) if f.size else 1
+    block = (min(size, f.shape[0]), min(size, f.shape[1]))
+    if f.size == 0 or (f.shape[0] // block[0]) * (f.shape[1] // block[1]) < MIN_PIXELS:
+        raise FidelityError(f"cannot search the delay: the {which} frames of {f.shape[0]} x {f.shape[1]} pixels are "
+                            f"too small to compare (the search needs thumbnails of at least {MIN_PIXELS} pixels: "
+                            f"their offset and gain are taken out); pair the frames without max_delay",
+                            option="max_delay")
     finite = np.isfinite(f)
     if not finite.all():
         f = np.where(finite, f, f[finite].mean() if finite.any() else 0.0)
-    block = max(1, math.ceil(max(f.shape) / THUMBNAIL))
-    rows, cols = (f.shape[0] // block) * block, (f.shape[1] // block) * block
-    t = f[:rows, :cols].reshape(rows // block, block, cols // block, block).mean(axis=(1, 3))
+    rows, cols = (f.shape[0] // block[0]) * block[0], (f.shape[1] // block[1]) * block[1]
+    t = f[:rows, :cols].reshape(rows // block[0], block[0], cols // block[1], block[1]).mean(axis=(1, 3))
     std = t.std()
     return (t - t.mean()) / std if std > 0 else np.zeros_like(t)
 
@@ -94,9 +106,11 @@ def _changes(seq: FrameSequence, count: int, which: str) -> list[np.ndarray | No
     thumbs: list[np.ndarray | None] = []
     for i in range(count):
         try:
-            thumbs.append(_thumbnail(seq[i]))
+            frame = seq[i]
         except FidelityError:
             thumbs.append(None)
+            continue
+        thumbs.append(_thumbnail(frame, which))
     shapes = {t.shape for t in thumbs if t is not None}
     if len(shapes) > 1:
         raise FidelityError(f"cannot search the delay: the {which} frames differ in shape", option="max_delay")

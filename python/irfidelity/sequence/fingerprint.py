@@ -1,5 +1,17 @@
-"""What a frame's row was computed from: size, modification time and content hash of both
-input files, so a resumed run scores again a frame whose file changed."""
+"""What a frame's row was computed from, so a resumed run scores again a frame whose input
+changed.
+
+A record stores, for both frames of its pair, the fingerprint of what was scored, taken by
+the backend that scored it (never afterwards, which could pair a new file with old
+statistics):
+
+* frames the Rust engine decodes (files, locally or on Dask): ``[path, page, size,
+  mtime_ns, xxh3]`` of the file, of the bytes it decoded (``rust/fingerprint.rs``);
+* frames scored as arrays (arrays and ``.npy`` files): ``[dtype, shape, blake2b]`` of the
+  array scored (:func:`array_fingerprint`).
+
+On resume, :class:`Fingerprints` computes the same of the inputs as they are now.
+"""
 
 from __future__ import annotations
 
@@ -10,17 +22,31 @@ from typing import Any
 import numpy as np
 
 from .. import _core
+from ..errors import FidelityError
 from ..frames import FrameSequence
 
-__all__ = ["Fingerprints"]
+__all__ = ["Fingerprints", "array_fingerprint", "file_fingerprint"]
+
+
+def array_fingerprint(frame: np.ndarray) -> list:
+    """``[dtype, shape, blake2b]`` of the array scored."""
+    frame = np.ascontiguousarray(frame)
+    return [frame.dtype.name, list(frame.shape), hashlib.blake2b(frame.data, digest_size=16).hexdigest()]
+
+
+def file_fingerprint(path: Any, page: int, size: int | None, mtime_ns: int | None, digest: int | None) -> list:
+    """The fingerprint of page ``page`` of the file at ``path``: size, modification time, XXH3."""
+    return [os.fsdecode(path), page, size, mtime_ns, digest]
 
 
 class Fingerprints:
-    """Fingerprints of frames of two sequences, computed in batches (XXH3 in Rust, in
-    parallel, GIL released) and cached per file (the pages of a TIFF share theirs)."""
+    """The fingerprints of frames of two sequences as they are now: of their files (XXH3 in
+    Rust, in parallel, GIL released, cached per file: the pages of a TIFF share theirs), or
+    with ``arrays`` of the frames loaded as arrays."""
 
-    def __init__(self, real: FrameSequence, sim: FrameSequence):
-        self.sides = {"real": real, "sim": sim}
+    def __init__(self, real: FrameSequence, sim: FrameSequence, *, arrays: bool):
+        self.sides = {"real": (real, real.entries), "sim": (sim, sim.entries)}
+        self.arrays = arrays
         self.cache: dict[str, list] = {}
 
     def _files(self, paths: list[str]) -> None:
@@ -38,16 +64,18 @@ class Fingerprints:
     def _frame(self, side: str, index: int | None) -> Any:
         if index is None:
             return None
-        seq = self.sides[side]
-        path, page, _ = seq.entries[index]
-        if path is None:  # an array source: the frame's bytes
-            frame = np.ascontiguousarray(seq[index])
-            return [frame.dtype.name, list(frame.shape), hashlib.blake2b(frame.tobytes(), digest_size=16).hexdigest()]
-        return [os.fsdecode(path), page] + self.cache[path]
+        seq, entries = self.sides[side]
+        path, page, _ = entries[index]
+        if self.arrays:
+            try:
+                return array_fingerprint(seq[index])
+            except FidelityError:
+                return None
+        return file_fingerprint(path, page, *self.cache[path])
 
     def of_pairs(self, pairs: list[tuple[int | None, int | None]]) -> list[dict]:
         """``{"real": ..., "sim": ...}`` for each pair (JSON-ready)."""
-        paths = [self.sides[side].entries[i][0] for r, s in pairs for side, i in (("real", r), ("sim", s))
-                 if i is not None]
-        self._files([p for p in paths if p is not None])
+        if not self.arrays:
+            self._files([self.sides[side][1][i][0] for r, s in pairs for side, i in (("real", r), ("sim", s))
+                         if i is not None])
         return [{"real": self._frame("real", r), "sim": self._frame("sim", s)} for r, s in pairs]

@@ -27,7 +27,9 @@ class Outcome:
 
     ``real_extent`` is the real frame's (min, max) over the scored pixels, when the backend
     measured it (needed for ``peak="range"``); ``registration`` the pair's own
-    :class:`~irfidelity.Registration` (``register_each``).
+    :class:`~irfidelity.Registration` (``register_each``); ``inputs`` the fingerprints of
+    what was scored, ``{"real": ..., "sim": ...}`` (:mod:`.fingerprint`), when asked for and
+    taken (a record is kept only with them).
     """
 
     index: int
@@ -37,6 +39,7 @@ class Outcome:
     dtype: str | None = None
     real_extent: tuple[float, float] | None = None
     registration: Any = None
+    inputs: dict | None = None
 
 
 def _blank(index: int, real: str | None, sim: str | None) -> dict:

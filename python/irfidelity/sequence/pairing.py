@@ -5,7 +5,10 @@ side. So when both sequences are named files, frames are paired **by name**: fir
 identical file names without extension (``frame_0007.png`` with ``frame_0007.exr``), else
 by the frame number in the name (``real_0007.png`` with ``sim_7.tif``), else, for pages of
 one multi-page TIFF per side, by page. A frame with no partner on the other side is not
-dropped: it becomes an error row. ``pair_by="order"`` keeps pairing by position.
+dropped: it becomes an error row (a failed frame: a file is missing). ``pair_by="order"``
+keeps pairing by position. With ``max_delay``, frames are paired by position offset by the
+delay found, and the frames the offset leaves at the ends are rows too, with the reason, but
+not failures: no frame of the other side can pair with them (``SequenceReport.unpaired``).
 """
 
 from __future__ import annotations
@@ -28,10 +31,11 @@ _NUMBER = re.compile(r"(\d+)(?!.*\d)")  # the last run of digits
 class Pairing:
     """Pairs of (real index, sim index) into the two sequences, in scoring order.
 
-    One side is None for a frame without a partner (it is scored as an error row).
+    One side is None for a frame without a partner (a row with the reason, not scored).
     ``rule`` says how the pairs were made: "order", "name", "number", "page" or "delay"
     (by position, offset by ``delay``: the :class:`~irfidelity.sequence.delay.Delay` found,
-    and ``unpaired`` the frames at the ends that the offset leaves without a partner).
+    and ``unpaired`` the names of the frames at the ends that the offset leaves without a
+    partner).
     """
 
     pairs: tuple[tuple[int | None, int | None], ...]
@@ -43,6 +47,22 @@ class Pairing:
     @property
     def unmatched(self) -> int:
         return sum(1 for r, s in self.pairs if r is None or s is None)
+
+    @property
+    def expected_alone(self) -> list[int]:
+        """Positions of the pairs without a partner that are no failure: with a delay, the
+        frames at the ends (no frame of the other side can pair with them). A frame without a
+        partner by name is a failure instead (a file is missing)."""
+        if self.delay is None:
+            return []
+        return [i for i, (r, s) in enumerate(self.pairs) if r is None or s is None]
+
+    def why_alone(self, index: int) -> str:
+        """Why the frame of pair ``index`` (which has one side only) has no partner."""
+        missing = "simulated" if self.pairs[index][1] is None else "real"
+        if self.delay is not None:
+            return f"no {missing} frame pairs with it at delay {self.delay.frames:+d}"
+        return f"no {missing} frame pairs with it (paired by {self.rule})"
 
 
 def _stem(entry: tuple[str | None, int, str]) -> str:
@@ -117,16 +137,19 @@ def _names_text(names: list[str]) -> str:
 
 def pair_with_delay(real: FrameSequence, sim: FrameSequence, delay: Any) -> Pairing:
     """Real frame ``i`` with simulated frame ``i + delay.frames``, over the frames both sides
-    have; the frames the offset leaves at the ends are listed (``unpaired``), not scored."""
+    have; the frames the offset leaves at the ends are pairs with one side (rows with the
+    reason, not scored): every real frame in order, then the simulated frames left over."""
     d = delay.frames
-    pairs = tuple((i, i + d) for i in range(len(real)) if 0 <= i + d < len(sim))
-    taken_real, taken_sim = {r for r, _ in pairs}, {s for _, s in pairs}
-    unpaired = {"real": [real.names[i] for i in range(len(real)) if i not in taken_real],
-                "sim": [sim.names[j] for j in range(len(sim)) if j not in taken_sim]}
+    pairs: list[tuple[int | None, int | None]] = [(i, i + d if 0 <= i + d < len(sim) else None)
+                                                  for i in range(len(real))]
+    pairs += [(None, j) for j in range(len(sim)) if not 0 <= j - d < len(real)]
+    unpaired = {"real": [real.names[r] for r, s in pairs if r is not None and s is None],
+                "sim": [sim.names[s] for r, s in pairs if r is None and s is not None]}
     note = (f"paired by position with a delay of {d:+d} frames (real frame i with simulated frame "
             f"i{f'{d:+d}' if d else ''}; confidence {delay.confidence:.3f})")
     lonely = [f"{len(v)} {side} frame(s) ({_names_text(v)})" for side, v in
               (("real", unpaired["real"]), ("simulated", unpaired["sim"])) if v]
     if lonely:
-        note += f"; {' and '.join(lonely)} at the ends have no partner at this delay and are not scored"
-    return Pairing(pairs, "delay", (note,), delay, unpaired)
+        note += (f"; {' and '.join(lonely)} at the ends have no partner at this delay: rows without a score "
+                 f"(report.unpaired), not failures")
+    return Pairing(tuple(pairs), "delay", (note,), delay, unpaired)

@@ -14,6 +14,8 @@ from typing import Any, Mapping
 
 from ..config import ScoringConfig
 from ..fuzzy import Weights
+from .. import readback
+from ..readback import Fields, shared_fields
 from ..results import component_lines, reading_report, registration_line, settings_line, version
 from ..schema import csv_columns, to_json
 from .log import csv_line
@@ -38,7 +40,13 @@ class SequenceReport:
         ``index``, ``real``, ``sim``, ``rows``, ``cols``, ``dtype`` and ``error`` (None, or
         why the pair could not be scored).
     failed : list of int
-        Indices of the frames with an error.
+        Indices of the frames with an error (not those in ``unpaired``).
+    unpaired : list of int
+        Indices of the rows of frames that no frame of the other side can pair with: with
+        ``config.max_delay``, the frames the delay leaves at the ends. Each is a row with one
+        side, no score and the reason in ``error`` ("no simulated frame pairs with it at
+        delay +2"), but not a failure. (A frame without a partner by name is in ``failed``:
+        a file is missing.)
     frame_stats : dict
         Mean, p5, p50, p95, min and max over the scored frames of ``fidelity``, of each
         component (``frame_stats["components"]``) and of each metric (``["metrics"]``).
@@ -59,8 +67,30 @@ class SequenceReport:
         With ``config.max_delay``: the frame offset found — ``frames`` (real frame ``i``
         pairs with simulated frame ``i + frames``), ``confidence``, ``window`` (frames of
         each side compared), ``max_delay``, ``correlation`` (per candidate delay) and
-        ``unpaired`` (``{"real": [...], "sim": [...]}``: the frames at the ends without a
-        partner at this delay, not scored).
+        ``unpaired`` (``{"real": [...], "sim": [...]}``: the names of the frames at the ends
+        without a partner at this delay; their rows are listed in :attr:`unpaired`).
+
+    Examples
+    --------
+    Three frames whose simulated copies are off by 1, 2 and 3 counts:
+
+    >>> import csv, numpy as np, irfidelity as irf
+    >>> ramp = np.arange(64, dtype=np.uint16).reshape(8, 8)     # a scene spanning 63 counts
+    >>> real = np.stack([ramp, ramp.T, ramp[::-1]])
+    >>> sim = real + np.array([1, 2, 3], dtype=np.uint16)[:, None, None]
+    >>> rep = irf.score_sequence(real, sim, bits=14, peak="range", weights="psnr=0.5,ssim=0.5", progress=False)
+    >>> len(rep.frames), rep.failed, rep.pooling["frames"], rep.grade
+    (3, [], 3, 'excellent')
+
+    The pooled PSNR is that of the merged statistics, MSE = (1 + 4 + 9) / 3, not a mean of
+    the frames' PSNRs:
+
+    >>> round(rep.metrics["psnr_db"], 2), round(rep.frame_stats["metrics"]["psnr_db"]["mean"], 2)
+    (29.3, 30.8)
+    >>> rep.to_csv("frames.csv")                                 # one row per frame
+    >>> with open("frames.csv", newline="") as fh:
+    ...     [round(float(row["psnr_db"]), 2) for row in csv.DictReader(fh)]
+    [35.99, 29.97, 26.44]
     """
 
     frames: list
@@ -72,6 +102,7 @@ class SequenceReport:
     membership: dict = field(default_factory=dict)
     metrics: dict = field(default_factory=dict)
     failed: list = field(default_factory=list)
+    unpaired: list = field(default_factory=list)
     frame_stats: dict = field(default_factory=dict)
     pooling: dict = field(default_factory=dict)
     skipped: dict = field(default_factory=dict)
@@ -115,7 +146,7 @@ class SequenceReport:
             fh.writelines(csv_line(flat_row(f, cols)) for f in self.frames)
 
     _FIELDS = ("fidelity", "grade", "components", "component_grades", "membership", "metrics", "failed",
-               "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration", "delay")
+               "unpaired", "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration", "delay")
 
     def to_dict(self) -> dict:
         """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""
@@ -128,16 +159,29 @@ class SequenceReport:
     def from_dict(cls, data: Mapping[str, Any]) -> SequenceReport:
         """A report from :meth:`to_dict`'s output; FidelityError naming what is wrong otherwise."""
         with reading_report(cls, data) as d:
-            values = {k: d[k] for k in cls._FIELDS if k in d}
-            return cls(frames=list(d["frames"]), weights=Weights.coerce(d["weights"]),
-                       config=ScoringConfig.from_dict(d.get("config", {})),
-                       version=str(d.get("irfidelity", "unknown")), **values)
+            fields = Fields(d, "report")
+            report = cls(frames=fields.require("frames", readback.list_of(readback.frame)),
+                       fidelity=fields.get("fidelity", readback.optional(readback.fraction)),
+                       grade=fields.get("grade", readback.optional(readback.text)),
+                       failed=fields.get("failed", readback.list_of(readback.count), []),
+                       unpaired=fields.get("unpaired", readback.list_of(readback.count), []),
+                       frame_stats=fields.get("frame_stats", readback.frame_stats, {}),
+                       pooling=fields.get("pooling", readback.mapping_of(readback.anything), {}),
+                       run=fields.get("run", readback.mapping_of(readback.anything), {}),
+                       registration=fields.get("registration", readback.optional(readback.any_registration)),
+                       delay=fields.get("delay", readback.optional(readback.delay)),
+                       **shared_fields(fields))
+            if (report.fidelity is None) != (report.grade is None):
+                raise readback.ReportError("report: fidelity and grade are both given (a pooled result) or both "
+                                           "null (no frame scored)")
+            return report
 
     def summary_text(self) -> str:
         """A short human-readable summary: pooled table, per-frame spread, failures."""
-        n = len(self.frames)
-        lines = [f"sequence of {n} frame pairs: {n - len(self.failed)} scored, {len(self.failed)} failed"
-                 f" (paired by {self.run.get('pair_by', 'order')})"]
+        n, alone = len(self.frames), len(self.unpaired)
+        lonely = f", {alone} without a partner at the delay" if alone else ""
+        lines = [f"sequence of {n} frame pairs: {n - len(self.failed) - alone} scored, {len(self.failed)} failed"
+                 f"{lonely} (paired by {self.run.get('pair_by', 'order')})"]
         if self.fidelity is not None:
             lines.append("pooled over the scored frames (PSNR from ΣSSE/ΣN"
                          + (", NMI as the mean of the frames')" if self.pooling.get("nmi") == "frame_mean" else ")"))
@@ -154,8 +198,9 @@ class SequenceReport:
         if self.failed:
             shown = ", ".join(str(i) for i in self.failed[:10]) + (", ..." if len(self.failed) > 10 else "")
             lines.append(f"failed frames: {shown}")
-            first = next(f for f in self.frames if f["error"])
-            lines.append(f"  first error (frame {first['index']}): {first['error']}")
+            first = next((f for f in self.frames if f.get("index") == self.failed[0]), None)
+            if first is not None and first.get("error"):
+                lines.append(f"  first error (frame {first['index']}): {first['error']}")
         if self.delay:
             lines.append(_delay_line(self.delay))
         if self.registration:
@@ -177,5 +222,5 @@ def _delay_line(delay: Mapping[str, Any]) -> str:
     text = (f"delay: {d:+d} frames ({pairing}), confidence {delay['confidence']:.3f}, "
             f"searched ±{delay.get('max_delay')} over the first {delay.get('window')} frames")
     if lonely:
-        text += f"; {' and '.join(lonely)} frame(s) at the ends have no partner and are not scored"
+        text += f"; {' and '.join(lonely)} frame(s) at the ends have no partner: rows without a score"
     return text

@@ -7,20 +7,22 @@ import os
 from dataclasses import dataclass
 from typing import Any, Callable
 
+from .. import _core
 from ..errors import FidelityError
 from ..frames import FrameSequence
-from ..registration import Registration
 from ..schema import csv_columns
 from ..stats import PairStats
-from .backends import Decoding, choose_backend
+from .backends import Decoding, choose_backend, engine_reads
 from .fingerprint import Fingerprints
-from .log import FrameLog, Record
+from .log import FrameLog
 from .outcomes import Outcome, error_entry, flat_row, frame_entry
 from .pairing import Pairing
 from .plan import SequencePlan
 from .pooling import Pool, frame_statistics, registration_summary
 from .progress import Progress
 from .report import SequenceReport
+from .resume import RecordBounds, Resumer
+from .sidecar import encode_record
 
 __all__ = ["RunOptions", "execute"]
 
@@ -39,104 +41,115 @@ class RunOptions:
     max_bytes: int | None = None
 
 
-def _names(seq: FrameSequence, index: int | None) -> str | None:
-    return None if index is None else seq.names[index]
-
-
-def _log_settings(plan: SequencePlan, pairing: Pairing, real: FrameSequence, sim: FrameSequence,
+def _log_settings(plan: SequencePlan, pairing: Pairing, real_names: list[str], sim_names: list[str],
                   columns: list[str]) -> dict:
-    names = "\n".join(f"{_names(real, r)}\t{_names(sim, s)}" for r, s in pairing.pairs)
+    def name(names: list[str], index: int | None) -> str | None:
+        return None if index is None else names[index]
+
+    text = "\n".join(f"{name(real_names, r)}\t{name(sim_names, s)}" for r, s in pairing.pairs)
     return {"config": plan.config.to_dict(), "plan": plan.settings(), "columns": columns,
-            "frames": len(pairing.pairs), "pairs": hashlib.sha256(names.encode()).hexdigest()[:16]}
+            "frames": len(pairing.pairs), "pairs": hashlib.sha256(text.encode()).hexdigest()[:16]}
 
 
 class _Scorer:
-    """Turns outcomes into report entries, logs them, pools their statistics, shows progress."""
+    """Turns outcomes into report entries, logs them, pools their statistics, shows progress.
 
-    def __init__(self, plan: SequencePlan, pairing: Pairing, real: FrameSequence, sim: FrameSequence,
+    Statistics are pooled in index order. A resumed frame whose turn has not come yet is
+    pooled later from its record (``deferred``), so waiting frames hold no statistics.
+    """
+
+    def __init__(self, plan: SequencePlan, pairing: Pairing, real_names: list[str], sim_names: list[str],
                  log: FrameLog | None, progress: Progress, columns: list[str]):
         self.plan, self.pairing, self.log, self.progress, self.columns = plan, pairing, log, progress, columns
-        self.real, self.sim = real, sim
+        self.real_names, self.sim_names = real_names, sim_names
         self.entries: dict[int, dict] = {}
         self.pool = Pool(plan)
-        self.fingerprints = Fingerprints(real, sim) if log is not None else None
+        self.deferred: dict[int, tuple[Callable[[], PairStats], tuple | None]] = {}
 
     def names(self, index: int) -> tuple[str | None, str | None]:
         r, s = self.pairing.pairs[index]
-        return _names(self.real, r), _names(self.sim, s)
-
-    def resume(self, records: dict[int, Record]) -> int:
-        """Take the trusted records whose input files are unchanged; returns how many."""
-        indices = [i for i in sorted(records) if i < len(self.pairing.pairs)]
-        current = self.fingerprints.of_pairs([self.pairing.pairs[i] for i in indices]) if indices else []
-        taken = 0
-        for index, fingerprint in zip(indices, current):
-            meta = records[index].meta
-            if meta.get("inputs") != fingerprint:
-                self.log.distrust(index)
-                continue
-            stats = PairStats.from_bytes(records[index].stats, bins=self.plan.bin_label)
-            registration = meta.get("registration")
-            outcome = Outcome(index, stats, None, tuple(meta["shape"]), meta["dtype"],
-                              None if meta.get("extent") is None else tuple(meta["extent"]),
-                              None if registration is None else Registration.from_dict(registration))
-            self._add(outcome, resumed=True)
-            taken += 1
-        return taken
+        return (None if r is None else self.real_names[r]), (None if s is None else self.sim_names[s])
 
     def unmatched(self, index: int) -> None:
         real, sim = self.names(index)
-        missing = "simulated" if sim is None else "real"
-        entry = error_entry(index, real, sim, f"{real or sim}: no {missing} frame pairs with it "
-                                              f"(paired by {self.pairing.rule})")
+        entry = error_entry(index, real, sim, f"{real or sim}: {self.pairing.why_alone(index)}")
         if self.log is not None:
             self.log.write(flat_row(entry, self.columns), None)
         self._keep(entry, None, None)
 
     def deliver(self, outcomes: list[Outcome]) -> None:
-        fingerprints = (self.fingerprints.of_pairs([self.pairing.pairs[o.index] for o in outcomes])
-                        if self.log is not None else [None] * len(outcomes))
-        for outcome, fingerprint in zip(outcomes, fingerprints):
-            self._add(outcome, fingerprint)
+        for outcome in outcomes:
+            real, sim = self.names(outcome.index)
+            entry, stats = frame_entry(self.plan, outcome, real, sim)
+            if self.log is not None:
+                self.log.write(flat_row(entry, self.columns), _record(outcome, stats))
+            self._keep(entry, stats, outcome.real_extent)
 
-    def _add(self, outcome: Outcome, fingerprint: Any = None, *, resumed: bool = False) -> None:
-        real, sim = self.names(outcome.index)
-        entry, stats = frame_entry(self.plan, outcome, real, sim)
-        if self.log is not None and not resumed:
-            self.log.write(flat_row(entry, self.columns), _record(outcome, stats, fingerprint))
-        self._keep(entry, stats, outcome.real_extent, resumed=resumed)
+    def resumed(self, entry: dict, stats: PairStats, extent: tuple | None, reload: Callable[[], PairStats]) -> None:
+        """A frame taken from the log (``reload()`` reads its statistics again)."""
+        index = entry["index"]
+        ready = index == self.pool.next
+        if not ready:
+            self.deferred[index] = (reload, extent)
+        self._keep(entry, stats, extent, resumed=True, pool=ready)
 
-    def _keep(self, entry: dict, stats: PairStats | None, extent: tuple | None, *, resumed: bool = False) -> None:
+    def _keep(self, entry: dict, stats: PairStats | None, extent: tuple | None, *, resumed: bool = False,
+              pool: bool = True) -> None:
         self.entries[entry["index"]] = entry
-        self.pool.add(entry["index"], stats, extent)
+        if pool:
+            self.pool.add(entry["index"], stats, extent)
+        while self.pool.next in self.deferred:
+            reload, deferred_extent = self.deferred.pop(self.pool.next)
+            self.pool.add(self.pool.next, reload(), deferred_extent)
         self.progress.advance(resumed=resumed)
 
 
-def _record(outcome: Outcome, stats: PairStats | None, fingerprint: Any) -> Record | None:
-    """What a resumed run needs to trust a scored frame (None for a failure: it is retried)."""
-    if stats is None:
+def _record(outcome: Outcome, stats: PairStats | None) -> bytes | None:
+    """What a resumed run needs to trust a scored frame (None for a failure, or when the
+    backend could not fingerprint what it scored: the frame is scored again)."""
+    if stats is None or outcome.inputs is None:
         return None
-    meta = {"inputs": fingerprint, "shape": list(outcome.shape), "dtype": outcome.dtype,
+    meta = {"inputs": outcome.inputs, "shape": list(outcome.shape), "dtype": outcome.dtype,
             "extent": None if outcome.real_extent is None else list(outcome.real_extent),
             "registration": None if outcome.registration is None else outcome.registration.to_dict()}
-    return Record(outcome.index, meta, stats.to_bytes())
+    return encode_record(outcome.index, meta, stats.to_bytes())
+
+
+def _resume(scorer: _Scorer, log: FrameLog, real: FrameSequence, sim: FrameSequence, plan: SequencePlan,
+            pairing: Pairing, options: RunOptions) -> tuple[int, list[str]]:
+    """Take the trusted records of the log (:mod:`.resume`); how many, and what to note."""
+    fingerprints = Fingerprints(real, sim, arrays=not engine_reads(real, sim))
+    resumer = Resumer(plan, pairing, log, fingerprints, _bounds(plan, options))
+    taken = resumer.take(scorer.names, scorer.resumed)
+    return taken, resumer.notes()
+
+
+def _bounds(plan: SequencePlan, options: RunOptions) -> RecordBounds:
+    max_pixels = _core.default_max_pixels() if options.max_pixels is None else options.max_pixels
+    max_bytes = _core.default_max_bytes() if options.max_bytes is None else options.max_bytes
+    return RecordBounds(plan, max_pixels, max_bytes)
 
 
 def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: SequencePlan,
             options: RunOptions) -> SequenceReport:
     """Score every pair of ``pairing`` (the module notes of :mod:`irfidelity.sequence`)."""
     columns = csv_columns(plan.weights.active(), registered=plan.config.register is not None)
+    real_names, sim_names = real.names, sim.names
     log = None
     if options.csv is not None:
-        log = FrameLog(options.csv, columns, _log_settings(plan, pairing, real, sim, columns), options.resume)
+        log = FrameLog(options.csv, columns, _log_settings(plan, pairing, real_names, sim_names, columns),
+                       options.resume, _bounds(plan, options).run, len(pairing.pairs))
     total = len(pairing.pairs)
     progress = Progress(total, options.progress)
     notes = list(plan.notes) + list(pairing.notes)
     try:
-        scorer = _Scorer(plan, pairing, real, sim, log, progress, columns)
-        resumed = scorer.resume(dict(log.trusted)) if log is not None and options.resume else 0
+        scorer = _Scorer(plan, pairing, real_names, sim_names, log, progress, columns)
+        resumed = 0
         if log is not None:
             notes += log.notes
+            if options.resume:
+                resumed, found = _resume(scorer, log, real, sim, plan, pairing, options)
+                notes += found
         todo = []
         for index, (r, s) in enumerate(pairing.pairs):
             if index in scorer.entries:
@@ -149,20 +162,23 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
             if plan.dtype is None:
                 scorer.deliver([Outcome(i, None, _unreadable(real, r)) for i, r, _ in todo])
             else:
-                backend = choose_backend(real, sim, plan, Decoding(options.workers, options.max_pixels, options.max_bytes),
-                                         options.client, options.chunk_size)
+                decoding = Decoding(options.workers, options.max_pixels, options.max_bytes, fingerprint=log is not None)
+                backend = choose_backend(real, sim, plan, decoding, options.client, options.chunk_size)
                 backend.run(todo, scorer.deliver)
         frames = [scorer.entries[i] for i in range(total)]
         if log is not None:
-            log.finish([flat_row(f, columns) for f in frames])
+            log.finish(flat_row(f, columns) for f in frames)
     finally:
         progress.close()
         if log is not None:
             log.close()
     score, pooling = scorer.pool.result(frames)
     pooled = score.to_dict() if score is not None else {}
+    unpaired = pairing.expected_alone
+    alone = set(unpaired)
     return SequenceReport(
-        frames=frames, weights=plan.weights, failed=[f["index"] for f in frames if f["error"]],
+        frames=frames, weights=plan.weights, unpaired=unpaired,
+        failed=[f["index"] for f in frames if f["error"] and f["index"] not in alone],
         frame_stats=frame_statistics(frames), pooling=pooling, skipped=dict(plan.skipped), config=plan.config,
         notes=notes, inputs=dict(plan.inputs),
         registration=registration_summary(plan, frames),

@@ -1,0 +1,172 @@
+//! Radiometric JPEGs (FLIR, and DJI Zenmuse XT2/XT-R, which write the same format): the
+//! visible JPEG image carries one FLIR FFF frame split over APP1 segments, each starting with
+//! `"FLIR\0"`, a version byte, the segment's index and the last index. The segments are read
+//! from the markers before the image data (only their lengths are read for the others) and
+//! joined in index order into the FFF frame, which `flir.rs` reads.
+
+use std::io::{BufRead, Seek, SeekFrom};
+
+use super::flir::{CameraInfo, FffFrame};
+use super::{check_budget, DecodeOptions, Frame, Reason};
+
+/// Bytes before a segment's share of the FFF frame: "FLIR\0", version, index, last index.
+const SEGMENT_HEADER: usize = 8;
+const APP1: u8 = 0xE1;
+/// Start of scan (image data follows) and end of image: no FLIR segment after these.
+const SOS: u8 = 0xDA;
+const EOI: u8 = 0xD9;
+
+/// One FLIR APP1 segment's share of the FFF frame.
+struct Segment {
+    index: u8,
+    last: u8,
+    data: Vec<u8>,
+}
+
+fn read_err(e: std::io::Error, at: u64) -> Reason {
+    if e.kind() == std::io::ErrorKind::UnexpectedEof {
+        format!("truncated JPEG file (ends inside the segment at byte {at})")
+    } else {
+        format!("read error: {e}")
+    }
+}
+
+/// The next marker (after any fill bytes), or `None` at the end of the file.
+fn next_marker<R: BufRead + Seek>(reader: &mut R, at: u64) -> Result<Option<u8>, Reason> {
+    let mut byte = [0u8; 1];
+    if reader.read(&mut byte).map_err(|e| read_err(e, at))? == 0 {
+        return Ok(None);
+    }
+    if byte[0] != 0xFF {
+        return Err(format!("corrupt JPEG file: expected a marker at byte {at}, found {:#04x}", byte[0]));
+    }
+    loop {
+        reader.read_exact(&mut byte).map_err(|e| read_err(e, at))?;
+        if byte[0] != 0xFF {
+            return Ok(Some(byte[0]));
+        }
+    }
+}
+
+/// The FLIR segments of a JPEG, in file order; their data at most `max_bytes` in all.
+fn flir_segments<R: BufRead + Seek>(reader: &mut R, max_bytes: u64) -> Result<Vec<Segment>, Reason> {
+    let mut soi = [0u8; 2];
+    reader.read_exact(&mut soi).map_err(|e| read_err(e, 0))?;
+    if soi != [0xFF, 0xD8] {
+        return Err("not a JPEG file".to_string());
+    }
+    let (mut segments, mut held) = (Vec::new(), 0u64);
+    let mut at = 2u64;
+    while let Some(marker) = next_marker(reader, at)? {
+        if marker == SOS || marker == EOI {
+            break;
+        }
+        if (0xD0..=0xD8).contains(&marker) || marker == 0x01 {
+            at = reader.stream_position().map_err(|e| read_err(e, at))?;
+            continue; // markers without a length
+        }
+        let mut len = [0u8; 2];
+        reader.read_exact(&mut len).map_err(|e| read_err(e, at))?;
+        let body = u64::from(u16::from_be_bytes(len))
+            .checked_sub(2)
+            .ok_or_else(|| format!("corrupt JPEG file: the segment at byte {at} has a length below 2"))?;
+        let mut head = [0u8; SEGMENT_HEADER];
+        let flir = marker == APP1 && body >= SEGMENT_HEADER as u64 && {
+            reader.read_exact(&mut head).map_err(|e| read_err(e, at))?;
+            head.starts_with(b"FLIR\0")
+        };
+        if flir {
+            held += body;
+            check_budget(Some(held), || format!("the FLIR segments ({held} bytes so far)"), max_bytes)?;
+            let mut data = vec![0u8; (body as usize) - SEGMENT_HEADER];
+            reader.read_exact(&mut data).map_err(|e| read_err(e, at))?;
+            segments.push(Segment { index: head[6], last: head[7], data });
+        } else {
+            let skip = body - if marker == APP1 && body >= SEGMENT_HEADER as u64 { SEGMENT_HEADER as u64 } else { 0 };
+            reader.seek(SeekFrom::Current(skip as i64)).map_err(|e| read_err(e, at))?;
+        }
+        at = reader.stream_position().map_err(|e| read_err(e, at))?;
+    }
+    Ok(segments)
+}
+
+/// The FFF frame the JPEG's FLIR segments hold, joined in index order.
+pub(super) fn fff_frame<R: BufRead + Seek>(mut reader: R, max_bytes: u64) -> Result<Vec<u8>, Reason> {
+    let mut segments = flir_segments(&mut reader, max_bytes)?;
+    let Some(first) = segments.first() else {
+        return Err("a JPEG without FLIR segments: not a radiometric JPEG (FLIR or DJI), and irfidelity reads no \
+                    other JPEG (its 8-bit colours are not camera counts)"
+            .to_string());
+    };
+    let last = first.last;
+    if let Some(s) = segments.iter().find(|s| s.last != last) {
+        return Err(format!(
+            "corrupt radiometric JPEG: FLIR segments disagree on their count ({} and {})",
+            last as usize + 1,
+            s.last as usize + 1
+        ));
+    }
+    segments.sort_by_key(|s| s.index);
+    let found: Vec<u8> = segments.iter().map(|s| s.index).collect();
+    if !found.iter().copied().eq(0..=last) {
+        return Err(format!(
+            "corrupt or truncated radiometric JPEG: FLIR segments 0..={last} are each expected once, found {found:?}"
+        ));
+    }
+    Ok(segments.into_iter().flat_map(|s| s.data).collect())
+}
+
+/// The raw counts of a radiometric JPEG.
+pub(super) fn decode<R: BufRead + Seek>(reader: R, o: &DecodeOptions) -> Result<Frame, Reason> {
+    let fff = fff_frame(reader, o.max_bytes)?;
+    FffFrame::parse(&fff)?.counts(o)
+}
+
+/// The calibration of a radiometric JPEG.
+pub(super) fn camera_info<R: BufRead + Seek>(reader: R, o: &DecodeOptions) -> Result<CameraInfo, Reason> {
+    let fff = fff_frame(reader, o.max_bytes)?;
+    FffFrame::parse(&fff)?.camera_info()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Cursor;
+
+    fn segment(index: u8, last: u8, data: &[u8]) -> Vec<u8> {
+        let mut s = vec![0xFF, APP1];
+        s.extend(((data.len() + SEGMENT_HEADER + 2) as u16).to_be_bytes());
+        s.extend(b"FLIR\0\x01");
+        s.extend([index, last]);
+        s.extend(data);
+        s
+    }
+
+    fn jpeg(parts: &[Vec<u8>]) -> Vec<u8> {
+        let mut out = vec![0xFF, 0xD8, 0xFF, 0xE0, 0, 4, b'J', b'F'];
+        parts.iter().for_each(|p| out.extend(p));
+        out.extend([0xFF, SOS, 0, 2, 0xAB, 0xFF, EOI]);
+        out
+    }
+
+    #[test]
+    fn segments_are_joined_in_index_order() {
+        let file = jpeg(&[segment(1, 2, b"cd"), segment(0, 2, b"ab"), segment(2, 2, b"e")]);
+        assert_eq!(fff_frame(Cursor::new(file), 1 << 20).unwrap(), b"abcde");
+    }
+
+    #[test]
+    fn missing_repeated_or_absent_segments_are_refused() {
+        let gap = jpeg(&[segment(0, 2, b"ab"), segment(2, 2, b"e")]);
+        assert!(fff_frame(Cursor::new(gap), 1 << 20).unwrap_err().contains("found [0, 2]"));
+        let twice = jpeg(&[segment(0, 1, b"ab"), segment(1, 1, b"e"), segment(1, 1, b"e")]);
+        assert!(fff_frame(Cursor::new(twice), 1 << 20).unwrap_err().contains("found [0, 1, 1]"));
+        let none = jpeg(&[]);
+        assert!(fff_frame(Cursor::new(none), 1 << 20).unwrap_err().contains("without FLIR segments"));
+        let big = jpeg(&[segment(0, 0, &[7; 1000])]);
+        assert!(fff_frame(Cursor::new(big), 100).unwrap_err().contains("max_bytes"));
+        let mut cut = jpeg(&[segment(0, 0, &[7; 1000])]);
+        cut.truncate(500);
+        assert!(fff_frame(Cursor::new(cut), 1 << 20).unwrap_err().contains("truncated JPEG"));
+    }
+}

@@ -1,0 +1,211 @@
+"""Loose ends a new user hit (issue 26), each with its regression test: bits and a numeric peak
+compose; irf.psnr takes peak="range"; mtf_from_edge takes a path; per-side edge channels; CLI
+messages name flags, not keyword arguments; the report's notes say what to pass."""
+
+from __future__ import annotations
+
+import json
+import pathlib
+
+import numpy as np
+import pytest
+
+import irfidelity as irf
+from irfidelity.cli import main
+from irfidelity.config import ScoringConfig
+from irfidelity.curves import mtf_from_edge
+from irfidelity.errors import FidelityError, FrameError, RangeError, ShapeError
+
+DATA = pathlib.Path(__file__).parent / "data"
+REAL = str(DATA / "thermal" / "ptw_bb150C_frame000.png")
+SIM = str(DATA / "thermal" / "ptw_bb150C_frame001.png")
+RGBA_EDGE = str(DATA / "curves" / "sfr_edge_x2084_y0616_F2.png")
+RGBA_EDGE_SIM = str(DATA / "curves" / "sfr_edge_x2088_y0616_F2_8.png")
+
+
+def frames() -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(26)
+    real = rng.integers(1000, 3000, size=(48, 64)).astype(np.uint16)
+    return real, (real.astype(np.int64) + rng.integers(-20, 21, size=real.shape)).astype(np.uint16)
+
+
+def cli(capsys, *argv: str) -> tuple[int, str, str]:
+    rc = main(list(argv))
+    out = capsys.readouterr()
+    return rc, out.out, out.err
+
+
+@pytest.fixture
+def grey_sim_edge(tmp_path) -> str:
+    """A one-channel simulated edge image (the G channel of an RGBA crop, as .npy)."""
+    path = tmp_path / "sim_edge.npy"
+    np.save(path, irf.load_frame(RGBA_EDGE_SIM, channel="G"))
+    return str(path)
+
+
+# --------------------------------------------------------------------------- bits and peak
+def test_bits_and_a_numeric_peak_compose():
+    real, sim = frames()
+    cfg = ScoringConfig(bits=12, peak=100)
+    assert (cfg.bits, cfg.peak) == (12, 100.0)
+    rep = irf.evaluate(real, sim, config=cfg, weights="psnr=1")
+    assert rep.metrics["psnr_peak"] == 100.0
+    assert rep.metrics["psnr_db"] == pytest.approx(irf.psnr(real, sim, peak=100))
+    assert irf.psnr(real, sim, bits=12, peak=100) == pytest.approx(irf.psnr(real, sim, peak=100))
+    too_big = real.copy()
+    too_big[5, 7] = 4096  # bits still bounds the values
+    with pytest.raises(RangeError, match="4096"):
+        irf.evaluate(too_big, sim, bits=12, peak=100, weights="psnr=1")
+    with pytest.raises(RangeError):
+        irf.psnr(too_big, sim, bits=12, peak=100)
+
+
+def test_bits_bound_the_full_histogram_range_when_a_peak_is_given():
+    real, sim = frames()
+    _, edges, _ = irf.pair_stats(real, sim, bits=12, peak=100, bins=16, hist_range="full").joint_histogram()
+    _, bits_only, _ = irf.pair_stats(real, sim, bits=12, bins=16, hist_range="full").joint_histogram()
+    np.testing.assert_array_equal(edges, bits_only)
+    assert edges[0] == 0 and edges[-1] >= 4095
+
+
+def test_bits_and_peak_in_a_sequence():
+    real, sim = frames()
+    stack_r, stack_s = np.stack([real, real]), np.stack([sim, sim])
+    rep = irf.score_sequence(stack_r, stack_s, bits=12, peak=100, progress=False, weights="psnr=1")
+    assert rep.metrics["psnr_peak"] == 100.0
+    assert rep.metrics["psnr_db"] == pytest.approx(irf.psnr(real, sim, peak=100))
+
+
+def test_cli_peak_and_bits(capsys):
+    rc, out, err = cli(capsys, "score", REAL, SIM, "--bits", "16", "--peak", "100", "--json", "-")
+    assert rc == 0, err
+    report = json.loads(out)
+    assert report["metrics"]["psnr_peak"] == 100.0 and report["config"]["bits"] == 16
+    assert main(["score", "--help"]) == 0
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "--peak overrides the peak; --bits still bounds the values" in help_text
+
+
+# --------------------------------------------------------------------------- psnr range
+def test_psnr_range_matches_evaluate():
+    real, sim = frames()
+    expected = irf.evaluate(real, sim, peak="range", weights="psnr=1").metrics["psnr_db"]
+    assert irf.psnr(real, sim, peak="range") == pytest.approx(expected, rel=1e-12)
+    span = float(real.max()) - float(real.min())
+    assert irf.psnr(real, sim, peak="range") == pytest.approx(irf.psnr(real, sim, peak=span), rel=1e-12)
+
+
+def test_psnr_range_counts_the_masked_pixels_only():
+    real, sim = frames()
+    mask = np.zeros(real.shape, bool)
+    mask[10:30, 5:50] = True
+    span = float(real[mask].max()) - float(real[mask].min())
+    assert irf.psnr(real, sim, peak="range", mask=mask) == pytest.approx(irf.psnr(real, sim, peak=span, mask=mask))
+    expected = irf.evaluate(real, sim, peak="range", mask=mask, weights="psnr=1").metrics["psnr_db"]
+    assert irf.psnr(real, sim, peak="range", mask=mask) == pytest.approx(expected, rel=1e-12)
+
+
+def test_psnr_range_on_float_frames_and_errors():
+    real, sim = (f.astype(np.float32) / 7 for f in frames())
+    assert irf.psnr(real, sim, peak="range") == pytest.approx(
+        irf.psnr(real, sim, peak=float(real.max()) - float(real.min())), rel=1e-9)
+    with pytest.raises(FidelityError, match="more than one value") as info:
+        irf.psnr(np.ones((8, 8)), np.zeros((8, 8)), peak="range")
+    assert info.value.option == "peak"
+    with pytest.raises(FidelityError, match="a positive number or 'range'"):
+        irf.psnr(real, sim, peak="max")
+
+
+# --------------------------------------------------------------------------- edges
+def test_mtf_from_edge_reads_a_path():
+    from_path = mtf_from_edge(RGBA_EDGE, channel="G")
+    from_array = mtf_from_edge(irf.load_frame(RGBA_EDGE, channel="G"))
+    np.testing.assert_array_equal(from_path.y, from_array.y)
+    assert from_path.name == "sfr_edge_x2084_y0616_F2.png"
+    assert mtf_from_edge(pathlib.Path(RGBA_EDGE), channel="G", name="mine").name == "mine"
+
+
+def test_mtf_from_edge_path_errors_name_the_file():
+    with pytest.raises(FrameError, match="sfr_edge_x2084_y0616_F2.png: several channels .*channel="):
+        mtf_from_edge(RGBA_EDGE)
+    with pytest.raises(FidelityError, match="ptw_bb150C_frame000.png: .*edge"):
+        mtf_from_edge(REAL)
+    with pytest.raises(FidelityError, match="channel= selects a channel of an image file"):
+        mtf_from_edge(irf.load_frame(RGBA_EDGE, channel="G"), channel="G")
+
+
+def test_each_side_has_its_edge_channel(grey_sim_edge):
+    real, sim = irf.load_frame(REAL), irf.load_frame(SIM)
+    rep = irf.evaluate(real, sim, bits=16, real_mtf=RGBA_EDGE, sim_mtf=grey_sim_edge, real_edge_channel="G")
+    expected = irf.curves.mtf_similarity(mtf_from_edge(RGBA_EDGE, channel="G"), mtf_from_edge(grey_sim_edge))
+    assert rep.components["mtf"] == pytest.approx(expected.value)
+    with pytest.raises(FrameError, match="sim_edge.npy: .npy files have no channels"):
+        irf.evaluate(real, sim, bits=16, real_mtf=RGBA_EDGE, sim_mtf=grey_sim_edge, edge_channel="G")
+
+
+def test_edge_channel_is_both_sides_unless_a_side_has_its_own():
+    from irfidelity.camera import edge_channel
+
+    cfg = ScoringConfig(edge_channel="R", sim_edge_channel="Y")
+    assert (edge_channel(cfg, "real"), edge_channel(cfg, "sim")) == ("R", "Y")
+    assert edge_channel(ScoringConfig(real_edge_channel="G"), "sim") is None
+
+
+def test_configs_with_edge_channel_still_load(tmp_path):
+    path = tmp_path / "old.toml"
+    path.write_text('edge_channel = "G"\nbits = 14\n', encoding="utf-8")
+    cfg = ScoringConfig.load(path)
+    assert (cfg.edge_channel, cfg.real_edge_channel, cfg.sim_edge_channel) == ("G", None, None)
+    both = cfg.replace(real_edge_channel="R", sim_edge_channel="Y")
+    both.save(tmp_path / "new.toml")
+    assert ScoringConfig.load(tmp_path / "new.toml") == both
+
+
+def test_cli_real_edge_channel(capsys, grey_sim_edge):
+    rc, out, err = cli(capsys, "score", REAL, SIM, "--bits", "16", "--real-edge", RGBA_EDGE, "--sim-edge",
+                       grey_sim_edge, "--real-edge-channel", "G", "--json", "-")
+    assert rc == 0, err
+    assert json.loads(out)["config"]["real_edge_channel"] == "G"
+    assert "mtf" in json.loads(out)["components"]
+
+
+# --------------------------------------------------------------------------- CLI wording
+def test_cli_names_the_edge_channel_flag(capsys, grey_sim_edge):
+    rc, _, err = cli(capsys, "score", REAL, SIM, "--bits", "16", "--real-edge", RGBA_EDGE, "--sim-edge",
+                     grey_sim_edge)
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+    assert "--real-edge-channel" in err and "channel=" not in err
+
+
+def test_cli_names_the_frame_channel_flag(capsys):
+    rc, _, err = cli(capsys, "score", REAL, RGBA_EDGE)
+    assert rc == 2 and "--sim-channel" in err and "channel=" not in err, err
+    rc, _, err = cli(capsys, "score", RGBA_EDGE, RGBA_EDGE_SIM, "--sim-channel", "G")
+    assert rc == 2 and "--real-channel" in err and "channel=" not in err, err
+
+
+def test_dtype_advice_in_the_api_and_the_cli(tmp_path, capsys):
+    real, sim = frames()
+    with pytest.raises(ShapeError, match=r"sim\.astype\(real\.dtype\)"):
+        irf.psnr(real, sim.astype(np.float32), peak=100)
+    np.save(tmp_path / "real.npy", real)
+    np.save(tmp_path / "sim.npy", sim.astype(np.float32))
+    rc, _, err = cli(capsys, "score", str(tmp_path / "real.npy"), str(tmp_path / "sim.npy"), "--peak", "100")
+    assert rc == 2 and "astype" not in err and "sample type" in err, err
+
+
+def test_cli_rewrites_only_the_advice():
+    from irfidelity.cli.output import cli_wording
+
+    assert cli_wording("plain message") == "plain message"
+    assert "--channel" in cli_wording("x.png: several channels (R, G); choose one with channel=...")
+
+
+# --------------------------------------------------------------------------- report notes
+def test_report_notes_say_what_to_pass():
+    pytest.importorskip("matplotlib")
+    real, sim = frames()
+    page = irf.evaluate(real, sim, weights="image_quality", missing="renormalize").to_html()
+    assert "curves={" not in page and "pass curves" not in page
+    for needle in ("real_mtf= and sim_mtf=", "--real-mtf/--sim-mtf", "real_sitf= and sim_sitf=", "--real-sitf"):
+        assert needle in page
