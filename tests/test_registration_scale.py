@@ -3,7 +3,8 @@
 
 A real frame in counts and the same frame scaled into float32 near 1e-30, 1e30, 1e36 and 1e38
 (its largest values), and into float64 near 1e300 and in the subnormal range (1e-308): the
-transform found, its confidence and the fidelity scored after it are those of the counts. A
+transform found, its confidence and the fidelity scored after it are those of the counts (the
+metrics refuse subnormal frames, saying why). A
 1-px checkerboard shifted by a column is its own negative, so a shift cannot be told from an
 inversion: refused, while a real frame with inverted grey levels still registers.
 
@@ -109,6 +110,20 @@ def test_the_fidelity_after_registration_does_not_depend_on_the_scale(pairs):
     misaligned = irf.evaluate(real.astype(np.float32), sim.astype(np.float32), peak="range")
     assert counts.fidelity > misaligned.fidelity + 0.1  # the registration is what is tested
     assert abs(big.fidelity - counts.fidelity) < 1e-6, (big.fidelity, counts.fidelity)
+
+
+def test_subnormal_frames_register_and_the_metrics_say_why_they_refuse(pairs):
+    """Frames near 1e-308 register as the counts do (above); the metrics after it then refuse
+    them for what they are, values whose squares underflow float64, never as NaN/Inf or as an
+    ambiguous match."""
+    real, sim, _ = pairs["translation"]
+    peak = float(real.max())
+    tiny_real, tiny_sim = scaled(real, np.float64, 1e-308, peak), scaled(sim, np.float64, 1e-308, peak)
+    with pytest.raises(irf.RangeError) as err:
+        irf.evaluate(tiny_real, tiny_sim, register="translation")
+    message = str(err.value)
+    assert "underflow" in message and "rescale" in message, message
+    assert "NaN" not in message and "Inf" not in message, message
 
 
 def test_confidence_is_never_nan():

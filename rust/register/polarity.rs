@@ -85,11 +85,17 @@ fn neighbourhood(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize, isiz
     };
     let (at_re, at_im): (Vec<f32>, Vec<f32>) = (0..rows).map(|ky| phasor(ky, peak.0)).unzip();
     let (step_cos, step_sin): (Vec<f32>, Vec<f32>) = (0..rows).map(|ky| phasor(ky, 1)).unzip();
+    let (mut x_re, mut x_im) = (vec![0.0f32; rows], vec![0.0f32; rows]);
     let mut out = [[0.0f64; 3]; 3];
     for kx in 0..spec.width() {
+        // the column as separate real and imaginary parts: the sums below then vectorise
         let column = &spec.data[kx * rows..(kx + 1) * rows];
+        for ((re, im), &h) in x_re.iter_mut().zip(x_im.iter_mut()).zip(column) {
+            let x = cross(h);
+            (*re, *im) = (x.re, x.im);
+        }
         let [yr, yi, yr_cos, yi_cos, yr_sin, yi_sin] =
-            column_moments(column, &cross, [&at_re, &at_im, &step_cos, &step_sin]);
+            column_moments([&x_re, &x_im, &at_re, &at_im, &step_cos, &step_sin]);
         // Σ y·e^{iθ·dy} for dy = −1, 0, +1
         let sums =
             [C64::new(yr_cos + yi_sin, yi_cos - yr_sin), C64::new(yr, yi), C64::new(yr_cos - yi_sin, yi_cos + yr_sin)];
@@ -110,38 +116,32 @@ fn neighbourhood(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize, isiz
 /// Lanes of the column sums.
 const LANES: usize = 8;
 
-/// For one column `x` (through `cross`) and per-row `at = (re, im)`, `step = (cos, sin)`:
-/// with `y = x·at`, the sums `Σ Re y, Σ Im y, Σ Re y·cos, Σ Im y·cos, Σ Re y·sin, Σ Im y·sin`.
-fn column_moments(column: &[C32], cross: &impl Fn(C32) -> C32, [at_re, at_im, cos, sin]: [&[f32]; 4]) -> [f64; 6] {
-    let n = column.len();
-    let (at_re, at_im, cos, sin) = (&at_re[..n], &at_im[..n], &cos[..n], &sin[..n]);
-    let (mut s_re, mut s_im, mut c_re, mut c_im, mut n_re, mut n_im) =
-        ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+/// For one column `x = (re, im)` and per-row `at = (re, im)`, `step = (cos, sin)`: with
+/// `y = x·at`, the sums `Σ Re y, Σ Im y, Σ Re y·cos, Σ Im y·cos, Σ Re y·sin, Σ Im y·sin`.
+fn column_moments(parts: [&[f32]; 6]) -> [f64; 6] {
+    let n = parts[0].len();
     let whole = n - n % LANES;
+    let mut acc = [[0.0f32; LANES]; 6];
     for base in (0..whole).step_by(LANES) {
+        let lane = |k: usize| -> &[f32; LANES] { parts[k][base..base + LANES].try_into().expect("a whole lane") };
+        let [x_re, x_im, at_re, at_im, cos, sin] = [lane(0), lane(1), lane(2), lane(3), lane(4), lane(5)];
         for k in 0..LANES {
-            let i = base + k;
-            let x = cross(column[i]);
-            let (yr, yi) = (x.re * at_re[i] - x.im * at_im[i], x.re * at_im[i] + x.im * at_re[i]);
-            s_re[k] += yr;
-            s_im[k] += yi;
-            c_re[k] += yr * cos[i];
-            c_im[k] += yi * cos[i];
-            n_re[k] += yr * sin[i];
-            n_im[k] += yi * sin[i];
+            accumulate(&mut acc, k, [x_re[k], x_im[k], at_re[k], at_im[k], cos[k], sin[k]]);
         }
     }
     for i in whole..n {
-        let x = cross(column[i]);
-        let (yr, yi) = (x.re * at_re[i] - x.im * at_im[i], x.re * at_im[i] + x.im * at_re[i]);
-        s_re[0] += yr;
-        s_im[0] += yi;
-        c_re[0] += yr * cos[i];
-        c_im[0] += yi * cos[i];
-        n_re[0] += yr * sin[i];
-        n_im[0] += yi * sin[i];
+        accumulate(&mut acc, 0, parts.map(|p| p[i]));
     }
-    [s_re, s_im, c_re, c_im, n_re, n_im].map(|acc| acc.iter().map(|&v| f64::from(v)).sum())
+    acc.map(|lanes| lanes.iter().map(|&v| f64::from(v)).sum())
+}
+
+/// One row's terms of [`column_moments`] into lane `k`.
+#[inline(always)]
+fn accumulate(acc: &mut [[f32; LANES]; 6], k: usize, [x_re, x_im, at_re, at_im, cos, sin]: [f32; 6]) {
+    let (yr, yi) = (x_re * at_re - x_im * at_im, x_re * at_im + x_im * at_re);
+    for (slot, term) in acc.iter_mut().zip([yr, yi, yr * cos, yi * cos, yr * sin, yi * sin]) {
+        slot[k] += term;
+    }
 }
 
 /// The lowest confidence `1 − r_rival/r_peak` over `candidates` judged on the pixels: `r` the
@@ -247,43 +247,5 @@ mod tests {
             // and were one judged, it would not count
             assert_eq!(judge(&real, &sim, (0, 0), sign, &[(0, 1), (1, 1)], 64), None);
         }
-    }
-}
-
-#[cfg(test)]
-mod timing_tmp {
-    use super::super::fft;
-    use super::super::frame::Frame;
-    use super::super::logpolar::tests::scene;
-    use super::super::phase;
-    use super::*;
-    #[test]
-    fn time_parts() {
-        let (rows, cols) = (512, 640);
-        let values: Vec<f32> = scene(rows, cols, 3).iter().map(|&v| v as f32).collect();
-        let n = 50;
-        let t = std::time::Instant::now();
-        for _ in 0..n {
-            std::hint::black_box(Frame::new(&values, rows, cols, None, "r").unwrap().mean);
-        }
-        eprintln!("Frame::new {:?}", t.elapsed() / n);
-        let f = Frame::new(&values, rows, cols, None, "r").unwrap();
-        let t = std::time::Instant::now();
-        for _ in 0..n {
-            std::hint::black_box(phase::tapered_spectrum(&f));
-        }
-        eprintln!("tapered_spectrum {:?}", t.elapsed() / n);
-        let spec = phase::tapered_spectrum(&f);
-        let t = std::time::Instant::now();
-        for _ in 0..n {
-            std::hint::black_box(neighbourhood(&spec, |h| h * h.norm_sqr().sqrt(), (3, -2)));
-        }
-        eprintln!("neighbourhood {:?}", t.elapsed() / n);
-        let t = std::time::Instant::now();
-        for _ in 0..n {
-            std::hint::black_box(phase::correlate(&f, &f, None));
-        }
-        eprintln!("correlate {:?}", t.elapsed() / n);
-        let _ = fft::forward;
     }
 }
