@@ -113,35 +113,42 @@ fn neighbourhood(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize, isiz
     out
 }
 
-/// Lanes of the column sums.
-const LANES: usize = 8;
+/// Lanes of the column sums (six accumulators of four lanes fit the vector registers).
+const LANES: usize = 4;
 
 /// For one column `x = (re, im)` and per-row `at = (re, im)`, `step = (cos, sin)`: with
 /// `y = x·at`, the sums `Σ Re y, Σ Im y, Σ Re y·cos, Σ Im y·cos, Σ Re y·sin, Σ Im y·sin`.
-fn column_moments(parts: [&[f32]; 6]) -> [f64; 6] {
-    let n = parts[0].len();
+fn column_moments([x_re, x_im, at_re, at_im, cos, sin]: [&[f32]; 6]) -> [f64; 6] {
+    let n = x_re.len();
     let whole = n - n % LANES;
-    let mut acc = [[0.0f32; LANES]; 6];
-    for base in (0..whole).step_by(LANES) {
-        let lane = |k: usize| -> &[f32; LANES] { parts[k][base..base + LANES].try_into().expect("a whole lane") };
-        let [x_re, x_im, at_re, at_im, cos, sin] = [lane(0), lane(1), lane(2), lane(3), lane(4), lane(5)];
+    let lanes = |s| whole_lanes(s, whole);
+    let (mut s_re, mut s_im, mut c_re, mut c_im, mut n_re, mut n_im) =
+        ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+    for (((((xr, xi), ar), ai), c), s) in
+        lanes(x_re).zip(lanes(x_im)).zip(lanes(at_re)).zip(lanes(at_im)).zip(lanes(cos)).zip(lanes(sin))
+    {
         for k in 0..LANES {
-            accumulate(&mut acc, k, [x_re[k], x_im[k], at_re[k], at_im[k], cos[k], sin[k]]);
+            let (yr, yi) = (xr[k] * ar[k] - xi[k] * ai[k], xr[k] * ai[k] + xi[k] * ar[k]);
+            s_re[k] += yr;
+            s_im[k] += yi;
+            c_re[k] += yr * c[k];
+            c_im[k] += yi * c[k];
+            n_re[k] += yr * s[k];
+            n_im[k] += yi * s[k];
         }
     }
+    let mut out = [s_re, s_im, c_re, c_im, n_re, n_im].map(|acc| acc.iter().map(|&v| f64::from(v)).sum::<f64>());
     for i in whole..n {
-        accumulate(&mut acc, 0, parts.map(|p| p[i]));
+        let (yr, yi) = (x_re[i] * at_re[i] - x_im[i] * at_im[i], x_re[i] * at_im[i] + x_im[i] * at_re[i]);
+        let terms = [yr, yi, yr * cos[i], yi * cos[i], yr * sin[i], yi * sin[i]];
+        out.iter_mut().zip(terms).for_each(|(o, t)| *o += f64::from(t));
     }
-    acc.map(|lanes| lanes.iter().map(|&v| f64::from(v)).sum())
+    out
 }
 
-/// One row's terms of [`column_moments`] into lane `k`.
-#[inline(always)]
-fn accumulate(acc: &mut [[f32; LANES]; 6], k: usize, [x_re, x_im, at_re, at_im, cos, sin]: [f32; 6]) {
-    let (yr, yi) = (x_re * at_re - x_im * at_im, x_re * at_im + x_im * at_re);
-    for (slot, term) in acc.iter_mut().zip([yr, yi, yr * cos, yi * cos, yr * sin, yi * sin]) {
-        slot[k] += term;
-    }
+/// The first `whole` values of `s` as arrays of [`LANES`].
+fn whole_lanes(s: &[f32], whole: usize) -> impl Iterator<Item = [f32; LANES]> + '_ {
+    s[..whole].chunks_exact(LANES).map(|c| <[f32; LANES]>::try_from(c).expect("a whole lane"))
 }
 
 /// The lowest confidence `1 − r_rival/r_peak` over `candidates` judged on the pixels: `r` the
