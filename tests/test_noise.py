@@ -40,9 +40,10 @@ BB150 = [DATA / "ptw_bb150C_frame000.png", DATA / "ptw_bb150C_frame001.png"]
 
 # --------------------------------------------------------------------------- references
 def exact_parts(cube: np.ndarray) -> tuple[dict[str, Fraction], Fraction, Fraction]:
-    """``(SS_x as Fractions, SS_total, mean)`` straight from the definitions of the parts."""
+    """``(SS_x as Fractions, SS_total, mean)`` straight from the definitions of the parts (every
+    value taken exactly, integer or float)."""
     t, v, h = cube.shape
-    x = [[[int(cube[a, b, c]) for c in range(h)] for b in range(v)] for a in range(t)]
+    x = [[[Fraction(cube[a, b, c].item()) for c in range(h)] for b in range(v)] for a in range(t)]
     n = t * v * h
     m = Fraction(sum(x[a][b][c] for a in range(t) for b in range(v) for c in range(h)), n)
     u = [[[x[a][b][c] - m for c in range(h)] for b in range(v)] for a in range(t)]
@@ -186,6 +187,27 @@ def test_float_values_far_from_zero_keep_their_digits():
     ref = {k: float((p ** 2).sum()) * (cube.size // p.size) for k, p in numpy_parts(cube - 1e6).items()}
     for k in ("vh", "tvh"):
         assert ours[k] == pytest.approx(ref[k], rel=1e-8), k
+
+
+@pytest.mark.filterwarnings("ignore::irfidelity.noise.NoiseWarning")
+@pytest.mark.parametrize("offset", [0.0, 1e6, 1e9, 1e12])
+def test_float64_frames_on_a_large_offset_give_every_sigma_to_1e_6(offset):
+    """Every σ, classical and corrected, against the exact decomposition of the very values
+    given (float64 cube of 8 × 16 × 16: every part present, amplitudes 0.5–3, on an offset)."""
+    rng = np.random.default_rng(25)
+    shape = (8, 16, 16)
+    cube = offset + random_effects(rng, {"t": 1.0, "v": 2.0, "h": 1.5, "tv": 0.7, "th": 0.5, "vh": 3.0, "tvh": 1.0},
+                                   shape)
+    ss, total, mean = exact_parts(cube)
+    reference = anova({k: float(ss[k]) for k in PARTS}, *shape)
+    n = irf.noise3d(cube, spectra=False)
+    classical = irf.noise3d(cube, corrected=False, spectra=False)
+    for k in PARTS:
+        assert reference.corrected[k] > 0.05, k  # every corrected part well away from 0
+        assert n.sigma[k] == pytest.approx(math.sqrt(reference.corrected[k]), rel=1e-6), (offset, k)
+        assert classical.sigma[k] == pytest.approx(math.sqrt(reference.classical[k]), rel=1e-6), (offset, k)
+    assert n.mean == pytest.approx(float(mean), rel=1e-15)
+    assert n.sums.decomposition()["ss_total"] == pytest.approx(float(total), rel=1e-9)
 
 
 # --------------------------------------------------------------------------- merging, files, workers

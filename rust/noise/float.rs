@@ -6,7 +6,8 @@
 //! every 128 values, and columns over blocks of 64 rows, into compensated totals. The
 //! temporal parts (t, tv, th) do not depend on a per-pixel offset, so they come from the
 //! row and column sums of `d`; the spatial parts (v, h, vh) from the pixel-mean map
-//! `p + Σd/T`; the within-pixel sum `W = Σ_vh (Σd² − (Σd)²/T)` gives
+//! `(p − c) + Σd/T`, centred on the pivot's mean `c` so that an offset common to all pixels
+//! costs no precision; the within-pixel sum `W = Σ_vh (Σd² − (Σd)²/T)` gives
 //! `SS_tvh = W − SS_t − SS_tv − SS_th`.
 
 use std::sync::Arc;
@@ -185,10 +186,16 @@ impl FloatAcc {
     }
 
     pub fn pixel_mean(&self, frames: usize) -> Vec<f64> {
+        self.centred_pixel_mean(frames, 0.0)
+    }
+
+    /// The pixel means minus `centre`: `(p − centre) + Σd/T`, exact in its first term for
+    /// pixels within a factor of two of the centre.
+    fn centred_pixel_mean(&self, frames: usize, centre: f64) -> Vec<f64> {
         let t = frames as f64;
         budget::collect(
             self.pivot.len(),
-            (0..self.pivot.len()).map(|i| self.pivot[i] + (self.sum[i] + self.sum_c[i]) / t),
+            (0..self.pivot.len()).map(|i| (self.pivot[i] - centre) + (self.sum[i] + self.sum_c[i]) / t),
         )
     }
 
@@ -244,17 +251,19 @@ impl FloatAcc {
                 e * e
             })
         }));
-        // spatial parts from the pixel-mean map
-        let mean_map = self.pixel_mean(frames);
+        // spatial parts from the pixel-mean map, centred: with an offset common to every
+        // pixel (1e12, say) the map itself would round away their differences
+        let centre = compensated_sum(self.pivot.iter().copied()) / (v * h);
+        let mean_map = self.centred_pixel_mean(frames, centre);
         let row_means: Vec<f64> = mean_map.chunks_exact(cols).map(|r| compensated_sum(r.iter().copied()) / h).collect();
         let col_means: Vec<f64> =
             (0..cols).map(|c| compensated_sum((0..rows).map(|r| mean_map[r * cols + c])) / v).collect();
-        let mean = compensated_sum(row_means.iter().copied()) / v;
-        let ss_v = t * h * compensated_sum(row_means.iter().map(|m| (m - mean) * (m - mean)));
-        let ss_h = t * v * compensated_sum(col_means.iter().map(|m| (m - mean) * (m - mean)));
+        let centred_mean = compensated_sum(row_means.iter().copied()) / v;
+        let ss_v = t * h * compensated_sum(row_means.iter().map(|m| (m - centred_mean) * (m - centred_mean)));
+        let ss_h = t * v * compensated_sum(col_means.iter().map(|m| (m - centred_mean) * (m - centred_mean)));
         let ss_vh = t * compensated_sum(mean_map.chunks_exact(cols).zip(&row_means).flat_map(|(row, &rm)| {
             row.iter().zip(&col_means).map(move |(&m, &cm)| {
-                let e = m - rm - cm + mean;
+                let e = m - rm - cm + centred_mean;
                 e * e
             })
         }));
@@ -263,7 +272,7 @@ impl FloatAcc {
         let ss_tvh = (within - ss_t - ss_tv - ss_th).max(0.0);
         let ss = [ss_t, ss_v, ss_h, ss_tv, ss_th, ss_vh, ss_tvh];
         let ss_total = within + ss_v + ss_h + ss_vh;
-        Ok(Decomposition { shape, mean, ss, ss_total, exact: None })
+        Ok(Decomposition { shape, mean: centre + centred_mean, ss, ss_total, exact: None })
     }
 }
 

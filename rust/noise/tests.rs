@@ -143,6 +143,24 @@ fn float_frames_agree_with_integer_frames_and_merge_closely() {
 }
 
 #[test]
+fn a_large_offset_costs_float_frames_no_precision() {
+    // integer-valued float64 frames on offsets up to 1e12 (still exact in float64, each
+    // value 1e12 + a few hundred): the same sums as the exact integer path without it
+    let (t, v, h) = (8, 16, 16);
+    let data = cube(t, v, h, 17);
+    let exact = pass(Samples::U16(&data), t, v, h, 1).unwrap().finish().unwrap();
+    for offset in [0.0, 1e6, 1e9, 1e12] {
+        let floats: Vec<f64> = data.iter().map(|&x| x as f64 + offset).collect();
+        let d = pass(Samples::F64(&floats), t, v, h, 2).unwrap().finish().unwrap();
+        for (k, name) in PARTS.iter().enumerate() {
+            assert!(close(d.ss[k], exact.ss[k], 1e-9), "{offset:e} part {name}: {} vs {}", d.ss[k], exact.ss[k]);
+        }
+        assert!(close(d.ss_total, exact.ss_total, 1e-12), "{offset:e}");
+        assert!(close(d.mean, exact.mean + offset, 1e-15), "{offset:e}");
+    }
+}
+
+#[test]
 fn float_results_do_not_depend_on_the_worker_count() {
     let (t, v, h) = (40, 6, 7);
     let floats: Vec<f64> = cube(t, v, h, 3).iter().map(|&x| x as f64 * 0.1).collect();

@@ -3,6 +3,7 @@
 //! and are skipped by every step, never propagated.
 
 use super::bands;
+use super::normal::Normalisation;
 use super::pool::Buffer;
 use crate::budget;
 use crate::error::{Error, Result};
@@ -113,9 +114,11 @@ impl Plane {
         (lo.into_iter().fold(f64::INFINITY, f64::min), hi.into_iter().fold(f64::NEG_INFINITY, f64::max))
     }
 
-    /// The value of a flat plane (see [`flat_level`]), or None.
-    pub fn flat_level(&self) -> Option<f64> {
-        flat_level(self.valid_values())
+    /// The valid values mapped to working values by `normal` (excluded pixels stay 0).
+    pub fn normalise(&mut self, normal: Normalisation) {
+        for (v, &ok) in self.values.iter_mut().zip(self.valid.iter()) {
+            *v = if ok { normal.apply(*v) } else { 0.0 };
+        }
     }
 
     fn valid_values(&self) -> impl Iterator<Item = f64> + '_ {
@@ -239,18 +242,27 @@ pub fn lane_sum<T: Sample>(values: &[T]) -> f64 {
     lanes.iter().sum::<f64>() + tail
 }
 
-/// The common value of `values` if they are all within 1e-12 of each other (relative to
-/// their magnitude), else None. Stops at the first pair of values that differ enough, which
-/// in a real frame comes within a few pixels.
-pub fn flat_level(values: impl Iterator<Item = f64>) -> Option<f64> {
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for v in values {
-        (lo, hi) = (lo.min(v), hi.max(v));
-        if hi - lo > 1e-12 * lo.abs().max(hi.abs()) {
-            return None;
+/// Sum, smallest and largest of the values in float64, in eight lanes (vectorised). The sum
+/// is not finite if a value is not (or, for float64 values beyond about 1e303, if it
+/// overflows); the extremes skip NaN.
+pub fn lane_sum_range<T: Sample>(values: &[T]) -> (f64, f64, f64) {
+    let chunks = values.chunks_exact(8);
+    let tail = chunks.remainder();
+    let (mut sum, mut lo, mut hi) = ([0.0f64; 8], [f64::INFINITY; 8], [f64::NEG_INFINITY; 8]);
+    for chunk in chunks {
+        for k in 0..8 {
+            let v = chunk[k].to_f64();
+            sum[k] += v;
+            lo[k] = if v < lo[k] { v } else { lo[k] };
+            hi[k] = if v > hi[k] { v } else { hi[k] };
         }
     }
-    Some(lo)
+    for v in tail.iter().map(|v| v.to_f64()) {
+        sum[0] += v;
+        lo[0] = if v < lo[0] { v } else { lo[0] };
+        hi[0] = if v > hi[0] { v } else { hi[0] };
+    }
+    (sum.iter().sum(), lo.into_iter().fold(f64::INFINITY, f64::min), hi.into_iter().fold(f64::NEG_INFINITY, f64::max))
 }
 
 /// Whether every value is finite: `v − v` is 0 for a finite value and NaN otherwise, and a

@@ -30,8 +30,10 @@ mod frame;
 mod image;
 mod logpolar;
 mod nmi;
+mod normal;
 mod phase;
 mod plan;
+mod polarity;
 mod pool;
 mod refine;
 mod shifts;
@@ -248,6 +250,8 @@ struct Fit {
     confidence: f64,
     /// Integer shift of the best rival match (for the ambiguity message).
     rival: (isize, isize),
+    /// That rival matches with the other polarity.
+    rival_flipped: bool,
     /// The correlation peak lay on the edge of the max_shift window and rose beyond it.
     beyond_limit: bool,
     /// The frames correlate negatively at this transform.
@@ -319,17 +323,18 @@ fn phase_fit(real: &Frame, sim: &Frame, opts: &Options) -> Result<Fit> {
         method: Method::Phase,
         confidence: peak.confidence,
         rival: peak.rival,
+        rival_flipped: peak.rival_flipped,
         beyond_limit: peak.beyond_limit,
         inverted,
     })
 }
 
 fn nmi_fit(real: &Frame, sim: &Frame, opts: &Options) -> Result<Fit> {
-    let (real, sim) = (real.plane(), sim.plane());
+    let (real_plane, sim_plane) = (real.plane(), sim.plane());
     let starts = match opts.model {
         Model::Translation => vec![Affine::IDENTITY],
         Model::Rigid | Model::Similarity => {
-            let turn = logpolar::rotation_scale(real, sim, opts.model == Model::Similarity);
+            let turn = logpolar::rotation_scale(real_plane, sim_plane, opts.model == Model::Similarity);
             [turn.angle_deg, turn.angle_deg + 180.0]
                 .iter()
                 .map(|&a| Affine::rotation_scale(a, turn.scale, centre(real.rows, real.cols)))
@@ -338,20 +343,37 @@ fn nmi_fit(real: &Frame, sim: &Frame, opts: &Options) -> Result<Fit> {
     };
     let mut best: Option<nmi::NmiFit> = None;
     for start in &starts {
-        let fit = nmi::register_nmi(real, sim, start, opts.model, opts.max_shift)?;
+        let fit = nmi::register_nmi(real_plane, sim_plane, start, opts.model, opts.max_shift)?;
         if best.as_ref().is_none_or(|b| fit.nmi > b.nmi) {
             best = Some(fit);
         }
     }
     let fit = best.expect("at least one start");
+    let (confidence, rival, rival_flipped) = match flipped_rival(real, sim, &fit.matrix) {
+        Some((c, at)) if c < fit.confidence => (c, at, true),
+        _ => (fit.confidence, fit.rival, false),
+    };
     Ok(Fit {
         matrix: fit.matrix,
         method: Method::Nmi,
-        confidence: fit.confidence,
-        rival: fit.rival,
+        confidence,
+        rival,
+        rival_flipped,
         beyond_limit: false,
         inverted: fit.inverted,
     })
+}
+
+/// The check of [`polarity`] for a transform found by NMI (which cannot tell the
+/// polarities apart either): around its integer shift, the simulated frame turned first if
+/// the transform rotates or scales.
+fn flipped_rival(real: &Frame, sim: &Frame, matrix: &Affine) -> Option<(f64, (isize, isize))> {
+    let [[a, b, tx], [c, d, ty]] = matrix.0;
+    if [a, b, c, d] == [1.0, 0.0, 0.0, 1.0] {
+        return polarity::check(real, sim, (ty.round() as isize, tx.round() as isize));
+    }
+    let turned = Frame::from(warp_plane(sim.plane(), &matrix.inverse()?));
+    (turned.n_valid >= MIN_VALID).then(|| polarity::check(real, &turned, (0, 0)))?
 }
 
 /// Largest displacement of a frame corner along x or y.
@@ -369,6 +391,13 @@ fn max_axis_displacement(m: &Affine, rows: usize, cols: usize) -> f64 {
 /// Check a candidate (max_shift, overlap, confidence) and measure its overlap and polarity.
 fn finish(real: &Frame, sim: &Frame, fit: Fit, opts: &Options) -> Result<Registration> {
     let (rows, cols) = (real.rows, real.cols);
+    if !(0.0..=1.0).contains(&fit.confidence) {
+        return Err(Error::Registration(format!(
+            "cannot register: how distinct the match is could not be measured (confidence {}); the frames \
+             may hold values that no step can use",
+            fit.confidence
+        )));
+    }
     let to_sim = fit
         .matrix
         .inverse()
@@ -395,12 +424,24 @@ fn finish(real: &Frame, sim: &Frame, fit: Fit, opts: &Options) -> Result<Registr
         )));
     }
     if fit.confidence < AMBIGUOUS {
-        return Err(Error::Registration(format!(
-            "cannot register: ambiguous match (confidence {:.3} < {AMBIGUOUS}): a shift of (dy, dx) = ({}, {}) px \
-             matches almost as well as the best. Periodic patterns (bar targets), featureless, very noisy or \
-             unrelated frames do this; restrict max_shift below the pattern's period, or mask it",
-            fit.confidence, fit.rival.0, fit.rival.1
-        )));
+        let (dy, dx) = fit.rival;
+        return Err(Error::Registration(if fit.rival_flipped {
+            format!(
+                "cannot register: ambiguous match (confidence {:.3} < {AMBIGUOUS}): a shift of (dy, dx) = ({dy}, {dx}) px \
+                 with the opposite polarity (grey levels inverted relative to the best match) matches almost as well \
+                 as the best. The pattern is periodic: shifted by a pixel it is its own negative (a checkerboard or \
+                 one-pixel lines), so a shift cannot be told from an inversion; mask the pattern or register on a part \
+                 of the scene without it",
+                fit.confidence
+            )
+        } else {
+            format!(
+                "cannot register: ambiguous match (confidence {:.3} < {AMBIGUOUS}): a shift of (dy, dx) = ({dy}, {dx}) px \
+                 matches almost as well as the best. Periodic patterns (bar targets), featureless, very noisy or \
+                 unrelated frames do this; restrict max_shift below the pattern's period, or mask it",
+                fit.confidence
+            )
+        }));
     }
     Ok(Registration {
         matrix: fit.matrix,

@@ -19,6 +19,7 @@
 
 use super::fft::{self, Spectrum, C32};
 use super::frame::Frame;
+use super::polarity;
 use super::shifts::{resolve_alias, shifted_gradient_correlation};
 use super::subpixel::newton_peak;
 use super::window::{tukey, TUKEY_ALPHA};
@@ -52,6 +53,8 @@ pub struct Peak {
     pub confidence: f64,
     /// Integer shift `(dy, dx)` of the strongest rival.
     pub rival: (isize, isize),
+    /// That rival matches with the other polarity ([`super::polarity`]).
+    pub rival_flipped: bool,
     /// The best match lies outside the max_shift window: the in-window peak sits on its edge
     /// with the correlation still rising, or a far higher peak lies outside.
     pub beyond_limit: bool,
@@ -82,12 +85,11 @@ pub fn search_limits(rows: usize, cols: usize, max_shift: Option<f64>) -> (usize
 /// `|dy|, |dx| ≤ max_shift`. The peak's alias one frame away is taken if its overlap
 /// correlates better, and credible rivals are judged on the pixels too: a rival whose
 /// gradients correlate nearly as well as the peak's (a periodic pattern) lowers the
-/// confidence to `1 − r_rival/r_peak`.
+/// confidence to `1 − r_rival/r_peak`, and so does a neighbouring shift that matches as well
+/// with the other polarity ([`polarity`]).
 pub fn correlate(real: &Frame, sim: &Frame, max_shift: Option<f64>) -> Peak {
     let (rows, cols) = (real.rows, real.cols);
-    let (wr, wc) = (tukey(rows, TUKEY_ALPHA), tukey(cols, TUKEY_ALPHA));
-    let spectrum = |frame: &Frame| fft::forward_rows(rows, cols, |r, line| frame.taper_row(r, wr[r], &wc, line));
-    let (fa, fb) = (spectrum(real), spectrum(sim));
+    let (fa, fb) = (tapered_spectrum(real), tapered_spectrum(sim));
     let (mut peak, rivals) =
         correlate_spectra(fa, fb, search_limits(rows, cols, max_shift), Polarity::Either, Locate::Whitened);
     let canonical = (peak.dy.round() as isize, peak.dx.round() as isize);
@@ -95,22 +97,47 @@ pub fn correlate(real: &Frame, sim: &Frame, max_shift: Option<f64>) -> Peak {
     peak.dy += (chosen.0 - canonical.0) as f64;
     peak.dx += (chosen.1 - canonical.1) as f64;
     let min_pairs = rows * cols / 8;
-    if rivals.is_empty() {
+    if rivals.far.is_empty() && rivals.flipped.is_empty() {
         return peak;
     }
     let (real, sim) = (real.plane(), sim.plane());
     if let Some(r_peak) = shifted_gradient_correlation(real, sim, chosen, min_pairs).map(|r| peak.sign * r) {
-        for rival in rivals {
+        for rival in rivals.far {
             if let Some(r) = shifted_gradient_correlation(real, sim, rival, min_pairs) {
                 let c = if r_peak > 0.0 { (1.0 - peak.sign * r / r_peak).clamp(0.0, 1.0) } else { 0.0 };
                 if c < peak.confidence {
-                    peak.confidence = c;
-                    peak.rival = rival;
+                    (peak.confidence, peak.rival, peak.rival_flipped) = (c, rival, false);
                 }
             }
         }
     }
+    // the screen ran around the canonical peak; its neighbours move with the alias
+    let moved = |d: (isize, isize)| (d.0 + chosen.0 - canonical.0, d.1 + chosen.1 - canonical.1);
+    let flipped: Vec<(isize, isize)> = rivals.flipped.into_iter().map(moved).collect();
+    if let Some((c, rival)) = polarity::judge(real, sim, chosen, peak.sign, &flipped, min_pairs) {
+        if c < peak.confidence {
+            (peak.confidence, peak.rival, peak.rival_flipped) = (c, rival, true);
+        }
+    }
     peak
+}
+
+/// The spectrum of the Tukey-windowed, mean-free frame.
+pub fn tapered_spectrum(frame: &Frame) -> Spectrum {
+    let (rows, cols) = (frame.rows, frame.cols);
+    let (wr, wc) = (tukey(rows, TUKEY_ALPHA), tukey(cols, TUKEY_ALPHA));
+    fft::forward_rows(rows, cols, |r, line| frame.taper_row(r, wr[r], &wc, line))
+}
+
+/// The shifts a peak's confidence is checked against on the pixels.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Rivals {
+    /// Credible rivals on the whitened surface: local maxima outside the peak's box, at least
+    /// [`CREDIBLE_RIVAL`] of its height.
+    pub far: Vec<(isize, isize)>,
+    /// Neighbours of the peak that correlate credibly with the other polarity
+    /// ([`polarity::screen`]; only when both polarities are allowed).
+    pub flipped: Vec<(isize, isize)>,
 }
 
 /// Which surface the integer peak is taken on.
@@ -123,8 +150,7 @@ pub enum Locate {
     HalfWhitened,
 }
 
-/// Phase correlation of two already tapered, mean-free images: the peak, and the credible
-/// rivals (local maxima outside the peak's box, at least [`CREDIBLE_RIVAL`] of its height).
+/// Phase correlation of two already tapered, mean-free images: the peak and its rivals.
 pub fn correlate_tapered(
     a: &[f32],
     b: &[f32],
@@ -133,7 +159,7 @@ pub fn correlate_tapered(
     limits: (usize, usize),
     polarity: Polarity,
     locate: Locate,
-) -> (Peak, Vec<(isize, isize)>) {
+) -> (Peak, Rivals) {
     correlate_spectra(fft::forward(a, rows, cols), fft::forward(b, rows, cols), limits, polarity, locate)
 }
 
@@ -144,7 +170,7 @@ fn correlate_spectra(
     limits: (usize, usize),
     polarity: Polarity,
     locate: Locate,
-) -> (Peak, Vec<(isize, isize)>) {
+) -> (Peak, Rivals) {
     let (rows, cols) = (fa.rows, fa.cols);
     whiten(&mut fa.data, &mut fb.data);
     let (half, full) = (fa, fb);
@@ -157,7 +183,7 @@ fn correlate_spectra(
     let (iy, ix, sign) = integer_peak(locate, rows, cols, limits, polarity);
     let at = |s: &[f32], y: isize, x: isize| sign * s[wrap(y, rows) * cols + wrap(x, cols)] as f64;
     let height = at(&surface, iy, ix);
-    let (confidence, rival, rivals) = surface_confidence(&surface, rows, cols, (iy, ix), sign, limits, polarity);
+    let (confidence, rival, far) = surface_confidence(&surface, rows, cols, (iy, ix), sign, limits, polarity);
     let outside = (rows / 2, cols / 2);
     let beyond_limit = limits != outside && {
         let (gy, gx, gsign) = integer_peak(locate, rows, cols, outside, polarity);
@@ -167,7 +193,13 @@ fn correlate_spectra(
     };
     let start = parabolic_start(locate, rows, cols, (iy, ix), sign);
     let (dy, dx) = newton_peak(&half, start, (iy as f64, ix as f64), sign);
-    (Peak { dy, dx, sign, height, confidence, rival, beyond_limit }, rivals)
+    // X/|X|^½ times |X|^½ is the plain cross-power spectrum
+    let flipped = match polarity {
+        Polarity::Either => polarity::screen(&half, |h| h * h.norm_sqr().sqrt(), (iy, ix), sign),
+        Polarity::Positive => Vec::new(),
+    };
+    let peak = Peak { dy, dx, sign, height, confidence, rival, rival_flipped: false, beyond_limit };
+    (peak, Rivals { far, flipped })
 }
 
 /// The cross-power spectrum `X = a·conj(b)` whitened in place: `a` becomes `X/|X|^½`, `b`
@@ -360,7 +392,7 @@ fn surface_confidence(
     }
     credible.sort_by(|x, y| y.0.total_cmp(&x.0));
     let rivals = credible.into_iter().take(RIVALS_CHECKED).map(|(_, s)| s).collect();
-    if height <= 0.0 {
+    if !(height > 0.0 && rival.max(noise).is_finite()) {
         return (0.0, at, rivals);
     }
     ((1.0 - rival.max(noise) / height).clamp(0.0, 1.0), at, rivals)

@@ -7,6 +7,7 @@
 //! the smaller subpixel error (docs/registration.md).
 
 use super::image::Plane;
+use super::normal::Normalisation;
 use super::pool::Buffer;
 use crate::kernel::Sample;
 
@@ -36,36 +37,36 @@ pub fn tukey(n: usize, alpha: f64) -> Vec<f64> {
 /// `(v − mean)·w_rows[r]·w_cols[c]` at valid pixels, 0 elsewhere (the mean of the valid
 /// pixels: an excluded pixel contributes nothing), in float32: the input of a transform.
 pub fn tapered(plane: &Plane, w_rows: &[f64], w_cols: &[f64]) -> Buffer<f32> {
-    let mean = plane.mean();
+    let centring = Normalisation { factor: 1.0, shift: plane.mean() };
     let cols = plane.cols.max(1);
     let all_valid = plane.n_valid == plane.values.len();
     let mut out = Buffer::filled(plane.rows * plane.cols, 0.0);
     for (r, line) in out.chunks_exact_mut(cols).enumerate() {
         let span = r * cols..(r + 1) * cols;
         let valid = (!all_valid).then(|| &plane.valid[span.clone()]);
-        taper_row(&plane.values[span], valid, mean, w_rows[r], w_cols, line);
+        taper_row(&plane.values[span], valid, centring, w_rows[r], w_cols, line);
     }
     out
 }
 
-/// One row of a tapered image: `(v − mean)·w_row·w_cols[c]` into `line`, 0 where `valid`
-/// (None: all valid) is false.
+/// One row of a tapered image: `centring(v)·w_row·w_cols[c]` into `line` (`centring` makes
+/// the values mean-free working values), 0 where `valid` (None: all valid) is false.
 pub fn taper_row<T: Sample>(
     values: &[T],
     valid: Option<&[bool]>,
-    mean: f64,
+    centring: Normalisation,
     w_row: f64,
     w_cols: &[f64],
     line: &mut [f32],
 ) {
     let Some(valid) = valid else {
         for ((out, v), &wc) in line.iter_mut().zip(values).zip(w_cols) {
-            *out = ((v.to_f64() - mean) * w_row * wc) as f32;
+            *out = (centring.apply(v.to_f64()) * w_row * wc) as f32;
         }
         return;
     };
     for (((out, v), &ok), &wc) in line.iter_mut().zip(values).zip(valid).zip(w_cols) {
-        *out = if ok { ((v.to_f64() - mean) * w_row * wc) as f32 } else { 0.0 };
+        *out = if ok { (centring.apply(v.to_f64()) * w_row * wc) as f32 } else { 0.0 };
     }
 }
 
