@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from . import stats as _stats
+from .ceiling import relative_to
 from .camera import CameraInputs, camera_components, describe_input
 from .alignment import aligned_pair, check_levels, find_registration
 from .config import ScoringConfig
@@ -69,7 +70,8 @@ def _registered(r: np.ndarray, s: np.ndarray, mask: Any, config: ScoringConfig, 
 
 
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any,
-                 inputs: dict, sources: dict) -> _stats.PairStats:
+                 inputs: dict, sources: dict) -> tuple[_stats.PairStats, float | None]:
+    """The pair's statistics and the real frame's range over the scored pixels."""
     r = _load(real, "real", config.real_channel)
     s = _load(sim, "sim", config.sim_channel)
     sources.update(real=r, sim=s, mask=mask)
@@ -91,18 +93,33 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
         if not paths:
             raise
         raise type(exc)(f"{' / '.join(paths)}: {exc}", option=getattr(exc, "option", None)) from None
+    span = real_range(r, mask, config.nonfinite)
     if "psnr" in components:
         dtype = np.asarray(r).dtype
         default = default_peak if default_peak is not None else _stats.peak_and_valid(dtype, config.bits, None)[0]
-        peak = psnr_peak(config, default, real_range(r, mask, config.nonfinite), where="real frame")
+        peak = psnr_peak(config, default, span, where="real frame")
         if peak != st.peak:
             st = st.with_peak(peak)
-    return st
+    return st, span
+
+
+def _ceiling(real_ref: Any, components: tuple, config: ScoringConfig, stats: _stats.PairStats,
+             sources: dict, inputs: dict) -> dict | None:
+    """The real-vs-real components with ``real_ref`` (:mod:`irfidelity.ceiling`)."""
+    if real_ref is None:
+        return None
+    from .ceiling import pair_ceiling
+
+    ref = _load(real_ref, "real_ref", config.real_channel)
+    inputs["real_ref"] = describe_input(real_ref)
+    peak = float(stats.peak) if "psnr" in components else None
+    return pair_ceiling(sources["real"], ref, components, config, mask=sources.get("mask"), peak=peak)
 
 
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
              real_sitf: Any = None, sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-             mask: Any = None, config: ScoringConfig | None = None, **options: Any) -> FidelityReport:
+             mask: Any = None, real_ref: Any = None, config: ScoringConfig | None = None,
+             **options: Any) -> FidelityReport:
     """Fidelity of a simulator on one scene (paper eq. 15) with its five components.
 
     Parameters
@@ -122,6 +139,10 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         ``weights="psnr=0.3,nmi=0.2,ssim=0.3,noise=0.2"``); :func:`irfidelity.noise.noise3d`.
     mask : 2-D bool array, optional
         ``False`` excludes a pixel pair from the image components.
+    real_ref : 2-D array or frame path, optional
+        A second real frame of the same scene: the real-vs-real components are the ceiling
+        (``report.ceiling``, ``report.relative``) against which NMI and SSIM are graded
+        (:mod:`irfidelity.ceiling`).
     config : ScoringConfig, mapping or TOML/JSON path, optional
         What decides the score (weights, bits, peak, bins, ...); default: the defaults.
     **options
@@ -169,19 +190,26 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     weights, image_plan, skipped = plan_components(cfg.weights, cfg.missing, have_images=real is not None,
                                                    have_mtf=given["mtf"], have_sitf=given["sitf"],
                                                    have_noise=given["noise"])
+    if real_ref is not None and real is None:
+        raise FidelityError("real_ref was given without real and sim: it is a second real frame of their scene",
+                            option="real_ref")
+    span = ceiling = None
     with recorded_warnings() as notes:
         components, metrics, inputs, compared = camera_components(camera, weights, cfg)
         sources: dict[str, Any] = {"curves": compared}
         if image_plan:
-            st = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources)
+            st, span = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources)
             image, image_metrics = image_components(st, image_plan, cfg)
             components.update(image)
             metrics.update(image_metrics)
-    score = score_components(components, metrics, weights, cfg)
+            ceiling = _ceiling(real_ref, image_plan, cfg, st, sources, inputs)
+    score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling)
     registration = sources.get("registration")
     return FidelityReport(fidelity=score.fidelity, grade=score.grade, components=score.components,
                           weights=weights, metrics=score.metrics,
                           component_grades=dict(score.grading.component_grades),
                           membership=dict(score.grading.membership), skipped=skipped, config=cfg,
                           grading=score.grading.to_dict(), notes=notes, inputs=inputs, sources=sources,
-                          registration=None if registration is None else registration.to_dict())
+                          registration=None if registration is None else registration.to_dict(),
+                          verdict=score.verdict.to_dict(), ceiling=ceiling,
+                          relative=relative_to(ceiling, score.components))

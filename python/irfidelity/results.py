@@ -22,7 +22,7 @@ from . import readback
 from .readback import Fields, check_json, shared_fields
 from .schema import from_json, to_json
 
-__all__ = ["FidelityReport", "component_lines", "recorded_warnings", "reading_report"]
+__all__ = ["FidelityReport", "component_lines", "recorded_warnings", "reading_report", "verdict_lines"]
 
 
 @contextlib.contextmanager
@@ -130,6 +130,14 @@ class FidelityReport:
         The registration applied before the image components (``config.register``):
         :meth:`irfidelity.Registration.to_dict` — model, method, matrix, shift, angle, scale,
         confidence, overlap. The image components then count the overlap only.
+    verdict : dict
+        Why the grade is what it is (:meth:`irfidelity.verdict.Verdict.to_dict`): ``grade``,
+        ``decided_by`` (the component that set it), ``reason`` (one sentence), ``rule`` and
+        each component's grade, limits and measure in engineering units.
+    ceiling : dict or None
+        With ``real_ref``: the image components of the two real frames (:mod:`irfidelity.ceiling`).
+    relative : dict or None
+        Each image component divided by its ceiling.
 
     Examples
     --------
@@ -158,6 +166,9 @@ class FidelityReport:
     notes: list = field(default_factory=list)
     inputs: dict = field(default_factory=dict)
     registration: dict | None = None
+    verdict: dict = field(default_factory=dict)
+    ceiling: dict | None = None
+    relative: dict | None = None
     sources: dict = field(default_factory=dict, repr=False, compare=False)
 
     def to_html(self, path: str | os.PathLike | None = None) -> str:
@@ -199,6 +210,9 @@ class FidelityReport:
             "notes": list(self.notes),
             "inputs": dict(self.inputs),
             "registration": self.registration,
+            "verdict": dict(self.verdict),
+            "ceiling": self.ceiling,
+            "relative": self.relative,
         })
 
     @classmethod
@@ -210,7 +224,7 @@ class FidelityReport:
                        grade=fields.require("grade", readback.text),
                        grading=fields.get("grading", readback.grading, {}),
                        registration=fields.get("registration", readback.optional(readback.registration)),
-                       **shared_fields(fields))
+                       **verdict_fields(fields), **shared_fields(fields))
 
     @property
     def grades(self) -> tuple:
@@ -221,8 +235,7 @@ class FidelityReport:
         """Human-readable table: components, weights, grades, fidelity, how it was made."""
         lines = component_lines(self.components, self.component_grades, self.metrics, self.weights, self.skipped)
         lines.append(f"{'fidelity':<10} {'':>7} {self.fidelity:>8.4f}  (eq. 15, Σ k_i·f_i)")
-        b = ", ".join(f"{g} {v:.3f}" for g, v in self.membership.items())
-        lines.append(f"{'grade':<10} {'':>7} {self.grade:>8}  membership B = K·R: {b}")
+        lines += verdict_lines(self.grade, self.verdict, self.ceiling, self.relative)
         if self.registration:
             lines.append(registration_line(self.registration))
         lines.append(settings_line(self.config, self.version))
@@ -231,6 +244,25 @@ class FidelityReport:
 
     def __str__(self) -> str:
         return self.summary_text()
+
+
+def verdict_lines(grade: str | None, verdict: Mapping[str, Any], ceiling: Mapping[str, float] | None,
+                  relative: Mapping[str, float] | None) -> list[str]:
+    """The grade with its reason in one sentence, and the ceiling when one was measured."""
+    reason = verdict.get("reason") if verdict else None
+    lines = [f"{'grade':<10} {'':>7} {grade:>8}  {reason or ''}".rstrip()]
+    if ceiling:
+        parts = [f"{k} {v:.4f} (simulator {100 * relative[k]:.1f} %)" if relative and k in relative else
+                 f"{k} {v:.4f}" for k, v in ceiling.items()]
+        lines.append("ceiling (real vs real): " + ", ".join(parts))
+    return lines
+
+
+def verdict_fields(fields: Fields) -> dict[str, Any]:
+    """``verdict``, ``ceiling`` and ``relative`` of a report read back (absent in older ones)."""
+    numbers = readback.optional(readback.mapping_of(readback.number))
+    return {"verdict": fields.get("verdict", readback.mapping_of(readback.anything), {}),
+            "ceiling": fields.get("ceiling", numbers), "relative": fields.get("relative", numbers)}
 
 
 def registration_line(reg: Mapping[str, Any]) -> str:

@@ -16,7 +16,7 @@ EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES = 0, 2, 3
 #: Options whose command-line name is not ``--`` + the option name with dashes.
 _FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "sim_mtf": "--sim-mtf/--sim-edge",
           "psnr_anchors": "--config", "ssim_exponents": "--config", "grades": "--config",
-          "mtf_options": "--config", "sitf_options": "--config", "register": "--register", "client": "--workers",
+          "mtf_options": "--config", "sitf_options": "--config", "tolerances": "--tolerance", "register": "--register", "client": "--workers",
           "chunk_size": "--workers"}
 
 
@@ -125,6 +125,15 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                    help="a weighted component without inputs: drop it and renormalise the other weights "
                         "(default; shown as skipped), or fail (raise)")
     g.add_argument("--nonfinite", choices=NONFINITE_MODES, help="NaN/Inf in float frames: fail (default) or mask")
+    g.add_argument("--tolerance", action="append", metavar="NAME=E,G,F",
+                   help="the limits of excellent, good and fair for one tolerance (repeatable): mtf50, sitf_slope "
+                        "(mismatch), noise_ratio, rms_error (fraction of the scene's range), nmi, ssim (fraction of "
+                        "the ceiling); e.g. mtf50=0.03,0.08,0.15 (docs/interpretation.md)")
+    v = s.add_argument_group("what is scored (single pairs)")
+    v.add_argument("--real-ref", metavar="FILE",
+                   help="a second real frame of the scene: the real-vs-real ceiling NMI and SSIM are graded against")
+    v.add_argument("--mask", metavar="PATH", help="score only the pixels where this PNG/NPY/TIFF is non-zero")
+    v.add_argument("--roi", metavar="Y0:Y1,X0:X1", help="score only this region (rows Y0..Y1-1, columns X0..X1-1)")
     c = s.add_argument_group("channels")
     c.add_argument("--channel", metavar="C", help="channel of both frames' files (e.g. EXR 'Y', PNG 'R')")
     c.add_argument("--real-channel", metavar="C", help="channel of the real frames only")

@@ -12,6 +12,7 @@ from ..errors import FidelityError
 from ..frames import MULTIPAGE_EXTENSIONS, FrameSequence, page_chain
 from ..fuzzy import Weights
 from .output import UsageError, write_outputs
+from .regions import pair_flags, tolerance_flags
 
 __all__ = ["score_command"]
 
@@ -29,7 +30,8 @@ def _config(a: argparse.Namespace) -> ScoringConfig:
             options["weights"] = Weights.parse(a.weights)
         except FidelityError as exc:
             raise UsageError(f"--weights: {exc}") from None
-    return ScoringConfig.resolve(a.config, **options)
+    config = ScoringConfig.resolve(a.config, **options)
+    return config.replace(tolerances=tolerance_flags(a.tolerance, config.tolerances)) if a.tolerance else config
 
 
 def _is_sequence(path: str) -> bool:
@@ -112,16 +114,20 @@ def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
         raise UsageError(f"{one} is a sequence (a directory, glob or multi-page TIFF) but {other} is a single frame "
                          f"({a.real!r} vs {a.sim!r})")
     if seq_real:
+        for flag in ("real_ref", "mask", "roi"):
+            if getattr(a, flag) is not None:
+                raise UsageError(f"--{flag.replace('_', '-')} applies to single pairs; REAL and SIM are sequences")
         report = _sequence(a, config, curves)
     else:
         for flag in ("resume", "pages"):
             if getattr(a, flag):
                 raise UsageError(f"--{flag} applies to sequences; REAL and SIM are single frames")
+        pair_options = pair_flags(a, config.real_channel)
         for name, path in (("REAL", a.real), ("SIM", a.sim)):
             if not os.path.isfile(path):
                 raise UsageError(f"{name} {path!r}: no such file")
         from ..evaluation import evaluate
 
-        report = evaluate(a.real, a.sim, config=config, **curves)
+        report = evaluate(a.real, a.sim, config=config, **curves, **pair_options)
     write_outputs(report, a, sequence=seq_real)
     return report, seq_real
