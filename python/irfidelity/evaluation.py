@@ -104,10 +104,8 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
 
 
 def _ceiling(real_ref: Any, components: tuple, config: ScoringConfig, stats: _stats.PairStats,
-             sources: dict, inputs: dict) -> dict | None:
+             sources: dict, inputs: dict) -> dict:
     """The real-vs-real components with ``real_ref`` (:mod:`irfidelity.ceiling`)."""
-    if real_ref is None:
-        return None
     from .ceiling import pair_ceiling
 
     ref = _load(real_ref, "real_ref", config.real_channel)
@@ -118,7 +116,8 @@ def _ceiling(real_ref: Any, components: tuple, config: ScoringConfig, stats: _st
 
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
              real_sitf: Any = None, sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-             mask: Any = None, real_ref: Any = None, config: ScoringConfig | None = None,
+             mask: Any = None, real_ref: Any = None, ceiling: dict | None = None,
+             config: ScoringConfig | None = None,
              **options: Any) -> FidelityReport:
     """Fidelity of a simulator on one scene (paper eq. 15) with its five components.
 
@@ -143,6 +142,9 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         A second real frame of the same scene: the real-vs-real components are the ceiling
         (``report.ceiling``, ``report.relative``) against which NMI and SSIM are graded
         (:mod:`irfidelity.ceiling`).
+    ceiling : mapping, optional
+        A ceiling measured before (``{"nmi": ..., "ssim": ...}``, e.g. a sequence report's
+        ``ceiling``), instead of ``real_ref``.
     config : ScoringConfig, mapping or TOML/JSON path, optional
         What decides the score (weights, bits, peak, bins, ...); default: the defaults.
     **options
@@ -190,10 +192,14 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     weights, image_plan, skipped = plan_components(cfg.weights, cfg.missing, have_images=real is not None,
                                                    have_mtf=given["mtf"], have_sitf=given["sitf"],
                                                    have_noise=given["noise"])
+    if real_ref is not None and ceiling is not None:
+        raise FidelityError("give real_ref (a second real frame) or ceiling (values measured before), not both",
+                            option="ceiling")
     if real_ref is not None and real is None:
         raise FidelityError("real_ref was given without real and sim: it is a second real frame of their scene",
                             option="real_ref")
-    span = ceiling = None
+    span = None
+    ceiling = None if ceiling is None else {str(k): float(v) for k, v in dict(ceiling).items()}
     with recorded_warnings() as notes:
         components, metrics, inputs, compared = camera_components(camera, weights, cfg)
         sources: dict[str, Any] = {"curves": compared}
@@ -202,7 +208,8 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
             image, image_metrics = image_components(st, image_plan, cfg)
             components.update(image)
             metrics.update(image_metrics)
-            ceiling = _ceiling(real_ref, image_plan, cfg, st, sources, inputs)
+            if real_ref is not None:
+                ceiling = _ceiling(real_ref, image_plan, cfg, st, sources, inputs)
     score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling)
     registration = sources.get("registration")
     return FidelityReport(fidelity=score.fidelity, grade=score.grade, components=score.components,

@@ -26,6 +26,10 @@ __all__ = ["ComponentVerdict", "Verdict", "judge", "mu_ratio"]
 
 _TOLERANCE_OF = {component: name for name, component in COMPONENT_OF.items()}
 
+#: A value this close below a cut meets it: a component exactly at a limit (an MTF50 exactly 10 %
+#: low) is not pushed into the worse grade by the rounding of ρ or μ.
+_ROUNDING = 1e-12
+
 
 def mu_ratio(mu: float) -> float:
     """The ratio ``r <= 1`` with ``2r/(1 + r²) = mu`` (the inverse of eq. 4), 0 for ``mu <= 0``."""
@@ -247,7 +251,7 @@ def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: 
         cuts, basis = component_cuts(k, tolerances, alpha=float(options.get("alpha", 1.0)),
                                      peak=None if peak is None else float(peak), scene_range=scene_range,
                                      anchors=config.psnr_anchors, ceiling=roof)
-        met = [i for i, cut in enumerate(cuts) if value >= cut]
+        met = [i for i, cut in enumerate(cuts) if value >= cut - _ROUNDING]
         grade = names[met[0] if met else 3]
         span = scene_range if basis == "range" else (None if peak is None else float(peak))
         measure, text = _measure(k, value, basis, metrics, config, span, roof)

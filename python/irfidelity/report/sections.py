@@ -83,9 +83,13 @@ def verdict(d: Mapping, *, score_key: str = "fidelity", label: str = "Fidelity")
     if d.get("grade") is not None:
         parts.append(f'<div>grade <span class="grade">{text(d["grade"])}</span></div>')
     parts.append("</div>")
+    reason = mapping(d, "verdict").get("reason")
+    if isinstance(reason, str):
+        parts.append(paragraph(reason))
     membership = mapping(d, "membership")
     if membership:
-        parts.append(paragraph("Fuzzy comprehensive evaluation: membership B = K·R of each grade."))
+        parts.append(paragraph("The share of the weight in each grade (B = K·R, each component in its own grade; "
+                               "the grade is the worst one with a share):"))
         parts.append(table(list(membership), [list(membership.values())]))
     return section("Verdict", "".join(parts), anchor="verdict")
 

@@ -167,7 +167,7 @@ class ArrayLoop:
                             mask=mask, need=self.plan.image, nonfinite=cfg.nonfinite)
         except FidelityError as exc:
             return Outcome(index, None, str(exc))
-        extent = _extent(scored_real if mask is None else scored_real[mask]) if cfg.peak == "range" else None
+        extent = _extent(scored_real if mask is None else scored_real[mask]) if "psnr" in self.plan.image else None
         inputs = {"real": array_fingerprint(real), "sim": array_fingerprint(sim)} if self.fingerprint else None
         return Outcome(index, st, None, real.shape, real.dtype.name, extent,
                        registration if cfg.register_each else None, inputs)

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..alignment import find_registration
 from ..camera import CameraInputs, camera_components
+from ..ceiling import sequence_ceiling
 from ..config import ScoringConfig
 from ..errors import FidelityError
 from ..frames import FrameSequence
@@ -49,6 +50,8 @@ class SequencePlan:
     levels: bool
     hist_range: tuple[float, float] | None
     registration: Any = None  # found once on the first readable pair (config.register, not register_each)
+    ceiling: dict | None = None  # real frame t vs t + 1 (irfidelity.ceiling)
+    scene_range: float | None = None  # of the first readable real frame: for frames without their own extent
 
     @property
     def bin_label(self) -> Any:
@@ -69,7 +72,7 @@ class SequencePlan:
         return KernelRequest(sse="psnr" in self.image, moments="ssim" in self.image, bins=self.bins,
                              levels=self.levels, hist_range=self.hist_range, valid=self.valid,
                              mask_nonfinite=cfg.nonfinite == "mask", real_channel=cfg.real_channel,
-                             sim_channel=cfg.sim_channel, real_extent=cfg.peak == "range" and "psnr" in self.image,
+                             sim_channel=cfg.sim_channel, real_extent="psnr" in self.image,
                              max_pixels=max_pixels, max_bytes=max_bytes, warp=self.warp,
                              register_each=self.register_each)
 
@@ -158,6 +161,7 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
         default_peak = valid = None
         peak = bins = hist_range = None
         levels = False
+        ceiling = None
         if dtype is not None:
             default_peak, valid = peak_and_valid(dtype, config.bits, None)
             if "psnr" in image and config.peak != "range":  # "range": each frame's own
@@ -166,7 +170,9 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
                 numeric = config.peak if isinstance(config.peak, float) else None
                 bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
                                                        full_range(dtype, config.bits, numeric))
+            ceiling = sequence_ceiling(real, image, config, peak=peak)
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,
                         camera_metrics=fixed_metrics, inputs=inputs, camera_objects=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
-                        else None, bins=bins, levels=levels, hist_range=hist_range, registration=registration)
+                        else None, bins=bins, levels=levels, hist_range=hist_range, registration=registration,
+                        ceiling=ceiling, scene_range=None if first is None else _scene_range(first))

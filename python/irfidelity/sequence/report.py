@@ -16,7 +16,8 @@ from ..config import ScoringConfig
 from ..fuzzy import Weights
 from .. import readback
 from ..readback import Fields, shared_fields
-from ..results import component_lines, reading_report, registration_line, settings_line, version
+from ..results import (component_lines, reading_report, registration_line, settings_line, verdict_fields,
+                       verdict_lines, version)
 from ..schema import csv_columns, to_json
 from .log import csv_line
 from .outcomes import flat_row
@@ -63,6 +64,9 @@ class SequenceReport:
         applied to every pair (as :attr:`FidelityReport.registration`); with ``register_each``, the spread of the frames' own registrations
         (``"each": True``, :func:`~irfidelity.sequence.pooling.registration_summary`; each
         frame's is in ``frames[i]["registration"]``).
+    verdict, ceiling, relative
+        As in :class:`~irfidelity.FidelityReport`, for the pooled result; the ceiling is that of
+        consecutive real frames (t, t + 1; :func:`irfidelity.ceiling.sequence_ceiling`).
     delay : dict or None
         With ``config.max_delay``: the frame offset found — ``frames`` (real frame ``i``
         pairs with simulated frame ``i + frames``), ``confidence``, ``window`` (frames of
@@ -113,6 +117,9 @@ class SequenceReport:
     run: dict = field(default_factory=dict)
     registration: dict | None = None
     delay: dict | None = None
+    verdict: dict = field(default_factory=dict)
+    ceiling: dict | None = None
+    relative: dict | None = None
     sources: dict = field(default_factory=dict, repr=False, compare=False)
 
     def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10) -> str:
@@ -146,7 +153,8 @@ class SequenceReport:
             fh.writelines(csv_line(flat_row(f, cols)) for f in self.frames)
 
     _FIELDS = ("fidelity", "grade", "components", "component_grades", "membership", "metrics", "failed",
-               "unpaired", "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration", "delay")
+               "unpaired", "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration", "delay",
+               "verdict", "ceiling", "relative")
 
     def to_dict(self) -> dict:
         """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""
@@ -170,7 +178,7 @@ class SequenceReport:
                        run=fields.get("run", readback.mapping_of(readback.anything), {}),
                        registration=fields.get("registration", readback.optional(readback.any_registration)),
                        delay=fields.get("delay", readback.optional(readback.delay)),
-                       **shared_fields(fields))
+                       **verdict_fields(fields), **shared_fields(fields))
             if (report.fidelity is None) != (report.grade is None):
                 raise readback.ReportError("report: fidelity and grade are both given (a pooled result) or both "
                                            "null (no frame scored)")
@@ -188,7 +196,7 @@ class SequenceReport:
             lines += component_lines(self.components, self.component_grades, self.metrics, self.weights,
                                      self.skipped)
             lines.append(f"{'fidelity':<10} {'':>7} {self.fidelity:>8.4f}  (eq. 15, Σ k_i·f_i)")
-            lines.append(f"{'grade':<10} {'':>7} {self.grade:>8}")
+            lines += verdict_lines(self.grade, self.verdict, self.ceiling, self.relative)
         spread = [("fidelity", self.frame_stats.get("fidelity"))]
         spread += [(k, self.frame_stats.get("metrics", {}).get(k)) for k in ("psnr_db", "ssim", "nmi")]
         for key, s in spread:
