@@ -203,3 +203,64 @@ def test_pooled_psnr_with_the_range_peak_lies_within_the_frames(recording):
     assert rep.metrics["psnr_db"] == pytest.approx(-10 * math.log10(np.mean(relative)), abs=1e-9)
     rms = rep.verdict["components"]["psnr"]["measure"]
     assert rms == pytest.approx(math.sqrt(np.mean(relative)), rel=1e-9)
+
+
+# --------------------------------------------------------------------------- defects and masks
+def _dead_cluster(recording) -> tuple[np.ndarray, np.ndarray]:
+    real, sim = recording[30], recording[31].copy()  # frames 30, 31: nothing in the scene moves
+    sim[50:56, 80:86] = 0  # a dead 6×6 cluster: 0.19 % of the frame
+    return real, sim
+
+
+def test_a_dead_cluster_is_named_and_a_mask_scores_the_rest(recording):
+    real, sim = _dead_cluster(recording)
+    rep = irf.evaluate(real, sim, bits=14, peak="range")
+    defect = rep.verdict["defect"]
+    assert defect["rows"] == [50, 55] and defect["cols"] == [80, 85] and defect["share"] > 0.99
+    assert "compact cluster at rows 50–55, columns 80–85" in rep.summary_text()
+    mask = np.ones(real.shape, dtype=bool)
+    mask[50:56, 80:86] = False
+    masked = irf.evaluate(real, sim, bits=14, peak="range", mask=mask)
+    assert masked.verdict["defect"] is None and masked.components["ssim"] > 0.8 > rep.components["ssim"]
+    clean = irf.evaluate(real, recording[31], bits=14, peak="range")
+    assert clean.verdict["defect"] is None
+
+
+def test_a_moving_object_is_named(recording):
+    """In frames 12 and 13 an animal moves: its pixels carry most of the difference."""
+    found = irf.evaluate(recording[12], recording[13], bits=14).verdict["defect"]
+    assert found["share"] > 0.9 and 50 <= found["rows"][0] <= found["rows"][1] <= 66
+
+
+def test_a_hot_border_is_named(recording):
+    real, sim = recording[30], recording[31].copy()
+    sim[:2, :] = sim[-2:, :] = 16000
+    rep = irf.evaluate(real, sim, bits=14, peak="range")
+    assert "along the frame's border" in rep.verdict["defect"]["text"]
+
+
+def test_mask_and_roi_flags_score_only_those_pixels(recording, tmp_path, capsys):
+    real, sim = _dead_cluster(recording)
+    paths = {}
+    for name, frame in (("real", real), ("sim", sim)):
+        paths[name] = tmp_path / f"{name}.npy"
+        np.save(paths[name], frame)
+    mask = np.ones(real.shape, dtype=np.uint8)
+    mask[50:56, 80:86] = 0
+    np.save(tmp_path / "mask.npy", mask)
+    base = ["score", str(paths["real"]), str(paths["sim"]), "--bits", "14", "--peak", "range", "--json"]
+    assert main([*base, str(tmp_path / "m.json"), "--mask", str(tmp_path / "mask.npy")]) == 0
+    assert main([*base, str(tmp_path / "r.json"), "--roi", "0:40,:"]) == 0
+    capsys.readouterr()
+    import json
+
+    by_mask = json.loads((tmp_path / "m.json").read_text())
+    by_roi = json.loads((tmp_path / "r.json").read_text())
+    assert by_mask["metrics"]["n"] == real.size - 36 and by_roi["metrics"]["n"] == 40 * real.shape[1]
+    want = irf.evaluate(real[:40], sim[:40], bits=14, peak="range")
+    assert by_roi["components"]["ssim"] == pytest.approx(want.components["ssim"], abs=1e-12)
+    for flag, value, needle in [("--roi", "0:500,:", "rows 0:500"), ("--roi", "a:b", "Y0:Y1,X0:X1"),
+                                ("--mask", str(tmp_path / "nope.npy"), "--mask")]:
+        assert main([*base, "-", flag, value]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and needle in err

@@ -16,6 +16,7 @@ import numpy as np
 
 from . import stats as _stats
 from .ceiling import relative_to
+from .defects import concentrated_error
 from .camera import CameraInputs, camera_components, describe_input
 from .alignment import aligned_pair, check_levels, find_registration
 from .config import ScoringConfig
@@ -198,7 +199,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     if real_ref is not None and real is None:
         raise FidelityError("real_ref was given without real and sim: it is a second real frame of their scene",
                             option="real_ref")
-    span = None
+    span = defect = None
     ceiling = None if ceiling is None else {str(k): float(v) for k, v in dict(ceiling).items()}
     with recorded_warnings() as notes:
         components, metrics, inputs, compared = camera_components(camera, weights, cfg)
@@ -210,6 +211,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
             metrics.update(image_metrics)
             if real_ref is not None:
                 ceiling = _ceiling(real_ref, image_plan, cfg, st, sources, inputs)
+            defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"))
     score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling)
     registration = sources.get("registration")
     return FidelityReport(fidelity=score.fidelity, grade=score.grade, components=score.components,
@@ -218,5 +220,5 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
                           membership=dict(score.grading.membership), skipped=skipped, config=cfg,
                           grading=score.grading.to_dict(), notes=notes, inputs=inputs, sources=sources,
                           registration=None if registration is None else registration.to_dict(),
-                          verdict=score.verdict.to_dict(), ceiling=ceiling,
+                          verdict={**score.verdict.to_dict(), "defect": defect}, ceiling=ceiling,
                           relative=relative_to(ceiling, score.components))

@@ -133,7 +133,9 @@ class FidelityReport:
     verdict : dict
         Why the grade is what it is (:meth:`irfidelity.verdict.Verdict.to_dict`): ``grade``,
         ``decided_by`` (the component that set it), ``reason`` (one sentence), ``rule`` and
-        each component's grade, limits and measure in engineering units.
+        each component's grade, limits and measure in engineering units; ``defect``: None, or
+        where the few pixels are that carry most of the squared error
+        (:func:`irfidelity.defects.concentrated_error`).
     ceiling : dict or None
         With ``real_ref``: the image components of the two real frames (:mod:`irfidelity.ceiling`).
     relative : dict or None
@@ -251,6 +253,9 @@ def verdict_lines(grade: str | None, verdict: Mapping[str, Any], ceiling: Mappin
     """The grade with its reason in one sentence, and the ceiling when one was measured."""
     reason = verdict.get("reason") if verdict else None
     lines = [f"{'grade':<10} {'':>7} {grade:>8}  {reason or ''}".rstrip()]
+    defect = verdict.get("defect") if verdict else None
+    if isinstance(defect, Mapping) and defect.get("text"):
+        lines.append(f"defect: {defect['text']}")
     if ceiling:
         parts = [f"{k} {v:.4f} (simulator {100 * relative[k]:.1f} %)" if relative and k in relative else
                  f"{k} {v:.4f}" for k, v in ceiling.items()]

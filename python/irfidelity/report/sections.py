@@ -83,9 +83,8 @@ def verdict(d: Mapping, *, score_key: str = "fidelity", label: str = "Fidelity")
     if d.get("grade") is not None:
         parts.append(f'<div>grade <span class="grade">{text(d["grade"])}</span></div>')
     parts.append("</div>")
-    reason = mapping(d, "verdict").get("reason")
-    if isinstance(reason, str):
-        parts.append(paragraph(reason))
+    reason, defect = mapping(d, "verdict").get("reason"), mapping(mapping(d, "verdict"), "defect").get("text")
+    parts += [paragraph(line) for line in (reason, defect) if isinstance(line, str)]
     membership = mapping(d, "membership")
     if membership:
         parts.append(paragraph("The share of the weight in each grade (B = K·R, each component in its own grade; "
