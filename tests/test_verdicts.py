@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import irfidelity as irf
+import ladders
 from irfidelity.cli import main
 from irfidelity.errors import FidelityError
 from irfidelity.tolerances import Tolerances, component_cuts, mu_of_ratio
@@ -264,3 +265,45 @@ def test_mask_and_roi_flags_score_only_those_pixels(recording, tmp_path, capsys)
         assert main([*base, "-", flag, value]) == 2
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and needle in err
+
+
+# --------------------------------------------------------------------------- sensitivity ladders
+def _never_improve(rungs: list[tuple]) -> list[str]:
+    grades = [rep.grade for _, rep in rungs]
+    assert all(GRADES.index(a) <= GRADES.index(b) for a, b in zip(grades, grades[1:])), rungs
+    return grades
+
+
+@pytest.fixture(scope="module")
+def scenes():
+    return {scene[0].split()[0]: scene for scene in ladders.scenes()}
+
+
+@pytest.mark.parametrize("ladder", ["blur σ", "noise σ", "gain", "offset", "shift", "dead pixels"])
+@pytest.mark.parametrize("scene", ["Lepton", "PTW"])
+def test_grades_never_improve_down_an_image_ladder(scenes, scene, ladder):
+    if (scene, ladder) == ("PTW", "shift"):
+        pytest.skip("the PTW MWIR frame repeats every 2 rows: a 2-px shift lines it up again (not a ladder)")
+    grades = _never_improve(list(ladders.image_ladder(ladder, *scenes[scene][1:])))
+    assert grades[0] == "excellent"  # rung 0 is real frame t + 1 against t: the camera against itself
+    if ladder != "gain":  # a contrast gain is the SiTF's to judge: 1.5× barely moves a low-contrast scene
+        assert grades[-1] != "excellent"
+
+
+def test_a_4_px_blur_of_a_640_by_512_frame_is_not_excellent(scenes):
+    name, real, successor, bits = scenes["DJI"]
+    assert real.shape == (512, 640)
+    rungs = list(ladders.image_ladder("blur σ", real, successor, bits))
+    grades = _never_improve(rungs)
+    assert rungs[-1][0] == 4 and grades[-1] != "excellent"
+
+
+@pytest.mark.parametrize("ladder", ["MTF50 scale", "SiTF slope", "NETD factor"])
+def test_grades_never_improve_down_a_camera_ladder(ladder):
+    rungs = list(ladders.camera_ladder(ladder))
+    grades = _never_improve(rungs)
+    assert grades[0] == "excellent" and grades[-1] == "poor"
+    by_step = dict(zip((step for step, _ in rungs), grades))
+    expected_not = {"MTF50 scale": (0.69, ("excellent", "good")), "SiTF slope": (0.8, ("excellent",)),
+                    "NETD factor": (3, ("excellent", "good", "fair"))}[ladder]
+    assert by_step[expected_not[0]] not in expected_not[1]
