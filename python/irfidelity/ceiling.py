@@ -44,10 +44,10 @@ def pair_ceiling(real: np.ndarray, real_ref: np.ndarray, components: tuple[str, 
     >>> from irfidelity.ceiling import pair_ceiling
     >>> rng = np.random.default_rng(0)
     >>> scene = np.add.outer(np.arange(64), np.arange(64)) * 4.0
-    >>> a, b = scene + rng.normal(0, 2, scene.shape), scene + rng.normal(0, 2, scene.shape)
+    >>> a, b = scene + rng.normal(0, 20, scene.shape), scene + rng.normal(0, 20, scene.shape)
     >>> c = pair_ceiling(a, b, ("nmi", "ssim"), ScoringConfig(peak=512.0))
-    >>> round(c["ssim"], 3), 0 < c["nmi"] < 1
-    (0.998, True)
+    >>> round(c["ssim"], 3), round(c["nmi"], 3)
+    (0.965, 0.476)
     """
     from .scoring import image_components
 
