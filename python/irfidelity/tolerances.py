@@ -203,7 +203,7 @@ def component_cuts(component: str, tolerances: Tolerances, *, alpha: float = 1.0
     ([0.99869, 0.99448, 0.97561], 'tolerance')
     >>> cuts, basis = component_cuts("ssim", Tolerances(), ceiling=0.9)
     >>> [round(c, 3) for c in cuts], basis
-    ([0.855, 0.765, 0.63], 'ceiling')
+    ([0.765, 0.63, 0.405], 'ceiling')
     """
     name = next(n for n, c in COMPONENT_OF.items() if c == component)
     limits = tolerances.limits(name)
