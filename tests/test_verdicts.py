@@ -170,7 +170,7 @@ def test_a_second_real_frame_is_the_ceiling(recording):
         assert rep.relative[k] == pytest.approx(rep.components[k] / rep.ceiling[k])
         assert rep.verdict["components"][k]["basis"] == "ceiling"
     assert rep.grade == "excellent"  # real vs real of a still scene
-    assert "ceiling (real vs real)" in rep.summary_text()
+    assert "ceiling (real vs real)" in rep.summary_text() and "simulator / ceiling" in rep.to_html()
     with pytest.raises(FidelityError, match="real_ref") as info:
         irf.evaluate(recording[0], recording[1], real_ref=recording[0][:10])
     assert info.value.option == "real_ref"
