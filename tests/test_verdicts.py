@@ -61,6 +61,38 @@ def test_each_limit_converts_exactly_to_the_component_scale():
     assert component_cuts("nmi", tol)[1] == "absolute"
 
 
+def test_the_radiometry_and_mrtd_limits_convert_exactly():
+    tol = Tolerances()
+    cuts, basis = component_cuts("radiometry", tol)
+    assert basis == "tolerance" and cuts == pytest.approx((0.9, 0.9 ** 4, 0.9 ** 9), rel=1e-14)
+    cuts, _ = component_cuts("mrtd", tol, alpha=2.0)
+    assert cuts == tuple(mu_of_ratio(1 / q) ** 2 for q in tol.mrtd_ratio)
+
+
+@pytest.mark.parametrize("offset, grade", [(0.0, "excellent"), (0.99, "excellent"), (1.5, "good"),
+                                           (2.5, "fair"), (3.2, "poor")])
+def test_a_temperature_offset_is_graded_in_temperature_tolerances(offset, grade):
+    real = 290.0 + np.add.outer(np.arange(32), np.arange(32)) * 0.1
+    rep = irf.evaluate(real, real + offset, unit="K", weights="radiometry=1", temperature_tolerance=1.0)
+    assert rep.grade == grade and rep.verdict["decided_by"] == "radiometry"
+    judged = rep.verdict["components"]["radiometry"]
+    assert judged["measure"] == pytest.approx(offset, abs=1e-6)  # a pure offset: bias = RMSE
+    assert judged["limits"] == [1.0, 2.0, 3.0]
+    if grade == "good":
+        assert "temperature bias +1.5 K" in rep.verdict["reason"]
+        assert "the tolerance for excellent is 1 temperature tolerances" in rep.verdict["reason"]
+
+
+@pytest.mark.parametrize("scale, grade", [(1.05, "excellent"), (1.2, "good"), (1.6, "fair"), (2.5, "poor")])
+def test_an_mrtd_level_is_graded_by_its_ratio(scale, grade):
+    f = np.linspace(0.05, 0.45, 30)
+    real = (f, 0.05 * np.exp(8 * f))
+    rep = irf.evaluate(real_mrtd=real, sim_mrtd=(f, scale * real[1]), weights="mrtd=1")
+    assert rep.grade == grade
+    assert rep.verdict["components"]["mrtd"]["measure"] == pytest.approx(scale, rel=1e-9)
+    assert f"MRTD {scale:.3g}× the real camera's" in rep.verdict["components"]["mrtd"]["text"]
+
+
 @pytest.mark.parametrize("mismatch, grade", [(0.0, "excellent"), (0.05, "excellent"), (0.0501, "good"),
                                              (0.10, "good"), (0.15, "fair"), (0.20, "fair"), (0.2001, "poor")])
 def test_an_mtf50_at_each_limit_gets_that_grade(mismatch, grade):

@@ -13,6 +13,14 @@ exactly to the component's scale, where the grade is decided (docs/interpretatio
   off by exactly ``e``; a shape difference (ρ < 1) lowers f1 further and counts too;
 * ``noise_ratio``: the ratio ``larger/smaller`` of the temporal noise (σ_tvh, the NETD in
   counts); on the noise component's scale ``μ(1/q)``, exact for noise scaled by ``q``;
+* ``mrtd_ratio``: the ratio ``larger/smaller`` of the MRTD levels (their geometric means over
+  the common frequencies); on the mrtd component's scale ``μ(1/q)^α``, exact for an MRTD of the
+  real shape scaled by ``q`` (``mrtd_options.tolerance`` forgives a level difference before
+  that: the grade counts what is left of it);
+* ``radiometry``: the temperature error ``sqrt((bias² + RMSE²)/2)`` in units of the
+  temperature tolerance (``config.temperature_tolerance``, else the real camera's NETD, else
+  1 K); on the radiometry component's scale ``0.9^(e²)``, exact
+  (:func:`irfidelity.temperature.radiometry_component`);
 * ``rms_error``: the RMS difference of the frames as a fraction of the real scene's range
   (max − min); on f3's scale the normalised PSNR at ``20·log10(peak / (e·range))`` dB;
 * ``nmi``, ``ssim``: the least fraction of the camera's own repeatability — the value two real
@@ -40,16 +48,18 @@ __all__ = ["Tolerances", "TOLERANCE_GRADES", "KINDS", "mu_of_ratio", "component_
 TOLERANCE_GRADES = ("excellent", "good", "fair", "poor")
 
 #: How each tolerance is read: "most" (the quantity may be at most the limit) or "least".
-KINDS = {"mtf50": "most", "sitf_slope": "most", "noise_ratio": "most", "rms_error": "most", "nmi": "least",
-         "ssim": "least"}
+KINDS = {"mtf50": "most", "sitf_slope": "most", "noise_ratio": "most", "mrtd_ratio": "most", "rms_error": "most",
+         "radiometry": "most", "nmi": "least", "ssim": "least"}
 
 #: The component each tolerance grades.
-COMPONENT_OF = {"mtf50": "mtf", "sitf_slope": "sitf", "noise_ratio": "noise", "rms_error": "psnr", "nmi": "nmi",
-                "ssim": "ssim"}
+COMPONENT_OF = {"mtf50": "mtf", "sitf_slope": "sitf", "noise_ratio": "noise", "mrtd_ratio": "mrtd",
+                "rms_error": "psnr", "radiometry": "radiometry", "nmi": "nmi", "ssim": "ssim"}
 
 #: Valid range of each tolerance's limits: (lowest, highest, what).
 _BOUNDS = {"mtf50": (0.0, 1.0, "fractions in (0, 1)"), "sitf_slope": (0.0, 1.0, "fractions in (0, 1)"),
-           "noise_ratio": (1.0, math.inf, "ratios > 1"), "rms_error": (0.0, math.inf, "fractions > 0"),
+           "noise_ratio": (1.0, math.inf, "ratios > 1"), "mrtd_ratio": (1.0, math.inf, "ratios > 1"),
+           "rms_error": (0.0, math.inf, "fractions > 0"),
+           "radiometry": (0.0, math.inf, "multiples of the temperature tolerance > 0"),
            "nmi": (0.0, 1.0, "fractions of the ceiling in (0, 1]"),
            "ssim": (0.0, 1.0, "fractions of the ceiling in (0, 1]")}
 
@@ -104,9 +114,15 @@ class Tolerances:
         Mismatch of the SiTF slopes (responsivity), ``1 − smaller/larger``: 5 %, 10 %, 20 %.
     noise_ratio : (float, float, float)
         Ratio of the temporal noise (NETD), ``larger/smaller``: 1.1, 1.25, 2.
+    mrtd_ratio : (float, float, float)
+        Ratio of the MRTD levels, ``larger/smaller``: 1.1, 1.25, 2 (the MRTD scales with the
+        NETD, so as the noise ratio).
     rms_error : (float, float, float)
         RMS error as a fraction of the real scene's range (max − min): 0.032, 0.068, 0.14
         (PSNR 29.9, 23.4, 17.1 dB relative to the range).
+    radiometry : (float, float, float)
+        Temperature error ``sqrt((bias² + RMSE²)/2)`` in temperature tolerances: 1, 2, 3 (a
+        pure offset of 1, 2, 3 tolerances; the radiometry component 0.9, 0.9⁴, 0.9⁹).
     nmi, ssim : (float, float, float)
         The least fraction of the ceiling (the value two real frames of the scene reach):
         NMI 0.7, 0.5, 0.3; SSIM 0.85, 0.7, 0.4 (benches/calibrate_tolerances.py).
@@ -124,7 +140,9 @@ class Tolerances:
     mtf50: tuple = (0.05, 0.10, 0.20)
     sitf_slope: tuple = (0.05, 0.10, 0.20)
     noise_ratio: tuple = (1.10, 1.25, 2.0)
+    mrtd_ratio: tuple = (1.10, 1.25, 2.0)
     rms_error: tuple = (0.032, 0.068, 0.14)
+    radiometry: tuple = (1.0, 2.0, 3.0)
     nmi: tuple = (0.70, 0.50, 0.30)
     ssim: tuple = (0.85, 0.70, 0.40)
 
@@ -191,7 +209,7 @@ def component_cuts(component: str, tolerances: Tolerances, *, alpha: float = 1.0
     """The limits of ``component``'s grades on its own [0, 1] scale, strictest first
     (excellent, good, fair: a value at or above a cut meets that grade), and the basis.
 
-    ``alpha`` is the exponent of μ (eq. 3; mtf, sitf); ``peak``, ``scene_range`` and
+    ``alpha`` is the exponent of μ (eq. 3; mtf, sitf, mrtd); ``peak``, ``scene_range`` and
     ``anchors`` fix the PSNR scale (psnr; without a range the tolerance is relative to the
     peak); ``ceiling`` is the real-vs-real value (nmi, ssim). The basis says which applied:
     "tolerance", "range", "peak", "ceiling" or "absolute" (no ceiling: calibrated cuts).
@@ -209,8 +227,13 @@ def component_cuts(component: str, tolerances: Tolerances, *, alpha: float = 1.0
     limits = tolerances.limits(name)
     if component in ("mtf", "sitf"):
         return tuple(mu_of_ratio(1.0 - e) ** alpha for e in limits), "tolerance"  # type: ignore[return-value]
-    if component == "noise":
-        return tuple(mu_of_ratio(1.0 / q) for q in limits), "tolerance"  # type: ignore[return-value]
+    if component in ("noise", "mrtd"):
+        exponent = alpha if component == "mrtd" else 1.0
+        return tuple(mu_of_ratio(1.0 / q) ** exponent for q in limits), "tolerance"  # type: ignore[return-value]
+    if component == "radiometry":
+        from .temperature import radiometry_component
+
+        return tuple(radiometry_component(e, e, 1.0) for e in limits), "tolerance"  # type: ignore[return-value]
     if component == "psnr":
         if peak is None:
             raise FidelityError("the psnr grade needs the PSNR peak")

@@ -53,8 +53,8 @@ class ComponentVerdict:
     basis : str
         What the cuts rest on: "tolerance", "range", "peak", "ceiling" or "absolute".
     measure : float
-        The component in the tolerance's unit (mismatch, noise ratio, RMS fraction, fraction
-        of the ceiling; the value itself for "absolute").
+        The component in the tolerance's unit (mismatch, noise or MRTD ratio, RMS fraction,
+        temperature tolerances, fraction of the ceiling; the value itself for "absolute").
     limits : (float, float, float)
         The tolerance's limits in that unit.
     text : str
@@ -89,8 +89,10 @@ class ComponentVerdict:
             return f"{self.component} ≥ {limit:.3g} (the calibrated boundary; no ceiling was measured)"
         if name in ("mtf50", "sitf_slope"):
             return f"a mismatch of {_percent(limit)}"
-        if name == "noise_ratio":
+        if name in ("noise_ratio", "mrtd_ratio"):
             return f"{limit:.3g}× either way"
+        if name == "radiometry":
+            return f"{limit:.3g} temperature tolerances"
         if name == "rms_error":
             return f"{_percent(limit)} of {'the scene' + chr(39) + 's range' if self.basis == 'range' else 'the PSNR peak'}"
         return f"{_percent(limit)} of the ceiling"
@@ -129,6 +131,34 @@ def _curve_measure(kind: str, value: float, metrics: Mapping[str, Any], alpha: f
     return effective, text
 
 
+def _mrtd_measure(value: float, metrics: Mapping[str, Any], alpha: float) -> tuple[float, str]:
+    """The effective MRTD ratio ``larger/smaller`` of the mrtd component — exact for an MRTD
+    of the real shape — and its words from the level ratio and the forgiven tolerance."""
+    ratio = 1.0 / max(mu_ratio(value ** (1.0 / alpha) if alpha > 0 else 1.0), 1e-300)
+    level, forgiven = metrics.get("mrtd_ratio"), metrics.get("mrtd_tolerance")
+    if not (isinstance(level, (int, float)) and level > 0):
+        return ratio, f"effective MRTD ratio {ratio:.3g}"
+    text = f"MRTD {level:.3g}× the real camera's"
+    if isinstance(forgiven, (int, float)) and forgiven > 0:
+        text += f" ({forgiven:.3g} % of it forgiven by mrtd_options.tolerance)"
+    if abs(ratio - max(level, 1.0 / level)) > 1e-4:
+        text += f"; effective ratio {ratio:.3g}"
+    return ratio, text
+
+
+def _radiometry_measure(value: float, metrics: Mapping[str, Any]) -> tuple[float, str]:
+    """The temperature error ``sqrt((bias² + RMSE²)/2)`` in temperature tolerances, and its words."""
+    from .temperature import radiometry_component
+
+    one = radiometry_component(1.0, 1.0, 1.0)  # the component at one tolerance: value = one ** (e²)
+    errors = math.sqrt(math.log(value) / math.log(one)) if value > 0 else math.inf
+    bias, rmse, tol = (metrics.get(f"temperature_{k}") for k in ("bias", "rmse", "tolerance"))
+    if not all(isinstance(v, (int, float)) for v in (bias, rmse, tol)):
+        return errors, f"temperature error {errors:.3g} temperature tolerances"
+    return errors, (f"temperature bias {bias:+.3g} K, RMSE {rmse:.3g} K: {errors:.3g} temperature tolerances "
+                    f"(of {tol:.3g} K)")
+
+
 def _measure(component: str, value: float, basis: str, metrics: Mapping[str, Any], config: Any,
              span: float | None, ceiling: float | None) -> tuple[float, str]:
     if component in ("mtf", "sitf"):
@@ -140,6 +170,10 @@ def _measure(component: str, value: float, basis: str, metrics: Mapping[str, Any
         if isinstance(real, (int, float)) and isinstance(sim, (int, float)) and real > 0 and sim > 0:
             return ratio, f"temporal noise σ_tvh {sim / real:.3g}× the real camera's (effective ratio {ratio:.3g})"
         return ratio, f"effective noise ratio {ratio:.3g}"
+    if component == "mrtd":
+        return _mrtd_measure(value, metrics, float(config.mrtd_options.get("alpha", 1.0)))
+    if component == "radiometry":
+        return _radiometry_measure(value, metrics)
     if component == "psnr":
         rms = math.sqrt(max(float(metrics.get("mse", 0.0)), 0.0))
         fraction = rms / span if span else math.inf
@@ -245,7 +279,7 @@ def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: 
         if k not in components or weights[k] <= 0:
             continue
         value = float(components[k])
-        options = config.mtf_options if k == "mtf" else config.sitf_options if k == "sitf" else {}
+        options = {"mtf": config.mtf_options, "sitf": config.sitf_options, "mrtd": config.mrtd_options}.get(k, {})
         peak = metrics.get("psnr_peak")
         roof = None if ceiling is None else ceiling.get(k)
         cuts, basis = component_cuts(k, tolerances, alpha=float(options.get("alpha", 1.0)),
