@@ -229,13 +229,10 @@ class ReportBase:
 
     # ------------------------------------------------------------------ text and HTML
     def _verdict_lines(self) -> list[str]:
-        """The component table, the fidelity, the grade with its reason, the memberships, the
-        ceiling."""
+        """The component table, the fidelity, the grade with its reason, the ceiling."""
         lines = component_lines(self.components, self.component_grades, self.metrics, self.weights, self.skipped)
         lines.append(f"{'fidelity':<10} {'':>7} {self.fidelity:>8.4f}  (eq. 15, Σ k_i·f_i)")
-        grade, *rest = verdict_lines(self.grade, self.verdict, self.ceiling, self.relative)
-        b = ", ".join(f"{g} {v:.3f}" for g, v in self.membership.items())
-        return lines + [grade] + ([f"membership B = K·R (the weight in each grade): {b}"] if b else []) + rest
+        return lines + verdict_lines(self.grade, self.verdict, self.ceiling, self.relative)
 
     def _made_lines(self) -> list[str]:
         """How the report was made: the settings line, then the notes."""

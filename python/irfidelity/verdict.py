@@ -92,7 +92,7 @@ class ComponentVerdict:
         if name in ("noise_ratio", "mrtd_ratio"):
             return f"{limit:.3g}× either way"
         if name == "radiometry":
-            return f"{limit:.3g} temperature tolerances"
+            return f"{limit:.3g} temperature tolerance{'' if limit == 1 else 's'}"
         if name == "rms_error":
             return f"{_percent(limit)} of {'the scene' + chr(39) + 's range' if self.basis == 'range' else 'the PSNR peak'}"
         return f"{_percent(limit)} of the ceiling"
