@@ -48,3 +48,16 @@ def test_demo_uses_the_recommended_psnr_peak():
     real = load_demo_data()["frame"]
     assert rep.config.peak == "range" and rep.notes == []
     assert rep.metrics["psnr_peak"] == float(real.max()) - float(real.min())
+
+
+def test_readme_shows_the_verdict_its_example_prints(capsys):
+    """The grade line shown in the README is the one the example prints."""
+    text = README.read_text(encoding="utf-8")
+    shown = re.search(r"^grade\s+(\w+)\s+(\1: .*)$", text, re.M)
+    assert shown is not None
+    example = re.findall(r"```python\n(.*?)```", text, re.S)[0].replace('rep.config.save("scoring.toml")', "")
+    namespace: dict = {}
+    exec(compile(example, "README.md", "exec"), namespace)
+    rep = namespace["rep"]
+    assert rep.grade == shown.group(1) and rep.verdict["reason"] == shown.group(2)
+    capsys.readouterr()

@@ -37,7 +37,7 @@ def test_both_reports_share_one_base_and_its_json_keys():
     assert shared <= {f.name for f in dataclasses.fields(irf.FidelityReport)}
     assert shared <= {f.name for f in dataclasses.fields(irf.SequenceReport)}
     base_keys = {"irfidelity", "fidelity", "grade", "components", "component_grades", "membership", "metrics",
-                 "weights", "skipped", "config", "notes", "inputs", "registration"}
+                 "weights", "skipped", "config", "notes", "inputs", "registration", "verdict", "ceiling", "relative"}
     assert base_keys <= set(pair.to_dict()) and base_keys <= set(seq.to_dict())
     assert set(pair.to_dict()) - base_keys == {"grading"}
     assert set(seq.to_dict()) - base_keys == {"failed", "unpaired", "frame_stats", "pooling", "run", "delay",
@@ -64,10 +64,12 @@ def test_the_grading_is_derived_from_the_one_grade_and_memberships():
     assert irf.FidelityReport.from_dict(data).grading["grade"] == rep.grade
 
 
-def test_a_sequence_summary_shows_the_pooled_memberships_like_a_pair():
-    seq = _sequence()
-    grade_line = next(line for line in seq.summary_text().splitlines() if line.startswith("grade"))
-    assert "membership B = K·R" in grade_line and seq.grade in grade_line
+def test_a_sequence_summary_shows_the_pooled_verdict_like_a_pair():
+    for rep in (_sequence(), pair_inputs()["object"]):
+        lines = rep.summary_text().splitlines()
+        grade_line = next(line for line in lines if line.startswith("grade"))
+        assert grade_line.split()[1] == rep.grade and grade_line.endswith(rep.verdict["reason"])
+        assert lines[lines.index(grade_line) - 1].startswith("fidelity")
 
 
 # --------------------------------------------------------------------------- frame entries

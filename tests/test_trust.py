@@ -255,5 +255,8 @@ def test_file_sequences_take_the_range_peak_and_per_side_channels(tmp_path):
     assert files.failed == [] and [f["metrics"] for f in files.frames] == [f["metrics"] for f in arrays.frames]
     spans = [float(f.max()) - float(f.min()) for f in stack]
     assert [f["metrics"]["psnr_peak"] for f in files.frames] == spans
-    assert files.metrics["psnr_peak"] == float(stack.max()) - float(stack.min())
+    # pooled: each frame's squared error relative to its own range (docs/interpretation.md)
+    relative = sum(f["metrics"]["mse"] / f["metrics"]["psnr_peak"] ** 2 for f in files.frames) / len(spans)
+    assert files.metrics["psnr_db"] == pytest.approx(-10 * np.log10(relative), abs=1e-9)
+    assert min(spans) <= files.metrics["psnr_peak"] <= max(spans)
     assert files.metrics == arrays.metrics

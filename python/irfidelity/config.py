@@ -27,6 +27,7 @@ from .fuzzy import GradeScale, Weights
 from .normalize import DEFAULT_PSNR_ANCHORS, psnr_curve_params
 from .registration import DEFAULT_METHOD
 from .temperature import unit_fields
+from .tolerances import Tolerances
 
 __all__ = ["ScoringConfig", "MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "PAIRING_RULES"]
 
@@ -98,7 +99,14 @@ class ScoringConfig:
         (:func:`irfidelity.curves.measured_mrtd`: ``snr_threshold``, ``eye_time``,
         ``frame_rate``), e.g. ``{"tolerance": 10}``.
     grades : GradeScale
-        Grade names and boundaries of the fuzzy evaluation.
+        The grade names (four: the tolerances separate excellent, good, fair and poor); its
+        boundaries and widths are those of :meth:`GradeScale.evaluate` called directly.
+    tolerances : Tolerances
+        What each grade allows of each component, in engineering units (MTF50 and SiTF-slope
+        mismatch, noise and MRTD ratio, RMS error relative to the scene's range, temperature
+        error in temperature tolerances, NMI and SSIM relative to the real camera's own
+        repeatability); they decide the grades
+        (:func:`irfidelity.verdict.judge`, docs/interpretation.md). TOML ``[tolerances]``.
     register : "translation", "rigid", "similarity" or None
         Register the simulated frame onto the real one before the image metrics, which then
         count the overlap only (:func:`irfidelity.register`). A sequence is registered once,
@@ -167,6 +175,7 @@ class ScoringConfig:
     sitf_options: Mapping = field(default_factory=dict)
     mrtd_options: Mapping = field(default_factory=dict)
     grades: GradeScale = field(default_factory=GradeScale)
+    tolerances: Tolerances = field(default_factory=Tolerances)
     register: str | None = None
     register_method: str = DEFAULT_METHOD
     register_each: bool = False
@@ -211,6 +220,7 @@ class ScoringConfig:
             out[name] = curve_options(name, getattr(self, name))
         if not isinstance(self.grades, GradeScale):
             out["grades"] = grade_scale(self.grades)
+        out["tolerances"] = Tolerances.coerce(self.tolerances)  # its errors name the tolerance
         out["register"] = None if self.register is None else choice("register", self.register, REGISTRATION_MODELS)
         out["register_method"] = choice("register_method", self.register_method, REGISTRATION_METHODS)
         if not isinstance(self.register_each, bool):
@@ -290,6 +300,8 @@ class ScoringConfig:
             elif isinstance(value, GradeScale):
                 value = {"grades": list(value.grades), "cuts": {k: list(v) for k, v in value.cuts.items()},
                          "width": dict(value.width)}
+            elif isinstance(value, Tolerances):
+                value = value.to_dict()
             elif isinstance(value, tuple):
                 value = [list(v) if isinstance(v, tuple) else v for v in value]
             out[name] = value
@@ -330,7 +342,7 @@ class ScoringConfig:
     def to_toml(self) -> str:
         """The configuration as TOML. TOML has no null: a field that is None is written as a
         commented-out example. Keys that are not bare TOML keys are quoted."""
-        tables = ("weights", "mtf_options", "sitf_options", "mrtd_options", "grades", "calibration")
+        tables = ("weights", "mtf_options", "sitf_options", "mrtd_options", "grades", "tolerances", "calibration")
         return toml_document(self.to_dict(), tables, _UNSET_EXAMPLES,
                              "irfidelity scoring configuration (irfidelity score --config FILE)")
 

@@ -20,6 +20,8 @@ import numpy as np
 
 from . import budget
 from . import stats as _stats
+from .ceiling import relative_to
+from .defects import concentrated_error
 from .camera import CameraInputs, camera_components, describe_input
 from .alignment import score_registered
 from .config import ScoringConfig
@@ -87,7 +89,8 @@ def _check_scoring(r: Any, s: Any, mask: Any, max_bytes: int | None) -> None:
 
 
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any,
-                 inputs: dict, sources: dict, max_bytes: int | None) -> _stats.PairStats:
+                 inputs: dict, sources: dict, max_bytes: int | None) -> tuple[_stats.PairStats, float | None]:
+    """The pair's statistics and the real frame's range over the scored pixels."""
     r = _load(real, "real", config.real_channel, max_bytes)
     s = _load(sim, "sim", config.sim_channel, _left(max_bytes, r) if isinstance(sim, (str, os.PathLike)) else None)
     if config.unit is not None:
@@ -116,13 +119,27 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
         peak = psnr_peak(config, st.peak, span, where="real frame")
         if peak != st.peak:
             st = st.with_peak(peak)
-    return st
+    return st, span
+
+
+def _ceiling(real_ref: Any, components: tuple, config: ScoringConfig, stats: _stats.PairStats,
+             sources: dict, inputs: dict) -> dict:
+    """The real-vs-real components with ``real_ref`` (:mod:`irfidelity.ceiling`)."""
+    from .ceiling import pair_ceiling
+
+    ref = _load(real_ref, "real_ref", config.real_channel, None)
+    if config.unit is not None:
+        ref = to_temperature(ref, real_ref, "real_ref", config)
+    inputs["real_ref"] = describe_input(real_ref)
+    peak = float(stats.peak) if "psnr" in components else None
+    return pair_ceiling(sources["real"], ref, components, config, mask=sources.get("mask"), peak=peak)
 
 
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
              real_sitf: Any = None, sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-             real_mrtd: Any = None, sim_mrtd: Any = None, mask: Any = None, config: ScoringConfig | None = None,
-             max_bytes: int | None = None, **options: Any) -> FidelityReport:
+             real_mrtd: Any = None, sim_mrtd: Any = None, mask: Any = None, real_ref: Any = None,
+             ceiling: dict | None = None, config: ScoringConfig | None = None, max_bytes: int | None = None,
+             **options: Any) -> FidelityReport:
     """Fidelity of a simulator on one scene (paper eq. 15) with its five components.
 
     Parameters
@@ -150,6 +167,13 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         :func:`irfidelity.curves.mrtd_similarity` (docs/bars.md).
     mask : 2-D bool array, optional
         ``False`` excludes a pixel pair from the image components.
+    real_ref : 2-D array or frame path, optional
+        A second real frame of the same scene: the real-vs-real components are the ceiling
+        (``report.ceiling``, ``report.relative``) against which NMI and SSIM are graded
+        (:mod:`irfidelity.ceiling`).
+    ceiling : mapping, optional
+        A ceiling measured before (``{"nmi": ..., "ssim": ...}``, e.g. a sequence report's
+        ``ceiling``), instead of ``real_ref``.
     config : ScoringConfig, mapping or TOML/JSON path, optional
         What decides the score (weights, bits, peak, bins, ...); default: the defaults.
     max_bytes : int, optional
@@ -205,26 +229,39 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
                                                    have_mtf=given["mtf"], have_sitf=given["sitf"],
                                                    have_noise=given["noise"], have_unit=cfg.unit is not None,
                                                    have_mrtd=given["mrtd"])
+    if real_ref is not None and ceiling is not None:
+        raise FidelityError("give real_ref (a second real frame) or ceiling (values measured before), not both",
+                            option="ceiling")
+    if real_ref is not None and real is None:
+        raise FidelityError("real_ref was given without real and sim: it is a second real frame of their scene",
+                            option="real_ref")
     in_unit = cfg.unit is not None and real is not None
+    span = defect = None
+    ceiling = None if ceiling is None else {str(k): float(v) for k, v in dict(ceiling).items()}
     with recorded_warnings() as notes:
         components, metrics, inputs, compared = camera_components(camera, weights, cfg)
         sources: dict[str, Any] = {"curves": compared}
         if image_plan or in_unit:
-            st = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources, max_bytes)
+            st, span = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources, max_bytes)
             image, image_metrics = image_components(st, image_plan, cfg)
             components.update(image)
             metrics.update(image_metrics)
+            if real_ref is not None and image_plan:
+                ceiling = _ceiling(real_ref, image_plan, cfg, st, sources, inputs)
+            defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"))
         if in_unit:
             errors = TemperatureErrors.of_frames(sources["real"], sources["sim"], mask=sources["mask"],
                                                  tolerance=tolerance_for(cfg, metrics), unit=str(cfg.unit))
             image, image_metrics = temperature_scores(errors, weights)
             components.update(image)
             metrics.update(image_metrics)
-    score = score_components(components, metrics, weights, cfg)
+    score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling)
     registration = sources.get("registration")
     return FidelityReport(fidelity=score.fidelity, grade=score.grade, components=score.components,
                           weights=weights, metrics=score.metrics,
                           component_grades=dict(score.grading.component_grades),
                           membership=dict(score.grading.membership), skipped=skipped, config=cfg,
                           matrix=score.grading.matrix, notes=notes, inputs=inputs, sources=sources,
-                          registration=None if registration is None else registration.to_dict())
+                          registration=None if registration is None else registration.to_dict(),
+                          verdict={**score.verdict.to_dict(), "defect": defect}, ceiling=ceiling,
+                          relative=relative_to(ceiling, score.components))

@@ -308,4 +308,12 @@ def shared_fields(fields: Fields) -> dict[str, Any]:
             "config": config if config is not None else ScoringConfig(),
             "version": fields.get("irfidelity", text, "unknown"),
             "notes": fields.get("notes", list_of(text), []),
-            "inputs": fields.get("inputs", mapping_of(anything), {})}
+            "inputs": fields.get("inputs", mapping_of(anything), {}),
+            **_verdict_fields(fields)}
+
+
+def _verdict_fields(fields: Fields) -> dict[str, Any]:
+    """``verdict``, ``ceiling`` and ``relative`` of a report read back (absent in older ones)."""
+    numbers = optional(mapping_of(number))
+    return {"verdict": fields.get("verdict", mapping_of(anything), {}),
+            "ceiling": fields.get("ceiling", numbers), "relative": fields.get("relative", numbers)}

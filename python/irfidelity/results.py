@@ -23,7 +23,7 @@ from . import readback
 from .readback import Fields, check_json, shared_fields
 from .schema import from_json, to_json
 
-__all__ = ["ReportBase", "FidelityReport", "component_lines", "recorded_warnings", "reading_report"]
+__all__ = ["ReportBase", "FidelityReport", "component_lines", "recorded_warnings", "reading_report", "verdict_lines"]
 
 
 @contextlib.contextmanager
@@ -122,7 +122,8 @@ class ReportBase:
         ``Σ k_i·f_i`` over the computed components, with ``weights`` (eq. 15); None when
         nothing was scored (a sequence whose every frame failed).
     grade : str or None
-        Overall grade (rule: :class:`~irfidelity.fuzzy.GradeScale`).
+        Overall grade: the worst grade of the weighted components, each graded by its
+        tolerance (:func:`irfidelity.verdict.judge`).
     components : dict
         ``{name: f_i}`` for the computed components only (positive weight, inputs given).
     component_grades : dict
@@ -146,6 +147,18 @@ class ReportBase:
         Short descriptions of the inputs (paths, shapes).
     registration : dict or None
         The registration applied before the image components (``config.register``).
+    verdict : dict
+        Why the grade is what it is (:meth:`irfidelity.verdict.Verdict.to_dict`): ``grade``,
+        ``decided_by`` (the component that set it), ``reason`` (one sentence), ``rule`` and
+        each component's grade, limits and measure in engineering units; for a single pair
+        ``defect``: None, or where the few pixels are that carry most of the squared error
+        (:func:`irfidelity.defects.concentrated_error`).
+    ceiling : dict or None
+        The image components of two real frames of the scene, the camera's own repeatability
+        (:mod:`irfidelity.ceiling`; a pair's with ``real_ref``, a sequence's from consecutive
+        real frames).
+    relative : dict or None
+        Each image component divided by its ceiling.
     sources : dict
         What the report was computed from, for :meth:`to_html` (frames, curves); not part of
         the JSON form, not compared. Picklable, as the whole report is.
@@ -164,6 +177,9 @@ class ReportBase:
     notes: list = field(default_factory=list)
     inputs: dict = field(default_factory=dict)
     registration: dict | None = None
+    verdict: dict = field(default_factory=dict)
+    ceiling: dict | None = None
+    relative: dict | None = None
     sources: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -188,6 +204,9 @@ class ReportBase:
             "notes": list(self.notes),
             "inputs": dict(self.inputs),
             "registration": self.registration,
+            "verdict": dict(self.verdict),
+            "ceiling": self.ceiling,
+            "relative": self.relative,
             **self._own_dict(),
         })
 
@@ -210,12 +229,10 @@ class ReportBase:
 
     # ------------------------------------------------------------------ text and HTML
     def _verdict_lines(self) -> list[str]:
-        """The component table, the fidelity and the grade with its memberships."""
+        """The component table, the fidelity, the grade with its reason, the ceiling."""
         lines = component_lines(self.components, self.component_grades, self.metrics, self.weights, self.skipped)
         lines.append(f"{'fidelity':<10} {'':>7} {self.fidelity:>8.4f}  (eq. 15, Σ k_i·f_i)")
-        b = ", ".join(f"{g} {v:.3f}" for g, v in self.membership.items())
-        lines.append(f"{'grade':<10} {'':>7} {self.grade:>8}" + (f"  membership B = K·R: {b}" if b else ""))
-        return lines
+        return lines + verdict_lines(self.grade, self.verdict, self.ceiling, self.relative)
 
     def _made_lines(self) -> list[str]:
         """How the report was made: the settings line, then the notes."""
@@ -320,6 +337,21 @@ class FidelityReport(ReportBase):
         if self.registration:
             lines.append(registration_line(self.registration))
         return "\n".join(lines + self._made_lines())
+
+
+def verdict_lines(grade: str | None, verdict: Mapping[str, Any], ceiling: Mapping[str, float] | None,
+                  relative: Mapping[str, float] | None) -> list[str]:
+    """The grade with its reason in one sentence, and the ceiling when one was measured."""
+    reason = verdict.get("reason") if verdict else None
+    lines = [f"{'grade':<10} {'':>7} {grade:>8}  {reason or ''}".rstrip()]
+    defect = verdict.get("defect") if verdict else None
+    if isinstance(defect, Mapping) and defect.get("text"):
+        lines.append(f"defect: {defect['text']}")
+    if ceiling:
+        parts = [f"{k} {v:.4f} (simulator {100 * relative[k]:.1f} %)" if relative and k in relative else
+                 f"{k} {v:.4f}" for k, v in ceiling.items()]
+        lines.append("ceiling (real vs real): " + ", ".join(parts))
+    return lines
 
 
 def registration_line(reg: Mapping[str, Any]) -> str:

@@ -22,6 +22,7 @@ from .errors import FidelityError, PeakWarning
 from .fuzzy import COMPONENTS, PAPER_COMPONENTS, Grading, Weights, fidelity_sum, ordered_components
 from .normalize import normalize_psnr
 from .schema import CURVE_COMPONENTS, IMAGE_COMPONENTS
+from .verdict import Verdict, judge
 
 __all__ = ["plan_components", "image_components", "score_components", "Score", "psnr_peak",
            "pinned_psnr_floor", "IMAGE_COMPONENTS", "CURVE_COMPONENTS"]
@@ -129,12 +130,15 @@ class Score:
         The raw values behind them (:data:`irfidelity.schema.METRICS`).
     grading : Grading
         Memberships, each component's grade and the overall grade.
+    verdict : Verdict
+        Why the grade is what it is (:mod:`irfidelity.verdict`).
     """
 
     fidelity: float
     components: dict
     metrics: dict
     grading: Grading
+    verdict: Verdict
 
     @property
     def grade(self) -> str:
@@ -147,11 +151,15 @@ class Score:
 
 
 def score_components(components: Mapping[str, float], metrics: Mapping[str, Any], weights: Weights,
-                     config: ScoringConfig) -> Score:
-    """Eq. (15) and the fuzzy grade of a set of components."""
+                     config: ScoringConfig, *, scene_range: float | None = None,
+                     ceiling: Mapping[str, float] | None = None) -> Score:
+    """Eq. (15) and the grade of a set of components, judged by the configured tolerances
+    (``scene_range``: the real frame's max − min; ``ceiling``: NMI and SSIM of two real
+    frames; :func:`irfidelity.verdict.judge`)."""
     comps = ordered_components(components)
+    verdict = judge(comps, metrics, weights, config, scene_range=scene_range, ceiling=ceiling)
     return Score(fidelity=fidelity_sum(weights, comps), components=comps, metrics=dict(metrics),
-                 grading=config.grades.evaluate(weights, comps))
+                 grading=verdict.grading(weights), verdict=verdict)
 
 
 # --------------------------------------------------------------------------- PSNR peak

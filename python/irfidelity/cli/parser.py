@@ -19,8 +19,8 @@ EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES = 0, 2, 3
 _FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "sim_mtf": "--sim-mtf/--sim-edge",
           "real_mrtd": "--real-bars", "sim_mrtd": "--sim-bars",
           "psnr_anchors": "--config", "ssim_exponents": "--config", "grades": "--config",
-          "mtf_options": "--config", "sitf_options": "--config", "mrtd_options": "--config", "register": "--register",
-          "client": "--workers", "chunk_size": "--workers", "relative_humidity": "--humidity",
+          "mtf_options": "--config", "sitf_options": "--config", "mrtd_options": "--config", "tolerances": "--tolerance",
+          "register": "--register", "client": "--workers", "chunk_size": "--workers", "relative_humidity": "--humidity",
           "max_bytes": "--max-memory"}
 
 #: Flags that override one calibration field (``ScoringConfig.calibration``): flag dest -> (field,
@@ -159,6 +159,16 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                    help="a weighted component without inputs: drop it and renormalise the other weights "
                         "(default; shown as skipped), or fail (raise)")
     g.add_argument("--nonfinite", choices=NONFINITE_MODES, help="NaN/Inf in float frames: fail (default) or mask")
+    g.add_argument("--tolerance", action="append", metavar="NAME=E,G,F",
+                   help="the limits of excellent, good and fair for one tolerance (repeatable): mtf50, sitf_slope "
+                        "(mismatch), noise_ratio, rms_error (fraction of the scene's range), nmi, ssim (fraction of "
+                        "the ceiling), radiometry (temperature tolerances); e.g. mtf50=0.03,0.08,0.15 "
+                        "(docs/interpretation.md)")
+    v = s.add_argument_group("what is scored (single pairs)")
+    v.add_argument("--real-ref", metavar="FILE",
+                   help="a second real frame of the scene: the real-vs-real ceiling NMI and SSIM are graded against")
+    v.add_argument("--mask", metavar="PATH", help="score only the pixels where this PNG/NPY/TIFF is non-zero")
+    v.add_argument("--roi", metavar="Y0:Y1,X0:X1", help="score only this region (rows Y0..Y1-1, columns X0..X1-1)")
     t = s.add_argument_group("temperatures (radiometric files; float frames are taken as already in the unit)")
     t.add_argument("--unit", choices=("K", "C"), help="score temperatures in kelvin or degrees Celsius: adds the "
                                                      "temperature errors and the opt-in 'radiometry' component")

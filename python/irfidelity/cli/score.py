@@ -13,6 +13,7 @@ from ..frames import MULTIPAGE_EXTENSIONS, FrameSequence, page_chain
 from ..fuzzy import Weights
 from .output import UsageError, write_outputs
 from .parser import CALIBRATION_FLAGS
+from .regions import pair_flags, tolerance_flags
 
 __all__ = ["score_command"]
 
@@ -34,7 +35,9 @@ def _config(a: argparse.Namespace) -> ScoringConfig:
     calibration = dict(a.calibration or {})
     calibration.update({field: getattr(a, dest) for dest, (field, _, _) in CALIBRATION_FLAGS.items()
                         if getattr(a, dest) is not None})
-    return config.replace(calibration={**config.calibration, **calibration}) if calibration else config
+    if calibration:
+        config = config.replace(calibration={**config.calibration, **calibration})
+    return config.replace(tolerances=tolerance_flags(a.tolerance, config.tolerances)) if a.tolerance else config
 
 
 def _is_sequence(path: str) -> bool:
@@ -129,16 +132,20 @@ def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
         raise UsageError(f"{one} is a sequence (a directory, glob or multi-page TIFF) but {other} is a single frame "
                          f"({a.real!r} vs {a.sim!r})")
     if seq_real:
+        for flag in ("real_ref", "mask", "roi"):
+            if getattr(a, flag) is not None:
+                raise UsageError(f"--{flag.replace('_', '-')} applies to single pairs; REAL and SIM are sequences")
         report = _sequence(a, config, curves)
     else:
         for flag in ("resume", "pages"):
             if getattr(a, flag):
                 raise UsageError(f"--{flag} applies to sequences; REAL and SIM are single frames")
+        pair_options = pair_flags(a, config.real_channel)
         for name, path in (("REAL", a.real), ("SIM", a.sim)):
             if not os.path.isfile(path):
                 raise UsageError(f"{name} {path!r}: no such file")
         from ..evaluation import evaluate
 
-        report = evaluate(a.real, a.sim, config=config, max_bytes=a.max_memory, **curves)
+        report = evaluate(a.real, a.sim, config=config, max_bytes=a.max_memory, **curves, **pair_options)
     write_outputs(report, a, sequence=seq_real)
     return report, seq_real

@@ -83,9 +83,18 @@ def verdict(d: Mapping, *, score_key: str = "fidelity", label: str = "Fidelity")
     if d.get("grade") is not None:
         parts.append(f'<div>grade <span class="grade">{text(d["grade"])}</span></div>')
     parts.append("</div>")
+    reason, defect = mapping(d, "verdict").get("reason"), mapping(mapping(d, "verdict"), "defect").get("text")
+    parts += [paragraph(line) for line in (reason, defect) if isinstance(line, str)]
+    ceiling, relative = mapping(d, "ceiling"), mapping(d, "relative")
+    if ceiling:
+        parts.append(paragraph("The camera against itself (two real frames of the scene): the ceiling of each image "
+                               "component, and the simulator's value as a fraction of it."))
+        parts.append(table(["", *ceiling], [["ceiling", *ceiling.values()],
+                                            ["simulator / ceiling", *(relative.get(k) for k in ceiling)]]))
     membership = mapping(d, "membership")
     if membership:
-        parts.append(paragraph("Fuzzy comprehensive evaluation: membership B = K·R of each grade."))
+        parts.append(paragraph("The share of the weight in each grade (B = K·R, each component in its own grade; "
+                               "the grade is the worst one with a share):"))
         parts.append(table(list(membership), [list(membership.values())]))
     return section("Verdict", "".join(parts), anchor="verdict")
 

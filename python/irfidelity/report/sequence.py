@@ -114,7 +114,7 @@ def render_sequence_html(
 
 
 #: Keys of the pooled result at a sequence report's top level.
-_POOLED = ("fidelity", "grade", "components", "component_grades", "membership")
+_POOLED = ("fidelity", "grade", "components", "component_grades", "membership", "verdict", "ceiling", "relative")
 
 
 def _subtitle(d: Mapping, rows: list[dict]) -> str:

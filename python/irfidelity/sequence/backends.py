@@ -155,7 +155,7 @@ class ArrayLoop:
             else:
                 st = pair_stats(real, sim, bits=cfg.bits, peak=cfg.numeric_peak, bins=cfg.bins,
                                 hist_range=cfg.hist_range, need=self.plan.image, nonfinite=cfg.nonfinite)
-                extent = _extent(real) if cfg.peak == "range" else None
+                extent = _extent(real) if self.plan.real_extent else None
             temperature = None if cfg.unit is None else TemperatureErrors.of_frames(
                 real, scored_sim, mask=mask, unit=cfg.unit, tolerance=tolerance_for(cfg, self.plan.camera_metrics))
         except FidelityError as exc:

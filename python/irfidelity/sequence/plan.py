@@ -15,6 +15,7 @@ import numpy as np
 
 from ..alignment import find_registration
 from ..camera import CameraInputs, camera_components
+from ..ceiling import sequence_ceiling
 from ..config import ScoringConfig
 from ..errors import FidelityError
 from ..frames import FrameSequence
@@ -82,6 +83,8 @@ class SequencePlan:
     levels: bool
     hist_range: tuple[float, float] | None
     registration: Any = None  # found once on the first readable pair (config.register, not register_each)
+    ceiling: dict | None = None  # real frame t vs t + 1 (irfidelity.ceiling)
+    scene_range: float | None = None  # of the first readable real frame: for frames without their own extent
 
     @property
     def bin_label(self) -> Any:
@@ -103,8 +106,9 @@ class SequencePlan:
 
     @property
     def real_extent(self) -> bool:
-        """Whether each pair reports its real frame's extent (the PSNR peak "range")."""
-        return self.config.peak == "range" and "psnr" in self.image
+        """Whether each pair reports its real frame's extent: with psnr, for the PSNR peak
+        "range" and for the RMS tolerance, which is relative to the scene's range."""
+        return "psnr" in self.image
 
     def kernel_request(self, max_pixels: int | None = None, max_bytes: int | None = None) -> SequenceRequest:
         """What the Rust engine computes per pair and how it decodes frames."""
@@ -199,6 +203,7 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
         default_peak = valid = None
         peak = bins = hist_range = None
         levels = False
+        ceiling = None
         if dtype is not None:
             default_peak, valid = peak_and_valid(dtype, config.bits, None)
             if "psnr" in image and config.peak != "range":  # "range": each frame's own
@@ -206,7 +211,9 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
             if "nmi" in image:
                 bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
                                                        full_range(dtype, config.bits, config.numeric_peak))
+            ceiling = sequence_ceiling(real, image, config, peak=peak)
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,
                         camera_metrics=fixed_metrics, inputs=inputs, camera_objects=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
-                        else None, bins=bins, levels=levels, hist_range=hist_range, registration=registration)
+                        else None, bins=bins, levels=levels, hist_range=hist_range, registration=registration,
+                        ceiling=ceiling, scene_range=None if first is None else _scene_range(first))

@@ -6,6 +6,13 @@ in, so float results do not depend on scheduling. NMI pools only when every fram
 on the same edges (``hist_range="full"``, an explicit ``(lo, hi)`` or ``bins="levels"``);
 with the default ``"data"`` each frame is binned over its own range and the pooled NMI is the
 mean of the frames' NMI.
+
+A frame's range (max − min of its real frame) scales its error: the pooled RMS error relative
+to the range is ``sqrt(Σ SSE_i/range_i² / Σ N_i)``, each frame's squared error relative to its own
+range, so it lies within the frames' values; with ``peak="range"`` the pooled PSNR is
+``10·log10(Σ N_i / Σ SSE_i/range_i²)``, the pixel-weighted mean of the frames' ``MSE/peak²``, and
+lies within the frames' PSNRs too (its ``psnr_peak`` is the effective range: the RMS of the
+pooled errors over the pooled relative RMS error).
 """
 
 from __future__ import annotations
@@ -34,7 +41,9 @@ class Pool:
         self.pending: dict[int, PairStats | None] = {}
         self.next = 0
         self.merged: PairStats | None = None
-        self.extent: tuple[float, float] | None = None  # the real frames' (min, max), for peak="range"
+        self.extent: tuple[float, float] | None = None  # the real frames' (min, max)
+        self.relative_sse = 0.0  # Σ SSE_i / range_i² over the frames with a range
+        self.relative_n = 0  # Σ N_i over those frames
 
     def add(self, index: int, stats: PairStats | None, real_extent: tuple[float, float] | None = None) -> None:
         """Stats of frame ``index`` (None for a failed frame)."""
@@ -42,6 +51,9 @@ class Pool:
         if stats is not None and real_extent is not None:
             lo, hi = real_extent
             self.extent = (lo, hi) if self.extent is None else (min(self.extent[0], lo), max(self.extent[1], hi))
+            if hi > lo and stats.n and "psnr" in self.plan.image:
+                self.relative_sse += stats.mse() * stats.n / (hi - lo) ** 2
+                self.relative_n += stats.n
         run = [] if self.merged is None else [self.merged]
         while self.next in self.pending:
             item = self.pending.pop(self.next)
@@ -51,14 +63,23 @@ class Pool:
         if len(run) > (self.merged is not None):
             self.merged = merge_all(run, histograms=self.plan.keep_hist)
 
+    def scene_range(self) -> float | None:
+        """The range that makes the pooled MSE's relative error the frames' pooled one (see the
+        module notes); the real sequence's whole range when there is no error to weigh."""
+        if self.merged is None or "psnr" not in self.plan.image:
+            return None
+        mse = self.merged.mse()
+        if self.relative_n and self.relative_sse > 0 and mse > 0:
+            return math.sqrt(mse * self.relative_n / self.relative_sse)
+        return None if self.extent is None else self.extent[1] - self.extent[0]
+
     def _peak(self) -> float | None:
         plan = self.plan
         if "psnr" not in plan.image:
             return None
         if plan.config.peak != "range":
             return plan.peak
-        span = None if self.extent is None else self.extent[1] - self.extent[0]
-        return psnr_peak(plan.config, plan.default_peak, span, where="the real sequence")
+        return psnr_peak(plan.config, plan.default_peak, self.scene_range(), where="the real sequence")
 
     def result(self, frames: list[dict]) -> tuple[Score | None, dict]:
         """The pooled score (None when no frame was scored) and how it was pooled."""
@@ -83,7 +104,8 @@ class Pool:
             temperature_comps, temperature_metrics = temperature_scores(errors, plan.weights)
             comps, metrics = comps | temperature_comps, metrics | temperature_metrics
         score = score_components(comps | plan.camera_components, metrics | plan.camera_metrics, plan.weights,
-                                 plan.config)
+                                 plan.config, scene_range=self.scene_range() or plan.scene_range,
+                                 ceiling=plan.ceiling)
         return score, pooling
 
 

@@ -63,6 +63,9 @@ class SequenceReport(ReportBase):
         applied to every pair (as :attr:`FidelityReport.registration`); with ``register_each``, the spread of the frames' own registrations
         (``"each": True``, :func:`~irfidelity.sequence.pooling.registration_summary`; each
         frame's is in ``frames[i]["registration"]``).
+    verdict, ceiling, relative
+        As in :class:`~irfidelity.results.ReportBase`, for the pooled result; the ceiling is that of
+        consecutive real frames (t, t + 1; :func:`irfidelity.ceiling.sequence_ceiling`).
     delay : dict or None
         With ``config.max_delay``: the frame offset found — ``frames`` (real frame ``i``
         pairs with simulated frame ``i + frames``), ``confidence``, ``window`` (frames of
@@ -80,7 +83,9 @@ class SequenceReport(ReportBase):
     >>> sim = real + np.array([1, 2, 3], dtype=np.uint16)[:, None, None]
     >>> rep = irf.score_sequence(real, sim, bits=14, peak="range", weights="psnr=0.5,ssim=0.5", progress=False)
     >>> len(rep.frames), rep.failed, rep.pooling["frames"], rep.grade
-    (3, [], 3, 'excellent')
+    (3, [], 3, 'good')
+    >>> rep.verdict["reason"]
+    "good: psnr set the grade — RMS error 3.43 % of the scene's range (2.16 of 63); the tolerance for excellent is 3.2 % of the scene's range"
 
     The pooled PSNR is that of the merged statistics, MSE = (1 + 4 + 9) / 3, not a mean of
     the frames' PSNRs:

@@ -9,6 +9,7 @@ from typing import Callable
 from .. import _core, budget
 from ..errors import FidelityError
 from ..frames import FrameSequence
+from ..ceiling import relative_to
 from ..schema import csv_columns
 from ..stats import PairStats
 from .backends import choose_backend, engine_reads
@@ -163,6 +164,9 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
             log.close()
     score, pooling = scorer.pool.result(frames)
     pooled = score.to_dict() if score is not None else {}
+    if score is not None:
+        pooled.update(verdict=score.verdict.to_dict(), ceiling=plan.ceiling,
+                      relative=relative_to(plan.ceiling, score.components))
     unpaired = pairing.expected_alone
     alone = set(unpaired)
     return SequenceReport(

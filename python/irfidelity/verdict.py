@@ -1,0 +1,301 @@
+"""The verdict on a score: each component's grade from its tolerance, one overall grade, and why.
+
+One rule (docs/interpretation.md, "Grades"). A weighted component meets a grade when its value
+reaches that grade's limit converted to its scale (:func:`irfidelity.tolerances.component_cuts`);
+its grade is the best one it meets. The overall grade is the worst component grade: the best
+grade whose tolerances every weighted component meets, as a specification is met. The verdict
+names the component that set it and how far it is from the tolerance of the next better grade
+(for "excellent": the component closest to its limit). The fidelity (eq. 15) is not changed.
+
+The memberships of the fuzzy evaluation follow from the same grades: each component's row of
+``R`` is 1 in its grade, so ``B = K·R`` is the share of the weight in each grade, and the overall
+grade is the worst grade with a share — printed beside the grade, it cannot contradict it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from .errors import FidelityError
+from .fuzzy import COMPONENTS, Grading, Weights
+from .tolerances import COMPONENT_OF, KINDS, Tolerances, component_cuts
+
+__all__ = ["ComponentVerdict", "Verdict", "judge", "mu_ratio"]
+
+_TOLERANCE_OF = {component: name for name, component in COMPONENT_OF.items()}
+
+#: A value this close below a cut meets it: a component exactly at a limit (an MTF50 exactly 10 %
+#: low) is not pushed into the worse grade by the rounding of ρ or μ.
+_ROUNDING = 1e-12
+
+
+def mu_ratio(mu: float) -> float:
+    """The ratio ``r <= 1`` with ``2r/(1 + r²) = mu`` (the inverse of eq. 4), 0 for ``mu <= 0``."""
+    m = min(max(float(mu), 0.0), 1.0)
+    return 0.0 if m == 0 else (1.0 - math.sqrt((1.0 - m) * (1.0 + m))) / m
+
+
+@dataclass(frozen=True)
+class ComponentVerdict:
+    """One weighted component judged against its tolerance.
+
+    Attributes
+    ----------
+    component : str
+    value : float
+        The component's value f_i.
+    grade : str
+        The best grade whose cut the value reaches.
+    cuts : (float, float, float)
+        The limits of excellent, good and fair on the component's scale.
+    basis : str
+        What the cuts rest on: "tolerance", "range", "peak", "ceiling" or "absolute".
+    measure : float
+        The component in the tolerance's unit (mismatch, noise or MRTD ratio, RMS fraction,
+        temperature tolerances, fraction of the ceiling; the value itself for "absolute").
+    limits : (float, float, float)
+        The tolerance's limits in that unit.
+    text : str
+        The measure in words ("MTF50 18 % below the real camera's").
+    """
+
+    component: str
+    value: float
+    grade: str
+    cuts: tuple
+    basis: str
+    measure: float
+    limits: tuple
+    text: str
+
+    @property
+    def at_most(self) -> bool:
+        return self.basis != "absolute" and KINDS[_TOLERANCE_OF[self.component]] == "most"
+
+    def excess(self, level: int) -> float:
+        """How far the measure is from the limit of grade ``level`` (0 = excellent): above 1
+        beyond it, below 1 within it."""
+        limit = self.limits[level]
+        if self.at_most:
+            return self.measure / limit if limit > 0 else math.inf
+        return limit / self.measure if self.measure > 0 else math.inf
+
+    def limit_text(self, level: int) -> str:
+        limit = self.limits[level]
+        name = _TOLERANCE_OF[self.component]
+        if self.basis == "absolute":
+            return f"{self.component} ≥ {limit:.3g} (the calibrated boundary; no ceiling was measured)"
+        if name in ("mtf50", "sitf_slope"):
+            return f"a mismatch of {_percent(limit)}"
+        if name in ("noise_ratio", "mrtd_ratio"):
+            return f"{limit:.3g}× either way"
+        if name == "radiometry":
+            return f"{limit:.3g} temperature tolerance{'' if limit == 1 else 's'}"
+        if name == "rms_error":
+            return f"{_percent(limit)} of {'the scene' + chr(39) + 's range' if self.basis == 'range' else 'the PSNR peak'}"
+        return f"{_percent(limit)} of the ceiling"
+
+    def to_dict(self) -> dict:
+        return {"value": self.value, "grade": self.grade, "cuts": list(self.cuts), "basis": self.basis,
+                "measure": self.measure, "limits": list(self.limits), "text": self.text}
+
+
+def _percent(x: float) -> str:
+    return f"{100 * x:.3g} %"
+
+
+def _ratio_text(what: str, real: float, sim: float) -> str:
+    """``what`` of the simulator against the real camera's, in words, with the mismatch."""
+    r = sim / real
+    if r <= 1:
+        return f"{what} {_percent(1 - r)} below the real camera's"
+    return f"{what} {_percent(r - 1)} above the real camera's (a mismatch of {_percent(1 - 1 / r)}, 1 − smaller/larger)"
+
+
+def _curve_measure(kind: str, value: float, metrics: Mapping[str, Any], alpha: float) -> tuple[float, str]:
+    """The effective mismatch ``1 − r`` of f1 (f2) — exact for curves of the real shape — and
+    its words from the MTF50s (slopes) and the shape's correlation."""
+    effective = 1.0 - mu_ratio(value ** (1.0 / alpha) if alpha > 0 else 1.0)
+    keys = ("mtf50_real", "mtf50_sim", "MTF50") if kind == "mtf" else ("sitf_slope_real", "sitf_slope_sim",
+                                                                        "SiTF slope")
+    real, sim = metrics.get(keys[0]), metrics.get(keys[1])
+    if not (isinstance(real, (int, float)) and isinstance(sim, (int, float)) and real > 0 and sim > 0):
+        return effective, f"effective mismatch {_percent(effective)}"
+    text = _ratio_text(keys[2], float(real), float(sim))
+    rho = metrics.get(f"{kind}_rho")
+    mismatch = 1.0 - min(real, sim) / max(real, sim)
+    if isinstance(rho, (int, float)) and effective > mismatch + 1e-4:
+        text += f"; with the curves' shape (ρ {rho:.3f}) an effective mismatch of {_percent(effective)}"
+    return effective, text
+
+
+def _mrtd_measure(value: float, metrics: Mapping[str, Any], alpha: float) -> tuple[float, str]:
+    """The effective MRTD ratio ``larger/smaller`` of the mrtd component — exact for an MRTD
+    of the real shape — and its words from the level ratio and the forgiven tolerance."""
+    ratio = 1.0 / max(mu_ratio(value ** (1.0 / alpha) if alpha > 0 else 1.0), 1e-300)
+    level, forgiven = metrics.get("mrtd_ratio"), metrics.get("mrtd_tolerance")
+    if not (isinstance(level, (int, float)) and level > 0):
+        return ratio, f"effective MRTD ratio {ratio:.3g}"
+    text = f"MRTD {level:.3g}× the real camera's"
+    if isinstance(forgiven, (int, float)) and forgiven > 0:
+        text += f" ({forgiven:.3g} % of it forgiven by mrtd_options.tolerance)"
+    if abs(ratio - max(level, 1.0 / level)) > 1e-4:
+        text += f"; effective ratio {ratio:.3g}"
+    return ratio, text
+
+
+def _radiometry_measure(value: float, metrics: Mapping[str, Any]) -> tuple[float, str]:
+    """The temperature error ``sqrt((bias² + RMSE²)/2)`` in temperature tolerances, and its words."""
+    from .temperature import radiometry_component
+
+    one = radiometry_component(1.0, 1.0, 1.0)  # the component at one tolerance: value = one ** (e²)
+    errors = math.sqrt(math.log(value) / math.log(one)) if value > 0 else math.inf
+    bias, rmse, tol = (metrics.get(f"temperature_{k}") for k in ("bias", "rmse", "tolerance"))
+    if not all(isinstance(v, (int, float)) for v in (bias, rmse, tol)):
+        return errors, f"temperature error {errors:.3g} temperature tolerances"
+    return errors, (f"temperature bias {bias:+.3g} K, RMSE {rmse:.3g} K: {errors:.3g} temperature tolerances "
+                    f"(of {tol:.3g} K)")
+
+
+def _measure(component: str, value: float, basis: str, metrics: Mapping[str, Any], config: Any,
+             span: float | None, ceiling: float | None) -> tuple[float, str]:
+    if component in ("mtf", "sitf"):
+        options = config.mtf_options if component == "mtf" else config.sitf_options
+        return _curve_measure(component, value, metrics, float(options.get("alpha", 1.0)))
+    if component == "noise":
+        real, sim = metrics.get("noise_sigma_tvh_real"), metrics.get("noise_sigma_tvh_sim")
+        ratio = 1.0 / max(mu_ratio(value), 1e-300)
+        if isinstance(real, (int, float)) and isinstance(sim, (int, float)) and real > 0 and sim > 0:
+            return ratio, f"temporal noise σ_tvh {sim / real:.3g}× the real camera's (effective ratio {ratio:.3g})"
+        return ratio, f"effective noise ratio {ratio:.3g}"
+    if component == "mrtd":
+        return _mrtd_measure(value, metrics, float(config.mrtd_options.get("alpha", 1.0)))
+    if component == "radiometry":
+        return _radiometry_measure(value, metrics)
+    if component == "psnr":
+        rms = math.sqrt(max(float(metrics.get("mse", 0.0)), 0.0))
+        fraction = rms / span if span else math.inf
+        where = "the scene's range" if basis == "range" else "the PSNR peak"
+        return fraction, f"RMS error {_percent(fraction)} of {where} ({rms:.4g} of {span:.4g})"
+    if basis == "absolute":
+        return value, f"{component} {value:.3f}"
+    share = value / ceiling if ceiling else 0.0
+    return share, f"{component} {value:.3f}, {_percent(share)} of the ceiling {ceiling:.3f} (two real frames)"
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The grade of a score and why (the module notes state the rule).
+
+    Attributes
+    ----------
+    grades : tuple of str
+        Grade names, best first.
+    grade : str
+        The overall grade: the worst component grade.
+    decided_by : str
+        The component that set it.
+    reason : str
+        One sentence: the grade, the component that set it, by how much it missed the
+        tolerance of the next better grade.
+    components : dict
+        ``{component: ComponentVerdict}``.
+    """
+
+    grades: tuple
+    grade: str
+    decided_by: str
+    reason: str
+    components: dict
+
+    def grading(self, weights: Weights) -> Grading:
+        """The fuzzy evaluation these grades give: ``R`` one-hot, ``B`` the weight per grade."""
+        matrix = {k: {g: float(g == c.grade) for g in self.grades} for k, c in self.components.items()}
+        share = {g: math.fsum(weights[k] for k, c in self.components.items() if c.grade == g) for g in self.grades}
+        total = math.fsum(share.values()) or 1.0
+        return Grading(grades=self.grades, matrix=matrix, membership={g: v / total for g, v in share.items()},
+                       component_grades={k: c.grade for k, c in self.components.items()}, grade=self.grade)
+
+    def to_dict(self) -> dict:
+        return {"grade": self.grade, "decided_by": self.decided_by, "reason": self.reason,
+                "rule": "the worst grade of the weighted components, each graded by its tolerance",
+                "components": {k: c.to_dict() for k, c in self.components.items()}}
+
+
+def _grade_names(config: Any) -> tuple:
+    names = tuple(config.grades.grades)
+    if len(names) != 4:
+        raise FidelityError(f"the tolerances separate four grades (best first, e.g. excellent, good, fair, poor); "
+                            f"grades has {len(names)}: {list(names)}", option="grades")
+    return names
+
+
+def _reason(names: tuple, grade: str, decider: ComponentVerdict) -> str:
+    level = names.index(grade)
+    if level == 0:
+        return (f"{grade}: every weighted component is within its tolerance for {names[0]}; closest to its limit: "
+                f"{decider.component} ({decider.text}; the tolerance is {decider.limit_text(0)})")
+    better = names[level - 1]
+    return (f"{grade}: {decider.component} set the grade — {decider.text}; the tolerance for {better} is "
+            f"{decider.limit_text(level - 1)}")
+
+
+def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: Weights, config: Any, *,
+          scene_range: float | None = None, ceiling: Mapping[str, float] | None = None) -> Verdict:
+    """Grade every weighted component by its tolerance, and the whole by the weakest one.
+
+    Parameters
+    ----------
+    components, metrics : mapping
+        The component values and raw metrics of a score.
+    weights : Weights
+        The weights used (components with weight 0 are not judged).
+    config : ScoringConfig
+        Its ``tolerances``, ``grades`` (the four names), PSNR anchors and curve exponents.
+    scene_range : float, optional
+        The real frame's max − min: the RMS tolerance is relative to it (else to the peak).
+    ceiling : mapping, optional
+        ``{"nmi": value, "ssim": value}`` of two real frames; without one NMI and SSIM are
+        graded by the calibrated absolute boundaries.
+
+    Examples
+    --------
+    >>> import irfidelity as irf
+    >>> from irfidelity.verdict import judge
+    >>> cfg = irf.ScoringConfig(weights="mtf=0.5,psnr=0.5")
+    >>> v = judge({"mtf": 0.92, "psnr": 0.95}, {"mtf50_real": 0.30, "mtf50_sim": 0.20, "mse": 1.0,
+    ...           "psnr_peak": 100.0}, cfg.weights, cfg, scene_range=100.0)
+    >>> v.grade, v.decided_by
+    ('poor', 'mtf')
+    >>> v.reason
+    "poor: mtf set the grade — MTF50 33.3 % below the real camera's; the tolerance for fair is a mismatch of 20 %"
+    """
+    names = _grade_names(config)
+    tolerances: Tolerances = config.tolerances
+    judged: dict[str, ComponentVerdict] = {}
+    for k in COMPONENTS:
+        if k not in components or weights[k] <= 0:
+            continue
+        value = float(components[k])
+        options = {"mtf": config.mtf_options, "sitf": config.sitf_options, "mrtd": config.mrtd_options}.get(k, {})
+        peak = metrics.get("psnr_peak")
+        roof = None if ceiling is None else ceiling.get(k)
+        cuts, basis = component_cuts(k, tolerances, alpha=float(options.get("alpha", 1.0)),
+                                     peak=None if peak is None else float(peak), scene_range=scene_range,
+                                     anchors=config.psnr_anchors, ceiling=roof)
+        met = [i for i, cut in enumerate(cuts) if value >= cut - _ROUNDING]
+        grade = names[met[0] if met else 3]
+        span = scene_range if basis == "range" else (None if peak is None else float(peak))
+        measure, text = _measure(k, value, basis, metrics, config, span, roof)
+        limits = cuts if basis == "absolute" else tolerances.limits(_TOLERANCE_OF[k])
+        judged[k] = ComponentVerdict(k, value, grade, tuple(cuts), basis, measure, tuple(limits), text)
+    if not judged:
+        raise FidelityError("no component with a positive weight to grade")
+    worst = max(names.index(c.grade) for c in judged.values())
+    level = max(worst - 1, 0)
+    candidates = [c for c in judged.values() if names.index(c.grade) == worst]
+    decider = max(candidates, key=lambda c: c.excess(level))
+    return Verdict(grades=names, grade=names[worst], decided_by=decider.component,
+                   reason=_reason(names, names[worst], decider), components=judged)

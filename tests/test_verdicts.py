@@ -1,0 +1,344 @@
+"""Verdicts (issue 27): tolerances in engineering units decide the grades, one grade rule with
+its reason, the camera's own repeatability as the ceiling, pooled values inside their frames.
+
+Data: the real 100-frame Lepton recording and single Lepton frames (tests/data/thermal, see
+tests/data/README.md); curves and noise recordings are synthetic with known MTF50, slope and
+noise level, so each tolerance is met or missed by a known margin.
+"""
+
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+import irfidelity as irf
+import ladders
+from irfidelity.cli import main
+from irfidelity.errors import FidelityError
+from irfidelity.tolerances import Tolerances, component_cuts, mu_of_ratio
+from irfidelity.verdict import judge, mu_ratio
+
+tifffile = pytest.importorskip("tifffile")
+
+DATA = pathlib.Path(__file__).parent / "data" / "thermal"
+STACK = DATA / "cptv_v2_all100frames_uint16.tif"
+GRADES = ("excellent", "good", "fair", "poor")
+
+
+@pytest.fixture(scope="module")
+def recording() -> np.ndarray:
+    return tifffile.imread(STACK)
+
+
+def _mtf(mtf50: float) -> tuple[np.ndarray, np.ndarray]:
+    """A Gaussian MTF falling to 0.5 at ``mtf50`` cy/px."""
+    x = np.linspace(0, 0.5, 101)
+    return x, np.exp(-math.log(2) * (x / mtf50) ** 2)
+
+
+def _sitf(slope: float) -> tuple[np.ndarray, np.ndarray]:
+    x = np.linspace(-10, 10, 41)
+    return x, 1000 + slope * x
+
+
+# --------------------------------------------------------------------------- tolerances
+def test_each_limit_converts_exactly_to_the_component_scale():
+    tol = Tolerances()
+    cuts, basis = component_cuts("mtf", tol)
+    assert basis == "tolerance" and cuts == tuple(mu_of_ratio(1 - e) for e in tol.mtf50)
+    for e in (0.0, 0.05, 0.31, 0.9):
+        assert mu_ratio(mu_of_ratio(1 - e)) == pytest.approx(1 - e, abs=1e-12)
+    cuts, _ = component_cuts("noise", tol)
+    assert cuts == tuple(mu_of_ratio(1 / q) for q in tol.noise_ratio)
+    cuts, basis = component_cuts("psnr", tol, peak=300.0, scene_range=300.0)
+    assert basis == "range"
+    assert cuts[0] == pytest.approx(irf.normalize.normalize_psnr(-20 * math.log10(0.032)), abs=1e-15)
+    cuts, basis = component_cuts("nmi", tol, ceiling=0.5)
+    assert basis == "ceiling" and cuts == pytest.approx((0.35, 0.25, 0.15))
+    assert component_cuts("nmi", tol)[1] == "absolute"
+
+
+def test_the_radiometry_and_mrtd_limits_convert_exactly():
+    tol = Tolerances()
+    cuts, basis = component_cuts("radiometry", tol)
+    assert basis == "tolerance" and cuts == pytest.approx((0.9, 0.9 ** 4, 0.9 ** 9), rel=1e-14)
+    cuts, _ = component_cuts("mrtd", tol, alpha=2.0)
+    assert cuts == tuple(mu_of_ratio(1 / q) ** 2 for q in tol.mrtd_ratio)
+
+
+@pytest.mark.parametrize("offset, grade", [(0.0, "excellent"), (0.99, "excellent"), (1.5, "good"),
+                                           (2.5, "fair"), (3.2, "poor")])
+def test_a_temperature_offset_is_graded_in_temperature_tolerances(offset, grade):
+    real = 290.0 + np.add.outer(np.arange(32), np.arange(32)) * 0.1
+    rep = irf.evaluate(real, real + offset, unit="K", weights="radiometry=1", temperature_tolerance=1.0)
+    assert rep.grade == grade and rep.verdict["decided_by"] == "radiometry"
+    judged = rep.verdict["components"]["radiometry"]
+    assert judged["measure"] == pytest.approx(offset, abs=1e-6)  # a pure offset: bias = RMSE
+    assert judged["limits"] == [1.0, 2.0, 3.0]
+    if grade == "good":
+        assert "temperature bias +1.5 K" in rep.verdict["reason"]
+        assert rep.verdict["reason"].endswith("the tolerance for excellent is 1 temperature tolerance")
+
+
+@pytest.mark.parametrize("scale, grade", [(1.05, "excellent"), (1.2, "good"), (1.6, "fair"), (2.5, "poor")])
+def test_an_mrtd_level_is_graded_by_its_ratio(scale, grade):
+    f = np.linspace(0.05, 0.45, 30)
+    real = (f, 0.05 * np.exp(8 * f))
+    rep = irf.evaluate(real_mrtd=real, sim_mrtd=(f, scale * real[1]), weights="mrtd=1")
+    assert rep.grade == grade
+    assert rep.verdict["components"]["mrtd"]["measure"] == pytest.approx(scale, rel=1e-9)
+    assert f"MRTD {scale:.3g}× the real camera's" in rep.verdict["components"]["mrtd"]["text"]
+
+
+@pytest.mark.parametrize("mismatch, grade", [(0.0, "excellent"), (0.05, "excellent"), (0.0501, "good"),
+                                             (0.10, "good"), (0.15, "fair"), (0.20, "fair"), (0.2001, "poor")])
+def test_an_mtf50_at_each_limit_gets_that_grade(mismatch, grade):
+    cfg = irf.ScoringConfig(weights="mtf=1")
+    f1 = mu_of_ratio(1 - mismatch) * (1 + 1e-15)  # the exact boundary, up to rounding
+    metrics = {"mtf50_real": 0.3, "mtf50_sim": 0.3 * (1 - mismatch), "mtf_rho": 1.0}
+    assert judge({"mtf": min(f1, 1.0)}, metrics, cfg.weights, cfg).grade == grade
+
+
+def test_tolerances_load_from_toml_and_refuse_bad_limits(tmp_path):
+    path = tmp_path / "t.toml"
+    path.write_text("[tolerances]\nmtf50 = [0.03, 0.08, 0.15]\nnoise_ratio = [1.05, 1.5, 3]\n")
+    cfg = irf.ScoringConfig.load(path)
+    assert cfg.tolerances.mtf50 == (0.03, 0.08, 0.15) and cfg.tolerances.noise_ratio == (1.05, 1.5, 3.0)
+    assert cfg.tolerances.ssim == Tolerances().ssim
+    cfg.save(tmp_path / "back.toml")
+    assert irf.ScoringConfig.load(tmp_path / "back.toml") == cfg
+    for bad, needle in [({"mtf50": [0.2, 0.1, 0.3]}, "ascending"), ({"nmi": [0.3, 0.5, 0.7]}, "descending"),
+                        ({"noise_ratio": [0.5, 1, 2]}, "ratios > 1"), ({"mtf50": [0.1, 0.2]}, "three"),
+                        ({"colour": [1, 2, 3]}, "unknown name")]:
+        with pytest.raises(FidelityError, match=needle) as info:
+            irf.ScoringConfig(tolerances=bad)
+        assert info.value.option == "tolerances"
+
+
+def test_the_command_line_sets_tolerances_and_names_a_bad_one(tmp_path, capsys):
+    real, sim = str(DATA / "cptv_v2_frame000.png"), str(DATA / "cptv_v2_frame005.png")
+    out = tmp_path / "c.toml"
+    assert main(["score", real, sim, "--tolerance", "rms_error=0.01,0.02,0.05", "--save-config", str(out)]) == 0
+    assert irf.ScoringConfig.load(out).tolerances.rms_error == (0.01, 0.02, 0.05)
+    capsys.readouterr()
+    assert main(["score", real, sim, "--tolerance", "mtf50=3"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--tolerance" in err and "mtf50" in err
+
+
+# --------------------------------------------------------------------------- engineering expectations
+def test_an_mtf50_31_percent_low_is_not_good():
+    rep = irf.evaluate(real_mtf=_mtf(0.25), sim_mtf=_mtf(0.25 * 0.69), weights="mtf=1")
+    assert rep.metrics["mtf50_sim"] / rep.metrics["mtf50_real"] == pytest.approx(0.69, abs=0.01)
+    assert rep.grade == "poor"
+    assert rep.verdict["decided_by"] == "mtf" and "MTF50 31" in rep.verdict["reason"]
+    assert "tolerance for fair is a mismatch of 20 %" in rep.verdict["reason"]
+
+
+def test_a_sitf_slope_20_percent_low_is_not_excellent():
+    rep = irf.evaluate(real_sitf=_sitf(50.0), sim_sitf=_sitf(40.0), weights="sitf=1")
+    assert rep.grade == "fair"  # exactly at the limit of fair
+    assert "SiTF slope 20 % below the real camera's" in rep.verdict["reason"]
+
+
+def test_netd_three_times_the_real_cameras_is_poor():
+    rng = np.random.default_rng(27)
+    real = rng.normal(1000, 2, (16, 48, 48))
+    sim = rng.normal(1000, 6, (16, 48, 48))
+    rep = irf.evaluate(real_noise=real, sim_noise=sim, weights="noise=1")
+    assert rep.grade == "poor" and rep.verdict["decided_by"] == "noise"
+    same = irf.evaluate(real_noise=real, sim_noise=rng.normal(1000, 2, (16, 48, 48)), weights="noise=1")
+    assert same.grade in ("excellent", "good")
+
+
+# --------------------------------------------------------------------------- one rule, one sentence
+def test_the_grade_is_the_worst_component_and_the_report_says_why():
+    rep = irf.evaluate(DATA / "cptv_v2_frame000.png", DATA / "cptv_v2_frame005.png",
+                       real_mtf=_mtf(0.25), sim_mtf=_mtf(0.25 * 0.85), bits=14)
+    worst = max(GRADES.index(g) for g in rep.component_grades.values())
+    assert rep.grade == GRADES[worst] == "fair"
+    assert rep.verdict["decided_by"] == "mtf"
+    assert rep.verdict["reason"].startswith("fair: mtf set the grade — MTF50 15 % below the real camera's")
+    assert "the tolerance for good is a mismatch of 10 %" in rep.verdict["reason"]
+    # the weight per grade printed beside the grade: the grade is the worst grade with a share
+    assert rep.membership["fair"] > 0 and rep.membership["poor"] == 0
+    text = rep.summary_text()
+    assert rep.verdict["reason"] in text and "membership" not in text
+    html = rep.to_html()
+    assert "mtf set the grade" in html
+    assert irf.FidelityReport.from_dict(rep.to_dict()).verdict == rep.verdict
+
+
+def test_the_psnr_grade_does_not_depend_on_the_peak():
+    """The RMS tolerance is relative to the scene's range, whatever PSNR peak eq. (5) uses."""
+    real = irf.load_frame(DATA / "cptv_v2_frame000.png")
+    sim = np.clip(real + np.random.default_rng(3).normal(0, 15, real.shape), 0, 16383).astype(np.uint16)
+    with pytest.warns(irf.errors.PeakWarning):
+        default = irf.evaluate(real, sim, bits=14, weights="psnr=1")
+    ranged = irf.evaluate(real, sim, bits=14, peak="range", weights="psnr=1")
+    assert default.grade == ranged.grade == "good"  # 15 counts of 294: 5.1 % of the range
+
+
+def test_noise_at_the_scenes_own_24_db_is_not_excellent():
+    real = irf.load_frame(DATA / "cptv_v2_frame000.png")
+    span = float(real.max()) - float(real.min())
+    sigma = span * 10 ** (-24 / 20)
+    sim = np.clip(np.rint(real + np.random.default_rng(4).normal(0, sigma, real.shape)), 0, 16383).astype(np.uint16)
+    rep = irf.evaluate(real, sim, bits=14, peak="range")
+    assert rep.metrics["psnr_db"] == pytest.approx(24, abs=0.3)
+    assert rep.grade != "excellent"
+
+
+# --------------------------------------------------------------------------- the ceiling
+def test_a_second_real_frame_is_the_ceiling(recording):
+    rep = irf.evaluate(recording[11], recording[12], bits=14, peak="range", real_ref=recording[10])
+    alone = irf.pair_stats(recording[11], recording[10], bits=14)
+    assert rep.ceiling["ssim"] == pytest.approx(max(alone.ssim().value, 0), abs=1e-12)
+    assert rep.ceiling["nmi"] == pytest.approx(alone.nmi().value, abs=1e-12)
+    for k in ("nmi", "ssim"):
+        assert rep.relative[k] == pytest.approx(rep.components[k] / rep.ceiling[k])
+        assert rep.verdict["components"][k]["basis"] == "ceiling"
+    assert rep.grade == "excellent"  # real vs real of a still scene
+    assert "ceiling (real vs real)" in rep.summary_text() and "simulator / ceiling" in rep.to_html()
+    with pytest.raises(FidelityError, match="real_ref") as info:
+        irf.evaluate(recording[0], recording[1], real_ref=recording[0][:10])
+    assert info.value.option == "real_ref"
+
+
+def test_real_frame_t_against_t_plus_1_of_a_sequence_grades_excellent(recording):
+    rep = irf.score_sequence(recording[:40], recording[1:41], bits=14, progress=False, pair_by="order")
+    assert rep.grade == "excellent", rep.verdict["reason"]
+    assert set(rep.ceiling) == {"psnr", "nmi", "ssim"} and 0.9 < rep.relative["ssim"] < 1.1
+    assert irf.SequenceReport.from_dict(rep.to_dict()).ceiling == rep.ceiling
+
+
+def test_a_noisy_simulator_misses_the_ceiling(recording):
+    rng = np.random.default_rng(5)
+    sim = np.clip(recording[1:21] + rng.normal(0, 12, recording[1:21].shape), 0, 16383).astype(np.uint16)
+    rep = irf.score_sequence(recording[:20], sim, bits=14, progress=False, pair_by="order")
+    assert rep.grade in ("fair", "poor") and rep.verdict["decided_by"] in ("nmi", "ssim")
+    assert "of the ceiling" in rep.verdict["reason"]
+
+
+# --------------------------------------------------------------------------- pooled values
+def test_pooled_psnr_with_the_range_peak_lies_within_the_frames(recording):
+    rng = np.random.default_rng(6)
+    sim = recording[1:61].astype(np.float64) * np.linspace(0.9, 1.1, 60)[:, None, None]
+    sim = np.clip(np.rint(sim + rng.normal(0, 3, sim.shape)), 0, 16383).astype(np.uint16)
+    rep = irf.score_sequence(recording[:60], sim, bits=14, peak="range", progress=False, pair_by="order")
+    per_frame = rep.frame_stats["metrics"]["psnr_db"]
+    assert per_frame["min"] <= rep.metrics["psnr_db"] <= per_frame["max"]
+    # the pixel-weighted mean of the frames' MSE/peak², in dB
+    relative = [f["metrics"]["mse"] / f["metrics"]["psnr_peak"] ** 2 for f in rep.frames]
+    assert rep.metrics["psnr_db"] == pytest.approx(-10 * math.log10(np.mean(relative)), abs=1e-9)
+    rms = rep.verdict["components"]["psnr"]["measure"]
+    assert rms == pytest.approx(math.sqrt(np.mean(relative)), rel=1e-9)
+
+
+# --------------------------------------------------------------------------- defects and masks
+def _dead_cluster(recording) -> tuple[np.ndarray, np.ndarray]:
+    real, sim = recording[30], recording[31].copy()  # frames 30, 31: nothing in the scene moves
+    sim[50:56, 80:86] = 0  # a dead 6×6 cluster: 0.19 % of the frame
+    return real, sim
+
+
+def test_a_dead_cluster_is_named_and_a_mask_scores_the_rest(recording):
+    real, sim = _dead_cluster(recording)
+    rep = irf.evaluate(real, sim, bits=14, peak="range")
+    defect = rep.verdict["defect"]
+    assert defect["rows"] == [50, 55] and defect["cols"] == [80, 85] and defect["share"] > 0.99
+    assert "compact cluster at rows 50–55, columns 80–85" in rep.summary_text()
+    mask = np.ones(real.shape, dtype=bool)
+    mask[50:56, 80:86] = False
+    masked = irf.evaluate(real, sim, bits=14, peak="range", mask=mask)
+    assert masked.verdict["defect"] is None and masked.components["ssim"] > 0.8 > rep.components["ssim"]
+    clean = irf.evaluate(real, recording[31], bits=14, peak="range")
+    assert clean.verdict["defect"] is None
+
+
+def test_a_moving_object_is_named(recording):
+    """In frames 12 and 13 an animal moves: its pixels carry most of the difference."""
+    found = irf.evaluate(recording[12], recording[13], bits=14).verdict["defect"]
+    assert found["share"] > 0.9 and 50 <= found["rows"][0] <= found["rows"][1] <= 66
+
+
+def test_a_hot_border_is_named(recording):
+    real, sim = recording[30], recording[31].copy()
+    sim[:2, :] = sim[-2:, :] = 16000
+    rep = irf.evaluate(real, sim, bits=14, peak="range")
+    assert "along the frame's border" in rep.verdict["defect"]["text"]
+
+
+def test_mask_and_roi_flags_score_only_those_pixels(recording, tmp_path, capsys):
+    real, sim = _dead_cluster(recording)
+    paths = {}
+    for name, frame in (("real", real), ("sim", sim)):
+        paths[name] = tmp_path / f"{name}.npy"
+        np.save(paths[name], frame)
+    mask = np.ones(real.shape, dtype=np.uint8)
+    mask[50:56, 80:86] = 0
+    np.save(tmp_path / "mask.npy", mask)
+    base = ["score", str(paths["real"]), str(paths["sim"]), "--bits", "14", "--peak", "range", "--json"]
+    assert main([*base, str(tmp_path / "m.json"), "--mask", str(tmp_path / "mask.npy")]) == 0
+    assert main([*base, str(tmp_path / "r.json"), "--roi", "0:40,:"]) == 0
+    capsys.readouterr()
+    import json
+
+    by_mask = json.loads((tmp_path / "m.json").read_text())
+    by_roi = json.loads((tmp_path / "r.json").read_text())
+    assert by_mask["metrics"]["n"] == real.size - 36 and by_roi["metrics"]["n"] == 40 * real.shape[1]
+    want = irf.evaluate(real[:40], sim[:40], bits=14, peak="range")
+    assert by_roi["components"]["ssim"] == pytest.approx(want.components["ssim"], abs=1e-12)
+    for flag, value, needle in [("--roi", "0:500,:", "rows 0:500"), ("--roi", "a:b", "Y0:Y1,X0:X1"),
+                                ("--mask", str(tmp_path / "nope.npy"), "--mask")]:
+        assert main([*base, "-", flag, value]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and needle in err
+
+
+# --------------------------------------------------------------------------- sensitivity ladders
+def _never_improve(rungs: list[tuple]) -> list[str]:
+    grades = [rep.grade for _, rep in rungs]
+    assert all(GRADES.index(a) <= GRADES.index(b) for a, b in zip(grades, grades[1:])), rungs
+    return grades
+
+
+@pytest.fixture(scope="module")
+def scenes():
+    return {scene[0].split()[0]: scene for scene in ladders.scenes()}
+
+
+#: Every image ladder on both recordings, but the shift of the PTW MWIR frame: its pattern repeats
+#: every 2 rows, so a 2-px shift lines it up again (not a ladder of growing degradation).
+IMAGE_LADDERS = [(scene, ladder) for scene in ("Lepton", "PTW") for ladder in ladders.IMAGE
+                 if (scene, ladder) != ("PTW", "shift")]
+
+
+@pytest.mark.parametrize("scene, ladder", IMAGE_LADDERS)
+def test_grades_never_improve_down_an_image_ladder(scenes, scene, ladder):
+    grades = _never_improve(list(ladders.image_ladder(ladder, *scenes[scene][1:])))
+    assert grades[0] == "excellent"  # rung 0 is real frame t + 1 against t: the camera against itself
+    if ladder != "gain":  # a contrast gain is the SiTF's to judge: 1.5× barely moves a low-contrast scene
+        assert grades[-1] != "excellent"
+
+
+def test_a_4_px_blur_of_a_640_by_512_frame_is_not_excellent(scenes):
+    name, real, successor, bits = scenes["DJI"]
+    assert real.shape == (512, 640)
+    rungs = list(ladders.image_ladder("blur σ", real, successor, bits))
+    grades = _never_improve(rungs)
+    assert rungs[-1][0] == 4 and grades[-1] != "excellent"
+
+
+@pytest.mark.parametrize("ladder", ["MTF50 scale", "SiTF slope", "NETD factor"])
+def test_grades_never_improve_down_a_camera_ladder(ladder):
+    rungs = list(ladders.camera_ladder(ladder))
+    grades = _never_improve(rungs)
+    assert grades[0] == "excellent" and grades[-1] == "poor"
+    by_step = dict(zip((step for step, _ in rungs), grades))
+    expected_not = {"MTF50 scale": (0.69, ("excellent", "good")), "SiTF slope": (0.8, ("excellent",)),
+                    "NETD factor": (3, ("excellent", "good", "fair"))}[ladder]
+    assert by_step[expected_not[0]] not in expected_not[1]
