@@ -1,4 +1,5 @@
-"""Command line: ``irfidelity score REAL SIM ...``, ``irfidelity demo``, ``irfidelity config``.
+"""Command line: ``irfidelity score REAL SIM ...``, ``irfidelity rank REAL SIM...``, ``irfidelity
+weights fit FILE``, ``irfidelity demo``, ``irfidelity config``.
 
 Exit status: 0 everything scored; 2 bad usage or input (one line on stderr naming the file
 or flag, no traceback); 3 a sequence finished but some frames failed.
@@ -42,6 +43,14 @@ def _run(a) -> int:
 
         report, sequence = score_command(a)
         return EXIT_FAILED_FRAMES if sequence and report.failed else EXIT_OK
+    if a.command in ("rank", "weights"):
+        from .rank import rank_command, weights_command
+
+        if a.command == "weights":
+            weights_command(a)
+            return EXIT_OK
+        result = rank_command(a)
+        return EXIT_FAILED_FRAMES if any(rep.failed for rep in result.reports.values()) else EXIT_OK
     return _demo(a) if a.command == "demo" else _config(a)
 
 

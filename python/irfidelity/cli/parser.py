@@ -1,4 +1,5 @@
-"""The command line's arguments: ``irfidelity score``, ``irfidelity demo``, ``irfidelity config``."""
+"""The command line's arguments: ``irfidelity score``, ``irfidelity demo``, ``irfidelity config``
+(``rank`` and ``weights``: :mod:`.rank`)."""
 
 from __future__ import annotations
 
@@ -192,6 +193,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"irfidelity {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     _add_score(sub)
+    from .rank import add_rank, add_weights
+
+    add_rank(sub, {"bits": _positive_int, "peak": _peak, "bins": _bins, "positive_int": _positive_int})
+    add_weights(sub)
     d = sub.add_parser(
         "demo", help="score a toy simulator on bundled real infrared data",
         description="Scores a simulated frame made by a simple camera model (Gaussian blur, gain/offset, "

@@ -26,7 +26,9 @@ from ..config import ScoringConfig
 from ..errors import FidelityError
 from ..frames import FrameSequence
 from ..results import recorded_warnings
+from ..bootstrap import check_level
 from .delay import find_delay
+from .intervals import sequence_intervals
 from .pairing import Pairing, pair_frames, pair_with_delay
 from .plan import make_plan
 from .report import SequenceReport
@@ -64,7 +66,8 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
                    config: ScoringConfig | None = None, workers: int | None = None,
                    progress: bool | Callable[[int, int], Any] = True, client: Any = None,
                    csv: str | os.PathLike | None = None, resume: bool = False, chunk_size: int = 16,
-                   max_pixels: int | None = None, max_bytes: int | None = None, **options: Any) -> SequenceReport:
+                   max_pixels: int | None = None, max_bytes: int | None = None, ci: bool | float = False,
+                   **options: Any) -> SequenceReport:
     """Score a simulated sequence against the real one, frame by frame and pooled.
 
     Parameters
@@ -94,6 +97,10 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         with the run).
     max_pixels, max_bytes : decoding limits per frame (:func:`irfidelity.load_frame`); a frame
         beyond them is that frame's error row.
+    ci : bool or float
+        Also compute ``report.ci``, the block-bootstrap intervals of the pooled fidelity and
+        components over frames (True: at level 0.95; a float: that level;
+        :mod:`irfidelity.sequence.intervals`). Costs about a second per thousand frames.
 
     Returns
     -------
@@ -122,4 +129,22 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         raise FidelityError("empty sequences: nothing to score")
     pairing = _pairing(real_seq, sim_seq, cfg)
     plan = make_plan(real_seq, sim_seq, pairing, CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise), cfg)
-    return execute(real_seq, sim_seq, pairing, plan, run)
+    report = execute(real_seq, sim_seq, pairing, plan, run)
+    return with_intervals(report, ci)
+
+
+def with_intervals(report: SequenceReport, ci: bool | float) -> SequenceReport:
+    """``report`` with ``ci`` and ``pooling["ci"]`` when asked for (``ci``: True, or a level)
+    and when at least two frames were scored (else a note says why there is none)."""
+    if ci is False or ci is None:
+        return report
+    level = 0.95 if ci is True else check_level(ci)
+    scored = len(report.frames) - len(report.failed) - len(report.unpaired)
+    if scored < 2:
+        report.notes.append(f"no interval: {scored} frame(s) scored, at least 2 are needed")
+        return report
+    intervals = sequence_intervals(report, level=level)
+    report.ci = dict(intervals.ci)
+    report.pooling["ci"] = {"level": intervals.level, "method": intervals.method, "block": intervals.block,
+                            "resamples": intervals.resamples, "frames": intervals.frames}
+    return report

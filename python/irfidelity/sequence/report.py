@@ -69,6 +69,10 @@ class SequenceReport:
         each side compared), ``max_delay``, ``correlation`` (per candidate delay) and
         ``unpaired`` (``{"real": [...], "sim": [...]}``: the names of the frames at the ends
         without a partner at this delay; their rows are listed in :attr:`unpaired`).
+    ci : dict or None
+        With ``score_sequence(ci=...)``: ``{"fidelity": (lo, hi), component: (lo, hi)}``, the
+        block-bootstrap intervals over frames (:mod:`irfidelity.sequence.intervals`);
+        ``pooling["ci"]`` has their level, method, block length and resamples.
 
     Examples
     --------
@@ -113,6 +117,7 @@ class SequenceReport:
     run: dict = field(default_factory=dict)
     registration: dict | None = None
     delay: dict | None = None
+    ci: dict | None = None
     sources: dict = field(default_factory=dict, repr=False, compare=False)
 
     def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10) -> str:
@@ -146,7 +151,8 @@ class SequenceReport:
             fh.writelines(csv_line(flat_row(f, cols)) for f in self.frames)
 
     _FIELDS = ("fidelity", "grade", "components", "component_grades", "membership", "metrics", "failed",
-               "unpaired", "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration", "delay")
+               "unpaired", "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration", "delay",
+               "ci")
 
     def to_dict(self) -> dict:
         """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""
@@ -170,6 +176,7 @@ class SequenceReport:
                        run=fields.get("run", readback.mapping_of(readback.anything), {}),
                        registration=fields.get("registration", readback.optional(readback.any_registration)),
                        delay=fields.get("delay", readback.optional(readback.delay)),
+                       ci=fields.get("ci", readback.optional(readback.mapping_of(_interval))),
                        **shared_fields(fields))
             if (report.fidelity is None) != (report.grade is None):
                 raise readback.ReportError("report: fidelity and grade are both given (a pooled result) or both "
@@ -189,6 +196,10 @@ class SequenceReport:
                                      self.skipped)
             lines.append(f"{'fidelity':<10} {'':>7} {self.fidelity:>8.4f}  (eq. 15, Σ k_i·f_i)")
             lines.append(f"{'grade':<10} {'':>7} {self.grade:>8}")
+        if self.ci:
+            info = self.pooling.get("ci", {})
+            lines.append(f"intervals at {info.get('level', '?')} ({info.get('method', 'bootstrap')}): "
+                         + ", ".join(f"{k} [{lo:.4f}, {hi:.4f}]" for k, (lo, hi) in self.ci.items()))
         spread = [("fidelity", self.frame_stats.get("fidelity"))]
         spread += [(k, self.frame_stats.get("metrics", {}).get(k)) for k in ("psnr_db", "ssim", "nmi")]
         for key, s in spread:
@@ -212,6 +223,13 @@ class SequenceReport:
 
     def __str__(self) -> str:
         return self.summary_text()
+
+
+def _interval(value: Any, where: str) -> tuple[float, float]:
+    """An interval ``[lo, hi]`` of ``ci``."""
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise readback.ReportError(f"{where}: expected an interval [lo, hi], got {value!r}")
+    return readback.number(value[0], f"{where}[0]"), readback.number(value[1], f"{where}[1]")
 
 
 def _delay_line(delay: Mapping[str, Any]) -> str:

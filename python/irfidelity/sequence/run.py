@@ -39,6 +39,9 @@ class RunOptions:
     chunk_size: int = 16
     max_pixels: int | None = None
     max_bytes: int | None = None
+    #: ``backend(real, sim, plan, decoding)``: where pairs are scored instead of
+    #: :func:`~.backends.choose_backend`'s choice (several simulators sharing one engine).
+    backend: Callable[..., Any] | None = None
 
 
 def _log_settings(plan: SequencePlan, pairing: Pairing, real_names: list[str], sim_names: list[str],
@@ -65,6 +68,7 @@ class _Scorer:
         self.entries: dict[int, dict] = {}
         self.pool = Pool(plan)
         self.deferred: dict[int, tuple[Callable[[], PairStats], tuple | None]] = {}
+        self.sums: dict[int, dict] = {}  # each scored frame's exact sums, for intervals
 
     def names(self, index: int) -> tuple[str | None, str | None]:
         r, s = self.pairing.pairs[index]
@@ -96,6 +100,9 @@ class _Scorer:
     def _keep(self, entry: dict, stats: PairStats | None, extent: tuple | None, *, resumed: bool = False,
               pool: bool = True) -> None:
         self.entries[entry["index"]] = entry
+        sums = None if stats is None else stats.int_sums()
+        if sums is not None:
+            self.sums[entry["index"]] = {"n": stats.n, **sums}  # type: ignore[union-attr]
         if pool:
             self.pool.add(entry["index"], stats, extent)
         while self.pool.next in self.deferred:
@@ -163,7 +170,8 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
                 scorer.deliver([Outcome(i, None, _unreadable(real, r)) for i, r, _ in todo])
             else:
                 decoding = Decoding(options.workers, options.max_pixels, options.max_bytes, fingerprint=log is not None)
-                backend = choose_backend(real, sim, plan, decoding, options.client, options.chunk_size)
+                backend = (options.backend(real, sim, plan, decoding) if options.backend is not None
+                           else choose_backend(real, sim, plan, decoding, options.client, options.chunk_size))
                 backend.run(todo, scorer.deliver)
         frames = [scorer.entries[i] for i in range(total)]
         if log is not None:
@@ -185,7 +193,8 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
         delay=None if pairing.delay is None else {**pairing.delay.to_dict(), "unpaired": pairing.unpaired},
         run={"pair_by": pairing.rule, "workers": options.workers,
              "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed},
-        sources={"frames": _loader(real, sim, pairing), "curves": plan.camera_objects}, **pooled)
+        sources={"frames": _loader(real, sim, pairing), "curves": plan.camera_objects, "sums": scorer.sums},
+        **pooled)
 
 
 def _loader(real: FrameSequence, sim: FrameSequence, pairing: Pairing) -> Callable[[int], tuple[Any, Any]]:
