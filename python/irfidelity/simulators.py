@@ -231,9 +231,9 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
     --------
     >>> import numpy as np, irfidelity as irf
     >>> rng = np.random.default_rng(0)
-    >>> scene = np.cumsum(rng.normal(0, 40, (30, 24, 24)), axis=0) + 3000
-    >>> real = np.clip(scene + rng.normal(0, 5, scene.shape), 0, 16383).astype(np.uint16)
+    >>> scene = rng.normal(3000, 200, (40, 24, 24))
     >>> noisy = lambda sigma: np.clip(scene + rng.normal(0, sigma, scene.shape), 0, 16383).astype(np.uint16)
+    >>> real = noisy(5)
     >>> result = irf.score_simulators(real, {"good": noisy(10), "poor": noisy(80)}, bits=14,
     ...                               weights="psnr=0.5,ssim=0.5", progress=False)
     >>> result.order, result.significant[("good", "poor")]
