@@ -234,7 +234,7 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
     >>> scene = rng.normal(3000, 200, (40, 24, 24))
     >>> noisy = lambda sigma: np.clip(scene + rng.normal(0, sigma, scene.shape), 0, 16383).astype(np.uint16)
     >>> real = noisy(5)
-    >>> result = irf.score_simulators(real, {"good": noisy(10), "poor": noisy(80)}, bits=14,
+    >>> result = irf.score_simulators(real, {"good": noisy(10), "poor": noisy(80)}, peak="range",
     ...                               weights="psnr=0.5,ssim=0.5", progress=False)
     >>> result.order, result.significant[("good", "poor")]
     (['good', 'poor'], True)

@@ -175,7 +175,7 @@ def render_comparison_html(comparison: Any, *, title: str | None = None, fragmen
     >>> rng = np.random.default_rng(0)
     >>> real = rng.integers(1000, 3000, (20, 32, 32)).astype(np.uint16)
     >>> sims = {f"s{k}": (real + rng.integers(0, 10 * k, real.shape)).astype(np.uint16) for k in (1, 4)}
-    >>> result = irf.score_simulators(real, sims, bits=14, weights="psnr=0.5,ssim=0.5", progress=False)
+    >>> result = irf.score_simulators(real, sims, peak="range", weights="psnr=0.5,ssim=0.5", progress=False)
     >>> html = render_comparison_html(result)
     >>> "What decided the order" in html and "s1 is closer than s4" in html
     True

@@ -114,7 +114,7 @@ def sequence_intervals(report: Any, *, level: float = 0.95, resamples: int = DEF
     >>> rng = np.random.default_rng(0)
     >>> real = rng.integers(1000, 3000, (12, 16, 16)).astype(np.uint16)
     >>> sim = (real + rng.integers(0, 40, real.shape)).astype(np.uint16)
-    >>> rep = irf.score_sequence(real, sim, weights="psnr=0.5,ssim=0.5", bits=14, progress=False)
+    >>> rep = irf.score_sequence(real, sim, weights="psnr=0.5,ssim=0.5", peak="range", progress=False)
     >>> ci = sequence_intervals(rep, resamples=199)
     >>> lo, hi = ci.ci["fidelity"]
     >>> bool(lo <= rep.fidelity <= hi), sorted(ci.ci)
