@@ -269,10 +269,12 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
 
     if shared:
         coordinator = SharedRun(names, workers, progress)
-        reports = coordinator.run({name: (lambda name=name: execute(real_seq, runs[name][0], runs[name][1],
-                                                                    runs[name][2],
-                                                                    options_for(name, coordinator.backend(name))))
-                                   for name in names})
+
+        def run_one(name: str) -> Callable[[], SequenceReport]:
+            sim_seq, pairing, plan = runs[name]
+            return lambda: execute(real_seq, sim_seq, pairing, plan, options_for(name, coordinator.backend(name)))
+
+        reports = coordinator.run({name: run_one(name) for name in names})
     else:  # arrays: nothing to decode twice; one simulator after the other
         reports = {name: execute(real_seq, sim_seq, pairing, plan, options_for(name))
                    for name, (sim_seq, pairing, plan) in runs.items()}

@@ -12,6 +12,7 @@ from ..config import PAIRING_RULES, ScoringConfig
 from ..errors import FidelityError
 from ..fuzzy import Weights
 from .output import UsageError, write_json
+from .score import scoring_config
 
 __all__ = ["add_rank", "add_weights", "rank_command", "weights_command"]
 
@@ -96,16 +97,6 @@ def _names(a: argparse.Namespace) -> list[str]:
     return names
 
 
-def _config(a: argparse.Namespace) -> ScoringConfig:
-    options: dict[str, Any] = {k: getattr(a, k) for k in _CONFIG_FLAGS}
-    if a.weights is not None:
-        try:
-            options["weights"] = Weights.parse(a.weights)
-        except FidelityError as exc:
-            raise UsageError(f"--weights: {exc}") from None
-    return ScoringConfig.resolve(a.config, **options)
-
-
 def rank_command(a: argparse.Namespace) -> Any:
     """Score and rank as the arguments say; returns the comparison."""
     from ..simulators import score_simulators
@@ -118,9 +109,9 @@ def rank_command(a: argparse.Namespace) -> Any:
     for path in [a.real, *a.sims]:
         if not os.path.exists(path) and not any(ch in path for ch in "*?["):
             raise UsageError(f"{path}: no such file or directory")
-    result = score_simulators(a.real, dict(zip(names, a.sims)), config=_config(a), workers=a.workers,
-                              progress=not a.no_progress, csv=a.frames_csv, resume=a.resume, ci=a.ci and a.level,
-                              level=a.level, resamples=a.resamples,
+    result = score_simulators(a.real, dict(zip(names, a.sims)), config=scoring_config(a, _CONFIG_FLAGS),
+                              workers=a.workers, progress=not a.no_progress, csv=a.frames_csv, resume=a.resume,
+                              ci=a.ci and a.level, level=a.level, resamples=a.resamples,
                               correction="none" if a.no_correction else "holm")
     if a.json is not None:
         write_json(result.to_dict(), a.json)

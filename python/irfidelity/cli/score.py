@@ -22,8 +22,9 @@ _CONFIG_FLAGS = ("bits", "peak", "bins", "hist_range", "missing", "nonfinite", "
                  "pair_by")
 
 
-def _config(a: argparse.Namespace) -> ScoringConfig:
-    options: dict[str, Any] = {k: getattr(a, k) for k in _CONFIG_FLAGS}
+def scoring_config(a: argparse.Namespace, flags: tuple = _CONFIG_FLAGS) -> ScoringConfig:
+    """The configuration of ``--config``, ``--weights`` and the ``flags`` that set a field."""
+    options: dict[str, Any] = {k: getattr(a, k) for k in flags}
     if a.weights is not None:
         try:
             options["weights"] = Weights.parse(a.weights)
@@ -104,7 +105,7 @@ def _curves(a: argparse.Namespace) -> dict:
 
 def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
     """Score as the arguments say; returns the report and whether it is a sequence's."""
-    config = _config(a)
+    config = scoring_config(a)
     curves = _curves(a)
     seq_real, seq_sim = _is_sequence(a.real), _is_sequence(a.sim)
     if seq_real != seq_sim:
