@@ -264,3 +264,18 @@ def test_cli_weights_fit(tmp_path):
     path.write_text("a_psnr,b_psnr,preferred\n0.9,oops,a\n")
     assert_user_error(run("weights", "fit", str(path)), "judged.csv", "line 2", "b_psnr")
     assert_user_error(run("weights", "fit", str(tmp_path / "none.csv")), "none.csv")
+
+
+def test_each_simulators_curves_enter_its_ranked_fidelity():
+    rng = np.random.default_rng(11)
+    scene = rng.normal(3000, 200, (30, 24, 24))
+    frames = lambda sigma: np.clip(scene + rng.normal(0, sigma, scene.shape), 0, 16383).astype(np.uint16)  # noqa: E731
+    x = [0, 0.125, 0.25, 0.375, 0.5]
+    mtf = lambda fall: irf.Curve(x, np.exp(-fall * np.array(x)), x_unit="cycles/pixel")  # noqa: E731
+    result = irf.score_simulators(frames(5), {"sharp": frames(20), "soft": frames(20)}, real_mtf=mtf(3.0),
+                                  sim_mtf={"sharp": mtf(3.1), "soft": mtf(6.0)}, peak="range", progress=False,
+                                  weights="mtf=0.5,psnr=0.25,ssim=0.25", resamples=199)
+    for name, rep in result.reports.items():
+        assert result.ranking.estimate[name]["mtf"] == pytest.approx(rep.components["mtf"], abs=1e-12)
+        assert result.ranking.estimate[name]["fidelity"] == pytest.approx(rep.fidelity, abs=1e-12)
+    assert result.order == ["sharp", "soft"] and result.reports["sharp"].components["mtf"] > 0.9

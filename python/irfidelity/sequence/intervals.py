@@ -49,13 +49,20 @@ class FrameNumbers:
 
 
 def _curve_pool(report: Any, curves: tuple) -> Pool:
-    """``sequence_pool`` of the report, its curve components read from the summed numbers."""
-    peak = report.metrics.get("psnr_peak")
-    weights, config = report.weights, report.config
+    """``sequence_pool`` of the report, its curve components read from the summed numbers
+    (the fidelity is linear in them: eq. 15)."""
+    weights = report.weights
+    image = sequence_pool(weights, config=report.config, peak=report.metrics.get("psnr_peak"),
+                          camera={k: 0.0 for k in curves})
+    if not curves:
+        return image
 
     def pool(sums: Mapping[str, float], frames: int) -> dict:
-        camera = {k: sums[k] / frames for k in curves}
-        return sequence_pool(weights, config=config, peak=peak, camera=camera)(sums, frames)
+        out = dict(image(sums, frames))
+        for k in curves:
+            out[k] = sums[k] / frames
+            out["fidelity"] += weights[k] * out[k]
+        return out
 
     return pool
 
