@@ -404,7 +404,13 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
 
 /// Score a simulated frame against a real frame decoded beforehand ([`decode_real`]; its
 /// error is this pair's error).
-pub fn score_against(index: usize, real: &Source, decoded: &Result<Decoded>, sim: &Source, req: &SeqRequest) -> PairOutcome {
+pub fn score_against(
+    index: usize,
+    real: &Source,
+    decoded: &Result<Decoded>,
+    sim: &Source,
+    req: &SeqRequest,
+) -> PairOutcome {
     let mut out = PairOutcome {
         index,
         stats: Err(Error::Value(String::new())),
