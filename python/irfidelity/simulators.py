@@ -49,6 +49,16 @@ class SimulatorComparison:
     frames : list
         The real frames every simulator scored (the frames ranked), in order.
     notes : list of str
+
+    Examples
+    --------
+    >>> import numpy as np, irfidelity as irf
+    >>> rng = np.random.default_rng(1)
+    >>> real = rng.integers(1000, 3000, (20, 16, 16)).astype(np.uint16)
+    >>> sims = {"a": real + 2, "b": real + 9}
+    >>> result = irf.score_simulators(real, sims, peak="range", weights="psnr=1", progress=False, resamples=199)
+    >>> result.order, len(result.frames), result.reports["b"].fidelity < result.reports["a"].fidelity
+    (['a', 'b'], 20, True)
     """
 
     reports: dict
