@@ -100,7 +100,7 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     ci : bool or float
         Also compute ``report.ci``, the block-bootstrap intervals of the pooled fidelity and
         components over frames (True: at level 0.95; a float: that level;
-        :mod:`irfidelity.sequence.intervals`). Costs about a second per thousand frames.
+        :mod:`irfidelity.sequence.intervals`); it costs a bootstrap over the frames.
 
     Returns
     -------
