@@ -12,6 +12,8 @@ Printed, each the best of ``--repeat`` runs after a warm-up, wall and CPU time:
 * ``three separate``: the three ``score_sequence`` runs one after the other;
 * ``shared``: ``score_simulators(real, {A, B, C}, resamples=99)`` — the scoring pass, and the
   ranking's bootstrap timed apart (``compare_reports`` on the same reports);
+* the CPU of the ranking (2000 resamples) of three simulators over 1000 frames, and of one
+  report's ``ci``;
 * the ratio ``shared scoring / (3 × one)`` (target ≤ 0.75) and the floor that sharing the
   real side's decode allows: ``(3 × one − 2 × decode) / (3 × one)``, with ``decode`` half the
   time the engine takes to score every real frame against itself (sum of squared errors
@@ -74,6 +76,20 @@ def decode_twice(paths: list[str], workers: int) -> None:
     _core.score_pairs(paths, paths, request=request, workers=workers)
 
 
+def ranking_cost(frames: int = 1000) -> None:
+    """CPU of the ranking (2000 resamples) and of one report's ``ci`` on ``frames`` small frames
+    of three simulators (the bootstrap's cost grows with frames and simulators, not pixels)."""
+    from irfidelity.sequence.intervals import sequence_intervals
+
+    rng = np.random.default_rng(1)
+    real = rng.integers(1000, 3000, (frames, 16, 16)).astype(np.uint16)
+    sims = {k: (real + rng.integers(0, 5 * (i + 1), real.shape)).astype(np.uint16) for i, k in enumerate("ABC")}
+    reports = irf.score_simulators(real, sims, peak="range", weights=WEIGHTS, progress=False, resamples=99).reports
+    rank = best(lambda: compare_reports(reports), 1, time.process_time)
+    ci = best(lambda: sequence_intervals(reports["A"]), 1, time.process_time)
+    print(f"CPU: ranking 3 simulators x {frames} frames, 2000 resamples {rank:.3f} s; one report's ci {ci:.3f} s")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=100)
@@ -104,6 +120,7 @@ def main() -> None:
             print(f"  shared: ranking (99 res.) {ranking:6.3f} s")
             print(f"  real frames decoded alone {decode:6.3f} s  -> floor of sharing the decode: {floor:.2f}")
         print(compare_reports(results["shared"].reports).summary_text())
+    ranking_cost()
 
 
 if __name__ == "__main__":
