@@ -11,11 +11,13 @@ is under weight changes. docs/ranking.md says what the figures mean.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import re
+import warnings
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Iterator, Mapping
 
 from .bootstrap import DEFAULT_RESAMPLES, check_level
 from .camera import CameraInputs
@@ -199,6 +201,29 @@ def _shared_pool(numbers: Mapping[str, FrameNumbers]) -> Callable | None:
     return next(iter(numbers.values())).pool
 
 
+@contextlib.contextmanager
+def _once_each() -> Iterator[None]:
+    """Warnings raised inside, each distinct one issued once on leaving."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield
+    seen = set()
+    for w in caught:
+        if (w.category, str(w.message)) not in seen:
+            seen.add((w.category, str(w.message)))
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
+def _prepare(real_seq: Any, sim: Any, name: str, cfg: ScoringConfig, max_pixels: int | None, max_bytes: int | None,
+             camera: CameraInputs) -> tuple:
+    """A simulator's sequence, pairing and plan."""
+    sim_seq = as_sequence(sim, f"simulators[{name!r}]", cfg.sim_channel, max_pixels, max_bytes)
+    if len(real_seq) == 0 or len(sim_seq) == 0:
+        raise FidelityError(f"empty sequences ({name}): nothing to score")
+    pairing = _pairing(real_seq, sim_seq, cfg)
+    return sim_seq, pairing, make_plan(real_seq, sim_seq, pairing, camera, cfg)
+
+
 def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any = None, real_sitf: Any = None,
                      real_noise: Any = None, sim_mtf: Mapping[str, Any] | None = None,
                      sim_sitf: Mapping[str, Any] | None = None, sim_noise: Mapping[str, Any] | None = None,
@@ -261,14 +286,11 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
     paths = csv_paths(csv, names)
     real_seq = as_sequence(real, "real", cfg.real_channel, max_pixels, max_bytes)
     runs = {}
-    for name, sim in sims.items():
-        sim_seq = as_sequence(sim, f"simulators[{name!r}]", cfg.sim_channel, max_pixels, max_bytes)
-        if len(real_seq) == 0 or len(sim_seq) == 0:
-            raise FidelityError(f"empty sequences ({name}): nothing to score")
-        pairing = _pairing(real_seq, sim_seq, cfg)
-        camera = CameraInputs(real_mtf, curves["sim_mtf"][name], real_sitf, curves["sim_sitf"][name], real_noise,
-                              curves["sim_noise"][name])
-        runs[name] = (sim_seq, pairing, make_plan(real_seq, sim_seq, pairing, camera, cfg))
+    with _once_each():  # the real side's warnings (a PSNR peak, ...) come once, not per simulator
+        for name, sim in sims.items():
+            runs[name] = _prepare(real_seq, sim, name, cfg, max_pixels, max_bytes,
+                                  CameraInputs(real_mtf, curves["sim_mtf"][name], real_sitf, curves["sim_sitf"][name],
+                                               real_noise, curves["sim_noise"][name]))
     shared = all(engine_reads(real_seq, sim_seq) for sim_seq, _, _ in runs.values())
     base = RunOptions(workers=workers, progress=False, resume=bool(resume), max_pixels=max_pixels,
                       max_bytes=max_bytes)
