@@ -279,3 +279,14 @@ def test_each_simulators_curves_enter_its_ranked_fidelity():
         assert result.ranking.estimate[name]["mtf"] == pytest.approx(rep.components["mtf"], abs=1e-12)
         assert result.ranking.estimate[name]["fidelity"] == pytest.approx(rep.fidelity, abs=1e-12)
     assert result.order == ["sharp", "soft"] and result.reports["sharp"].components["mtf"] > 0.9
+
+
+def test_the_real_sides_warning_comes_once():
+    rng = np.random.default_rng(2)
+    real = rng.integers(3000, 3100, (6, 16, 16)).astype(np.uint16)
+    sims = {name: (real + k).astype(np.uint16) for k, name in enumerate("abc", start=1)}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        irf.score_simulators(real, sims, bits=14, weights="psnr=1", progress=False, resamples=99)
+    peak = [w for w in caught if issubclass(w.category, irf.errors.PeakWarning)]
+    assert len(peak) == 1, [str(w.message) for w in caught]
