@@ -290,3 +290,15 @@ def test_the_real_sides_warning_comes_once():
         irf.score_simulators(real, sims, bits=14, weights="psnr=1", progress=False, resamples=99)
     peak = [w for w in caught if issubclass(w.category, irf.errors.PeakWarning)]
     assert len(peak) == 1, [str(w.message) for w in caught]
+
+
+def test_cli_score_ci(stacks, tmp_path):
+    real, paths, _ = stacks
+    p = run("score", real, paths["mid"], "--bits", "14", "--peak", "range", "--weights", WEIGHTS, "--ci",
+            "--no-progress", "--json", str(tmp_path / "s.json"))
+    assert p.returncode == 0, p.stderr
+    data = json.loads((tmp_path / "s.json").read_text())
+    lo, hi = data["ci"]["fidelity"]
+    assert lo < data["fidelity"] < hi and "intervals at 0.95" in p.stdout
+    single = str(DATA.parent / "cptv_v2_frame000.png")
+    assert_user_error(run("score", single, single, "--ci"), "--ci applies to sequences")

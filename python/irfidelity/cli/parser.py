@@ -180,6 +180,8 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
     o.add_argument("--report", metavar="PATH", help="write a self-contained HTML report")
     o.add_argument("--save-config", metavar="PATH", help="write the scoring configuration used (TOML or JSON)")
     o.add_argument("--resume", action="store_true", help="sequences: keep the frames already scored in --csv")
+    o.add_argument("--ci", action="store_true", help="sequences: also the 0.95 intervals of the pooled fidelity and "
+                                                     "components (block bootstrap over frames; report.ci)")
     o.add_argument("--workers", type=_positive_int, metavar="N", help="sequences: parallel workers")
     o.add_argument("--no-progress", action="store_true", help="sequences: no progress display")
 

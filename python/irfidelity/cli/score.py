@@ -87,7 +87,7 @@ def _sequence(a: argparse.Namespace, config: ScoringConfig, curves: dict) -> Any
         real = _pages(FrameSequence(a.real, channel=config.real_channel), a.pages)
         sim = _pages(FrameSequence(a.sim, channel=config.sim_channel), a.pages)
     return score_sequence(real, sim, config=config, workers=a.workers, progress=not a.no_progress, csv=a.csv,
-                          resume=a.resume, **curves)
+                          resume=a.resume, ci=a.ci, **curves)
 
 
 def _curves(a: argparse.Namespace) -> dict:
@@ -115,7 +115,7 @@ def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
     if seq_real:
         report = _sequence(a, config, curves)
     else:
-        for flag in ("resume", "pages"):
+        for flag in ("resume", "pages", "ci"):
             if getattr(a, flag):
                 raise UsageError(f"--{flag} applies to sequences; REAL and SIM are single frames")
         for name, path in (("REAL", a.real), ("SIM", a.sim)):
