@@ -246,7 +246,8 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
     sim_mtf, sim_sitf, sim_noise : {name: curve}, optional
         Each simulator's curves (a simulator left out has none).
     config, **options : as in ``score_sequence`` (one configuration for every simulator).
-    workers, progress, max_pixels, max_bytes : as in ``score_sequence`` (one progress for all).
+    workers, progress, max_pixels, max_bytes : as in ``score_sequence`` (one progress for all;
+        no Dask ``client``: the shared pass runs on this machine).
     csv : path, optional
         Each simulator's streamed CSV: a path with ``{name}`` in it, or a directory (then
         ``<dir>/<name>.csv``). Names must then be letters, digits, ``.``, ``_``, ``+``, ``-``.
