@@ -42,8 +42,9 @@ from _common import best  # noqa: E402
 
 import irfidelity as irf  # noqa: E402
 from irfidelity import _core  # noqa: E402
-from irfidelity.stats import KernelRequest  # noqa: E402
+from irfidelity.sequence.plan import SequenceRequest  # noqa: E402
 from irfidelity.simulators import compare_reports  # noqa: E402
+from irfidelity.stats import PairRequest  # noqa: E402
 
 STACK = HERE.parent / "tests" / "data" / "thermal" / "cptv_v2_all100frames_uint16.tif"
 ROWS, COLS = 480, 640
@@ -72,7 +73,7 @@ def write_workload(root: pathlib.Path, frames: int) -> dict:
 def decode_twice(paths: list[str], workers: int) -> None:
     """The engine decoding every real frame twice (each against itself), with the cheapest
     statistic (the sum of squared errors): half of it is the real side's decode."""
-    request = KernelRequest(sse=True, moments=False, bins=None)
+    request = SequenceRequest(pair=PairRequest(sse=True, moments=False, bins=None))
     _core.score_pairs(paths, paths, request=request, workers=workers)
 
 

@@ -128,34 +128,6 @@ impl FixedWarp {
             .ok_or_else(|| Error::Value(format!("the registration matrix {:?} cannot be inverted", matrix.0)))?;
         Ok(FixedWarp { to_source, interp })
     }
-
-    /// The real frame as float64, and the simulated frame resampled onto it with the mask of
-    /// the pixels it covers (NaN elsewhere).
-    fn align(&self, real: &FrameData, sim: &FrameData, rows: usize, cols: usize) -> (Vec<f64>, Vec<f64>, Vec<bool>) {
-        macro_rules! on_samples {
-            ($data:expr, |$v:ident| $body:expr) => {
-                match $data {
-                    FrameData::U8($v) => $body,
-                    FrameData::U16($v) => $body,
-                    FrameData::I16($v) => $body,
-                    FrameData::U32($v) => $body,
-                    FrameData::F16($v) => $body,
-                    FrameData::F32($v) => $body,
-                    FrameData::F64($v) => $body,
-                }
-            };
-        }
-        let real = real.to_f64();
-        let (aligned, valid) = on_samples!(sim, |v| self.resample(v, rows, cols));
-        (real, aligned, valid)
-    }
-
-    /// The simulated frame resampled onto the real frame's pixels, with the mask of the
-    /// pixels it covers (NaN elsewhere).
-    fn resample<T: Sample>(&self, sim: &[T], rows: usize, cols: usize) -> (Vec<f64>, Vec<bool>) {
-        let src = WarpSource { data: sim, rows, cols, valid: None };
-        register::warp(&src, &self.to_source, self.interp, rows, cols, f64::NAN)
-    }
 }
 
 fn interp_of(order: u32) -> Result<Interp> {
@@ -167,40 +139,103 @@ impl EachWarp {
     pub fn new(options: register::Options, order: u32) -> Result<EachWarp> {
         Ok(EachWarp { options, interp: interp_of(order)? })
     }
+}
 
-    /// Register the pair, then score it through that registration as [`score_aligned`]
-    /// does. The frames are converted to float64 once, for the search and the statistics.
-    fn score(
+/// A registered pair scored: what [`Warp::score_pair`] returns.
+#[derive(Clone, Debug)]
+pub struct Aligned {
+    /// The pair's own registration ([`Warp::Each`]); None for a fixed one.
+    pub registration: Option<register::Registration>,
+    /// The statistics over the scored pixels, both frames as float64.
+    pub stats: PairStats,
+    /// The real frame's (min, max) over the scored pixels, when asked for (the PSNR peak
+    /// "range" of what is scored).
+    pub extent: Option<(f64, f64)>,
+    /// The simulated frame resampled onto the real one (NaN where it does not cover it).
+    pub sim: Vec<f64>,
+    /// The scored pixels: the overlap, and the caller's mask when given.
+    pub scored: Vec<bool>,
+}
+
+/// One frame pair in memory: samples of one type, `shape = (rows, cols)` row-major, and the
+/// pixel positions that take part (`mask` false excludes a position in both frames).
+#[derive(Clone, Copy, Debug)]
+pub struct PairSlices<'a, T> {
+    pub real: &'a [T],
+    pub sim: &'a [T],
+    pub shape: (usize, usize),
+    pub mask: Option<&'a [bool]>,
+}
+
+impl Warp {
+    /// Score a pair through this registration, the one path of every registered pair (files
+    /// of a sequence, arrays of a sequence, a single pair): integer levels checked against
+    /// `kreq.valid`; with [`Warp::Each`] the pair registered (over `mask`); the simulated
+    /// frame resampled onto the real one (masked simulated pixels unused); the statistics
+    /// over the overlap ∩ `mask`, both frames as float64.
+    pub fn score_pair<T: Sample>(
         &self,
-        r: &Frame,
-        s: &Frame,
+        pair: &PairSlices<'_, T>,
         kreq: &Request,
         want_extent: bool,
-    ) -> Result<(register::Registration, Scored)> {
-        check_pair(r, s, kreq)?;
-        let (rows, cols) = (r.rows, r.cols);
-        let real = r.data.to_f64();
-        let sim = s.data.to_f64();
-        let reg = register::register_frames(
-            &register::Frame::new(&real, rows, cols, None, "real")?,
-            &register::Frame::new(&sim, rows, cols, None, "simulated")?,
-            &self.options,
-        )?;
-        let (aligned, overlap) = FixedWarp::new(&reg.matrix, self.interp)?.resample(&sim, rows, cols);
-        Ok((reg, overlap_stats(&real, &aligned, &overlap, kreq, want_extent)?))
+    ) -> Result<Aligned> {
+        let PairSlices { real, sim, shape: (rows, cols), mask } = *pair;
+        if let Some(valid) = kreq.valid {
+            check_levels(real, valid, "real")?;
+            check_levels(sim, valid, "sim")?;
+        }
+        let (registration, fixed) = match self {
+            Warp::Fixed(fixed) => (None, fixed.clone()),
+            Warp::Each(each) => {
+                let reg = register::register_frames(
+                    &register::Frame::new(real, rows, cols, mask, "real")?,
+                    &register::Frame::new(sim, rows, cols, mask, "simulated")?,
+                    &each.options,
+                )?;
+                let fixed = FixedWarp::new(&reg.matrix, each.interp)?;
+                (Some(reg), fixed)
+            }
+        };
+        let src = WarpSource { data: sim, rows, cols, valid: mask };
+        let (aligned, overlap) = register::warp(&src, &fixed.to_source, fixed.interp, rows, cols, f64::NAN);
+        let scored = match mask {
+            None => overlap,
+            Some(mask) => overlap.iter().zip(mask).map(|(&covered, &keep)| covered && keep).collect(),
+        };
+        let real: Vec<f64> = real.iter().map(|v| v.to_f64()).collect();
+        let (stats, extent) = overlap_stats(&real, &aligned, &scored, kreq, want_extent)?;
+        Ok(Aligned { registration, stats, extent, sim: aligned, scored })
+    }
+
+    /// [`Warp::score_pair`] on two decoded frames (of one sample type, else a shape error).
+    fn score_frames(&self, r: &Frame, s: &Frame, kreq: &Request, want_extent: bool) -> Result<Aligned> {
+        use FrameData::*;
+        let shape = (r.rows, r.cols);
+        macro_rules! pair {
+            ($a:expr, $b:expr) => {
+                self.score_pair(&PairSlices { real: $a, sim: $b, shape, mask: None }, kreq, want_extent)
+            };
+        }
+        match (&r.data, &s.data) {
+            (U8(a), U8(b)) => pair!(a, b),
+            (U16(a), U16(b)) => pair!(a, b),
+            (I16(a), I16(b)) => pair!(a, b),
+            (U32(a), U32(b)) => pair!(a, b),
+            (F16(a), F16(b)) => pair!(a, b),
+            (F32(a), F32(b)) => pair!(a, b),
+            (F64(a), F64(b)) => pair!(a, b),
+            (a, b) => Err(dtype_mismatch(a, b)),
+        }
     }
 }
 
 /// Integer samples within `[lo, hi]` (the kernel's check, made before a warp turns the
-/// frames into floats).
-fn check_levels(data: &FrameData, (lo, hi): (i64, i64), which: &str) -> Result<()> {
-    let (min, max) = match data {
-        FrameData::U8(v) => fold_range(v.iter().map(|&x| x as i64)),
-        FrameData::U16(v) => fold_range(v.iter().map(|&x| x as i64)),
-        FrameData::I16(v) => fold_range(v.iter().map(|&x| x as i64)),
-        FrameData::U32(v) => fold_range(v.iter().map(|&x| x as i64)),
-        _ => return Ok(()),
-    };
+/// frames into floats); float samples pass.
+fn check_levels<T: Sample>(data: &[T], (lo, hi): (i64, i64), which: &str) -> Result<()> {
+    if !T::IS_INT {
+        return Ok(());
+    }
+    let (min, max) = data.iter().fold((i64::MAX, i64::MIN), |(a, b), x| (a.min(x.to_i64()), b.max(x.to_i64())));
     match [min, max].into_iter().find(|&x| x < lo || x > hi) {
         Some(bad) => Err(Error::Range(format!(
             "{which} frame: value {bad} outside the valid range {lo} .. {hi} (set bits to the camera's bit depth, or \
@@ -208,10 +243,6 @@ fn check_levels(data: &FrameData, (lo, hi): (i64, i64), which: &str) -> Result<(
         ))),
         None => Ok(()),
     }
-}
-
-fn fold_range(values: impl Iterator<Item = i64>) -> (i64, i64) {
-    values.fold((i64::MAX, i64::MIN), |(a, b), x| (a.min(x), b.max(x)))
 }
 
 impl Default for SeqRequest {
@@ -342,28 +373,8 @@ fn decode(src: &Source, channel: &Option<String>, req: &SeqRequest) -> Result<(F
     Ok((frame, fp))
 }
 
-/// What every registered pair must satisfy before its frames become floats: one sample type,
-/// and integer levels within the valid range.
-fn check_pair(r: &Frame, s: &Frame, kreq: &Request) -> Result<()> {
-    if r.data.dtype_name() != s.data.dtype_name() {
-        return Err(dtype_mismatch(&r.data, &s.data));
-    }
-    if let Some(valid) = kreq.valid {
-        check_levels(&r.data, valid, "real")?;
-        check_levels(&s.data, valid, "sim")?;
-    }
-    Ok(())
-}
-
 /// A pair's statistics, and the real frame's (min, max) over the pixels scored when asked.
 type Scored = (PairStats, Option<(f64, f64)>);
-
-/// Score a pair through a fixed registration: the overlap only, both frames as float64.
-fn score_aligned(r: &Frame, s: &Frame, warp: &FixedWarp, kreq: &Request, want_extent: bool) -> Result<Scored> {
-    check_pair(r, s, kreq)?;
-    let (real, aligned, overlap) = warp.align(&r.data, &s.data, r.rows, r.cols);
-    overlap_stats(&real, &aligned, &overlap, kreq, want_extent)
-}
 
 /// The statistics of a registered pair over its overlap and, when `want_extent`, the real
 /// frame's (min, max) over the same pixels (the PSNR peak "range" of what is scored, as
@@ -453,14 +464,10 @@ pub fn score_against(
         };
         let st = match &req.warp {
             None => run_kernel(&r.data, &s.data, &kreq),
-            Some(Warp::Fixed(warp)) => score_aligned(r, &s, warp, &kreq, req.real_extent).map(|(st, extent)| {
-                out.real_extent = extent;
-                st
-            }),
-            Some(Warp::Each(each)) => each.score(r, &s, &kreq, req.real_extent).map(|(reg, (st, extent))| {
-                out.registration = Some(reg);
-                out.real_extent = extent;
-                st
+            Some(warp) => warp.score_frames(r, &s, &kreq, req.real_extent).map(|aligned| {
+                out.registration = aligned.registration;
+                out.real_extent = aligned.extent;
+                aligned.stats
             }),
         }
         .map_err(|e| prefix(e, &what()))?;

@@ -11,6 +11,7 @@ import numpy as np
 import irfidelity as irf
 from irfidelity.curves import mtf_from_edge, sitf_fit
 from irfidelity.demo import DEMO_MODEL, load_demo_data, model_sitf, simulate_camera
+from irfidelity.sequence.outcomes import error_entry
 
 DATA = Path(__file__).parent / "data"
 
@@ -51,8 +52,7 @@ def sequence_report(n_frames: int = 1000, *, failed_every: int = 97) -> dict:
                    fidelity=row["fidelity"] + drift,
                    components={c: min(1.0, v + drift) for c, v in row["components"].items()})
         if k % failed_every == failed_every - 1:
-            row = {"index": k, "real": row["real"], "sim": row["sim"], "fidelity": None, "components": {},
-                   "error": f"FrameError: sim_{k:05d}.png: truncated PNG stream"}
+            row = error_entry(k, row["real"], row["sim"], f"FrameError: sim_{k:05d}.png: truncated PNG stream").to_dict()
         rows.append(row)
     d["frames"] = rows
     d["failed"] = [r["index"] for r in rows if r.get("error")]

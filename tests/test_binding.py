@@ -10,7 +10,8 @@ import irfidelity as irf
 from irfidelity import _core
 from irfidelity.errors import FidelityError, FrameError, RangeError, ShapeError
 from irfidelity.frames import FRAME_DTYPES
-from irfidelity.stats import KernelRequest
+from irfidelity.sequence.plan import SequenceRequest
+from irfidelity.stats import PairRequest
 
 # --------------------------------------------------------------------------- unaligned arrays
 RNG = np.random.default_rng(13)
@@ -91,16 +92,16 @@ def test_integers_out_of_range_are_range_errors(value, tmp_path):
     with pytest.raises(RangeError, match="max_pixels must be an integer"):
         _core.load_frame(str(tmp_path / "x.png"), None, 0, value)
     with pytest.raises(RangeError, match="real_pages must be an integer"):
-        _core.score_pairs(["a"], ["b"], [value], [0], request=KernelRequest())
+        _core.score_pairs(["a"], ["b"], [value], [0], request=SequenceRequest())
     with pytest.raises(RangeError, match="workers must be an integer"):
-        _core.score_pairs(["a"], ["b"], request=KernelRequest(), workers=value)
-    with pytest.raises(RangeError, match=r"request: .*KernelRequest\.max_pixels"):
-        _core.score_pairs(["a"], ["b"], request=KernelRequest(max_pixels=value))
-    with pytest.raises(RangeError, match=r"request: .*KernelRequest\.max_bytes"):
-        _core.score_pairs(["a"], ["b"], request=KernelRequest(max_bytes=value))
+        _core.score_pairs(["a"], ["b"], request=SequenceRequest(), workers=value)
+    with pytest.raises(RangeError, match=r"request: .*SequenceRequest\.max_pixels"):
+        _core.score_pairs(["a"], ["b"], request=SequenceRequest(max_pixels=value))
+    with pytest.raises(RangeError, match=r"request: .*SequenceRequest\.max_bytes"):
+        _core.score_pairs(["a"], ["b"], request=SequenceRequest(max_bytes=value))
     real, sim = _pair(np.uint16)
-    with pytest.raises(RangeError, match=r"request: .*KernelRequest\.bins"):
-        _core.pair_stats(real, sim, KernelRequest(bins=value))
+    with pytest.raises(RangeError, match=r"request: .*PairRequest\.bins"):
+        _core.pair_stats(real, sim, PairRequest(bins=value))
 
 
 def test_public_functions_refuse_huge_pages(tmp_path):
@@ -116,48 +117,48 @@ def test_a_bad_request_is_a_fidelity_error():
     real, sim = _pair(np.uint16)
     with pytest.raises(FidelityError, match="no attribute 'sse'"):
         _core.pair_stats(real, sim, object())
-    with pytest.raises(FidelityError, match=r"KernelRequest\.bins: .*integer"):
-        _core.pair_stats(real, sim, KernelRequest(bins="many"))
-    with pytest.raises(FidelityError, match=r"KernelRequest\.hist_range"):
-        _core.score_pairs(["a"], ["b"], request=KernelRequest(hist_range=(0.0, 1.0, 2.0)))
+    with pytest.raises(FidelityError, match=r"PairRequest\.bins: .*integer"):
+        _core.pair_stats(real, sim, PairRequest(bins="many"))
+    with pytest.raises(FidelityError, match=r"SequenceRequest\.pair: .*PairRequest\.hist_range"):
+        _core.score_pairs(["a"], ["b"], request=SequenceRequest(PairRequest(hist_range=(0.0, 1.0, 2.0))))
     with pytest.raises(FidelityError, match="model must be 'translation', 'rigid' or 'similarity', got \"affine\""):
-        _core.score_pairs(["a"], ["b"], request=KernelRequest(register_each=("affine", "auto", None, 3)))
+        _core.score_pairs(["a"], ["b"], request=SequenceRequest(register_each=("affine", "auto", None, 3)))
     with pytest.raises(FidelityError, match="warp order must be 1 .* got 2"):
-        _core.score_pairs(["a"], ["b"], request=KernelRequest(register_each=("rigid", "auto", None, 2)))
+        _core.score_pairs(["a"], ["b"], request=SequenceRequest(register_each=("rigid", "auto", None, 2)))
     with pytest.raises(FidelityError, match="warp and register_each exclude each other"):
-        _core.score_pairs(["a"], ["b"], request=KernelRequest(warp=((1.0, 0.0, 0.0, 0.0, 1.0, 0.0), 3),
-                                                              register_each=("rigid", "auto", None, 3)))
+        _core.score_pairs(["a"], ["b"], request=SequenceRequest(warp=((1.0, 0.0, 0.0, 0.0, 1.0, 0.0), 3),
+                                                                register_each=("rigid", "auto", None, 3)))
 
 
 # --------------------------------------------------------------------------- request and errors
 def test_the_request_says_what_is_computed():
     real, sim = _pair(np.uint16)
-    st = _core.pair_stats(real, sim, KernelRequest(sse=True, moments=False))
+    st = _core.pair_stats(real, sim, PairRequest(sse=True, moments=False))
     assert st.has_sse and not st.has_moments and not st.has_hist
-    st = _core.pair_stats(real, sim, KernelRequest(sse=False, moments=False, levels=True))
+    st = _core.pair_stats(real, sim, PairRequest(sse=False, moments=False, levels=True))
     assert st.hist_spec() == ("levels",)
-    st = _core.pair_stats(real, sim, KernelRequest(sse=False, moments=False, bins=8, hist_range=(0.0, 7.0)))
+    st = _core.pair_stats(real, sim, PairRequest(sse=False, moments=False, bins=8, hist_range=(0.0, 7.0)))
     assert st.hist_spec() == ("bins", 8, 0.0, 1.0)
     with pytest.raises(RangeError, match="2047"):
-        _core.pair_stats(real, sim, KernelRequest(valid=(0, 2047)))
+        _core.pair_stats(real, sim, PairRequest(valid=(0, 2047)))
 
 
 def test_core_errors_are_irfidelity_classes(tmp_path):
     real, sim = _pair(np.uint16)
     with pytest.raises(ShapeError, match=r"differ in dtype: uint16 vs float32"):
-        _core.pair_stats(real, sim.astype(np.float32), KernelRequest())
+        _core.pair_stats(real, sim.astype(np.float32), PairRequest())
     with pytest.raises(ShapeError, match=r"differ in shape: \(37, 41\) vs \(41, 37\)"):
-        _core.pair_stats(real, sim.T.copy(), KernelRequest())
+        _core.pair_stats(real, sim.T.copy(), PairRequest())
     with pytest.raises(ShapeError, match=r"unsupported frame dtype int64"):
-        _core.pair_stats(real.astype(np.int64), sim.astype(np.int64), KernelRequest())
+        _core.pair_stats(real.astype(np.int64), sim.astype(np.int64), PairRequest())
     with pytest.raises(ShapeError, match=r"expected 2-D frames, got shape \(1517,\)"):
-        _core.pair_stats(real.ravel(), sim.ravel(), KernelRequest())
+        _core.pair_stats(real.ravel(), sim.ravel(), PairRequest())
     with pytest.raises(ShapeError, match=r"mask: shape \(41, 37\)"):
-        _core.pair_stats(real, sim, KernelRequest(), np.ones((41, 37), bool))
+        _core.pair_stats(real, sim, PairRequest(), np.ones((41, 37), bool))
     with pytest.raises(FrameError, match="missing.png"):
         _core.load_frame(str(tmp_path / "missing.png"))
     with pytest.raises(FidelityError, match="real: 2 paths but 1 pages"):
-        _core.score_pairs(["a", "b"], ["a", "b"], [0], request=KernelRequest())
+        _core.score_pairs(["a", "b"], ["a", "b"], [0], request=SequenceRequest())
     with pytest.raises(FidelityError, match="PairStats"):
         _core.PairStats.from_bytes(b"junk")
 
@@ -167,7 +168,7 @@ def test_supported_dtypes_come_from_the_binding():
     assert FRAME_DTYPES == tuple(np.dtype(n) for n in _core.SUPPORTED_DTYPES)
     for name in _core.SUPPORTED_DTYPES:
         a = np.arange(12, dtype=name).reshape(3, 4)
-        assert _core.pair_stats(a, a, KernelRequest()).n == 12
+        assert _core.pair_stats(a, a, PairRequest()).n == 12
 
 
 # --------------------------------------------------------------------------- int_sums

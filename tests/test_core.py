@@ -592,13 +592,13 @@ def test_entropies_from_many_threads_at_once():
     script = r"""
 import threading, numpy as np
 from irfidelity import _core
-from irfidelity.stats import KernelRequest
+from irfidelity.stats import PairRequest
 rng = np.random.default_rng(1)
 r = rng.integers(0, 16384, (256, 320)).astype(np.uint16)
 s = (r // 2 + rng.integers(0, 3, r.shape)).astype(np.uint16)
-want = _core.pair_stats(r, s, KernelRequest(sse=False, moments=False, bins=256)).entropies()
+want = _core.pair_stats(r, s, PairRequest(sse=False, moments=False, bins=256)).entropies()
 for _ in range(40):
-    st = _core.pair_stats(r, s, KernelRequest(sse=False, moments=False, bins=256))
+    st = _core.pair_stats(r, s, PairRequest(sse=False, moments=False, bins=256))
     out = []
     ts = [threading.Thread(target=lambda: out.append(st.entropies())) for _ in range(4)]
     [t.start() for t in ts]

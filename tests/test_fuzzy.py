@@ -26,7 +26,7 @@ class TestWeights:
     def test_default_is_paper(self):
         w = Weights()
         assert w == Weights.balanced()
-        assert w.as_dict() == {**{k: 0.2 for k in PAPER_COMPONENTS}, "noise": 0.0}
+        assert w.as_dict() == {**{k: 0.2 for k in PAPER_COMPONENTS}, "noise": 0.0, "radiometry": 0.0, "mrtd": 0.0}
         assert w.active() == PAPER_COMPONENTS
 
     def test_presets_valid_and_emphasised(self):
@@ -60,7 +60,8 @@ class TestWeights:
 
     def test_normalized(self):
         w = Weights.normalized(mtf=3, psnr=1)
-        assert w.as_dict() == {"mtf": 0.75, "sitf": 0.0, "psnr": 0.25, "nmi": 0.0, "ssim": 0.0, "noise": 0.0}
+        assert w.as_dict() == {"mtf": 0.75, "sitf": 0.0, "psnr": 0.25, "nmi": 0.0, "ssim": 0.0, "noise": 0.0,
+                               "radiometry": 0.0, "mrtd": 0.0}
         with pytest.raises(FidelityError, match="all be 0"):
             Weights.normalized(mtf=0)
         with pytest.raises(FidelityError, match="unknown"):
@@ -101,9 +102,11 @@ def test_fidelity_sum_is_eq15():
     f = {"mtf": 0.9, "sitf": 0.8, "psnr": 0.7, "nmi": 0.3, "ssim": 0.95}
     w = Weights(mtf=0.1, sitf=0.2, psnr=0.3, nmi=0.25, ssim=0.15)
     assert fidelity_sum(w, f) == math.fsum(w[k] * f[k] for k in PAPER_COMPONENTS)
-    # the opt-in sixth component adds like the others
-    w6 = Weights(mtf=0.1, sitf=0.1, psnr=0.3, nmi=0.25, ssim=0.15, noise=0.1)
-    assert fidelity_sum(w6, {**f, "noise": 0.5}) == math.fsum(w6[k] * {**f, "noise": 0.5}[k] for k in COMPONENTS)
+    # the opt-in components add like the others
+    w8 = Weights(mtf=0.1, sitf=0.1, psnr=0.3, nmi=0.2, ssim=0.1, noise=0.1, radiometry=0.05, mrtd=0.05)
+    f8 = {**f, "noise": 0.5, "radiometry": 0.7, "mrtd": 0.8}
+    assert set(f8) == set(COMPONENTS)
+    assert fidelity_sum(w8, f8) == math.fsum(w8[k] * f8[k] for k in COMPONENTS)
     with pytest.raises(FidelityError, match="no value"):
         fidelity_sum(w, {"mtf": 1.0})
 

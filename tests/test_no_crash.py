@@ -23,7 +23,7 @@ from child_process import run_python
 
 import irfidelity as irf
 from irfidelity import _core
-from irfidelity.stats import KernelRequest
+from irfidelity.sequence.plan import SequenceRequest
 from irfidelity.errors import FrameError
 
 # Peak resident memory allowed for a child that decodes one (possibly 16384 x 16384) frame.
@@ -341,7 +341,7 @@ def test_sequence_row_for_a_hostile_frame(tmp_path: Path) -> None:
     good = tmp_path / "good.png"
     good.write_bytes(png_file(8, 8, 8, 0, zlib.compress(b"\0" * 72)))
     rows = _core.score_pairs([str(good), str(bad)], [str(good), str(good)], workers=1,
-                             request=KernelRequest(max_bytes=64 << 20))
+                             request=SequenceRequest(max_bytes=64 << 20))
     assert rows[0][2] is None and rows[0][1] is not None
     assert rows[1][1] is None and BUDGET in rows[1][2] and "67108864 bytes" in rows[1][2]
 

@@ -276,10 +276,11 @@ def test_the_engine_fingerprints_what_it_decoded(tmp_path):
     tifffile.imwrite(stack, np.concatenate([real, sim]))
     png = tmp_path / "one.png"
     cv2.imwrite(str(png), real[0])
-    from irfidelity.stats import KernelRequest
+    from irfidelity.sequence.plan import SequenceRequest
+    from irfidelity.stats import PairRequest
 
     out = _core.score_pairs([str(png), str(stack), str(stack)], [str(stack)] * 3, [0, 1, 2], [3, 4, 5],
-                            request=KernelRequest(bins=None), fingerprints=True)
+                            request=SequenceRequest(PairRequest(bins=None)), fingerprints=True)
     digests = dict(zip(map(str, (png, stack)), _core.file_digests([png, stack])))
     for k, st, err, *_, fingerprints in out:
         assert err is None

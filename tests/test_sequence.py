@@ -30,7 +30,8 @@ from irfidelity.errors import FidelityError
 from irfidelity.evaluation import evaluate
 from irfidelity.metrics import psnr_from_mse
 from irfidelity.sequence import SequenceReport, score_sequence
-from irfidelity.stats import KernelRequest
+from irfidelity.sequence.plan import SequenceRequest
+from irfidelity.stats import PairRequest
 
 tifffile = pytest.importorskip("tifffile")
 cv2 = pytest.importorskip("cv2")
@@ -173,7 +174,7 @@ def test_only_the_plan_is_computed(lepton):
                            "psnr_db", "psnr_peak", "f_psnr", "fidelity", "grade", "error"]
     # the engine itself skips moments and histograms
     out = _core.score_pairs([str(real_path)], [str(real_path)], [0], [1],
-                            request=KernelRequest(sse=True, moments=False, bins=None))
+                            request=SequenceRequest(PairRequest(sse=True, moments=False, bins=None)))
     (_, st, err, shape, dtype, extent, registration, fingerprints), = out
     assert extent is None and registration is None and fingerprints is None  # not asked for
     assert err is None and st.has_sse and not st.has_moments and not st.has_hist
@@ -187,7 +188,7 @@ def test_mismatched_counts_fail_before_any_work(lepton, tmp_path):
         score_sequence(real, sim[:99], csv=out, progress=False)  # arrays have no names to pair by
     assert not out.exists()
     with pytest.raises(FidelityError, match="3 frames and the simulated sequence 2"):
-        _core.score_pairs(["a", "b", "c"], ["a", "b"], request=KernelRequest())
+        _core.score_pairs(["a", "b", "c"], ["a", "b"], request=SequenceRequest())
 
 
 def test_truncated_frame_fails_alone(png_dirs, tmp_path):
@@ -348,7 +349,7 @@ def test_progress_reaches_python_and_tqdm_is_optional(lepton, monkeypatch):
     real_path, sim_path, _, _ = lepton
     calls = []
     out = _core.score_pairs([str(real_path)] * 40, [str(sim_path)] * 40, list(range(40)), list(range(40)),
-                            workers=2, progress=calls.append, request=KernelRequest(bins=256))
+                            workers=2, progress=calls.append, request=SequenceRequest(PairRequest(bins=256)))
     assert len(out) == 40 and calls and calls[-1] == 40 and calls == sorted(calls)
     # progress=True without tqdm: no bar, no error
     import builtins
@@ -375,7 +376,7 @@ def test_callback_errors_stop_the_engine(lepton):
 
     with pytest.raises(RuntimeError, match="stop"):
         _core.score_pairs([str(real_path)] * 100, [str(sim_path)] * 100, list(range(100)), list(range(100)),
-                          workers=1, on_result=on_result, request=KernelRequest())
+                          workers=1, on_result=on_result, request=SequenceRequest())
     assert 1 <= len(got) < 100
 
 

@@ -20,6 +20,7 @@ import irfidelity as irf
 from irfidelity import _core
 from irfidelity.errors import FidelityError
 from irfidelity.sequence.intervals import sequence_intervals
+from irfidelity.sequence.plan import SequenceRequest
 from irfidelity.simulators import compare_reports
 
 DATA = pathlib.Path(__file__).parent / "data" / "thermal" / "cptv_v2_all100frames_uint16.tif"
@@ -95,7 +96,7 @@ def test_arrays_are_ranked_the_same_way(stacks, compared):
 
 
 def test_score_shared_matches_score_pairs_and_checks_its_tasks():
-    request = irf.stats.KernelRequest(bins=64)
+    request = SequenceRequest(pair=irf.stats.PairRequest(bins=64))
     real_paths, real_pages = [str(DATA)] * 4, [0, 1, 2, 3]
     sim_pages = [5, 6, 7, 8, 9, 10, 11, 12]
     out = _core.score_shared(real_paths, real_pages, [str(DATA)] * 8, sim_pages, [0, 1, 2, 3] * 2, [0] * 8,

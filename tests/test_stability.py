@@ -144,6 +144,18 @@ def test_all_zeros(dtype):
     assert (m["ssim_luminance"], m["ssim_contrast"], m["ssim_structure"], m["ssim"], m["nmi"]) == (1, 1, 1, 1, 1)
 
 
+@pytest.mark.parametrize("n", range(1, 40))
+def test_constant_float_frame_mean_is_its_value_and_merges_stay_constant(n):
+    # Σx/n of n copies of x can round an ulp away; a merge of two constant parts would then
+    # see a spread (variance ~1e-32) and global SSIM without constants would drop from 1 to 0
+    value, other = -4.9995625, -5.0
+    real, sim = np.full((n + 1, 1), other), np.full((n + 1, 1), value)
+    assert irf.pair_stats(sim[:n], sim[:n], peak=1e7).moments()["mean_real"] == value
+    merged = irf.pair_stats(real[:1], sim[:1], peak=1e7).merge(irf.pair_stats(real[1:], sim[1:], peak=1e7))
+    assert merged.moments()["var_sim"] == 0.0
+    assert merged.ssim().contrast == 1.0
+
+
 def test_one_frame_constant_the_other_not():
     r = np.full((4, 4), 7, U16)
     s = np.arange(16, dtype=U16).reshape(4, 4)

@@ -12,6 +12,7 @@ module: :mod:`irfidelity.curves` (MTF, slanted edge, SiTF, curve similarity),
 
 from . import curves, fuzzy
 from . import targets
+from .bar_frames import BarFrames
 from .config import ScoringConfig
 from .curves import Curve
 from .errors import FidelityError, FidelityWarning, FrameError, RangeError, RegistrationError, ShapeError
@@ -50,6 +51,7 @@ __all__ = [
     "load_frame",
     "FrameSequence",
     "Curve",
+    "BarFrames",
     # physical units (docs/radiometry.md)
     "read_radiometry",
     "Radiometry",

@@ -7,7 +7,8 @@ from typing import Any, final
 import numpy as np
 import numpy.typing as npt
 
-from irfidelity.stats import KernelRequest
+from irfidelity.sequence.plan import SequenceRequest
+from irfidelity.stats import PairRequest
 
 __all__ = [
     "MS_SSIM_WEIGHTS",
@@ -16,7 +17,9 @@ __all__ = [
     "REGISTRATION_AMBIGUOUS",
     "REGISTRATION_INTEGER_SNAP",
     "REGISTRATION_LOW_CONFIDENCE",
+    "REGISTRATION_METHODS",
     "REGISTRATION_MIN_OVERLAP",
+    "REGISTRATION_MODELS",
     "SUPPORTED_DTYPES",
     "applied_matrix",
     "default_max_bytes",
@@ -37,6 +40,7 @@ __all__ = [
     "read_camera_info",
     "register_frames",
     "score_pairs",
+    "score_registered",
     "score_shared",
     "ssim_map",
     "tiff_ifds_read",
@@ -69,6 +73,14 @@ class PairStats:
     def moments(self) -> tuple[float, float, float, float, float] | None: ...
     def centred(self) -> tuple[float, float, float] | None: ...
     def entropies(self) -> tuple[float, float, float] | None: ...
+    def summary(
+        self,
+    ) -> tuple[
+        float | None,
+        tuple[float, float, float, float, float] | None,
+        tuple[float, float, float] | None,
+        tuple[float, float, float] | None,
+    ]: ...
     def hist_spec(self) -> tuple[Any, ...] | None: ...
     def int_sums(self) -> dict[str, int] | None: ...
     def joint_histogram(self, max_cells: int) -> tuple[npt.NDArray[np.int64], int, int] | None: ...
@@ -88,7 +100,7 @@ def plain_moments(real: object, sim: object) -> PairStats | None:
 def pair_stats(
     real: npt.NDArray[Any],
     sim: npt.NDArray[Any],
-    request: KernelRequest,
+    request: PairRequest,
     mask: npt.NDArray[np.bool_] | None = None,
 ) -> PairStats: ...
 
@@ -132,7 +144,7 @@ def score_pairs(
     real_pages: list[int] | None = None,
     sim_pages: list[int] | None = None,
     *,
-    request: KernelRequest,
+    request: SequenceRequest,
     workers: int = 0,
     progress: Callable[[int], Any] | None = None,
     on_result: Callable[[list[Any]], Any] | None = None,
@@ -146,7 +158,7 @@ def score_shared(
     owners: list[int],
     kinds: list[int],
     *,
-    requests: list[KernelRequest],
+    requests: list[SequenceRequest],
     workers: int = 0,
     progress: Callable[[int], Any] | None = None,
     on_result: Callable[[list[Any]], Any] | None = None,
@@ -238,6 +250,8 @@ REGISTRATION_LOW_CONFIDENCE: float
 REGISTRATION_AMBIGUOUS: float
 REGISTRATION_MIN_OVERLAP: float
 REGISTRATION_INTEGER_SNAP: float
+REGISTRATION_MODELS: list[str]
+REGISTRATION_METHODS: list[str]
 
 def applied_matrix(
     matrix: tuple[float, float, float, float, float, float],
@@ -258,3 +272,20 @@ def warp_frame(
     shape: tuple[int, int],
     mask: npt.NDArray[np.bool_] | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]: ...
+def score_registered(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    request: PairRequest,
+    *,
+    search: tuple[str, str, float | None] | None = None,
+    matrix: tuple[float, float, float, float, float, float] | None = None,
+    order: int = 3,
+    mask: npt.NDArray[np.bool_] | None = None,
+    extent: bool = False,
+) -> tuple[
+    PairStats,
+    tuple[tuple[float, float, float, float, float, float], str, float, float, bool] | None,
+    tuple[float, float] | None,
+    npt.NDArray[np.float64],
+    npt.NDArray[np.bool_],
+]: ...

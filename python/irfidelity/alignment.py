@@ -1,33 +1,82 @@
-"""A registered pair ready for the image statistics (paper §2.4, docs/registration.md).
+"""A registered pair scored in one call (paper §2.4, docs/registration.md).
 
 With ``config.register`` set, a single pair is registered and a sequence is registered once
-(on its first readable pair); then every pair is scored through that registration: the real
-frame as float64, the simulated frame resampled onto it (:meth:`Registration.apply`), and
-the overlap as the mask, so pixels the simulated frame does not cover never count. The bit
-depth is checked on the integer frames first, since the resampled ones are floats.
+(on its first readable pair) or pair by pair (``register_each``); every registered pair then
+takes the one path of ``_core.score_registered`` — the path the sequence engine takes for
+each file pair: integer levels checked against the bit depth, the pair registered (or a
+registration found before applied), the simulated frame resampled onto the real one, and the
+statistics computed over the overlap (and the mask), both frames as float64, in one Rust call
+with the GIL released.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from . import _core
 from .config import ScoringConfig
-from .errors import RangeError
+from .errors import ShapeError
+from .registration import DEFAULT_ORDER, Registration, from_engine, warn_if_unsure
+from .stats import PairRequest, _frame_pair
 
-__all__ = ["find_registration", "aligned_pair", "check_levels"]
+__all__ = ["RegisteredPair", "score_registered", "find_registration"]
 
 
-def check_levels(frame: np.ndarray, valid: tuple[int, int] | None, which: str) -> None:
-    """Integer samples within ``valid`` (what the kernel checks on unregistered frames)."""
-    if valid is None or frame.size == 0 or frame.dtype.kind not in "ui":
-        return
-    lo, hi = int(frame.min()), int(frame.max())
-    if lo < valid[0] or hi > valid[1]:
-        bad = lo if lo < valid[0] else hi
-        raise RangeError(f"{which} frame: value {bad} outside the valid range {valid[0]} .. {valid[1]} (set bits to "
-                         f"the camera's bit depth, or leave it unset)", option="bits")
+@dataclass(frozen=True)
+class RegisteredPair:
+    """A pair scored through a registration.
+
+    Attributes
+    ----------
+    stats : _core.PairStats
+        The statistics over the scored pixels (both frames as float64).
+    registration : Registration
+        The registration applied (the pair's own when it was searched).
+    extent : (float, float) or None
+        The real frame's (min, max) over the scored pixels, when asked for.
+    sim : ndarray
+        The simulated frame resampled onto the real one (float64, NaN where it does not cover it).
+    mask : ndarray
+        The scored pixels: the overlap, and the caller's mask.
+    """
+
+    stats: Any
+    registration: Registration
+    extent: tuple[float, float] | None
+    sim: np.ndarray
+    mask: np.ndarray
+
+
+def score_registered(real: Any, sim: Any, request: PairRequest, *, model: str | None = None,
+                     method: str | None = None, registration: Registration | None = None, mask: Any = None,
+                     extent: bool = False) -> RegisteredPair:
+    """Register ``sim`` onto ``real`` (``model``, ``method``) or apply ``registration``, and
+    compute what ``request`` asks for over the overlap, in one Rust call.
+
+    ``request.valid`` bounds the integer samples before they are resampled; a searched
+    registration of low confidence warns (:class:`~irfidelity.RegistrationWarning`).
+    """
+    r, s = (np.ascontiguousarray(f) for f in _frame_pair(real, sim))
+    if mask is not None:
+        mask = np.ascontiguousarray(mask, dtype=bool)
+        if mask.shape != r.shape:
+            raise ShapeError(f"mask has shape {mask.shape}, frames have {r.shape}")
+    if registration is None:
+        search, matrix = (model, method, None), None
+    else:
+        if tuple(registration.shape) != r.shape:
+            raise ShapeError(f"sim has shape {r.shape}, the registration was made for {tuple(registration.shape)}")
+        search, matrix = None, tuple(float(v) for v in registration.matrix.ravel())
+    raw, found, span, aligned, scored = _core.score_registered(r, s, request, search=search, matrix=matrix,
+                                                               order=DEFAULT_ORDER, mask=mask, extent=extent)
+    if found is not None:
+        registration = from_engine(found, str(model), r.shape)
+        warn_if_unsure(registration)
+    assert registration is not None
+    return RegisteredPair(raw, registration, span, aligned, scored)
 
 
 def find_registration(real: np.ndarray, sim: np.ndarray, config: ScoringConfig, mask: Any = None) -> Any:
@@ -36,19 +85,3 @@ def find_registration(real: np.ndarray, sim: np.ndarray, config: ScoringConfig, 
 
     return register(real, sim, model=config.register, method=config.register_method,
                     mask=None if mask is None else np.asarray(mask, dtype=bool))
-
-
-def aligned_pair(real: Any, sim: Any, registration: Any, mask: Any = None,
-                 valid: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(real as float64, sim resampled onto it, mask of the scored pixels)``.
-
-    The mask is the overlap (where every interpolation tap lies inside the simulated frame)
-    and ``mask`` when given. ``valid``: the allowed integer levels, checked before resampling.
-    """
-    real, sim = np.asarray(real), np.asarray(sim)
-    check_levels(real, valid, "real")
-    check_levels(sim, valid, "sim")
-    keep_sim = None if mask is None else np.asarray(mask, dtype=bool)
-    aligned, overlap = registration.apply(sim, mask=keep_sim)
-    keep = overlap if keep_sim is None else overlap & keep_sim
-    return real.astype(np.float64), aligned, keep

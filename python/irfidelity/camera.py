@@ -1,9 +1,13 @@
 """The camera-property components from whatever the user gives: f1 (MTF), f2 (SiTF) and the
-opt-in ``noise`` component.
+opt-in ``noise`` and ``mrtd`` components.
 
 A curve input is a :class:`~irfidelity.Curve`, an ``(x, y)`` pair, a CSV path, or — for the
 MTF — a slanted-edge image (array or path) measured with
-:func:`irfidelity.curves.mtf_from_edge`. A noise input is a :class:`~irfidelity.noise.Noise3D`
+:func:`irfidelity.curves.mtf_from_edge`, bar frames (a :class:`~irfidelity.BarFrames` or a
+directory with a ``bars.csv``: the fundamental-amplitude MTF), or a CTF curve of
+:func:`irfidelity.curves.ctf_curve` (converted by Coltman's series). An MRTD input is a curve
+(e.g. :func:`irfidelity.curves.mrtd`, the model from MTF and NETD) or bar frames (the MRTD
+measured on them, :func:`irfidelity.curves.measured_mrtd`). A noise input is a :class:`~irfidelity.noise.Noise3D`
 or a recording of a uniform source (3-D array, directory, glob, multi-page TIFF) measured with
 :func:`irfidelity.noise.noise3d`. These are camera properties: a sequence compares them once,
 before any frame, and every frame's fidelity includes them.
@@ -27,7 +31,7 @@ __all__ = ["CameraInputs", "camera_components", "describe_input"]
 _CURVE_EXTENSIONS = (".csv", ".txt", ".tsv", ".dat")
 
 #: The camera-property components, in report order.
-KINDS = ("mtf", "sitf", "noise")
+KINDS = ("mtf", "sitf", "noise", "mrtd")
 
 
 @dataclass(frozen=True)
@@ -40,6 +44,8 @@ class CameraInputs:
     sim_sitf: Any = None
     real_noise: Any = None
     sim_noise: Any = None
+    real_mrtd: Any = None
+    sim_mrtd: Any = None
 
     def __post_init__(self) -> None:
         for kind in KINDS:
@@ -49,7 +55,7 @@ class CameraInputs:
                 raise FidelityError(f"{given} was given without {absent}: give both or neither", option=absent)
 
     def given(self) -> dict[str, bool]:
-        """``{kind: whether both inputs were given}`` for mtf, sitf and noise."""
+        """``{kind: whether both inputs were given}`` for mtf, sitf, noise and mrtd."""
         return {kind: getattr(self, f"real_{kind}") is not None for kind in KINDS}
 
 
@@ -83,9 +89,37 @@ def edge_channel(config: ScoringConfig, side: str) -> str | None:
     return own if own is not None else config.edge_channel
 
 
+def _camera(config: ScoringConfig) -> Any:
+    from .curves import CameraGeometry
+
+    return CameraGeometry(ifov_mrad=config.ifov_mrad, pixel_pitch_um=config.pixel_pitch_um,
+                          focal_length_mm=config.focal_length_mm)
+
+
+def _bar_mtf(x: Any, what: str, config: ScoringConfig, edge_side: str) -> Curve | None:
+    """The MTF of bar frames (fundamental-amplitude ratio), or of a CTF curve of
+    :func:`~irfidelity.curves.ctf_curve` (Coltman's series); None for other inputs."""
+    from .bar_frames import as_bar_frames, bar_curves
+    from .curves import mtf_from_ctf
+
+    if isinstance(x, Curve):
+        return mtf_from_ctf(x, name=what) if x.meta.get("quantity") == "ctf" else None
+    bars = as_bar_frames(x)
+    if bars is None:
+        return None
+    channel = config.real_channel if edge_side == "real" else config.sim_channel
+    who = "real" if edge_side == "real" else "simulated"
+    return bar_curves(bars, who=who, channel=channel, camera=_camera(config), quantities=("mtf",))["mtf"]
+
+
 def as_curve(x: Any, what: str, config: ScoringConfig, *, edge_side: str | None) -> Curve:
     """A Curve from a Curve, an (x, y) pair, a CSV path, or (MTF only: ``edge_side`` "real" or
-    "sim") a slanted-edge image, an array or a path read with that side's edge channel."""
+    "sim") a slanted-edge image, an array or a path read with that side's edge channel, bar
+    frames or a CTF curve."""
+    if edge_side is not None:
+        from_bars = _bar_mtf(x, what, config, edge_side)
+        if from_bars is not None:
+            return from_bars
     if isinstance(x, Curve):
         return x
     if isinstance(x, (str, os.PathLike)):
@@ -129,19 +163,48 @@ def _compare_noise(inputs: CameraInputs, config: ScoringConfig) -> tuple[float, 
     return float(s.value), s.metrics(), described, {"real_noise": real, "sim_noise": sim}
 
 
+def as_mrtd(x: Any, side: str, config: ScoringConfig) -> dict[str, Curve]:
+    """``{"mrtd": Curve}`` from an MRTD curve (Curve, (x, y), CSV path), or the measured MRTD,
+    CTF and MTF of bar frames (a BarFrames or a bar directory); ``side``: "real" or "sim"."""
+    from .bar_frames import as_bar_frames, bar_curves
+
+    who = "real" if side == "real" else "simulated"
+    bars = as_bar_frames(x)
+    if bars is None:
+        return {"mrtd": as_curve(x, f"{who} MRTD", config, edge_side=None)}
+    measure = {k: v for k, v in config.mrtd_options.items() if k in ("snr_threshold", "eye_time", "frame_rate")}
+    channel = config.real_channel if side == "real" else config.sim_channel
+    return bar_curves(bars, who=who, channel=channel, camera=_camera(config), **measure)
+
+
+def _compare_mrtd(inputs: CameraInputs, config: ScoringConfig) -> tuple[float, dict, dict, dict]:
+    from .curves.mrtd_similarity import mrtd_similarity
+
+    measured = {side: as_mrtd(getattr(inputs, f"{side}_mrtd"), side, config) for side in ("real", "sim")}
+    compare = {k: v for k, v in config.mrtd_options.items() if k in ("tolerance", "points", "alpha", "beta")}
+    s = mrtd_similarity(measured["real"]["mrtd"], measured["sim"]["mrtd"], camera=_camera(config), **compare)
+    metrics = {"mrtd_real": s.a, "mrtd_sim": s.b, "mrtd_ratio": s.ratio, "mrtd_mu": s.mu, "mrtd_rho": s.rho,
+               "mrtd_max_deviation": s.max_deviation, "mrtd_tolerance": s.tolerance,
+               "mrtd_f_min": float(s.points[0]), "mrtd_f_max": float(s.points[-1]), "mrtd_f_unit": s.x_unit}
+    described = {f"{side}_mrtd": describe_input(getattr(inputs, f"{side}_mrtd")) for side in ("real", "sim")}
+    compared = {f"{side}_{'bar_mtf' if k == 'mtf' else k}": c for side in ("real", "sim")
+                for k, c in measured[side].items()}
+    return float(s.value), metrics, described, compared
+
+
 def _compare(kind: str, inputs: CameraInputs, config: ScoringConfig) -> tuple[float, dict, dict, dict]:
     """One camera component: its value, raw metrics, input descriptions and what was compared."""
-    from .curves import CameraGeometry, mtf_similarity, sitf_similarity
+    from .curves import mtf_similarity, sitf_similarity
 
     if kind == "noise":
         return _compare_noise(inputs, config)
+    if kind == "mrtd":
+        return _compare_mrtd(inputs, config)
     real_in, sim_in = getattr(inputs, f"real_{kind}"), getattr(inputs, f"sim_{kind}")
     real = as_curve(real_in, f"real {kind.upper()}", config, edge_side="real" if kind == "mtf" else None)
     sim = as_curve(sim_in, f"simulated {kind.upper()}", config, edge_side="sim" if kind == "mtf" else None)
     if kind == "mtf":
-        camera = CameraGeometry(ifov_mrad=config.ifov_mrad, pixel_pitch_um=config.pixel_pitch_um,
-                                focal_length_mm=config.focal_length_mm)
-        s = mtf_similarity(real, sim, camera=camera, **config.mtf_options)
+        s = mtf_similarity(real, sim, camera=_camera(config), **config.mtf_options)
         metrics = {"mtf50_real": s.a, "mtf50_sim": s.b, "mtf50_unit": s.x_unit}
     else:
         s = sitf_similarity(real, sim, **config.sitf_options)
@@ -154,7 +217,7 @@ def _compare(kind: str, inputs: CameraInputs, config: ScoringConfig) -> tuple[fl
 
 def camera_components(inputs: CameraInputs, weights: Weights, config: ScoringConfig
                      ) -> tuple[dict, dict, dict, dict]:
-    """Components f1 (MTF, eqs. 1–4), f2 (SiTF) and ``noise`` whose weight is positive.
+    """Components f1 (MTF, eqs. 1–4), f2 (SiTF), ``noise`` and ``mrtd`` whose weight is positive.
 
     Inputs with weight 0 are not read at all. Curves in different units are converted with
     the configuration's camera geometry, or refused (:mod:`irfidelity.curves.units`).
@@ -164,7 +227,8 @@ def camera_components(inputs: CameraInputs, weights: Weights, config: ScoringCon
     (components, metrics, inputs, curves)
         ``{"mtf"|"sitf": f}``; the raw metrics (:data:`irfidelity.schema.METRICS`); short input
         descriptions; and the :class:`~irfidelity.Curve` and noise objects compared
-        (``real_mtf``, ..., ``real_noise``, ``sim_noise``).
+        (``real_mtf``, ..., ``real_noise``, ``sim_noise``, ``real_mrtd``, ``sim_mrtd``; from bar
+        frames also ``real_ctf``, ``real_bar_mtf``, ``sim_ctf``, ``sim_bar_mtf``).
     """
     components: dict[str, float] = {}
     metrics: dict[str, Any] = {}

@@ -26,6 +26,7 @@ from .errors import FidelityError
 from .fuzzy import GradeScale, Weights
 from .normalize import DEFAULT_PSNR_ANCHORS, psnr_curve_params
 from .registration import DEFAULT_METHOD
+from .temperature import unit_fields
 
 __all__ = ["ScoringConfig", "MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "PAIRING_RULES"]
 
@@ -90,6 +91,12 @@ class ScoringConfig:
         e.g. ``{"points": 64}``. Names and values are checked when the configuration is built;
         ``points`` is a count or a list of at most
         :data:`~irfidelity.curves.similarity.MAX_FEATURE_POINTS` (65536).
+    mrtd_options : mapping
+        Options of the ``mrtd`` component: the comparison
+        (:func:`irfidelity.curves.mrtd_similarity`: ``tolerance`` in % of ΔT, ``points``,
+        ``alpha``, ``beta``) and the MRTD measured on bar frames
+        (:func:`irfidelity.curves.measured_mrtd`: ``snr_threshold``, ``eye_time``,
+        ``frame_rate``), e.g. ``{"tolerance": 10}``.
     grades : GradeScale
         Grade names and boundaries of the fuzzy evaluation.
     register : "translation", "rigid", "similarity" or None
@@ -109,13 +116,28 @@ class ScoringConfig:
     pair_by : "auto", "name" or "order"
         Sequences: pair frames by file name (``"auto"`` does when both sides are named
         files) or by position. With ``max_delay``, by position (``"name"`` is refused).
+    unit : "K", "C" or None
+        Score temperatures in this unit (:mod:`irfidelity.temperature`): radiometric files are
+        converted with their calibration, float frames taken as already in the unit; adds the
+        ``temperature_*`` metrics and allows the opt-in ``radiometry`` component. The PSNR peak
+        then defaults to the real frame's temperature range, and ``bits`` does not apply.
+    calibration : mapping
+        With ``unit``: calibration fields replacing a radiometric file's (``emissivity``,
+        ``reflected_temperature`` (°C), ``object_distance`` (m), ``relative_humidity`` (%), ...:
+        :data:`irfidelity.radiometry.CALIBRATION_FIELDS`), which with all five Planck constants
+        also calibrate integer frames that carry none; or a linear ``gain`` and ``offset``
+        (temperature in ``unit`` = gain·count + offset) for integer frames without a calibration.
+    temperature_tolerance : float or None
+        With ``unit``: the error in K counted as within tolerance, and the scale of the
+        ``radiometry`` component. None: the real camera's NETD when the noise component
+        measured it, else 1 K.
 
     Examples
     --------
     >>> import irfidelity as irf
     >>> cfg = irf.ScoringConfig(bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
     >>> print(cfg.weights)
-    mtf=0, sitf=0, psnr=0.5, nmi=0, ssim=0.5, noise=0
+    mtf=0, sitf=0, psnr=0.5, nmi=0, ssim=0.5, noise=0, radiometry=0, mrtd=0
     >>> cfg.replace(bins="levels").bins, cfg.bins                 # frozen: replace makes a copy
     ('levels', 256)
     >>> cfg.save("scoring.toml")
@@ -143,12 +165,16 @@ class ScoringConfig:
     focal_length_mm: float | None = None
     mtf_options: Mapping = field(default_factory=dict)
     sitf_options: Mapping = field(default_factory=dict)
+    mrtd_options: Mapping = field(default_factory=dict)
     grades: GradeScale = field(default_factory=GradeScale)
     register: str | None = None
     register_method: str = DEFAULT_METHOD
     register_each: bool = False
     max_delay: int = 0
     pair_by: str = "auto"
+    unit: str | None = None
+    calibration: Mapping = field(default_factory=dict)
+    temperature_tolerance: float | None = None
 
     def __post_init__(self) -> None:
         for name, value in self._validated().items():
@@ -181,7 +207,7 @@ class ScoringConfig:
         out["edge_fit_order"] = optional_int("edge_fit_order", self.edge_fit_order, 1, 5)
         for name in ("ifov_mrad", "pixel_pitch_um", "focal_length_mm"):
             out[name] = optional_positive(name, getattr(self, name))
-        for name in ("mtf_options", "sitf_options"):
+        for name in ("mtf_options", "sitf_options", "mrtd_options"):
             out[name] = curve_options(name, getattr(self, name))
         if not isinstance(self.grades, GradeScale):
             out["grades"] = grade_scale(self.grades)
@@ -197,7 +223,13 @@ class ScoringConfig:
         if out["max_delay"] and out["pair_by"] == "name":
             raise ConfigError("pair_by", "frames paired by name have no delay to search; with max_delay the frames "
                                          "are paired by position, offset by the delay found (pair_by = auto or order)")
+        out.update(unit_fields(self.unit, self.calibration, self.temperature_tolerance, out["bits"]))
         return out
+
+    @property
+    def numeric_peak(self) -> float | None:
+        """The PSNR peak when it is a number; None for ``"range"`` (each real frame's own) or unset."""
+        return self.peak if isinstance(self.peak, float) else None
 
     # -- construction ---------------------------------------------------------------
     @classmethod
@@ -210,16 +242,22 @@ class ScoringConfig:
 
         Unknown names raise :class:`~irfidelity.FidelityError` listing the valid ones.
         """
+        changes = self._known(changes)
+        return dataclasses.replace(self, **changes) if changes else self
+
+    @classmethod
+    def _known(cls, changes: Mapping[str, Any]) -> dict[str, Any]:
+        """``changes`` by field (``channel`` sets both frame channels); unknown names raise."""
         changes = dict(changes)
         if "channel" in changes:
             channel = changes.pop("channel")
             changes.setdefault("real_channel", channel)
             changes.setdefault("sim_channel", channel)
-        unknown = sorted(set(changes) - set(self.fields()))
+        unknown = sorted(set(changes) - set(cls.fields()))
         if unknown:
             raise FidelityError(f"unknown scoring option(s) {', '.join(unknown)}; "
-                                f"the options are: {', '.join(self.fields())}, channel", option=unknown[0])
-        return dataclasses.replace(self, **changes) if changes else self
+                                f"the options are: {', '.join(cls.fields())}, channel", option=unknown[0])
+        return changes
 
     @classmethod
     def resolve(cls, config: ScoringConfig | Mapping | str | os.PathLike | None = None,
@@ -227,9 +265,10 @@ class ScoringConfig:
         """The configuration an entry point runs with: ``config`` (an object, a mapping or a
         TOML/JSON path; default: the defaults) with ``overrides`` applied. Overrides that
         are None are ignored, so keyword arguments left at their default change nothing."""
+        overrides = {k: v for k, v in overrides.items() if v is not None}
         if config is None:
-            base = cls()
-        elif isinstance(config, ScoringConfig):
+            return cls(**cls._known(overrides))  # validated once
+        if isinstance(config, ScoringConfig):
             base = config
         elif isinstance(config, Mapping):
             base = cls.from_dict(config)
@@ -238,7 +277,7 @@ class ScoringConfig:
         else:
             raise FidelityError(f"config: expected a ScoringConfig, a mapping or a TOML/JSON path; "
                                 f"got {type(config).__name__}")
-        return base.replace(**{k: v for k, v in overrides.items() if v is not None})
+        return base.replace(**overrides)
 
     # -- serialisation --------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
@@ -291,7 +330,8 @@ class ScoringConfig:
     def to_toml(self) -> str:
         """The configuration as TOML. TOML has no null: a field that is None is written as a
         commented-out example. Keys that are not bare TOML keys are quoted."""
-        return toml_document(self.to_dict(), ("weights", "mtf_options", "sitf_options", "grades"), _UNSET_EXAMPLES,
+        tables = ("weights", "mtf_options", "sitf_options", "mrtd_options", "grades", "calibration")
+        return toml_document(self.to_dict(), tables, _UNSET_EXAMPLES,
                              "irfidelity scoring configuration (irfidelity score --config FILE)")
 
 
@@ -308,6 +348,8 @@ _UNSET_EXAMPLES = {
     "pixel_pitch_um": "12.0",
     "focal_length_mm": "25.0",
     "register": '"translation"   # or "rigid", "similarity": align before the image metrics',
+    "unit": '"K"          # or "C": score temperatures (radiometric files, float frames)',
+    "temperature_tolerance": "0.5   # K; default the real camera's NETD, else 1 K",
 }
 
 

@@ -10,6 +10,7 @@ import numbers
 from collections.abc import Mapping
 from typing import Any
 
+from . import _core
 from .curves.similarity import MAX_FEATURE_POINTS
 from .errors import FidelityError
 from .fuzzy import GradeScale
@@ -20,8 +21,9 @@ __all__ = ["MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "REGISTRAT
 
 MISSING_MODES = ("renormalize", "raise")
 NONFINITE_MODES = ("raise", "mask")
-REGISTRATION_MODELS = ("translation", "rigid", "similarity")
-REGISTRATION_METHODS = ("auto", "phase", "nmi")
+#: Registration models and methods: the Rust core's lists (``crate::register::Model::ALL``, ``Method::ALL``).
+REGISTRATION_MODELS: tuple[str, ...] = tuple(_core.REGISTRATION_MODELS)
+REGISTRATION_METHODS: tuple[str, ...] = tuple(_core.REGISTRATION_METHODS)
 PAIRING_RULES = ("auto", "name", "order")
 PEAK_RULES = ("range",)
 
@@ -141,6 +143,13 @@ def _exponent(name: str, value: Any) -> float:
     return number
 
 
+def _positive(name: str, value: Any) -> float:
+    number = _real(value)
+    if number is None or not number > 0:
+        raise ConfigError(name, f"expected a finite number > 0; got {_short(value)}")
+    return number
+
+
 def _fraction(name: str, value: Any) -> float:
     number = _real(value)
     if number is None or not 0 <= number <= 1:
@@ -183,6 +192,8 @@ CURVE_OPTIONS: dict[str, dict[str, Any]] = {
     "sitf_options": {"window": _sitf_window, "lo_frac": _fraction, "hi_frac": _fraction,
                      "method": lambda name, value: choice(name, value, ("band", "logistic")),
                      "points": _points, "alpha": _exponent, "beta": _exponent},
+    "mrtd_options": {"tolerance": _exponent, "points": _points, "alpha": _exponent, "beta": _exponent,
+                     "snr_threshold": _positive, "eye_time": _positive, "frame_rate": _positive},
 }
 
 

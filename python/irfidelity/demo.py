@@ -13,6 +13,10 @@ Gaussian optical blur, a gain/offset (non-uniformity calibration) error and addi
 Gaussian temporal noise with a fixed seed, rounded and clipped to the bit depth. Its
 SiTF is :func:`model_sitf`: in-band (8–12 µm) Planck radiance mapped linearly onto
 digital levels through the first and last calibration points.
+
+In temperatures (:func:`run_radiometric_demo`): a FLIR AX8 radiometric JPEG (80×60;
+Nervengift/read_thermal.py, CC0-1.0) converted with its own calibration, against a simulator
+that renders temperatures in float (blurred, 3 % too much contrast and 0.8 K too warm).
 """
 
 from __future__ import annotations
@@ -28,7 +32,8 @@ from .curves import Curve
 from .evaluation import FidelityReport, evaluate
 from .fuzzy import Weights
 
-__all__ = ["gaussian_blur", "simulate_camera", "model_sitf", "load_demo_data", "run_demo", "DEMO_MODEL"]
+__all__ = ["gaussian_blur", "simulate_camera", "model_sitf", "load_demo_data", "run_demo", "run_radiometric_demo",
+           "DEMO_MODEL"]
 
 #: Parameters of the demo's camera model (frame: Lepton counts; edge: 8-bit grey levels).
 DEMO_MODEL = {
@@ -40,6 +45,10 @@ DEMO_MODEL = {
 FRAME_FILE = "cptv_v2_frame000.png"
 EDGE_FILE = "sfr_edge_x2084_y0616_F2_grey.png"
 SITF_FILE = "pyradi_jade_lwir_calibration_sitf.csv"
+RADIOMETRIC_FILE = "readthermal_flir_ax8.jpg"
+
+#: The radiometric demo's simulator: blur (px), contrast gain about the mean, offset (K).
+RADIOMETRIC_MODEL = {"sigma": 0.8, "gain": 1.03, "offset": 0.8}
 
 
 def gaussian_blur(img: np.ndarray, sigma: float) -> np.ndarray:
@@ -133,6 +142,29 @@ def run_demo(*, weights: Weights | None = None, out: Callable[[str], None] | Non
         out(f"  MTF   : real slanted-edge crop vs the same crop blurred (sigma={em['sigma']} px) + N(0, {em['noise']}²)")
         out("  SiTF  : measured Jade LWIR calibration vs in-band (8-12 um) Planck model, two-point calibrated")
         out("  PSNR  : peak 'range', the real frame's max - min (the scene spans a small part of 14 bits)")
+        out("")
+        out(rep.summary_text())
+    return rep
+
+
+def run_radiometric_demo(*, out: Callable[[str], None] | None = print) -> FidelityReport:
+    """Score a toy temperature-rendering simulator against the bundled FLIR AX8 radiometric JPEG
+    in °C (``unit="C"``), with the opt-in ``radiometry`` component weighted; print the report."""
+    from .frames import load_frame
+
+    m = RADIOMETRIC_MODEL
+    with _resource(RADIOMETRIC_FILE) as p:
+        path = str(p)
+        celsius = load_frame(path, unit="C")
+        mean = float(celsius.mean())
+        sim = m["gain"] * (gaussian_blur(celsius, m["sigma"]) - mean) + mean + m["offset"]
+        rep = evaluate(path, sim, unit="C", weights="psnr=0.25,nmi=0.15,ssim=0.3,radiometry=0.3")
+    rep.inputs.update(real=f"{RADIOMETRIC_FILE} (FLIR AX8 radiometric JPEG, 80x60, its own calibration)",
+                      sim="float temperatures from a toy simulator")
+    if out is not None:
+        out("irfidelity demo, in temperatures: a simulator rendering °C against a FLIR AX8 radiometric JPEG")
+        out(f"  real      : {rep.inputs['real']}")
+        out(f"  simulated : {m['gain']}·(blur_sigma={m['sigma']}px(real °C) − mean) + mean + {m['offset']} K")
         out("")
         out(rep.summary_text())
     return rep

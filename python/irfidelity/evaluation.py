@@ -16,11 +16,12 @@ import numpy as np
 
 from . import stats as _stats
 from .camera import CameraInputs, camera_components, describe_input
-from .alignment import aligned_pair, check_levels, find_registration
+from .alignment import score_registered
 from .config import ScoringConfig
 from .errors import FidelityError, RangeError, ShapeError
 from .results import FidelityReport, recorded_warnings
 from .scoring import image_components, plan_components, psnr_peak, score_components
+from .temperature import TemperatureErrors, scoring_config, temperature_scores, to_temperature, tolerance_for
 
 __all__ = ["evaluate"]
 
@@ -39,52 +40,43 @@ def _load(x: Any, which: str, channel: str | None) -> np.ndarray:
     return load_frame(x, channel=channel)
 
 
-def real_range(real: np.ndarray, mask: Any, nonfinite: str) -> float | None:
-    """``max − min`` of the real frame over the pixels that are scored (finite, unmasked)."""
-    values = np.asarray(real)
-    if mask is not None:
-        values = values[np.asarray(mask, dtype=bool)]
-    if values.dtype.kind == "f":
-        values = values[np.isfinite(values)] if nonfinite == "mask" else values
-        if values.size and not np.isfinite(values).all():
-            return None  # the kernel reports the non-finite values with their position
-    if values.size == 0:
-        return None
-    return float(values.max()) - float(values.min())
-
-
-def _registered(r: np.ndarray, s: np.ndarray, mask: Any, config: ScoringConfig, sources: dict
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
-    """Register the simulated frame onto the real one and resample it (docs/registration.md):
-    float64 frames, the scored mask, and the PSNR peak of the original sample type (a bit
-    depth applies to the integer frames only)."""
+def _registered(r: Any, s: Any, mask: Any, components: tuple, config: ScoringConfig, sources: dict
+                ) -> tuple[_stats.PairStats, float | None]:
+    """Register the simulated frame onto the real one, resample it and compute the statistics
+    over the overlap in one Rust call (:func:`irfidelity.alignment.score_registered`,
+    docs/registration.md): the statistics (with the PSNR peak of the original sample type; a
+    bit depth bounds the integer frames only) and the real frame's range over the scored
+    pixels."""
     r, s = np.asarray(r), np.asarray(s)
-    numeric_peak = config.peak if isinstance(config.peak, float) else None
-    peak, valid = _stats.peak_and_valid(r.dtype, config.bits, numeric_peak)
-    check_levels(r, valid, "real")
-    check_levels(s, valid, "sim")
-    reg = find_registration(r, s, config, mask)
-    sources["registration"] = reg
-    return (*aligned_pair(r, s, reg, mask), peak)
+    peak, valid = _stats.peak_and_valid(r.dtype, config.bits, config.numeric_peak)
+    scored = np.dtype(np.float64)
+    request, bins = _stats.kernel_request(components, scored, bins=config.bins, hist_range=config.hist_range,
+                                          full=_stats.full_range(scored, None, peak), nonfinite=config.nonfinite,
+                                          valid=valid)
+    pair = score_registered(r, s, request, model=config.register, method=config.register_method, mask=mask,
+                            extent="psnr" in components)
+    sources.update(sim=pair.sim, mask=pair.mask, sim_unregistered=s, registration=pair.registration)
+    span = None if pair.extent is None else pair.extent[1] - pair.extent[0]
+    return _stats.PairStats(pair.stats, peak=peak, bins=bins), span
 
 
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any,
                  inputs: dict, sources: dict) -> _stats.PairStats:
     r = _load(real, "real", config.real_channel)
     s = _load(sim, "sim", config.sim_channel)
+    if config.unit is not None:
+        r, s = to_temperature(r, real, "real", config), to_temperature(s, sim, "sim", config)
     sources.update(real=r, sim=s, mask=mask)
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
                   dtype=np.asarray(r).dtype.name)
-    bits = config.bits
-    numeric_peak = config.peak if isinstance(config.peak, float) else None
-    default_peak = None
-    if config.register is not None:
-        r, s, mask, default_peak = _registered(r, s, mask, config, sources)
-        sources.update(sim=s, mask=mask)
-        bits, numeric_peak = None, default_peak
     try:
-        st = _stats.pair_stats(r, s, bits=bits, peak=numeric_peak, bins=config.bins,
-                               hist_range=config.hist_range, mask=mask, need=components, nonfinite=config.nonfinite)
+        if config.register is not None:
+            st, span = _registered(r, s, mask, components, config, sources)
+        else:
+            st = _stats.pair_stats(r, s, bits=config.bits, peak=config.numeric_peak, bins=config.bins,
+                                   hist_range=config.hist_range, mask=mask, need=components,
+                                   nonfinite=config.nonfinite)
+            span = _stats.real_range(r, mask, config.nonfinite) if "psnr" in components else None
     except (ShapeError, RangeError) as exc:
         paths = [f"{which} {inputs[which]}" for which, x in (("real", real), ("sim", sim))
                  if isinstance(x, (str, os.PathLike))]
@@ -92,9 +84,8 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
             raise
         raise type(exc)(f"{' / '.join(paths)}: {exc}", option=getattr(exc, "option", None)) from None
     if "psnr" in components:
-        dtype = np.asarray(r).dtype
-        default = default_peak if default_peak is not None else _stats.peak_and_valid(dtype, config.bits, None)[0]
-        peak = psnr_peak(config, default, real_range(r, mask, config.nonfinite), where="real frame")
+        # st.peak is the default peak (2**bits - 1, the dtype's): psnr_peak needs it only without a peak
+        peak = psnr_peak(config, st.peak, span, where="real frame")
         if peak != st.peak:
             st = st.with_peak(peak)
     return st
@@ -102,7 +93,7 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
 
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
              real_sitf: Any = None, sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-             mask: Any = None, config: ScoringConfig | None = None, **options: Any) -> FidelityReport:
+             real_mrtd: Any = None, sim_mrtd: Any = None, mask: Any = None, config: ScoringConfig | None = None, **options: Any) -> FidelityReport:
     """Fidelity of a simulator on one scene (paper eq. 15) with its five components.
 
     Parameters
@@ -111,15 +102,23 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         The real and simulated frame (paths are loaded with :func:`irfidelity.load_frame`;
         a multi-page TIFF is a sequence: use :func:`irfidelity.score_sequence`). Needed by
         psnr, nmi, ssim.
-    real_mtf, sim_mtf : Curve, (x, y), CSV path, or edge image (2-D array or image path)
+    real_mtf, sim_mtf : Curve, (x, y), CSV path, edge image (2-D array or image path), or bar frames
         MTF curves of both cameras; an edge image goes through
-        :func:`irfidelity.curves.mtf_from_edge`. Component f1.
+        :func:`irfidelity.curves.mtf_from_edge`; bar frames (:class:`~irfidelity.BarFrames` or a
+        directory with a ``bars.csv``) give their fundamental-amplitude MTF, and a CTF curve of
+        :func:`irfidelity.curves.ctf_curve` is converted by Coltman's series. Component f1.
     real_sitf, sim_sitf : Curve, (x, y) or CSV path
         SiTF curves. Component f2.
     real_noise, sim_noise : Noise3D, or a recording of a uniform source (3-D array, directory,
         glob, multi-page TIFF), optional
         The opt-in ``noise`` component (weight 0 by default: give it a weight, e.g.
         ``weights="psnr=0.3,nmi=0.2,ssim=0.3,noise=0.2"``); :func:`irfidelity.noise.noise3d`.
+    real_mrtd, sim_mrtd : Curve, (x, y), CSV path, or bar frames, optional
+        The opt-in ``mrtd`` component (weight 0 by default): MRTD curves (e.g. the model
+        :func:`irfidelity.curves.mrtd` from MTF and NETD), or bar frames
+        (:class:`~irfidelity.BarFrames` or a directory with a ``bars.csv``) whose MRTD is
+        measured (:func:`irfidelity.curves.measured_mrtd`); compared by
+        :func:`irfidelity.curves.mrtd_similarity` (docs/bars.md).
     mask : 2-D bool array, optional
         ``False`` excludes a pixel pair from the image components.
     config : ScoringConfig, mapping or TOML/JSON path, optional
@@ -160,21 +159,29 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     ----------
     Acta Photonica Sinica 41(5):547 (2012), doi:10.3788/gzxb20124105.0547.
     """
-    cfg = ScoringConfig.resolve(config, **options)
+    cfg = scoring_config(ScoringConfig.resolve(config, **options))
     if (real is None) != (sim is None):
         given, absent = ("real", "sim") if sim is None else ("sim", "real")
         raise FidelityError(f"{given} was given without {absent}: give both frames or neither", option=absent)
-    camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise)
+    camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
     given = camera.given()
     weights, image_plan, skipped = plan_components(cfg.weights, cfg.missing, have_images=real is not None,
                                                    have_mtf=given["mtf"], have_sitf=given["sitf"],
-                                                   have_noise=given["noise"])
+                                                   have_noise=given["noise"], have_unit=cfg.unit is not None,
+                                                   have_mrtd=given["mrtd"])
+    in_unit = cfg.unit is not None and real is not None
     with recorded_warnings() as notes:
         components, metrics, inputs, compared = camera_components(camera, weights, cfg)
         sources: dict[str, Any] = {"curves": compared}
-        if image_plan:
+        if image_plan or in_unit:
             st = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources)
             image, image_metrics = image_components(st, image_plan, cfg)
+            components.update(image)
+            metrics.update(image_metrics)
+        if in_unit:
+            errors = TemperatureErrors.of_frames(sources["real"], sources["sim"], mask=sources["mask"],
+                                                 tolerance=tolerance_for(cfg, metrics), unit=str(cfg.unit))
+            image, image_metrics = temperature_scores(errors, weights)
             components.update(image)
             metrics.update(image_metrics)
     score = score_components(components, metrics, weights, cfg)
@@ -183,5 +190,5 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
                           weights=weights, metrics=score.metrics,
                           component_grades=dict(score.grading.component_grades),
                           membership=dict(score.grading.membership), skipped=skipped, config=cfg,
-                          grading=score.grading.to_dict(), notes=notes, inputs=inputs, sources=sources,
+                          matrix=score.grading.matrix, notes=notes, inputs=inputs, sources=sources,
                           registration=None if registration is None else registration.to_dict())

@@ -44,12 +44,13 @@ __all__ = [
 #: The paper's components, in its order f1..f5.
 PAPER_COMPONENTS = ("mtf", "sitf", "psnr", "nmi", "ssim")
 
-#: Every component: the paper's five, then ``noise`` (opt-in, weight 0 by default).
-COMPONENTS = PAPER_COMPONENTS + ("noise",)
+#: Every component: the paper's five, then the opt-in ``noise``, ``radiometry`` and ``mrtd``
+#: (weight 0 by default).
+COMPONENTS = PAPER_COMPONENTS + ("noise", "radiometry", "mrtd")
 
 
 def ordered_components(components: Mapping[str, float]) -> dict:
-    """The given components in the paper's order (mtf, sitf, psnr, nmi, ssim), then noise."""
+    """The given components in the paper's order (mtf, sitf, psnr, nmi, ssim), then noise, radiometry, mrtd."""
     return {k: components[k] for k in COMPONENTS if k in components}
 
 _TOL = 1e-9
@@ -80,7 +81,8 @@ class Weights:
     all by :func:`irfidelity.evaluate`.
 
     The default (``Weights()``) is the paper's: 1/5 each of its five components, and 0 for the
-    opt-in sixth, ``noise`` (the camera's 3-D noise, :mod:`irfidelity.noise`).
+    opt-in ``noise`` (the camera's 3-D noise, :mod:`irfidelity.noise`), ``radiometry`` (temperature
+    errors, :mod:`irfidelity.temperature`) and ``mrtd`` (the MRTD curves, docs/bars.md).
 
     Examples
     --------
@@ -96,13 +98,17 @@ class Weights:
     nmi: float = 0.2
     ssim: float = 0.2
     noise: float = 0.0
+    radiometry: float = 0.0
+    mrtd: float = 0.0
 
     def __init__(self, mtf: float = 0.2, sitf: float = 0.2, psnr: float = 0.2, nmi: float = 0.2,
-                 ssim: float = 0.2, noise: float = 0.0, **unknown: Any) -> None:
+                 ssim: float = 0.2, noise: float = 0.0, radiometry: float = 0.0, mrtd: float = 0.0,
+                 **unknown: Any) -> None:
         if unknown:
             raise FidelityError(f"unknown weight name(s) {sorted(unknown)}; expected some of {list(COMPONENTS)}",
                                 option="weights")
-        vals = {name: _number(value, name) for name, value in zip(COMPONENTS, (mtf, sitf, psnr, nmi, ssim, noise))}
+        given = (mtf, sitf, psnr, nmi, ssim, noise, radiometry, mrtd)
+        vals = {name: _number(value, name) for name, value in zip(COMPONENTS, given)}
         for name, value in vals.items():
             object.__setattr__(self, name, value)
         try:
@@ -392,8 +398,10 @@ def ahp(matrix: Any, *, names: Iterable[str] = PAPER_COMPONENTS, on_inconsistent
 #: psnr: the paper's dB scale, f3 = 0.6 / 0.8 / 0.9 at 17.2 / 23.4 / 30 dB (30 dB: the paper's
 #: "indistinguishable"). nmi, ssim: the values they take for the same degradation, white noise
 #: at those PSNRs relative to the scene's range, median over the real thermal frames of
-#: tests/data (benches/calibrate_grades.py). mtf, sitf, noise: judgement (a comparison of
-#: camera properties has no noise scale to calibrate against), docs/interpretation.md.
+#: tests/data (benches/calibrate_grades.py). radiometry: 0.9 / 0.9^4 / 0.9^9, the values of a pure
+#: offset of 1, 2 and 3 temperature tolerances (:mod:`irfidelity.temperature`). mtf, sitf, noise,
+#: mrtd: judgement (a comparison of camera properties has no noise scale to calibrate against),
+#: docs/interpretation.md.
 DEFAULT_CUTS = {
     "mtf": (0.70, 0.85, 0.95),
     "sitf": (0.70, 0.85, 0.95),
@@ -401,11 +409,14 @@ DEFAULT_CUTS = {
     "nmi": (0.05, 0.07, 0.145),
     "ssim": (0.20, 0.50, 0.82),
     "noise": (0.70, 0.85, 0.95),
+    "radiometry": (0.387, 0.656, 0.90),
+    "mrtd": (0.70, 0.85, 0.95),
 }
 
 #: Half-width of the fuzzy transition around each boundary, per component (at most half the
 #: smallest gap between boundaries, so every value's memberships still sum to 1).
-DEFAULT_WIDTHS = {"mtf": 0.04, "sitf": 0.04, "psnr": 0.04, "nmi": 0.01, "ssim": 0.04, "noise": 0.04}
+DEFAULT_WIDTHS = {"mtf": 0.04, "sitf": 0.04, "psnr": 0.04, "nmi": 0.01, "ssim": 0.04, "noise": 0.04,
+                  "radiometry": 0.04, "mrtd": 0.04}
 
 
 def _ramp_up(x: float, c: float, w: float) -> float:

@@ -30,14 +30,15 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import _core
+from .config_fields import REGISTRATION_METHODS, REGISTRATION_MODELS
 from .errors import FidelityError, RegistrationWarning, ShapeError
 from .stats import _as_frame
 
 __all__ = ["register", "Registration", "RegistrationWarning", "MODELS", "METHODS", "DEFAULT_METHOD",
            "LOW_CONFIDENCE", "DEFAULT_ORDER", "INTEGER_SNAP"]
 
-MODELS = ("translation", "rigid", "similarity")
-METHODS = ("auto", "phase", "nmi")
+MODELS = REGISTRATION_MODELS
+METHODS = REGISTRATION_METHODS
 #: The method used unless one is given (:func:`register`, ``ScoringConfig.register_method``,
 #: ``--register-method``). Phase correlation: on simulations of real frames it is within
 #: 0.08 px of the true transform in a fraction of ``"auto"``'s time, and ``"auto"``'s
@@ -336,9 +337,13 @@ def register(real: Any, sim: Any, *, model: str = "translation", method: str = D
         if mask.shape != r.shape:
             raise ShapeError(f"mask has shape {mask.shape}, frames have {r.shape}")
     reg = from_engine(_core.register_frames(r, s, model, method, max_shift, mask), model, r.shape)
+    warn_if_unsure(reg, stacklevel=3)
+    return reg
+
+
+def warn_if_unsure(reg: Registration, stacklevel: int = 4) -> None:
+    """A :class:`RegistrationWarning` when ``reg``'s confidence is below :data:`LOW_CONFIDENCE`."""
     if reg.confidence < LOW_CONFIDENCE:
         warnings.warn(RegistrationWarning(
             f"unsure registration: confidence {reg.confidence:.3f} < {LOW_CONFIDENCE} (another transform matches "
-            f"nearly as well); check the pair or restrict max_shift. {reg!r}"), stacklevel=2)
-    return reg
-
+            f"nearly as well); check the pair or restrict max_shift. {reg!r}"), stacklevel=stacklevel)

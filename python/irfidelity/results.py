@@ -1,4 +1,5 @@
-"""The report of one scene: :class:`FidelityReport`, and the text shared by every report.
+"""What every report holds (:class:`ReportBase`), the report of one scene
+(:class:`FidelityReport`), and the text shared by every report.
 
 A report holds the verdict (fidelity, grade, components, raw metrics) and how it was made
 (the :class:`~irfidelity.ScoringConfig`, the irfidelity version, the effective weights,
@@ -13,7 +14,7 @@ import os
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any, Mapping, Self
 
 from .config import ScoringConfig
 from .errors import FidelityError
@@ -22,7 +23,7 @@ from . import readback
 from .readback import Fields, check_json, shared_fields
 from .schema import from_json, to_json
 
-__all__ = ["FidelityReport", "component_lines", "recorded_warnings", "reading_report"]
+__all__ = ["ReportBase", "FidelityReport", "component_lines", "recorded_warnings", "reading_report"]
 
 
 @contextlib.contextmanager
@@ -70,6 +71,10 @@ _RAW = {
     "nmi": lambda m: f"MI {m['mi']:.4f}, H(R) {m['h_real']:.4f}, H(S) {m['h_sim']:.4f}, H(R,S) {m['h_joint']:.4f}",
     "noise": lambda m: f"σ_tvh real {m['noise_sigma_tvh_real']:.4g}, sim {m['noise_sigma_tvh_sim']:.4g}; "
                        f"mu {m['noise_mu']:.4f}, rho {m['noise_rho']:.4f}",
+    "radiometry": lambda m: f"bias {m['temperature_bias']:+.4g} K, RMSE {m['temperature_rmse']:.4g} K "
+                            f"against the tolerance {m['temperature_tolerance']:.4g} K",
+    "mrtd": lambda m: f"MRTD real {m['mrtd_real']:.4g} K, sim {m['mrtd_sim']:.4g} K (×{m['mrtd_ratio']:.3g}); "
+                      f"mu {m['mrtd_mu']:.4f}, rho {m['mrtd_rho']:.4f}",
     "ssim": lambda m: f"SSIM {m['ssim']:.4f} = l {m['ssim_luminance']:.4f} · c {m['ssim_contrast']:.4f} · "
                       f"s {m['ssim_structure']:.4f}",
 }
@@ -90,25 +95,40 @@ def component_lines(components: Mapping[str, float], component_grades: Mapping[s
             lines.append(f"{k:<10} {weights[k]:>7.4f} {components[k]:>8.4f}  {component_grades.get(k, ''):<9} {raw}")
         else:
             lines.append(f"{k:<10} {'-':>7} {'-':>8}  {'':<9} skipped: {skipped.get(k, '')}")
+    if "temperature_bias" in metrics:
+        lines.append(temperature_line(metrics))
     return lines
 
 
-@dataclass
-class FidelityReport:
-    """The fidelity of one scene (paper eq. 15) with everything it came from.
+def temperature_line(metrics: Mapping[str, Any]) -> str:
+    """One line: the errors of the simulated temperatures (scored in a unit)."""
+    m = metrics
+    return (f"temperatures ({m['temperature_unit']}): bias (sim − real) {m['temperature_bias']:+.4g} K, "
+            f"RMSE {m['temperature_rmse']:.4g} K, MAE {m['temperature_mae']:.4g} K, "
+            f"{100 * m['temperature_within']:.1f} % of pixels within ±{m['temperature_tolerance']:.4g} K")
+
+
+@dataclass(kw_only=True)
+class ReportBase:
+    """What every report holds: the verdict and how it was made.
+
+    A single pair's :class:`FidelityReport` and a sequence's
+    :class:`~irfidelity.SequenceReport` (its pooled result) share these fields, their JSON
+    keys (:meth:`to_dict`, :meth:`from_dict`) and their lines of :meth:`summary_text`.
 
     Attributes
     ----------
-    fidelity : float
-        ``Σ k_i·f_i`` over the computed components, with ``weights`` (eq. 15).
-    grade : str
+    fidelity : float or None
+        ``Σ k_i·f_i`` over the computed components, with ``weights`` (eq. 15); None when
+        nothing was scored (a sequence whose every frame failed).
+    grade : str or None
         Overall grade (rule: :class:`~irfidelity.fuzzy.GradeScale`).
     components : dict
         ``{name: f_i}`` for the computed components only (positive weight, inputs given).
     component_grades : dict
         ``{name: grade}`` of each computed component.
     membership : dict
-        ``B = K·R``: ``{grade: membership}``.
+        ``B = K·R``: ``{grade: membership}``, best grade first.
     metrics : dict
         Raw values behind the components (:data:`irfidelity.schema.METRICS`), with ``n``.
     weights : Weights
@@ -120,68 +140,38 @@ class FidelityReport:
         What decided the score.
     version : str
         The irfidelity version that made the report.
-    grading : dict
-        The full evaluation matrix ``R`` and memberships.
     notes : list of str
         Warnings raised while computing.
     inputs : dict
         Short descriptions of the inputs (paths, shapes).
     registration : dict or None
-        The registration applied before the image components (``config.register``):
-        :meth:`irfidelity.Registration.to_dict` — model, method, matrix, shift, angle, scale,
-        confidence, overlap. The image components then count the overlap only.
-
-    Examples
-    --------
-    >>> import json, numpy as np, irfidelity as irf
-    >>> real = np.arange(64, dtype=np.uint16).reshape(8, 8)    # a scene spanning 63 counts
-    >>> rep = irf.evaluate(real, real + 1, bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
-    >>> round(rep.fidelity, 3), rep.grade, rep.component_grades
-    (0.978, 'excellent', {'psnr': 'excellent', 'ssim': 'excellent'})
-    >>> rep.skipped                                              # not computed, and why
-    {'mtf': 'weight 0', 'sitf': 'weight 0', 'nmi': 'weight 0'}
-    >>> irf.FidelityReport.from_dict(json.loads(json.dumps(rep.to_dict()))) == rep
-    True
+        The registration applied before the image components (``config.register``).
+    sources : dict
+        What the report was computed from, for :meth:`to_html` (frames, curves); not part of
+        the JSON form, not compared. Picklable, as the whole report is.
     """
 
-    fidelity: float
-    grade: str
-    components: dict
     weights: Weights
-    metrics: dict = field(default_factory=dict)
+    fidelity: float | None = None
+    grade: str | None = None
+    components: dict = field(default_factory=dict)
     component_grades: dict = field(default_factory=dict)
     membership: dict = field(default_factory=dict)
+    metrics: dict = field(default_factory=dict)
     skipped: dict = field(default_factory=dict)
     config: ScoringConfig = field(default_factory=ScoringConfig)
     version: str = field(default_factory=version)
-    grading: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
     inputs: dict = field(default_factory=dict)
     registration: dict | None = None
     sources: dict = field(default_factory=dict, repr=False, compare=False)
 
-    def to_html(self, path: str | os.PathLike | None = None) -> str:
-        """A self-contained HTML report (figures embedded, no network): the verdict, the frames
-        and their difference, the SSIM map, the joint histogram, the curves. Written to
-        ``path`` when given; returned either way. Needs matplotlib (``irfidelity[report]``).
+    @property
+    def grades(self) -> tuple:
+        """Grade names, best first."""
+        return tuple(self.membership)
 
-        The frames and curves are those this report was computed from; a report read back with
-        :meth:`from_dict` has only its numbers, and the page says which sections are missing.
-        """
-        from .report import render_pair_html, write_html
-
-        src = self.sources
-        html = render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
-                                curves=src.get("curves"))
-        return write_html(html, path)
-
-    def _repr_html_(self) -> str:
-        from .report import render_pair_html
-
-        src = self.sources
-        return render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
-                                curves=src.get("curves"), fragment=True)
-
+    # ------------------------------------------------------------------ JSON form
     def to_dict(self) -> dict:
         """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""
         return to_json({
@@ -195,42 +185,140 @@ class FidelityReport:
             "weights": self.weights.as_dict(),
             "skipped": dict(self.skipped),
             "config": self.config.to_dict(),
-            "grading": dict(self.grading),
             "notes": list(self.notes),
             "inputs": dict(self.inputs),
             "registration": self.registration,
+            **self._own_dict(),
         })
 
+    def _own_dict(self) -> dict:
+        """The JSON keys of a subclass's own fields."""
+        return {}
+
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> FidelityReport:
+    def from_dict(cls, data: Mapping[str, Any]) -> Self:
         """A report from :meth:`to_dict`'s output; FidelityError naming what is wrong otherwise."""
         with reading_report(cls, data) as d:
             fields = Fields(d, "report")
-            return cls(fidelity=fields.require("fidelity", readback.fraction),
-                       grade=fields.require("grade", readback.text),
-                       grading=fields.get("grading", readback.grading, {}),
-                       registration=fields.get("registration", readback.optional(readback.registration)),
-                       **shared_fields(fields))
+            return cls(**shared_fields(fields), **cls._own_fields(fields))
 
-    @property
-    def grades(self) -> tuple:
-        """Grade names, best first."""
-        return tuple(self.membership)
+    @classmethod
+    def _own_fields(cls, fields: Fields) -> dict[str, Any]:
+        """A subclass's own fields (and ``fidelity``, ``grade``, ``registration``, whose checks
+        differ), read and checked."""
+        return {}
 
-    def summary_text(self) -> str:
-        """Human-readable table: components, weights, grades, fidelity, how it was made."""
+    # ------------------------------------------------------------------ text and HTML
+    def _verdict_lines(self) -> list[str]:
+        """The component table, the fidelity and the grade with its memberships."""
         lines = component_lines(self.components, self.component_grades, self.metrics, self.weights, self.skipped)
         lines.append(f"{'fidelity':<10} {'':>7} {self.fidelity:>8.4f}  (eq. 15, Σ k_i·f_i)")
         b = ", ".join(f"{g} {v:.3f}" for g, v in self.membership.items())
-        lines.append(f"{'grade':<10} {'':>7} {self.grade:>8}  membership B = K·R: {b}")
-        if self.registration:
-            lines.append(registration_line(self.registration))
-        lines.append(settings_line(self.config, self.version))
-        lines += [f"note: {n}" for n in self.notes]
-        return "\n".join(lines)
+        lines.append(f"{'grade':<10} {'':>7} {self.grade:>8}" + (f"  membership B = K·R: {b}" if b else ""))
+        return lines
+
+    def _made_lines(self) -> list[str]:
+        """How the report was made: the settings line, then the notes."""
+        return [settings_line(self.config, self.version)] + [f"note: {n}" for n in self.notes]
+
+    def summary_text(self) -> str:
+        """Human-readable summary."""
+        raise NotImplementedError
 
     def __str__(self) -> str:
         return self.summary_text()
+
+    def _render(self, *, fragment: bool = False, **options: Any) -> str:
+        """The HTML page (or, with ``fragment``, a fragment for notebooks)."""
+        raise NotImplementedError
+
+    def _repr_html_(self) -> str:
+        return self._render(fragment=True)
+
+
+@dataclass(kw_only=True)
+class FidelityReport(ReportBase):
+    """The fidelity of one scene (paper eq. 15) with everything it came from.
+
+    Attributes
+    ----------
+    fidelity, grade, components, component_grades, membership, metrics, weights, skipped
+        The verdict (:class:`ReportBase`).
+    config, version, notes, inputs
+        How it was made (:class:`ReportBase`).
+    matrix : dict
+        The evaluation matrix ``R``: ``{component: {grade: membership}}``.
+    grading : dict
+        ``R`` with the memberships and grades it gives (``grades``, ``matrix``,
+        ``membership``, ``component_grades``, ``grade``), derived from the fields above.
+    registration : dict or None
+        The registration applied before the image components (``config.register``):
+        :meth:`irfidelity.Registration.to_dict` — model, method, matrix, shift, angle, scale,
+        confidence, overlap. The image components then count the overlap only.
+
+    Examples
+    --------
+    >>> import json, pickle, numpy as np, irfidelity as irf
+    >>> real = np.arange(64, dtype=np.uint16).reshape(8, 8)    # a scene spanning 63 counts
+    >>> rep = irf.evaluate(real, real + 1, bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
+    >>> round(rep.fidelity, 3), rep.grade, rep.component_grades
+    (0.978, 'excellent', {'psnr': 'excellent', 'ssim': 'excellent'})
+    >>> rep.skipped                                              # not computed, and why
+    {'mtf': 'weight 0', 'sitf': 'weight 0', 'nmi': 'weight 0'}
+    >>> irf.FidelityReport.from_dict(json.loads(json.dumps(rep.to_dict()))) == rep
+    True
+    >>> pickle.loads(pickle.dumps(rep)) == rep                   # for Dask, Ray, multiprocessing
+    True
+    """
+
+    fidelity: float
+    grade: str
+    matrix: dict = field(default_factory=dict)
+
+    @property
+    def grading(self) -> dict:
+        """The fuzzy evaluation: ``R`` (``matrix``), ``B`` (``membership``), the grades."""
+        return {"grades": list(self.membership), "matrix": {k: dict(v) for k, v in self.matrix.items()},
+                "membership": dict(self.membership), "component_grades": dict(self.component_grades),
+                "grade": self.grade}
+
+    def to_html(self, path: str | os.PathLike | None = None) -> str:
+        """A self-contained HTML report (figures embedded, no network): the verdict, the frames
+        and their difference, the SSIM map, the joint histogram, the curves. Written to
+        ``path`` when given; returned either way. Needs matplotlib (``irfidelity[report]``).
+
+        The frames and curves are those this report was computed from; a report read back with
+        :meth:`from_dict` has only its numbers, and the page says which sections are missing.
+        """
+        from .report import write_html
+
+        return write_html(self._render(), path)
+
+    def _render(self, *, fragment: bool = False, **options: Any) -> str:
+        from .report import render_pair_html
+
+        src = self.sources
+        return render_pair_html(self, real=src.get("real"), sim=src.get("sim"), mask=src.get("mask"),
+                                curves=src.get("curves"), sim_unregistered=src.get("sim_unregistered"),
+                                fragment=fragment)
+
+    def _own_dict(self) -> dict:
+        return {"grading": self.grading}
+
+    @classmethod
+    def _own_fields(cls, fields: Fields) -> dict[str, Any]:
+        grading = fields.get("grading", readback.grading, {})
+        return {"fidelity": fields.require("fidelity", readback.fraction),
+                "grade": fields.require("grade", readback.text),
+                "matrix": grading.get("matrix", {}),
+                "registration": fields.get("registration", readback.optional(readback.registration))}
+
+    def summary_text(self) -> str:
+        """Human-readable table: components, weights, grades, fidelity, how it was made."""
+        lines = self._verdict_lines()
+        if self.registration:
+            lines.append(registration_line(self.registration))
+        return "\n".join(lines + self._made_lines())
 
 
 def registration_line(reg: Mapping[str, Any]) -> str:
@@ -273,7 +361,7 @@ def _peak_text(config: ScoringConfig) -> str:
     if isinstance(config.peak, float):
         return f"{config.peak:g}"
     if config.peak == "range":
-        return "the real frame's max − min"
+        return "the real frame's temperature range (max − min)" if config.unit else "the real frame's max − min"
     return "2^bits − 1" if config.bits else "the dtype's maximum"
 
 
@@ -281,5 +369,6 @@ def settings_line(config: ScoringConfig, version: str) -> str:
     """One line naming the settings a reader needs to reproduce the numbers."""
     parts = [f"irfidelity {version}", f"bits {config.bits}" if config.bits else None,
              f"PSNR peak {_peak_text(config)}", f"bins {config.bins}", f"hist_range {config.hist_range}",
-             f"registration {config.register}" if config.register else None]
+             f"registration {config.register}" if config.register else None,
+             f"unit {config.unit}" if config.unit else None]
     return "settings: " + ", ".join(p for p in parts if p)

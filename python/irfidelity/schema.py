@@ -84,6 +84,29 @@ def _noise_metrics() -> tuple[tuple[str, str, str], ...]:
 
 METRICS["noise"] = _noise_metrics()
 
+#: In a temperature unit (``config.unit``): the errors of the simulated temperatures, reported
+#: whether or not the opt-in ``radiometry`` component is weighted (irfidelity.temperature).
+METRICS["radiometry"] = (
+    ("temperature_unit", "", "'K' or 'C': the unit the frames were scored in (config.unit)"),
+    ("temperature_bias", "K", "mean(S − R) of the temperatures (a difference: K and °C alike)"),
+    ("temperature_rmse", "K", "√mean((S − R)²)"),
+    ("temperature_mae", "K", "mean abs(S − R)"),
+    ("temperature_within", "1", "fraction of pixel pairs with abs(S − R) ≤ temperature_tolerance"),
+    ("temperature_tolerance", "K", "the tolerance: config.temperature_tolerance, the real camera's NETD, or 1 K"),
+)
+METRICS["mrtd"] = (
+    ("mrtd_real", "K", "geometric-mean MRTD of the real camera over the common frequencies (eq. 4's a)"),
+    ("mrtd_sim", "K", "geometric-mean MRTD of the simulated camera over the common frequencies (eq. 4's b)"),
+    ("mrtd_ratio", "1", "mrtd_sim / mrtd_real"),
+    ("mrtd_mu", "1", "mu of the MRTD levels beyond the tolerance (eq. 4 on log ΔT)"),
+    ("mrtd_rho", "1", "Pearson correlation of the log MRTD curves (eq. 2)"),
+    ("mrtd_max_deviation", "%", "largest |MRTD_sim / MRTD_real − 1| at the feature points"),
+    ("mrtd_tolerance", "%", "MRTD level difference forgiven (mrtd_options.tolerance)"),
+    ("mrtd_f_min", "curve x unit", "lowest frequency compared (both curves cover it)"),
+    ("mrtd_f_max", "curve x unit", "highest frequency compared"),
+    ("mrtd_f_unit", "", "the unit of the frequencies (cy/px, cy/mrad, lp/mm; empty when unknown)"),
+)
+
 #: Per-frame columns before the metrics: (key, unit, meaning).
 FRAME_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("index", "", "position of the pair in the (paired) sequence, 0 for a single pair"),
@@ -141,12 +164,14 @@ def metric_names(components: Iterable[str]) -> list[str]:
     return [key for comp in COMPONENTS if comp in wanted for key, _, _ in METRICS.get(comp, ())]
 
 
-def csv_columns(components: Iterable[str], registered: bool = False) -> list[str]:
+def csv_columns(components: Iterable[str], registered: bool = False, temperature: bool = False) -> list[str]:
     """CSV columns of a frame row (single pair or sequence) scoring ``components``, with the
-    registration's columns when ``registered``."""
+    registration's columns when ``registered`` and the temperature errors when ``temperature``
+    (scored in a unit, ``config.unit``)."""
     comps = [c for c in COMPONENTS if c in set(components)]
+    reported = comps + ["radiometry"] if temperature and "radiometry" not in comps else comps
     return ([k for k, _, _ in FRAME_COLUMNS] + ([k for k, _, _, _ in REGISTRATION_COLUMNS] if registered else [])
-            + metric_names(comps) + [f"f_{c}" for c in comps] + [k for k, _, _ in RESULT_COLUMNS])
+            + metric_names(reported) + [f"f_{c}" for c in comps] + [k for k, _, _ in RESULT_COLUMNS])
 
 
 def registration_values(registration: dict | None) -> dict[str, Any]:

@@ -27,12 +27,14 @@ __all__ = ["plan_components", "image_components", "score_components", "Score", "
            "pinned_psnr_floor", "IMAGE_COMPONENTS", "CURVE_COMPONENTS"]
 
 _INPUTS = {"mtf": "real_mtf/sim_mtf", "sitf": "real_sitf/sim_sitf", "psnr": "real/sim", "nmi": "real/sim",
-           "ssim": "real/sim", "noise": "real_noise/sim_noise"}
+           "ssim": "real/sim", "noise": "real_noise/sim_noise", "radiometry": "real/sim scored in a unit (unit=K or C)",
+           "mrtd": "real_mrtd/sim_mrtd"}
 
 
 # --------------------------------------------------------------------------- plan
 def plan_components(weights: Weights, missing: str, *, have_images: bool, have_mtf: bool,
-                    have_sitf: bool, have_noise: bool = False) -> tuple[Weights, tuple[str, ...], dict]:
+                    have_sitf: bool, have_noise: bool = False, have_unit: bool = False, have_mrtd: bool = False
+                    ) -> tuple[Weights, tuple[str, ...], dict]:
     """Decide what to compute, before computing anything.
 
     Parameters
@@ -41,19 +43,21 @@ def plan_components(weights: Weights, missing: str, *, have_images: bool, have_m
     missing : "raise" | "renormalize"
         A component with positive weight but no inputs: raise FidelityError naming the
         missing inputs, or drop it and rescale the remaining weights to sum 1.
-    have_images, have_mtf, have_sitf, have_noise : bool
-        Whether frames, MTF inputs, SiTF inputs and noise recordings were given.
+    have_images, have_mtf, have_sitf, have_noise, have_mrtd : bool
+        Whether frames, MTF inputs, SiTF inputs, noise recordings and MRTD inputs were given.
+    have_unit : bool
+        Whether the frames are scored in a temperature unit (the ``radiometry`` component's input).
 
     Returns
     -------
     (weights, image_components, skipped)
         The weights eq. (15) uses (dropped components 0); the image components to compute
         (subset of ``("psnr", "nmi", "ssim")``, empty: no image pass at all); and
-        ``{component: reason}`` for every component not computed (the opt-in ``noise`` only when
-        it was weighted).
+        ``{component: reason}`` for every component not computed (the opt-in ``noise`` and
+        ``radiometry`` and ``mrtd`` only when weighted).
     """
     have = {"mtf": have_mtf, "sitf": have_sitf, "psnr": have_images, "nmi": have_images, "ssim": have_images,
-            "noise": have_noise}
+            "noise": have_noise, "radiometry": have_images and have_unit, "mrtd": have_mrtd}
     skipped: dict[str, str] = {}
     kept: dict[str, float] = {}
     absent = []

@@ -25,13 +25,15 @@ from .config import ScoringConfig
 from .errors import FidelityError
 from .ranking import Ranking, rank
 from .schema import to_json
-from .sequence import SequenceReport, _pairing, _positive, with_intervals
+from .sequence import SequenceReport, _pairing, with_intervals
 from .sequence.backends import engine_reads
 from .sequence.intervals import FrameNumbers, frame_numbers
+from .sequence.options import RunOptions, split_options
 from .sequence.plan import make_plan
-from .sequence.run import RunOptions, execute
+from .sequence.run import execute
 from .sequence.shared import SharedRun
 from .sequence.sources import as_sequence
+from .temperature import scoring_config, temperature_sequence
 
 __all__ = ["score_simulators", "SimulatorComparison"]
 
@@ -214,10 +216,11 @@ def _once_each() -> Iterator[None]:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
 
-def _prepare(real_seq: Any, sim: Any, name: str, cfg: ScoringConfig, max_pixels: int | None, max_bytes: int | None,
+def _prepare(real_seq: Any, sim: Any, name: str, cfg: ScoringConfig, run: RunOptions,
              camera: CameraInputs) -> tuple:
     """A simulator's sequence, pairing and plan."""
-    sim_seq = as_sequence(sim, f"simulators[{name!r}]", cfg.sim_channel, max_pixels, max_bytes)
+    sim_seq = temperature_sequence(as_sequence(sim, f"simulators[{name!r}]", cfg.sim_channel, run.max_pixels,
+                                               run.max_bytes), "sim", cfg)
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError(f"empty sequences ({name}): nothing to score")
     pairing = _pairing(real_seq, sim_seq, cfg)
@@ -225,13 +228,12 @@ def _prepare(real_seq: Any, sim: Any, name: str, cfg: ScoringConfig, max_pixels:
 
 
 def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any = None, real_sitf: Any = None,
-                     real_noise: Any = None, sim_mtf: Mapping[str, Any] | None = None,
+                     real_noise: Any = None, real_mrtd: Any = None, sim_mtf: Mapping[str, Any] | None = None,
                      sim_sitf: Mapping[str, Any] | None = None, sim_noise: Mapping[str, Any] | None = None,
-                     config: ScoringConfig | None = None, workers: int | None = None,
-                     progress: bool | Callable[[int, int], Any] = True, csv: str | os.PathLike | None = None,
-                     resume: bool = False, max_pixels: int | None = None, max_bytes: int | None = None,
-                     ci: bool | float = False, level: float = 0.95, correction: str = "holm",
-                     resamples: int = DEFAULT_RESAMPLES, rng: Any = 0, **options: Any) -> SimulatorComparison:
+                     sim_mrtd: Mapping[str, Any] | None = None, config: ScoringConfig | None = None,
+                     run: RunOptions | None = None, ci: bool | float = False, level: float = 0.95,
+                     correction: str = "holm", resamples: int = DEFAULT_RESAMPLES, rng: Any = 0,
+                     **options: Any) -> SimulatorComparison:
     """Score several simulators against one real recording in one pass, and rank them.
 
     Parameters
@@ -242,21 +244,23 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
     simulators : {name: sequence}
         At least two simulated sequences of the same run. When every sequence is files the
         Rust engine decodes (PNG, TIFF, EXR), each real frame is decoded once for all of them.
-    real_mtf, real_sitf, real_noise : the real camera's curves, as in ``score_sequence``.
-    sim_mtf, sim_sitf, sim_noise : {name: curve}, optional
-        Each simulator's curves (a simulator left out has none).
-    config, **options : as in ``score_sequence`` (one configuration for every simulator).
-    workers, progress, max_pixels, max_bytes : as in ``score_sequence`` (one progress for all;
-        no Dask ``client``: the shared pass runs on this machine).
-    csv : path, optional
-        Each simulator's streamed CSV: a path with ``{name}`` in it, or a directory (then
-        ``<dir>/<name>.csv``). Names must then be letters, digits, ``.``, ``_``, ``+``, ``-``.
-    resume : bool
-        Resume each simulator from its CSV (as ``score_sequence(resume=True)``).
+    real_mtf, real_sitf, real_noise, real_mrtd : the real camera's inputs, as in ``score_sequence``.
+    sim_mtf, sim_sitf, sim_noise, sim_mrtd : {name: input}, optional
+        Each simulator's inputs (a simulator left out has none).
+    config : as in ``score_sequence`` (one configuration for every simulator).
+    run : RunOptions, optional
+        As in ``score_sequence`` (one progress for all; no Dask ``client``: the shared pass
+        runs on this machine), but ``csv`` names each simulator's streamed CSV: a path with
+        ``{name}`` in it, or a directory (then ``<dir>/<name>.csv``). Names must then be
+        letters, digits, ``.``, ``_``, ``+``, ``-``. With ``resume``, each simulator resumes
+        from its CSV.
     ci : bool or float
         Also give each report its ``report.ci`` (as ``score_sequence(ci=...)``).
     level, correction, resamples, rng
         The ranking's (:func:`irfidelity.ranking.rank`).
+    **options
+        ScoringConfig fields and, without ``run``, the run keywords (``workers=2``,
+        ``progress=False``, ``csv="frames"``, ``resume=True``, ...), as in ``score_sequence``.
 
     Returns
     -------
@@ -275,33 +279,34 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
     >>> result.order, result.significant[("good", "poor")]
     (['good', 'poor'], True)
     """
-    cfg = ScoringConfig.resolve(config, **options)
+    run, config_options = split_options(run, options)
+    if run.client is not None:
+        raise FidelityError("score_simulators runs on this machine: no Dask client (score each simulator with "
+                            "score_sequence(client=...) and rank them with compare_reports)", option="client")
+    cfg = scoring_config(ScoringConfig.resolve(config, **config_options))
     sims = _simulators(simulators)
     names = list(sims)
     check_level(level)
-    if resume and csv is None:
-        raise FidelityError("resuming needs the CSV files of the interrupted run", option="csv")
-    workers = _positive("workers", workers, allow_none=True)
     curves = {key: _per_simulator(key, value, names)
-              for key, value in (("sim_mtf", sim_mtf), ("sim_sitf", sim_sitf), ("sim_noise", sim_noise))}
-    paths = csv_paths(csv, names)
-    real_seq = as_sequence(real, "real", cfg.real_channel, max_pixels, max_bytes)
+              for key, value in (("sim_mtf", sim_mtf), ("sim_sitf", sim_sitf), ("sim_noise", sim_noise),
+                                 ("sim_mrtd", sim_mrtd))}
+    paths = csv_paths(run.csv, names)
+    real_seq = temperature_sequence(as_sequence(real, "real", cfg.real_channel, run.max_pixels, run.max_bytes),
+                                    "real", cfg)
     runs = {}
     with _once_each():  # the real side's warnings (a PSNR peak, ...) come once, not per simulator
         for name, sim in sims.items():
-            runs[name] = _prepare(real_seq, sim, name, cfg, max_pixels, max_bytes,
-                                  CameraInputs(real_mtf, curves["sim_mtf"][name], real_sitf, curves["sim_sitf"][name],
-                                               real_noise, curves["sim_noise"][name]))
+            camera = CameraInputs(real_mtf, curves["sim_mtf"][name], real_sitf, curves["sim_sitf"][name],
+                                  real_noise, curves["sim_noise"][name], real_mrtd, curves["sim_mrtd"][name])
+            runs[name] = _prepare(real_seq, sim, name, cfg, run, camera)
     shared = all(engine_reads(real_seq, sim_seq) for sim_seq, _, _ in runs.values())
-    base = RunOptions(workers=workers, progress=False, resume=bool(resume), max_pixels=max_pixels,
-                      max_bytes=max_bytes)
 
     def options_for(name: str, backend: Any = None) -> RunOptions:
-        return dataclasses.replace(base, csv=None if paths[name] is None else os.fspath(paths[name]),
-                                   backend=backend, progress=progress if backend is None else False)
+        return dataclasses.replace(run, csv=paths[name], backend=backend,
+                                   progress=run.progress if backend is None else False)
 
     if shared:
-        coordinator = SharedRun(names, workers, progress)
+        coordinator = SharedRun(names, run.workers, run.progress)
 
         def run_one(name: str) -> Callable[[], SequenceReport]:
             sim_seq, pairing, plan = runs[name]

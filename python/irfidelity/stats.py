@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -51,11 +52,13 @@ def plan_need(need: Iterable[str] | None) -> set[str]:
 
 
 @dataclass(frozen=True, slots=True)
-class KernelRequest:
-    """What one pass of the Rust kernel computes, and how a sequence's frames are decoded.
+class PairRequest:
+    """What one pass of the Rust kernel computes on a frame pair.
 
-    The one list of the kernel's request fields: :func:`pair_stats` and the sequence
-    engine build it, ``irfidelity._core`` reads it attribute by attribute.
+    The one list of the kernel's request fields: :func:`pair_stats`, the registered path
+    (:func:`irfidelity.alignment.score_registered`) and the sequence engine
+    (:class:`irfidelity.sequence.plan.SequenceRequest`) build it, ``irfidelity._core`` reads
+    it attribute by attribute.
 
     Attributes
     ----------
@@ -72,19 +75,6 @@ class KernelRequest:
         :class:`~irfidelity.errors.RangeError`.
     mask_nonfinite : bool
         Float frames: exclude NaN/Inf pairs instead of raising.
-    real_channel, sim_channel : str or None
-        Sequences: the channel to decode from each side's files (``None``: the only one, or
-        luminance).
-    real_extent : bool
-        Sequences: report each real frame's (min, max) over its finite values.
-    max_pixels, max_bytes : int or None
-        Sequences: the decode limits per frame (``None``: the defaults).
-    warp : ((6 floats), int) or None
-        Sequences: a registration applied to every pair — its matrix (simulated → real,
-        row-major) and interpolation order; the overlap is scored, both frames as float64.
-    register_each : (model, method, max_shift, order) or None
-        Sequences: register every pair on its own (:func:`irfidelity.register`'s model,
-        method and max_shift), then score it as with ``warp``; excludes ``warp``.
     """
 
     sse: bool = True
@@ -94,13 +84,16 @@ class KernelRequest:
     hist_range: tuple[float, float] | None = None
     valid: tuple[int, int] | None = None
     mask_nonfinite: bool = False
-    real_channel: str | None = None
-    sim_channel: str | None = None
-    real_extent: bool = False
-    max_pixels: int | None = None
-    max_bytes: int | None = None
-    warp: tuple[tuple[float, ...], int] | None = None
-    register_each: tuple[str, str, float | None, int] | None = None
+
+
+class _Summary(NamedTuple):
+    """What the metrics read from the kernel's statistics, fetched in one call (each None
+    when the pass did not compute it)."""
+
+    mse: float | None
+    moments: tuple[float, float, float, float, float] | None
+    centred: tuple[float, float, float] | None
+    entropies: tuple[float, float, float] | None
 
 
 class PairStats:
@@ -128,7 +121,7 @@ class PairStats:
         which places a ``"levels"`` histogram's edges; None when unknown.
     """
 
-    __slots__ = ("_raw", "peak", "bins", "level_origin")
+    __slots__ = ("_raw", "peak", "bins", "level_origin", "_fetched")
 
     def __init__(
         self, raw: _core.PairStats, *, peak: float | None = None, bins: object = None, level_origin: int | None = None
@@ -137,6 +130,13 @@ class PairStats:
         self.peak = peak
         self.bins = bins
         self.level_origin = level_origin
+        self._fetched: _Summary | None = None
+
+    def _summary(self) -> _Summary:
+        """MSE, moments, centred sums and entropies, from one call into the kernel's object."""
+        if self._fetched is None:
+            self._fetched = _Summary(*self._raw.summary())
+        return self._fetched
 
     # -- counts -------------------------------------------------------------------
     @property
@@ -163,7 +163,7 @@ class PairStats:
     def mse(self) -> float:
         """Mean squared error ``E[(S − R)²]`` (eq. 5's denominator)."""
         self._nonempty()
-        value = self._raw.mse()
+        value = self._summary().mse
         if value is None:
             raise self._missing("the squared error", "mse")
         return value
@@ -187,13 +187,13 @@ class PairStats:
     ) -> SSIM:
         """Global SSIM ``l^α·c^β·s^γ`` (eqs. 11–14) with the limits of docs/design.md §4."""
         self._nonempty()
-        moments = self._raw.moments()
-        if moments is None:
+        summary = self._summary()
+        if summary.moments is None or summary.centred is None:
             raise self._missing("moments", "ssim")
-        mean_r, mean_s, var_r, var_s, cov = moments
+        mean_r, mean_s, var_r, var_s, cov = summary.moments
         if c1 == 0 and c2 == 0 and c3 in (None, 0):
             # Exact-integer route: c and s are ratios of the centred numerators, N cancels.
-            d_r, d_s, d_rs = self._raw.centred()
+            d_r, d_s, d_rs = summary.centred
             var_r, var_s, cov = d_r, d_s, d_rs
         return ssim_from_moments(
             mean_r, mean_s, var_r, var_s, cov, alpha=alpha, beta=beta, gamma=gamma, c1=c1, c2=c2, c3=c3
@@ -202,7 +202,7 @@ class PairStats:
     def nmi(self) -> NMI:
         """Normalised mutual information (eqs. 7–10) from the joint histogram."""
         self._nonempty()
-        ent = self._raw.entropies()
+        ent = self._summary().entropies
         if ent is None:
             raise self._missing("a histogram", "nmi")
         return nmi_from_entropies(*ent, bins=self.bins)
@@ -279,7 +279,7 @@ class PairStats:
     def moments(self) -> dict:
         """Population means, variances and covariance."""
         self._nonempty()
-        m = self._raw.moments()
+        m = self._summary().moments
         if m is None:
             raise self._missing("moments", "ssim")
         return dict(zip(("mean_real", "mean_sim", "var_real", "var_sim", "cov"), m))
@@ -303,8 +303,10 @@ class PairStats:
 
     def with_peak(self, peak: float | None) -> PairStats:
         """The same statistics with another PSNR peak (nothing is recomputed)."""
-        return PairStats(self._raw, peak=None if peak is None else float(peak), bins=self.bins,
-                         level_origin=self.level_origin)
+        out = PairStats(self._raw, peak=None if peak is None else float(peak), bins=self.bins,
+                        level_origin=self.level_origin)
+        out._fetched = self._fetched
+        return out
 
     # -- combining ----------------------------------------------------------------
     def to_bytes(self) -> bytes:
@@ -522,14 +524,9 @@ def pair_stats(
     r, s = _frame_pair(real, sim)
     if nonfinite not in ("raise", "mask"):
         raise FidelityError(f"nonfinite must be 'raise' or 'mask', got {nonfinite!r}")
-    wanted = plan_need(need)
     pk, valid = peak_and_valid(r.dtype, bits, peak)
-    is_int = r.dtype.kind in "ui"
-
-    nbins, levels, rng = None, False, None
-    if "hist" in wanted:
-        nbins, levels, rng = hist_params(bins, hist_range, r.dtype, full_range(r.dtype, bits, peak))
-
+    request, binning = kernel_request(need, r.dtype, bins=bins, hist_range=hist_range,
+                                      full=full_range(r.dtype, bits, peak), nonfinite=nonfinite, valid=valid)
     m = None
     if mask is not None:
         m = np.asarray(mask)
@@ -537,24 +534,25 @@ def pair_stats(
             raise ShapeError(f"mask: shape {m.shape} differs from the frames' {r.shape}")
         if m.dtype != np.bool_:
             raise ShapeError(f"mask: expected a bool array, got dtype {m.dtype}")
-
     # the kernel reads the frames in place when it can (any shared contiguous layout)
-    request = KernelRequest(
-        sse="sse" in wanted,
-        moments="moments" in wanted,
-        bins=nbins,
-        levels=levels,
-        hist_range=rng,
-        valid=valid if is_int else None,
-        mask_nonfinite=nonfinite == "mask",
-    )
     raw = _core.pair_stats(r, s, request, m)
-    return PairStats(
-        raw,
-        peak=pk,
-        bins=("levels" if levels else nbins) if "hist" in wanted else None,
-        level_origin=int(np.iinfo(r.dtype).min) if is_int else None,
-    )
+    return PairStats(raw, peak=pk, bins=binning, level_origin=int(np.iinfo(r.dtype).min) if r.dtype.kind in "ui" else None)
+
+
+def kernel_request(need: Iterable[str] | None, dtype: np.dtype, *, bins: int | str, hist_range: Any,
+                   full: tuple[float, float] | None, nonfinite: str,
+                   valid: tuple[int, int] | None) -> tuple[PairRequest, int | str | None]:
+    """The kernel's request for the metrics ``need`` on frames of ``dtype`` scored as
+    :func:`pair_stats` does (``full``: :func:`full_range`; ``valid``: the allowed integer
+    levels of the frames given, from :func:`peak_and_valid`), and the histogram's binning as
+    :class:`PairStats` records it."""
+    wanted = plan_need(need)
+    nbins, levels, rng = None, False, None
+    if "hist" in wanted:
+        nbins, levels, rng = hist_params(bins, hist_range, dtype, full)
+    request = PairRequest(sse="sse" in wanted, moments="moments" in wanted, bins=nbins, levels=levels,
+                            hist_range=rng, valid=valid, mask_nonfinite=nonfinite == "mask")
+    return request, (("levels" if levels else nbins) if "hist" in wanted else None)
 
 
 # Default PSNR peak per integer dtype (see peak_and_valid), for the single-metric fast path.
@@ -622,12 +620,26 @@ def _psnr_over_range(real, sim, bits, rule: str, mask) -> float:
         raise FidelityError(f"peak must be a positive number or 'range', got {rule!r}", option="peak")
     r, s = _frame_pair(real, sim)
     st = pair_stats(r, s, bits=bits, need=("psnr",), mask=mask)  # checks the values, the mask, NaN/Inf
-    counted = r if mask is None else r[np.asarray(mask)]
-    span = float(counted.max()) - float(counted.min()) if counted.size else 0.0
+    span = real_range(r, mask, "raise") or 0.0
     if not span > 0:
         raise FidelityError("the PSNR peak 'range' needs a real frame with more than one value over the counted "
                             f"pixels (its range is {span:g})", option="peak")
     return st.psnr(span)
+
+
+def real_range(real: np.ndarray, mask: Any, nonfinite: str) -> float | None:
+    """``max − min`` of the real frame over the pixels that are scored (finite, unmasked): the
+    PSNR peak ``"range"``; None when no pixel is scored."""
+    values = np.asarray(real)
+    if mask is not None:
+        values = values[np.asarray(mask, dtype=bool)]
+    if values.dtype.kind == "f":
+        values = values[np.isfinite(values)] if nonfinite == "mask" else values
+        if values.size and not np.isfinite(values).all():
+            return None  # the kernel reports the non-finite values with their position
+    if values.size == 0:
+        return None
+    return float(values.max()) - float(values.min())
 
 
 def ssim(real, sim, *, alpha: float = 1.0, beta: float = 1.0, gamma: float = 1.0, mask=None, nonfinite="raise") -> SSIM:

@@ -1,5 +1,5 @@
-//! Arguments shared by several functions: the kernel request (`irfidelity.stats.KernelRequest`)
-//! and non-negative integers. Both are extracted so that a bad value is an irfidelity error
+//! Arguments shared by several functions: the kernel requests (`irfidelity.stats.PairRequest`,
+//! `irfidelity.sequence.plan.SequenceRequest`) and non-negative integers. Both are extracted so that a bad value is an irfidelity error
 //! naming it, not a bare `OverflowError`.
 
 use pyo3::exceptions::PyOverflowError;
@@ -10,10 +10,10 @@ use crate::sequence::{EachWarp, FixedWarp, SeqRequest, Warp};
 use crate::stats::{HistRequest, Request};
 use crate::Error;
 
-/// `irfidelity.stats.KernelRequest`, read attribute by attribute: what one kernel pass
-/// computes and, for sequences, how frames are decoded.
+/// `irfidelity.stats.PairRequest`, read attribute by attribute: what one kernel pass
+/// computes on a frame pair.
 #[derive(FromPyObject)]
-pub(crate) struct KernelRequest {
+pub(crate) struct PairRequest {
     sse: bool,
     moments: bool,
     bins: Option<usize>,
@@ -21,6 +21,13 @@ pub(crate) struct KernelRequest {
     hist_range: Option<(f64, f64)>,
     valid: Option<(i64, i64)>,
     mask_nonfinite: bool,
+}
+
+/// `irfidelity.sequence.plan.SequenceRequest`: the request of every pair of a sequence and
+/// what a sequence adds (decoding, registration, the real frame's extent).
+#[derive(FromPyObject)]
+pub(crate) struct SequenceRequest {
+    pair: PairRequest,
     real_channel: Option<String>,
     sim_channel: Option<String>,
     real_extent: bool,
@@ -30,7 +37,7 @@ pub(crate) struct KernelRequest {
     register_each: Option<(String, String, Option<f64>, u32)>,
 }
 
-impl KernelRequest {
+impl PairRequest {
     fn hist(&self) -> Option<HistRequest> {
         if self.levels {
             Some(HistRequest::Levels)
@@ -39,7 +46,7 @@ impl KernelRequest {
         }
     }
 
-    /// The request for one in-memory pair (the decode fields do not apply).
+    /// The kernel's request for one in-memory pair.
     pub(crate) fn frame_request<'m>(
         &self,
         mask: Option<&'m [bool]>,
@@ -57,10 +64,11 @@ impl KernelRequest {
             fortran,
         }
     }
+}
 
+impl SequenceRequest {
     /// The request for every pair of a sequence, decode options included.
     pub(crate) fn sequence_request(self) -> crate::Result<SeqRequest> {
-        let hist = self.hist();
         let warp = match (self.warp, self.register_each) {
             (Some((matrix, order)), None) => Some(Warp::Fixed(FixedWarp::from_matrix(matrix, order)?)),
             (None, Some((model, method, max_shift, order))) => {
@@ -72,12 +80,13 @@ impl KernelRequest {
                 return Err(Error::Value("request: warp and register_each exclude each other".into()));
             }
         };
+        let pair = self.pair;
         Ok(SeqRequest {
-            hist,
-            sse: self.sse,
-            moments: self.moments,
-            valid: self.valid,
-            mask_nonfinite: self.mask_nonfinite,
+            hist: pair.hist(),
+            sse: pair.sse,
+            moments: pair.moments,
+            valid: pair.valid,
+            mask_nonfinite: pair.mask_nonfinite,
             real_channel: self.real_channel,
             sim_channel: self.sim_channel,
             real_extent: self.real_extent,
@@ -89,25 +98,35 @@ impl KernelRequest {
     }
 }
 
-/// `from_py_with` extractor of a `request` argument. A field of the wrong type or out of
-/// range is a `FidelityError` (`RangeError` for an integer out of range) naming the field.
-pub(crate) fn request(obj: &Bound<'_, PyAny>) -> PyResult<KernelRequest> {
-    obj.extract::<KernelRequest>().map_err(|err| {
-        let py = obj.py();
-        // The derive reports "failed to extract field KernelRequest.<name>" with the
-        // conversion error as the cause; a missing attribute comes as it is.
-        let cause = err.cause(py);
-        let detail = match &cause {
-            Some(c) => format!("{}: {}", message(py, &err), message(py, c)),
-            None => message(py, &err),
-        };
-        let detail = format!("request: {detail} (expected an irfidelity.stats.KernelRequest)");
-        if cause.is_some_and(|c| c.is_instance_of::<PyOverflowError>(py)) {
-            Error::Range(detail).into()
-        } else {
-            Error::Value(detail).into()
-        }
-    })
+/// `from_py_with` extractor of a pair's `request` argument.
+pub(crate) fn pair_request(obj: &Bound<'_, PyAny>) -> PyResult<PairRequest> {
+    obj.extract::<PairRequest>().map_err(|err| request_error(obj.py(), err, "irfidelity.stats.PairRequest"))
+}
+
+/// `from_py_with` extractor of a sequence's `request` argument.
+pub(crate) fn sequence_request(obj: &Bound<'_, PyAny>) -> PyResult<SequenceRequest> {
+    obj.extract::<SequenceRequest>()
+        .map_err(|err| request_error(obj.py(), err, "irfidelity.sequence.plan.SequenceRequest"))
+}
+
+/// A request that could not be read: a field of the wrong type or out of range is a
+/// `FidelityError` (`RangeError` for an integer out of range) naming the field. The derive
+/// reports "failed to extract field <Struct>.<name>" with the conversion error as the cause
+/// (a nested request one cause deeper); a missing attribute comes as it is.
+fn request_error(py: Python<'_>, err: PyErr, expected: &str) -> PyErr {
+    let mut detail = message(py, &err);
+    let (mut cause, mut overflow) = (err.cause(py), false);
+    while let Some(c) = cause {
+        detail = format!("{detail}: {}", message(py, &c));
+        overflow = c.is_instance_of::<PyOverflowError>(py);
+        cause = c.cause(py);
+    }
+    let detail = format!("request: {detail} (expected an {expected})");
+    if overflow {
+        Error::Range(detail).into()
+    } else {
+        Error::Value(detail).into()
+    }
 }
 
 fn message(py: Python<'_>, err: &PyErr) -> String {

@@ -38,3 +38,33 @@ macro_rules! with_frame_dtype {
         }
     }};
 }
+
+/// The one error for an array whose dtype no kernel takes (`what` names the array).
+pub(crate) fn unsupported_dtype(what: &str, dtype: impl std::fmt::Display) -> crate::Error {
+    crate::Error::Shape(format!(
+        "{what}: unsupported frame dtype {dtype}: expected one of {}",
+        SUPPORTED_DTYPES.join(", ")
+    ))
+}
+
+/// The contiguous samples of an array the Python layer laid out (C order), or an internal
+/// error naming `what`.
+pub(crate) fn contiguous<'a, T: numpy::Element>(
+    array: &'a numpy::PyReadonlyArrayDyn<'_, T>,
+    what: &str,
+) -> crate::Result<&'a [T]> {
+    array.as_slice().map_err(|_| crate::Error::Value(format!("internal: {what} must be C-contiguous")))
+}
+
+/// A bool mask of `rows × cols` samples, contiguous, or None.
+pub(crate) fn mask_samples<'a>(
+    mask: Option<&'a numpy::PyReadonlyArrayDyn<'_, bool>>,
+    (rows, cols): (usize, usize),
+) -> crate::Result<Option<&'a [bool]>> {
+    let Some(mask) = mask else { return Ok(None) };
+    let samples = contiguous(mask, "the mask")?;
+    if samples.len() != rows * cols {
+        return Err(crate::Error::Shape(format!("mask must have the frames' shape ({rows}, {cols})")));
+    }
+    Ok(Some(samples))
+}

@@ -12,6 +12,7 @@ mod fingerprint;
 mod io;
 mod maps;
 mod noise;
+mod pair;
 mod radiometry;
 mod register;
 mod sequence;
@@ -45,6 +46,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     maps::register(m)?;
     noise::register(m)?;
     register::register(m)?;
+    pair::register(m)?;
     radiometry::register(m)?;
     Ok(())
 }

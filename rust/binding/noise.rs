@@ -5,12 +5,11 @@ use std::path::PathBuf;
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
 use super::args;
-use super::dtypes::SUPPORTED_DTYPES;
+use super::dtypes::{contiguous, unsupported_dtype};
 use crate::io::{self, DecodeOptions};
 use crate::noise::{self, FrameSample, NoiseSums, PassOptions, Window, PARTS};
 
@@ -23,7 +22,7 @@ pub struct PyNoiseSums {
 
 fn to_array2<'py>(py: Python<'py>, v: Vec<f64>, shape: (usize, usize)) -> PyResult<Bound<'py, PyAny>> {
     Ok(Array2::from_shape_vec(shape, v)
-        .map_err(|e| PyValueError::new_err(format!("internal: bad map shape: {e}")))?
+        .map_err(|e| crate::Error::Value(format!("internal: bad map shape: {e}")))?
         .into_pyarray(py)
         .into_any())
 }
@@ -140,22 +139,19 @@ fn noise_sums_array(
     #[pyo3(from_py_with = args::workers)] workers: usize,
 ) -> PyResult<PyNoiseSums> {
     if cube.ndim() != 3 || !cube.is_c_contiguous() {
-        return Err(PyTypeError::new_err("internal: the cube must be a C-contiguous 3-D array"));
+        return Err(crate::Error::Value("internal: the cube must be a C-contiguous 3-D array".into()).into());
     }
     let (frames, rows, cols) = (cube.shape()[0], cube.shape()[1], cube.shape()[2]);
     let opts = pass_options(limits, window, workers);
     let dt = cube.dtype();
     let pass = with_frame_dtype!(py, &dt, |T| {
         let arr = cube.extract::<PyReadonlyArrayDyn<'_, T>>()?;
-        let data = arr.as_slice().map_err(|_| PyTypeError::new_err("internal: the cube must be contiguous"))?;
+        let data = contiguous(&arr, "the cube")?;
         py.detach(|| noise::noise_sums_from_array(T::samples(data), frames, rows, cols, &opts))?
     });
     match pass {
         Some(sums) => Ok(PyNoiseSums { inner: sums }),
-        None => Err(PyTypeError::new_err(format!(
-            "unsupported frame dtype {dt}: expected one of {}",
-            SUPPORTED_DTYPES.join(", ")
-        ))),
+        None => Err(unsupported_dtype("the cube", dt).into()),
     }
 }
 
@@ -178,7 +174,7 @@ fn noise_sums_paths(
     #[pyo3(from_py_with = args::workers)] workers: usize,
 ) -> PyResult<PyNoiseSums> {
     if paths.len() != pages.len() {
-        return Err(PyValueError::new_err(format!("{} paths but {} pages", paths.len(), pages.len())));
+        return Err(crate::Error::Value(format!("{} paths but {} pages", paths.len(), pages.len())).into());
     }
     let frames: Vec<(PathBuf, usize)> = paths.into_iter().zip(pages).collect();
     let opts = pass_options(limits, window, workers);

@@ -9,7 +9,7 @@ use pyo3::types::PyDict;
 use pyo3::IntoPyObject;
 
 use super::args;
-use super::dtypes::SUPPORTED_DTYPES;
+use super::dtypes::unsupported_dtype;
 use crate::io::{self, DecodeOptions};
 use crate::radiometry::{self, Calibration, Converted, Sample, Unit};
 
@@ -65,12 +65,7 @@ fn apply<'py, T: numpy::Element + Sample>(
 }
 
 fn unsupported(values: &Bound<'_, PyUntypedArray>) -> PyErr {
-    crate::Error::Value(format!(
-        "unsupported dtype {}; expected one of {}",
-        values.dtype(),
-        SUPPORTED_DTYPES.join(", ")
-    ))
-    .into()
+    unsupported_dtype("values", values.dtype()).into()
 }
 
 /// Temperatures (float64, in `unit`) of raw counts, or with `inverse` raw counts (float64,

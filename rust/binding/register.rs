@@ -5,15 +5,23 @@
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
-use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 
+use super::dtypes::{mask_samples, unsupported_dtype};
 use crate::register::{self, Affine, Frame, Interp, Method, Model, Options, Source};
 
-fn shape_of(a: &Bound<'_, PyUntypedArray>, what: &str) -> PyResult<(usize, usize)> {
+/// A registration for Python: `(matrix as 6 floats row-major, method used, confidence,
+/// overlap, inverted)`.
+pub(crate) type RegistrationTuple = ([f64; 6], &'static str, f64, f64, bool);
+
+pub(crate) fn registration_tuple(reg: &register::Registration) -> RegistrationTuple {
+    (flat(&reg.matrix), reg.method.name(), reg.confidence, reg.overlap, reg.inverted)
+}
+
+pub(crate) fn shape_of(a: &Bound<'_, PyUntypedArray>, what: &str) -> crate::Result<(usize, usize)> {
     match a.shape() {
         &[rows, cols] => Ok((rows, cols)),
-        s => Err(crate::Error::Shape(format!("{what} frame must be 2-D, got shape {s:?}"))).map_err(PyErr::from),
+        s => Err(crate::Error::Shape(format!("{what} frame must be 2-D, got shape {s:?}"))),
     }
 }
 
@@ -24,12 +32,10 @@ macro_rules! with_samples {
         let dt = $arr.dtype();
         let out = with_frame_dtype!($py, &dt, |T| {
             let array = $arr.extract::<PyReadonlyArrayDyn<'_, T>>()?;
-            let $s = array.as_slice().map_err(|_| {
-                PyTypeError::new_err("internal: frames must be contiguous (the Python layer copies them)")
-            })?;
+            let $s = super::dtypes::contiguous(&array, $what)?;
             $body
         });
-        out.unwrap_or_else(|| Err(PyTypeError::new_err(format!("{} frame: unsupported dtype {}", $what, dt))))
+        out.unwrap_or_else(|| Err(unsupported_dtype($what, dt).into()))
     }};
 }
 
@@ -55,18 +61,14 @@ fn register_frames(
     method: &str,
     max_shift: Option<f64>,
     mask: Option<PyReadonlyArrayDyn<'_, bool>>,
-) -> PyResult<([f64; 6], &'static str, f64, f64, bool)> {
+) -> PyResult<RegistrationTuple> {
     let opts = Options {
         model: Model::parse(model).map_err(PyErr::from)?,
         method: Method::parse(method).map_err(PyErr::from)?,
         max_shift,
     };
-    let mask = mask
-        .as_ref()
-        .map(|m| m.as_slice())
-        .transpose()
-        .map_err(|_| PyTypeError::new_err("internal: mask must be contiguous"))?;
     let (rows, cols) = shape_of(real, "real")?;
+    let mask = mask_samples(mask.as_ref(), (rows, cols))?;
     if shape_of(sim, "simulated")? != (rows, cols) {
         let message = format!("real and simulated frames differ in shape: {:?} vs {:?}", real.shape(), sim.shape());
         return Err(crate::Error::Shape(message).into());
@@ -78,7 +80,7 @@ fn register_frames(
             register::register_frames(&real, &sim, &opts)
         })
         .map_err(PyErr::from)))?;
-    Ok((flat(&reg.matrix), reg.method.name(), reg.confidence, reg.overlap, reg.inverted))
+    Ok(registration_tuple(&reg))
 }
 
 /// The matrix a warp applies (6 floats row-major, simulated → real): a translation within
@@ -110,14 +112,7 @@ fn warp_frame<'py>(
         .ok_or_else(|| crate::Error::Value(format!("the matrix {matrix:?} is singular and cannot be applied")))
         .map_err(PyErr::from)?;
     let (rows, cols) = shape_of(frame, "simulated")?;
-    let mask = mask
-        .as_ref()
-        .map(|m| m.as_slice())
-        .transpose()
-        .map_err(|_| PyTypeError::new_err("internal: mask must be contiguous"))?;
-    if mask.is_some_and(|m| m.len() != rows * cols) {
-        return Err(crate::Error::Shape("mask must have the simulated frame's shape".into())).map_err(PyErr::from);
-    }
+    let mask = mask_samples(mask.as_ref(), (rows, cols))?;
     let (values, valid) = warped(py, frame, (rows, cols), mask, &to_source, interp, shape)?;
     let values = Array2::from_shape_vec(shape, values).expect("warp returns rows × cols values");
     let valid = Array2::from_shape_vec(shape, valid).expect("warp returns rows × cols flags");
@@ -144,6 +139,8 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(register_frames, m)?)?;
     m.add_function(wrap_pyfunction!(warp_frame, m)?)?;
     m.add_function(wrap_pyfunction!(applied_matrix, m)?)?;
+    m.add("REGISTRATION_MODELS", Model::ALL.map(Model::name))?;
+    m.add("REGISTRATION_METHODS", Method::ALL.map(Method::name))?;
     m.add("REGISTRATION_INTEGER_SNAP", register::INTEGER_SNAP)?;
     m.add("REGISTRATION_LOW_CONFIDENCE", register::LOW_CONFIDENCE)?;
     m.add("REGISTRATION_AMBIGUOUS", register::AMBIGUOUS)?;

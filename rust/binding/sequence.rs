@@ -14,7 +14,7 @@ use std::time::Duration;
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
 
-use super::args::{self, KernelRequest};
+use super::args::{self, SequenceRequest};
 use super::stats::PyPairStats;
 use crate::sequence::{self, Batch, PairOutcome, PairStream, Source};
 use crate::Error;
@@ -34,9 +34,7 @@ fn outcome_tuple<'py>(py: Python<'py>, o: PairOutcome) -> PyResult<Bound<'py, Py
         Ok(s) => (Some(Py::new(py, PyPairStats::with_entropies(s, o.entropies))?), None),
         Err(e) => (None, Some(e.to_string())),
     };
-    let registration = o
-        .registration
-        .map(|r| (super::register::flat(&r.matrix), r.method.name(), r.confidence, r.overlap, r.inverted));
+    let registration = o.registration.as_ref().map(super::register::registration_tuple);
     let fingerprints = o.fingerprints.map(|(r, s)| ((r.size, r.mtime_ns, r.digest), (s.size, s.mtime_ns, s.digest)));
     (o.index, stats, err, o.shape, o.dtype, o.real_extent, registration, fingerprints).into_pyobject(py)
 }
@@ -115,7 +113,7 @@ fn poll<'py>(
 ///
 /// Decode and score every pair `(real_paths[i] page real_pages[i], sim_paths[i] page
 /// sim_pages[i])` on `workers` threads (0 = all cores) with the GIL released, as
-/// `request` (an `irfidelity.stats.KernelRequest`) says. Each outcome is a tuple
+/// `request` (an `irfidelity.sequence.plan.SequenceRequest`) says. Each outcome is a tuple
 /// `(index, PairStats | None, error_message | None, (rows, cols) | None, dtype_name | None,
 /// real_extent | None, registration | None, fingerprints | None)`; a frame that cannot be
 /// read or scored gives an error message for its index only. With `fingerprints`, the last
@@ -141,7 +139,7 @@ fn score_pairs<'py>(
     sim_paths: Vec<PathBuf>,
     #[pyo3(from_py_with = args::real_pages)] real_pages: Option<Vec<usize>>,
     #[pyo3(from_py_with = args::sim_pages)] sim_pages: Option<Vec<usize>>,
-    #[pyo3(from_py_with = args::request)] request: KernelRequest,
+    #[pyo3(from_py_with = args::sequence_request)] request: SequenceRequest,
     #[pyo3(from_py_with = args::workers)] workers: usize,
     progress: Option<Bound<'py, PyAny>>,
     on_result: Option<Bound<'py, PyAny>>,
@@ -183,9 +181,10 @@ fn drain<'py>(
 ///
 /// Several simulators against one real sequence, each real frame decoded once: task `k`
 /// scores `(sim_paths[k], sim_pages[k])` against real frame `owners[k]` with
-/// `requests[kinds[k]]` (one `KernelRequest` per simulator; the real frame is decoded with
-/// the decode options of its first task's request). The outcomes, `progress`, `on_result`
-/// and `fingerprints` are those of `score_pairs`, an outcome's index being its task.
+/// `requests[kinds[k]]` (one `irfidelity.sequence.plan.SequenceRequest` per simulator; the
+/// real frame is decoded with the decode options of its first task's request). The outcomes,
+/// `progress`, `on_result` and `fingerprints` are those of `score_pairs`, an outcome's index
+/// being its task.
 #[pyfunction]
 #[pyo3(signature = (real_paths, real_pages, sim_paths, sim_pages, owners, kinds, *, requests, workers=0,
                     progress=None, on_result=None, fingerprints=false))]
@@ -210,7 +209,7 @@ fn score_shared<'py>(
     let requests = requests
         .iter()
         .map(|r| -> PyResult<sequence::SeqRequest> {
-            let req: KernelRequest = args::request(r)?;
+            let req = args::sequence_request(r)?;
             Ok(sequence::SeqRequest { fingerprint: fingerprints, ..req.sequence_request()? })
         })
         .collect::<PyResult<Vec<_>>>()?;

@@ -10,10 +10,13 @@ use numpy::{
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
-use super::args::{self, KernelRequest};
-use super::dtypes::SUPPORTED_DTYPES;
+use super::args::{self, PairRequest};
+use super::dtypes::{unsupported_dtype, SUPPORTED_DTYPES};
 use crate::hist::{Entropies, HistSpec, JointTable};
 use crate::stats::{self, Request, Sample, Sums};
+
+/// `(mean_real, mean_sim, var_real, var_sim, cov)`.
+type Moments = (f64, f64, f64, f64, f64);
 
 /// A joint histogram for Python: the int64 table and the keys of its first row and column.
 type JointCounts<'py> = (Bound<'py, numpy::PyArray2<i64>>, u64, u64);
@@ -74,7 +77,7 @@ impl PyPairStats {
         self.inner.mse()
     }
     /// `(mean_real, mean_sim, var_real, var_sim, cov)`, population moments, or None.
-    fn moments(&self) -> Option<(f64, f64, f64, f64, f64)> {
+    fn moments(&self) -> Option<Moments> {
         self.inner.moments().map(|m| (m.mean_real, m.mean_sim, m.var_real, m.var_sim, m.cov))
     }
     /// `(d_real, d_sim, d_cov)`: centred second sums in a common scale (exact for ints).
@@ -94,6 +97,15 @@ impl PyPairStats {
             }
         };
         e.map(|e| (e.h_real, e.h_sim, e.h_joint))
+    }
+    /// `(mse, moments, centred, entropies)`: what every image metric reads, in one call (each
+    /// None when not computed).
+    #[allow(clippy::type_complexity)]
+    fn summary(
+        &self,
+        py: Python<'_>,
+    ) -> (Option<f64>, Option<Moments>, Option<(f64, f64, f64)>, Option<(f64, f64, f64)>) {
+        (self.mse(), self.moments(), self.centred(), self.entropies(py))
     }
     /// `("levels",)` or `("bins", bins, lo, width)`, or None.
     fn hist_spec<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
@@ -249,7 +261,7 @@ fn pair_stats(
     py: Python<'_>,
     real: &Bound<'_, PyUntypedArray>,
     sim: &Bound<'_, PyUntypedArray>,
-    #[pyo3(from_py_with = args::request)] request: KernelRequest,
+    #[pyo3(from_py_with = args::pair_request)] request: PairRequest,
     mask: Option<&Bound<'_, PyArrayDyn<bool>>>,
 ) -> PyResult<PyPairStats> {
     let shape = frame_shape(real)?;
@@ -268,12 +280,7 @@ fn pair_stats(
     let req = request.frame_request(mask_slice, shape, fortran);
     match frame_stats(py, &real, &sim, &req) {
         Some(stats) => Ok(PyPairStats::new(stats?)),
-        None => Err(crate::Error::Shape(format!(
-            "unsupported frame dtype {}: expected one of {}",
-            real.dtype(),
-            SUPPORTED_DTYPES.join(", ")
-        ))
-        .into()),
+        None => Err(unsupported_dtype("real", real.dtype()).into()),
     }
 }
 

@@ -67,10 +67,12 @@ pub(super) fn float_total(
         }
         let nf = n.max(1) as f64;
         let [dr, ds, m2r, m2s, crs, _] = t.map(|t| t.value());
-        // corrected two-pass, once for the whole pass: remove the residual of the centre
+        // corrected two-pass, once for the whole pass: remove the residual of the centre from
+        // the means too (the scan's Σ/n may be an ulp off: seven copies of a value must have
+        // that value as their mean, or a merge of constant parts sees a spread)
         return FloatSums {
-            mr,
-            ms,
+            mr: mr + dr / nf,
+            ms: ms + ds / nf,
             m2r: m2r - dr * dr / nf,
             m2s: m2s - ds * ds / nf,
             crs: crs - dr * ds / nf,

@@ -58,13 +58,14 @@ pub enum Model {
 }
 
 impl Model {
+    /// Every model, the one list of their names (exported as `_core.REGISTRATION_MODELS`).
+    pub const ALL: [Model; 3] = [Model::Translation, Model::Rigid, Model::Similarity];
+
     pub fn parse(name: &str) -> Result<Model> {
-        match name {
-            "translation" => Ok(Model::Translation),
-            "rigid" => Ok(Model::Rigid),
-            "similarity" => Ok(Model::Similarity),
-            _ => Err(Error::Value(format!("model must be 'translation', 'rigid' or 'similarity', got {name:?}"))),
-        }
+        Model::ALL
+            .into_iter()
+            .find(|m| m.name() == name)
+            .ok_or_else(|| Error::Value(format!("model must be 'translation', 'rigid' or 'similarity', got {name:?}")))
     }
 
     pub fn name(self) -> &'static str {
@@ -90,13 +91,14 @@ pub enum Method {
 }
 
 impl Method {
+    /// Every method, the one list of their names (exported as `_core.REGISTRATION_METHODS`).
+    pub const ALL: [Method; 3] = [Method::Auto, Method::Phase, Method::Nmi];
+
     pub fn parse(name: &str) -> Result<Method> {
-        match name {
-            "phase" => Ok(Method::Phase),
-            "nmi" => Ok(Method::Nmi),
-            "auto" => Ok(Method::Auto),
-            _ => Err(Error::Value(format!("method must be 'auto', 'phase' or 'nmi', got {name:?}"))),
-        }
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == name)
+            .ok_or_else(|| Error::Value(format!("method must be 'auto', 'phase' or 'nmi', got {name:?}")))
     }
 
     pub fn name(self) -> &'static str {

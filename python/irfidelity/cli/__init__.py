@@ -1,5 +1,5 @@
 """Command line: ``irfidelity score REAL SIM ...``, ``irfidelity rank REAL SIM...``, ``irfidelity
-weights fit FILE``, ``irfidelity demo``, ``irfidelity config``.
+weights fit FILE``, ``irfidelity demo``, ``irfidelity config``, ``irfidelity targets OUT``.
 
 Exit status: 0 everything scored; 2 bad usage or input (one line on stderr naming the file
 or flag, no traceback); 3 a sequence finished but some frames failed.
@@ -22,6 +22,11 @@ def _demo(a) -> int:
     from ..demo import run_demo
 
     report = run_demo(out=None if a.json == "-" else print)
+    if a.json != "-":
+        from ..demo import run_radiometric_demo
+
+        print()
+        run_radiometric_demo()
     a.save_config = None
     write_outputs(report, a, sequence=False) if (a.json or a.report) else None
     return EXIT_OK
@@ -51,6 +56,11 @@ def _run(a) -> int:
             return EXIT_OK
         result = rank_command(a)
         return EXIT_FAILED_FRAMES if any(rep.failed for rep in result.reports.values()) else EXIT_OK
+    if a.command == "targets":
+        from .targets import targets_command
+
+        targets_command(a)
+        return EXIT_OK
     return _demo(a) if a.command == "demo" else _config(a)
 
 

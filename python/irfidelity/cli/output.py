@@ -40,8 +40,8 @@ def warning_lines(caught: list, a: argparse.Namespace | None = None) -> list[str
 _CHANNEL_FLAGS = (
     (("real_mtf", "real_edge"), "--real-edge-channel (or --edge-channel for both edge images)"),
     (("sim_mtf", "sim_edge"), "--sim-edge-channel (or --edge-channel for both edge images)"),
-    (("real", "real_noise"), "--real-channel (or --channel for both sides)"),
-    (("sim", "sim_noise"), "--sim-channel (or --channel for both sides)"),
+    (("real", "real_noise", "real_bars"), "--real-channel (or --channel for both sides)"),
+    (("sim", "sim_noise", "sim_bars"), "--sim-channel (or --channel for both sides)"),
 )
 _ANY_CHANNEL = "--channel (or --real-channel / --sim-channel; --edge-channel for edge images)"
 
@@ -92,7 +92,8 @@ def write_json(data: Any, dest: str) -> None:
 
 
 def _columns(report: Any) -> list[str]:
-    return csv_columns(report.components, registered=report.registration is not None)
+    return csv_columns(report.components, registered=report.registration is not None,
+                       temperature=report.config.unit is not None)
 
 
 def _single_row(report: Any) -> list[Any]:

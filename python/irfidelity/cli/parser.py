@@ -1,5 +1,5 @@
-"""The command line's arguments: ``irfidelity score``, ``irfidelity demo``, ``irfidelity config``
-(``rank`` and ``weights``: :mod:`.rank`)."""
+"""The command line's arguments: ``irfidelity score``, ``irfidelity demo``, ``irfidelity config``,
+``irfidelity targets`` (``rank`` and ``weights``: :mod:`.rank`)."""
 
 from __future__ import annotations
 
@@ -10,15 +10,26 @@ from ..curves.table import parse_columns, parse_where
 from ..errors import FidelityError
 from ..registration import DEFAULT_METHOD, METHODS
 
-__all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "flag_for"]
+__all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "flag_for", "CALIBRATION_FLAGS"]
 
 EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES = 0, 2, 3
 
 #: Options whose command-line name is not ``--`` + the option name with dashes.
 _FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "sim_mtf": "--sim-mtf/--sim-edge",
+          "real_mrtd": "--real-bars", "sim_mrtd": "--sim-bars",
           "psnr_anchors": "--config", "ssim_exponents": "--config", "grades": "--config",
-          "mtf_options": "--config", "sitf_options": "--config", "register": "--register", "client": "--workers",
-          "chunk_size": "--workers"}
+          "mtf_options": "--config", "sitf_options": "--config", "mrtd_options": "--config", "register": "--register",
+          "client": "--workers", "chunk_size": "--workers", "relative_humidity": "--humidity"}
+
+#: Flags that override one calibration field (``ScoringConfig.calibration``): flag dest -> (field,
+#: metavar, help).
+CALIBRATION_FLAGS = {
+    "emissivity": ("emissivity", "E", "the object's emissivity, in (0, 1]"),
+    "reflected_temperature": ("reflected_temperature", "DEGC", "reflected apparent temperature, °C"),
+    "atmospheric_temperature": ("atmospheric_temperature", "DEGC", "air temperature, °C"),
+    "object_distance": ("object_distance", "M", "distance to the object, metres"),
+    "humidity": ("relative_humidity", "PERCENT", "relative humidity, percent"),
+}
 
 
 def flag_for(option: str | None) -> str | None:
@@ -83,6 +94,25 @@ def _hist_range(text: str) -> str | tuple[float, float]:
     return (lo, hi)
 
 
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def _calibration(text: str) -> dict[str, float]:
+    """``NAME=VALUE,...``: calibration fields, or a linear gain and offset."""
+    out: dict[str, float] = {}
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise argparse.ArgumentTypeError(f"expected NAME=VALUE items (gain=0.04,offset=-273.15 or "
+                                             f"planck_r1=...,planck_b=...), got {item!r}")
+        out[name.strip()] = _number(value.strip())
+    return out
+
+
 def _argument_type(parse):
     """An argparse type from a parser that raises FidelityError."""
     def convert(text: str):
@@ -117,7 +147,8 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                         "with --bits, the values are still bounded by 2^N-1")
     g.add_argument("--weights", metavar="SPEC",
                    help="balanced (default, 1/5 each) | performance | image_quality | "
-                        "'mtf=..,sitf=..,psnr=..,nmi=..,ssim=..,noise=..' (unnamed components 0; sum 1)")
+                        "'mtf=..,sitf=..,psnr=..,nmi=..,ssim=..,noise=..,radiometry=..' (unnamed components 0; "
+                        "sum 1)")
     g.add_argument("--bins", type=_bins, metavar="N|levels",
                    help="histogram bins for NMI (default 256), or 'levels' (one bin per grey level)")
     g.add_argument("--hist-range", type=_hist_range, metavar="data|full|LO,HI",
@@ -126,6 +157,18 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                    help="a weighted component without inputs: drop it and renormalise the other weights "
                         "(default; shown as skipped), or fail (raise)")
     g.add_argument("--nonfinite", choices=NONFINITE_MODES, help="NaN/Inf in float frames: fail (default) or mask")
+    t = s.add_argument_group("temperatures (radiometric files; float frames are taken as already in the unit)")
+    t.add_argument("--unit", choices=("K", "C"), help="score temperatures in kelvin or degrees Celsius: adds the "
+                                                     "temperature errors and the opt-in 'radiometry' component")
+    for dest, (_, metavar, text) in CALIBRATION_FLAGS.items():
+        t.add_argument("--" + dest.replace("_", "-"), type=_number, metavar=metavar,
+                       help=text + " (overrides a radiometric file's value)")
+    t.add_argument("--calibration", type=_calibration, metavar="NAME=V,...",
+                   help="calibration of integer frames without one: gain=G,offset=O (temperature = G*count + O) "
+                        "or the Planck constants planck_r1,planck_r2,planck_b,planck_f,planck_o")
+    t.add_argument("--temperature-tolerance", type=_positive_float, metavar="K",
+                   help="error counted as within tolerance and scale of the radiometry component (default: the "
+                        "real camera's NETD when measured, else 1 K)")
     c = s.add_argument_group("channels")
     c.add_argument("--channel", metavar="C", help="channel of both frames' files (e.g. EXR 'Y', PNG 'R')")
     c.add_argument("--real-channel", metavar="C", help="channel of the real frames only")
@@ -159,6 +202,10 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
     n.add_argument("--real-noise", metavar="DIR|TIF", help="frames of a uniform source (blackbody) from the real "
                                                           "camera: a directory, glob or multi-page TIFF")
     n.add_argument("--sim-noise", metavar="DIR|TIF", help="the same from the simulator")
+    b = s.add_argument_group("bar targets (the opt-in 'mrtd' component: give it a weight in --weights)")
+    b.add_argument("--real-bars", metavar="DIR", help="frames of bar targets from the real camera, listed with their "
+                                                     "frequency and ΔT in DIR/bars.csv (docs/bars.md)")
+    b.add_argument("--sim-bars", metavar="DIR", help="the same from the simulator")
     r = s.add_argument_group("registration and sequences")
     r.add_argument("--register", choices=REGISTRATION_MODELS, metavar="MODEL",
                    help="align the simulated frame to the real one first and score the overlap: translation, "
@@ -212,4 +259,29 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Print the default scoring configuration as TOML, or write it to PATH: a "
                                    "starting point for 'irfidelity score --config PATH'.")
     c.add_argument("path", nargs="?", metavar="PATH", help="write here instead of printing (.toml or .json)")
+    _add_targets(sub)
     return p
+
+
+def _add_targets(sub: argparse._SubParsersAction) -> None:
+    from ..image_writers import FORMATS
+    from .targets import KINDS
+
+    t = sub.add_parser(
+        "targets", help="write bar-target or slanted-edge images",
+        description="Write ideal four-bar or three-bar targets (7:1 bars; one image per frequency, listed in "
+                    "OUT/bars.csv) or a slanted edge, as a simulator or a collimator is fed: exact pixel area "
+                    "averages, optionally through a Gaussian blur.")
+    t.add_argument("out", metavar="OUT", help="directory to write into (created when missing)")
+    t.add_argument("--kind", choices=tuple(KINDS), default="four-bar", help="four-bar (default), three-bar or edge")
+    t.add_argument("--frequency", metavar="F[,F...]", help="bar frequencies, cycles/pixel (one image each)")
+    t.add_argument("--size", metavar="ROWS,COLS", default="128,128", help="image size (default 128,128)")
+    t.add_argument("--orientation", choices=("vertical", "horizontal"), default="vertical",
+                   help="vertical bars or edge (intensity changes along a row; default) or horizontal")
+    t.add_argument("--phase", type=float, default=0.0, metavar="PX", help="shift across the bars, pixels")
+    t.add_argument("--angle", type=float, default=5.0, metavar="DEG", help="tilt of the slanted edge (default 5)")
+    t.add_argument("--levels", metavar="BACKGROUND,BAR", help="background and bar levels (default 16384,49152 "
+                                                              "for PNG, 0,1 otherwise)")
+    t.add_argument("--blur", type=float, metavar="SIGMA", help="Gaussian blur sigma, pixels (default none)")
+    t.add_argument("--format", choices=tuple(FORMATS), default="png",
+                   help="png (16-bit grey, default), tiff (float32) or npy (float64)")

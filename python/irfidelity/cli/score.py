@@ -12,6 +12,7 @@ from ..errors import FidelityError
 from ..frames import MULTIPAGE_EXTENSIONS, FrameSequence, page_chain
 from ..fuzzy import Weights
 from .output import UsageError, write_outputs
+from .parser import CALIBRATION_FLAGS
 
 __all__ = ["score_command"]
 
@@ -19,7 +20,7 @@ __all__ = ["score_command"]
 _CONFIG_FLAGS = ("bits", "peak", "bins", "hist_range", "missing", "nonfinite", "channel", "real_channel",
                  "sim_channel", "edge_channel", "real_edge_channel", "sim_edge_channel", "edge_fit_order", "ifov_mrad",
                  "pixel_pitch_um", "focal_length_mm", "register", "register_method", "register_each", "max_delay",
-                 "pair_by")
+                 "pair_by", "unit", "temperature_tolerance")
 
 
 def scoring_config(a: argparse.Namespace, flags: tuple = _CONFIG_FLAGS) -> ScoringConfig:
@@ -30,7 +31,11 @@ def scoring_config(a: argparse.Namespace, flags: tuple = _CONFIG_FLAGS) -> Scori
             options["weights"] = Weights.parse(a.weights)
         except FidelityError as exc:
             raise UsageError(f"--weights: {exc}") from None
-    return ScoringConfig.resolve(a.config, **options)
+    config = ScoringConfig.resolve(a.config, **options)
+    calibration = dict(getattr(a, "calibration", None) or {})  # (``rank`` has no calibration flags)
+    calibration.update({field: getattr(a, dest) for dest, (field, _, _) in CALIBRATION_FLAGS.items()
+                        if getattr(a, dest, None) is not None})
+    return config.replace(calibration={**config.calibration, **calibration}) if calibration else config
 
 
 def _is_sequence(path: str) -> bool:
@@ -90,15 +95,27 @@ def _sequence(a: argparse.Namespace, config: ScoringConfig, curves: dict) -> Any
                           resume=a.resume, ci=a.ci, **curves)
 
 
+def _bars(path: str | None, side: str) -> str | None:
+    """A directory of bar frames (checked here: a wrong path is a usage error)."""
+    from ..bar_frames import BAR_LIST
+
+    if path is not None and not os.path.isfile(os.path.join(path, BAR_LIST)):
+        what = "no such directory" if not os.path.isdir(path) else f"no {BAR_LIST} listing the bar frames in it"
+        raise UsageError(f"--{side}-bars {path!r}: {what} (docs/bars.md)")
+    return path
+
+
 def _curves(a: argparse.Namespace) -> dict:
     curves = {f"{side}_{kind}": _curve(a, side, kind) for side in ("real", "sim") for kind in ("mtf", "sitf")}
     curves.update(real_noise=a.real_noise, sim_noise=a.sim_noise)
-    for kind in ("mtf", "sitf", "noise"):
+    curves.update(real_mrtd=_bars(a.real_bars, "real"), sim_mrtd=_bars(a.sim_bars, "sim"))
+    for kind in ("mtf", "sitf", "noise", "mrtd"):
         real, sim = curves[f"real_{kind}"], curves[f"sim_{kind}"]
         if (real is None) != (sim is None):
             given, absent = ("real", "sim") if sim is None else ("sim", "real")
             alternative = f" (or --{absent}-edge)" if kind == "mtf" else ""
-            raise UsageError(f"the {given} {kind.upper()} needs the {absent} one too: give --{absent}-{kind}"
+            flag = "bars" if kind == "mrtd" else kind
+            raise UsageError(f"the {given} {kind.upper()} needs the {absent} one too: give --{absent}-{flag}"
                              f"{alternative}")
     return curves
 

@@ -8,7 +8,7 @@
 * bar targets: :func:`ctf_from_bars` (bar modulation and fundamental-amplitude ratio, a
   :class:`BarReading`), :func:`ctf_curve`, :func:`find_bars`; Coltman's series
   :func:`ctf_from_mtf`, :func:`mtf_from_ctf`; MRTD :func:`mrtd` (model) and
-  :func:`measured_mrtd` (docs/bars.md);
+  :func:`measured_mrtd`, the ``mrtd`` component :func:`mrtd_similarity` (docs/bars.md);
 * :func:`curve_similarity` (eqs. 1-4) and its result :class:`CurveSimilarity`;
 * :class:`CameraGeometry` — IFOV, pixel pitch, focal length for frequency conversions.
 
@@ -22,6 +22,7 @@ from .curve import Curve
 from .edge import EdgeWarning, mtf_from_edge
 from .mtf import mtf50, mtf_from_esf, mtf_from_lsf, mtf_similarity
 from .mrtd import measured_mrtd, mrtd
+from .mrtd_similarity import MRTDSimilarity, mrtd_similarity
 from .similarity import CurveSimilarity, curve_similarity
 from .sitf import SiTFFit, netd, sitf_fit, sitf_similarity
 from .units import CameraGeometry, CurveUnitsWarning
@@ -49,6 +50,8 @@ __all__ = [
     "mtf_from_ctf",
     "mrtd",
     "measured_mrtd",
+    "mrtd_similarity",
+    "MRTDSimilarity",
     "EdgeWarning",
     "CurveUnitsWarning",
 ]

@@ -10,16 +10,16 @@ from typing import Any
 import numpy as np
 
 from ..errors import FidelityError, ShapeError
-from ..curves.sitf import SiTFFit, netd as netd_of
+from ..curves.sitf import netd as netd_of
 from .anova import PARTS, anova
 from .checks import check_clipped, plane_fit, uniformity, warn_if_not_uniform
 from .spectra import NoiseSpectra, pattern_spectra
+from ..keywords import options_from
+from .options import NoiseOptions
 from .sums import NoiseSums, Region, as_sequence, noise_sums
 
 __all__ = ["Noise3D", "noise3d"]
 
-_DETRENDS = (None, "plane")
-_CLIPPED = ("warn", "raise", "ignore")
 
 
 @dataclass(frozen=True)
@@ -157,42 +157,7 @@ def _temporal_pairs(frames: Any, pairs: int, roi: Region | None, channel: str | 
         yield (b - a) / math.sqrt(2)
 
 
-def _slope(sitf: Any) -> float | None:
-    if sitf is None:
-        return None
-    if isinstance(sitf, SiTFFit):
-        return float(sitf.slope)
-    try:
-        slope = float(sitf)
-    except (TypeError, ValueError):
-        raise FidelityError(f"sitf must be a SiTFFit (irfidelity.curves.sitf_fit) or a slope, got {type(sitf).__name__}") from None
-    if not math.isfinite(slope) or slope == 0:
-        raise FidelityError(f"the SiTF slope must be finite and non-zero, got {sitf!r}")
-    return slope
-
-
-def _check_options(corrected: Any, confidence: Any, detrend: Any, saturated: Any, pairs: Any) -> float:
-    if not isinstance(corrected, bool):
-        raise FidelityError(f"corrected must be True or False, got {corrected!r}")
-    if detrend not in _DETRENDS:
-        raise FidelityError(f"detrend must be None or 'plane', got {detrend!r}")
-    if saturated not in _CLIPPED:
-        raise FidelityError(f"saturated must be one of {_CLIPPED}, got {saturated!r}")
-    if isinstance(pairs, bool) or not isinstance(pairs, (int, np.integer)) or pairs < 1:
-        raise FidelityError(f"spectra_pairs must be a positive integer, got {pairs!r}")
-    try:
-        level = float(confidence)
-    except (TypeError, ValueError):
-        raise FidelityError(f"confidence must be a number in (0, 1), got {confidence!r}") from None
-    if not 0 < level < 1:
-        raise FidelityError(f"confidence must lie in (0, 1), got {confidence!r}")
-    return level
-
-
-def noise3d(frames: Any, *, bits: int | None = None, corrected: bool = True, confidence: float = 0.95,
-            detrend: str | None = None, roi: Region | None = None, sitf: Any = None, spectra: bool = True,
-            spectra_pairs: int = 16, saturated: str = "warn", channel: str | None = None,
-            workers: int | None = None) -> Noise3D:
+def noise3d(frames: Any, options: NoiseOptions | None = None, **keywords: Any) -> Noise3D:
     """3-D noise of frames of a uniform source: the seven components of D'Agostino & Webb.
 
     The recording is a cube of T frames × V rows × H columns. With ``U = frames − mean`` and
@@ -218,6 +183,10 @@ def noise3d(frames: Any, *, bits: int | None = None, corrected: bool = True, con
         A 3-D array ``(frames, rows, cols)``; a directory, glob, list of paths or
         multi-page TIFF; or merged :class:`~irfidelity.noise.NoiseSums` (then no temporal
         spectra).
+    options : NoiseOptions, optional
+        The settings below as one object (:class:`~irfidelity.noise.NoiseOptions`), checked
+        when made. Without it, each is a keyword (``noise3d(cube, bits=14)``); a keyword given
+        together with ``options`` is a FidelityError.
     bits : int, optional
         Bit depth of integer frames (values above ``2**bits - 1`` are an error; values at
         ``0`` or ``2**bits - 1`` count as clipped).
@@ -278,6 +247,13 @@ def noise3d(frames: Any, *, bits: int | None = None, corrected: bool = True, con
     >>> round(n.sigma["v"]), round(n.sigma["tvh"])
     (3, 2)
 
+    The settings as one object (the same as ``irf.noise3d(cube, bits=11, spectra=False)``):
+
+    >>> from irfidelity.noise import NoiseOptions
+    >>> settings = NoiseOptions(bits=11, spectra=False)
+    >>> irf.noise3d(cube, settings).sigma == irf.noise3d(cube, bits=11, spectra=False).sigma
+    True
+
     References
     ----------
     J. A. D'Agostino and C. M. Webb, "Three-dimensional analysis framework and measurement
@@ -288,14 +264,15 @@ def noise3d(frames: Any, *, bits: int | None = None, corrected: bool = True, con
     intervals on linear combinations of variance components that are unrestricted in
     sign", J. Stat. Comput. Simul. 35, 135–143 (1990).
     """
-    level = _check_options(corrected, confidence, detrend, saturated, spectra_pairs)
-    slope = _slope(sitf)
+    opts = options_from(NoiseOptions, options, keywords, "options")
+    corrected, level, detrend, roi = opts.corrected, opts.confidence, opts.detrend, opts.roi
+    slope = opts.sitf_slope
     if isinstance(frames, NoiseSums):
         if roi is not None:
             raise FidelityError("roi applies when the sums are computed; NoiseSums already hold their region")
         sums = frames
     else:
-        sums = noise_sums(frames, bits=bits, roi=roi, channel=channel, workers=workers)
+        sums = noise_sums(frames, bits=opts.bits, roi=roi, channel=opts.channel, workers=opts.workers)
     t, v, h = sums.frames, sums.rows, sums.cols
     least = 3 if detrend == "plane" else 2
     if t < 2:
@@ -306,7 +283,7 @@ def noise3d(frames: Any, *, bits: int | None = None, corrected: bool = True, con
     dec = sums.decomposition()
     ss = _detrended_ss(sums, dec["ss"]) if detrend == "plane" else dict(dec["ss"])
     comps = anova(ss, t, v, h, plane=detrend == "plane")
-    clipped = check_clipped(sums.value_range(), t * v * h, saturated)
+    clipped = check_clipped(sums.value_range(), t * v * h, opts.saturated)
     total_variance = dec["ss_total"] / (t * v * h)
     share = uniformity(sums.pixel_mean(), total_variance)
     warn_if_not_uniform(share, detrended=detrend == "plane")
@@ -327,8 +304,9 @@ def noise3d(frames: Any, *, bits: int | None = None, corrected: bool = True, con
         if ci is not None:
             netd_ci = (ci["tvh"][0] / abs(slope), ci["tvh"][1] / abs(slope))
     spec = None
-    if spectra:
-        pairs = iter(()) if isinstance(frames, NoiseSums) else _temporal_pairs(frames, spectra_pairs, roi, channel)
+    if opts.spectra:
+        pairs = iter(()) if isinstance(frames, NoiseSums) else _temporal_pairs(frames, opts.spectra_pairs, roi,
+                                                                               opts.channel)
         spec = pattern_spectra(_fixed_pattern(sums, detrend), pairs)
     return Noise3D(sigma=sigma, variance=variance, classical=classical, ci=ci, df=comps.df, total=total,
                    mean=float(dec["mean"]), frames=t, rows=v, cols=h, dtype=sums.dtype, corrected=corrected,

@@ -22,7 +22,7 @@ from ..errors import FidelityError
 
 __all__ = ["require_matplotlib", "raster", "colour_stops", "frame_range", "histograms_figure", "difference_limit",
            "ssim_range", "joint_histogram_figure", "curves_figure", "timeline_figure", "distribution_figure",
-           "thumbnails_figure", "MAX_SIDE"]
+           "thumbnails_figure", "panels_figure", "MAX_SIDE"]
 
 #: Longest side, in pixels, of a frame as displayed.
 MAX_SIDE = 480
@@ -317,4 +317,23 @@ def thumbnails_figure(rows: list[tuple[str, np.ndarray, np.ndarray]]) -> bytes:
             ax.set_xticks([])
             ax.set_yticks([])
             ax.set_title(f"{label}: {title}" if j == 0 else title, fontsize="small")
+    return _png(fig)
+
+
+def panels_figure(panels: list[dict[str, Any]], *, x_label: str) -> bytes:
+    """Curves overlaid in side-by-side panels. Each panel: ``title``, ``y_label``, ``log`` (a
+    logarithmic y axis) and ``curves``, entries as in :func:`curves_figure` (``name``, ``x``,
+    ``y``, ``style``)."""
+    fig = _figure(4.2 * len(panels), 4.0, left=0.06, right=0.99, bottom=0.14, top=0.92, wspace=0.3)
+    axes = fig.subplots(1, len(panels), squeeze=False)[0]
+    for ax, panel in zip(axes, panels):
+        for c in panel["curves"]:
+            ax.plot(c["x"], c["y"], label=c["name"], markersize=3, lw=1.4, **c["style"])
+        if panel.get("log"):
+            ax.set_yscale("log", nonpositive="mask")
+        ax.set_title(panel["title"], fontsize="medium")
+        ax.set_xlabel(x_label)
+        ax.set_ylabel(panel["y_label"])
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize="small")
     return _png(fig)

@@ -11,7 +11,9 @@ from ..errors import FidelityError
 from ..maps import SSIMMap, ms_ssim, ssim_map
 from ..stats import _as_frame, pair_stats
 from . import figures, sections
+from .bars import bars as bars_section
 from .noise import noise as noise_section
+from .temperature import temperatures
 from .html import Missing, Raw, colour_bar, image, missing, page, panels, paragraph, section
 
 __all__ = ["render_pair_html"]
@@ -27,6 +29,7 @@ def render_pair_html(
     joint_histogram: tuple[Any, Any, Any] | None = None,
     curves: Mapping[str, Any] | None = None,
     registration: Any = None,
+    sim_unregistered: Any = None,
     peak: float | None = None,
     title: str | None = None,
     fragment: bool = False,
@@ -39,8 +42,10 @@ def render_pair_html(
         The JSON-ready report (``FidelityReport.to_dict()``). Every key is optional: a section
         whose data is missing is replaced by a note saying so.
     real, sim : 2-D arrays or paths, optional
-        The frames as scored (``sim`` aligned, when a registration was applied). Without them
-        the frame, difference, SSIM-map and joint-histogram sections are left out.
+        The frames as scored (``sim`` resampled onto ``real``, float64, when a registration
+        was applied: the SSIM map and the joint histogram then compare it with ``real`` as
+        float64, over the overlap ``mask``). Without them the frame, difference, SSIM-map and
+        joint-histogram sections are left out.
     mask : 2-D bool array, optional
         Valid pixels (``False`` = excluded from the metrics, e.g. outside a registration's
         overlap): shown grey in the difference and left out of the histograms.
@@ -55,6 +60,9 @@ def render_pair_html(
         ``slope, intercept, lo, hi``).
     registration : Registration or mapping, optional
         Default: ``report["registration"]``.
+    sim_unregistered : 2-D array, optional
+        The simulated frame before registration: adds a before/after overlay (checkerboards
+        of the real frame with the simulated one as given and as resampled).
     peak : float, optional
         Data range L of the SSIM map. Default: the report's ``peak`` or ``bits`` setting, else
         the frames' joint data range (max − min); the page says which.
@@ -90,16 +98,19 @@ def render_pair_html(
     figures.require_matplotlib()
     curves = dict(curves or {})
     metrics = sections.mapping(d, "metrics")
-    frames = _frames(real, sim, mask)
+    frames = _frames(real, sim, mask, registered=bool(d.get("registration")) or registration is not None)
     body = [
         sections.header(title or "Fidelity report", _subtitle(d)),
         sections.verdict(d),
         sections.components(d),
         *(_frame_sections(d, frames, ssim, joint_histogram, peak) if isinstance(frames, tuple) else
           [missing(t, frames, anchor=a) for t, a in _FRAME_SECTIONS]),
+        *([_overlay_section(frames, sim_unregistered)] if isinstance(frames, tuple) and sim_unregistered is not None
+          else []),
         sections.mtf(curves, metrics),
         sections.sitf(curves, metrics),
         noise_section(curves, metrics),
+        bars_section(curves, metrics),
         sections.registration(d, registration),
         sections.settings(d),
     ]
@@ -118,8 +129,10 @@ def _subtitle(d: Mapping) -> str | None:
     return None
 
 
-def _frames(real: Any, sim: Any, mask: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | str:
-    """The frames (and mask) checked, or why they cannot be shown."""
+def _frames(real: Any, sim: Any, mask: Any, registered: bool
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | str:
+    """The frames (and mask) checked, or why they cannot be shown. A registered pair is
+    compared as float64 (the resampled simulated frame is float64 whatever the real one is)."""
     if real is None or sim is None:
         return "no frames were given (real=..., sim=...)"
     try:
@@ -128,6 +141,8 @@ def _frames(real: Any, sim: Any, mask: Any) -> tuple[np.ndarray, np.ndarray, np.
         return f"the frames could not be read: {exc}"
     if r.shape != s.shape:
         return f"the frames differ in shape: {r.shape} vs {s.shape}"
+    if registered and r.dtype != s.dtype:
+        r, s = r.astype(np.float64), s.astype(np.float64)
     m = None
     if mask is not None:
         m = np.asarray(mask)
@@ -165,8 +180,9 @@ def _data_range(d: Mapping, real: np.ndarray, sim: np.ndarray, peak: float | Non
 def _frame_sections(d, frames, ssim, joint, peak) -> list[Raw]:
     real, sim, mask = frames
     hist = _joint_histogram(d, real, sim, mask, joint)
-    return [_frames_section(real, sim, hist), _difference_section(real, sim, mask),
-            _ssim_section(d, real, sim, ssim, peak), _joint_section(hist)]
+    in_unit = [temperatures(d, real, sim, mask)] if sections.mapping(d, "config").get("unit") else []
+    return [_frames_section(real, sim, hist), *in_unit, _difference_section(real, sim, mask),
+            _ssim_section(d, real, sim, mask, ssim, peak), _joint_section(hist)]
 
 
 def _joint_histogram(d, real, sim, mask, given):
@@ -243,7 +259,54 @@ def _difference_section(real, sim, mask) -> Raw:
     return section("Difference", body + paragraph(caption, cls="caption"), anchor="difference")
 
 
-def _ssim_section(d, real, sim, given, peak) -> Raw:
+def _overlap_crop(real, sim, mask):
+    """The frames over the scored pixels ``mask`` (a registration's overlap): cropped to its
+    bounding box, with the simulated values of the few pixels inside the box but outside the
+    mask (a rotation's corners) taken from the real frame so the windows stay finite, those
+    pixels (to blank on the map, None when there are none), and a note for the caption."""
+    if mask is None or mask.all() or not mask.any():
+        return real, sim, None, ""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    real, sim, inside = real[box], sim[box], mask[box]
+    outside = None if inside.all() else ~inside
+    if outside is not None:
+        sim = np.where(inside, sim, real)
+    note = (f" Computed over the scored pixels (the registration's overlap): rows {rows[0]}–{rows[-1]}, "
+            f"columns {cols[0]}–{cols[-1]}{'; grey: outside it' if outside is not None else ''}. ")
+    return real, sim, outside, note
+
+
+def _overlay_section(frames, sim_unregistered) -> Raw:
+    """Checkerboards of the real frame with the simulated one before and after registration."""
+    title = "Registration overlay"
+    real, after, _ = frames
+    try:
+        before = _as_frame(sim_unregistered, "sim").astype(np.float64)
+    except FidelityError as exc:
+        return missing(title, f"the simulated frame before registration cannot be shown: {exc}", anchor="overlay")
+    if before.shape != real.shape:
+        return missing(title, f"the simulated frame before registration has shape {before.shape}, the real one "
+                              f"{real.shape}", anchor="overlay")
+    real = real.astype(np.float64)
+    tile = max(4, min(real.shape) // 8)
+    rows, cols = np.indices(real.shape)
+    board = ((rows // tile + cols // tile) % 2).astype(bool)
+    lo, hi = figures.frame_range(real, before)
+    images = panels([(figures.raster(np.where(board, before, real), "viridis", lo, hi), "checkerboard before",
+                      "before registration"),
+                     (figures.raster(np.where(board, after, real), "viridis", lo, hi), "checkerboard after",
+                      "after registration")])
+    bar = colour_bar(figures.colour_stops("viridis"), _ticks(lo, hi), "grey level (one scale for both panels)")
+    rms = [np.sqrt(np.nanmean((sim - real) ** 2)) for sim in (before, after)]
+    caption = (f"Tiles of {tile} px alternate between the real frame and the simulated one, as given (left) and "
+               f"resampled through the registration (right; grey: outside the overlap). Edges that run on across "
+               f"tile borders mean aligned frames. RMS difference simulated − real: {rms[0]:.4g} before, "
+               f"{rms[1]:.4g} after (over the overlap)." + _display_note(real))
+    return section(title, images + bar + paragraph(caption, cls="caption"), anchor="overlay")
+
+
+def _ssim_section(d, real, sim, mask, given, peak) -> Raw:
     title = "SSIM map"
     border, extra = 5, ""
     if given is not None:
@@ -255,17 +318,21 @@ def _ssim_section(d, real, sim, given, peak) -> Raw:
             extra = f"Mean (Wang et al. 2004, without the {border}-pixel border) {given.mean:.6g}. "
     else:
         data_range, source = _data_range(d, real, sim, peak)
+        real, sim, outside, where = _overlap_crop(real, sim, mask)
         try:
             m = ssim_map(real, sim, peak=data_range)
         except FidelityError as exc:
             return missing(title, f"the SSIM map cannot be computed: {exc}", anchor="ssim-map")
         values = m.map
+        if outside is not None:
+            values = np.where(outside, np.nan, values)
         extra = (f"Mean SSIM (Wang et al. 2004: 11×11 Gaussian window, σ = 1.5, K = 0.01, 0.03, data range "
                  f"L = {m.peak:g} from {source}; mean without the 5-pixel border) {m.mean:.6g}")
         try:
             extra += f"; MS-SSIM {ms_ssim(real, sim, peak=m.peak):.6g}. "
         except FidelityError:
             extra += ". "
+        extra += where
     lo = figures.ssim_range(values)
     body = panels([(figures.raster(values, "cividis", lo, 1.0, outline=border), "windowed SSIM map", "local SSIM")],
                   single=True)

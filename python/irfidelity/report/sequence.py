@@ -11,6 +11,7 @@ import numpy as np
 from ..errors import FidelityError
 from . import alignment, figures, sections
 from .comparison import intervals_section
+from .bars import bars as bars_section
 from .noise import noise as noise_section
 from .html import Missing, Raw, image, key_values, missing, number, page, paragraph, section, table, text
 
@@ -100,6 +101,7 @@ def render_sequence_html(
         sections.mtf(curves, curve_metrics),
         sections.sitf(curves, curve_metrics),
         noise_section(curves, curve_metrics),
+        bars_section(curves, curve_metrics),
         sections.settings(d),
     ]
     body.append(sections.footer([b.title for b in body if isinstance(b, Missing)]))

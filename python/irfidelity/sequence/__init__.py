@@ -12,42 +12,33 @@ frame and pooled. The package, in the order a run goes through it:
 * :mod:`.log`, :mod:`.sidecar`, :mod:`.lock`, :mod:`.fingerprint`, :mod:`.resume` — the
   streamed CSV and what makes resuming safe;
 * :mod:`.pooling` — the merged statistics of every scored frame;
-* :mod:`.run` — one run, start to end; :mod:`.report` — its result.
+* :mod:`.options` — how a run is carried out (:class:`RunOptions`);
+* :mod:`.run` — one run, start to end; :mod:`.report` — its result (:mod:`.entry`: a
+  frame's row).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import os
-from typing import Any, Callable
+from typing import Any
 
+from ..bootstrap import check_level
 from ..camera import CameraInputs
 from ..config import ScoringConfig
 from ..errors import FidelityError
 from ..frames import FrameSequence
 from ..results import recorded_warnings
-from ..bootstrap import check_level
+from ..temperature import scoring_config, temperature_sequence
 from .delay import find_delay
 from .intervals import sequence_intervals
 from .pairing import Pairing, pair_frames, pair_with_delay
 from .plan import make_plan
 from .report import SequenceReport
-from .run import RunOptions, execute
+from .options import RunOptions, split_options
+from .run import execute
 from .sources import as_sequence
 
-__all__ = ["score_sequence", "SequenceReport"]
-
-
-_MOST = 1 << 16  # workers or pairs per Dask task: far beyond any machine
-
-
-def _positive(name: str, value: Any, allow_none: bool = False) -> Any:
-    if value is None and allow_none:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= _MOST:
-        raise FidelityError(f"{name} must be an integer in 1..{_MOST}{' or None' if allow_none else ''}, "
-                            f"got {value!r}", option=name)
-    return int(value)
+__all__ = ["score_sequence", "SequenceReport", "RunOptions"]
 
 
 def _pairing(real: FrameSequence, sim: FrameSequence, cfg: ScoringConfig) -> Pairing:
@@ -63,12 +54,13 @@ def _pairing(real: FrameSequence, sim: FrameSequence, cfg: ScoringConfig) -> Pai
 
 def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
                    sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-                   config: ScoringConfig | None = None, workers: int | None = None,
-                   progress: bool | Callable[[int, int], Any] = True, client: Any = None,
-                   csv: str | os.PathLike | None = None, resume: bool = False, chunk_size: int = 16,
-                   max_pixels: int | None = None, max_bytes: int | None = None, ci: bool | float = False,
-                   **options: Any) -> SequenceReport:
+                   real_mrtd: Any = None, sim_mrtd: Any = None, config: ScoringConfig | None = None,
+                   run: RunOptions | None = None, ci: bool | float = False, **options: Any) -> SequenceReport:
     """Score a simulated sequence against the real one, frame by frame and pooled.
+
+    What is computed comes from ``config`` (a :class:`~irfidelity.ScoringConfig`); how the
+    run is carried out from ``run`` (a :class:`~irfidelity.sequence.RunOptions`). Both can
+    be given field by field as keywords instead.
 
     Parameters
     ----------
@@ -76,31 +68,33 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         arrays, or :class:`~irfidelity.FrameSequence`
         Frames are paired by file name when both are files (``pair_by``; a frame without a
         partner is reported as a failed frame, never dropped), else by position.
-    real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise :
-        The camera curves and noise recordings, as in :func:`irfidelity.evaluate`: compared
+    real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd :
+        The camera curves, noise recordings and MRTD inputs, as in :func:`irfidelity.evaluate`: compared
         once, before any frame; their components enter every frame's and the pooled fidelity.
     config : ScoringConfig, mapping or TOML/JSON path, optional
-        What decides the score; ``**options`` (any ScoringConfig field) override it.
-    workers : threads over frame pairs (default: all cores); with ``client``, threads per
-        Dask task (default 1).
-    progress : True (a tqdm bar, or a plain line without tqdm), False, or
-        ``callable(done, total)``.
-    client : dask.distributed.Client, optional
-        Score chunks of ``chunk_size`` pairs on the cluster (file sources only).
-    csv : path, optional
-        Stream one row per frame as frames finish (flushed), with ``csv + ".pairstats"`` (what
-        a resume trusts) and, while the run writes, ``csv + ".lock"``; see
-        :mod:`irfidelity.sequence.log`.
-    resume : bool
-        Keep the frames of an earlier run on ``csv`` whose records are intact and whose files
-        are unchanged; score the rest (records are read one at a time: memory does not grow
-        with the run).
-    max_pixels, max_bytes : decoding limits per frame (:func:`irfidelity.load_frame`); a frame
-        beyond them is that frame's error row.
+        What decides the score; ScoringConfig fields given as keywords override it.
     ci : bool or float
         Also compute ``report.ci``, the block-bootstrap intervals of the pooled fidelity and
         components over frames (True: at level 0.95; a float: that level;
         :mod:`irfidelity.sequence.intervals`); it costs a bootstrap over the frames.
+    run : RunOptions, optional
+        How the run is carried out: ``workers``, ``progress``, ``client``, ``csv``,
+        ``resume``, ``chunk_size``, ``max_pixels``, ``max_bytes`` (each described in
+        :class:`~irfidelity.sequence.RunOptions`). Without ``run``, these are keywords of
+        their own; a run keyword given together with ``run`` is a FidelityError.
+    **options
+        ScoringConfig fields (``bits=14``, ``register="translation"``, ...) and, without
+        ``run``, the run keywords above (``workers=4``, ``progress=False``,
+        ``csv="run.csv"``, ...). Notably:
+
+        * ``csv`` streams one row per frame as frames finish (flushed), with
+          ``csv + ".pairstats"`` (what a resume trusts) and, while the run writes,
+          ``csv + ".lock"``; see :mod:`irfidelity.sequence.log`;
+        * ``resume=True`` keeps the frames of an earlier run on ``csv`` whose records are
+          intact and whose files are unchanged, and scores the rest (records are read one at
+          a time: memory does not grow with the run);
+        * ``client`` (a ``dask.distributed.Client``) scores chunks of ``chunk_size`` pairs on
+          the cluster (file sources only).
 
     Returns
     -------
@@ -111,28 +105,32 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     Examples
     --------
     >>> import numpy as np, irfidelity as irf
+    >>> from irfidelity.sequence import RunOptions
     >>> ramp = np.arange(64, dtype=np.uint16).reshape(8, 8)      # a scene spanning 63 counts
     >>> real = np.stack([ramp, ramp.T, ramp[::-1]])               # three frames
-    >>> rep = irf.score_sequence(real, real + 1, bits=14, peak="range", weights="psnr=1", progress=False)
+    >>> config = irf.ScoringConfig(bits=14, peak="range", weights="psnr=1")
+    >>> rep = irf.score_sequence(real, real + 1, config=config, run=RunOptions(progress=False))
     >>> len(rep.frames), rep.failed, round(rep.metrics["psnr_db"], 2), rep.metrics["psnr_peak"]
     (3, [], 35.99, 63.0)
+
+    The same run with keywords:
+
+    >>> again = irf.score_sequence(real, real + 1, bits=14, peak="range", weights="psnr=1", progress=False)
+    >>> again.frames == rep.frames
+    True
     """
-    cfg = ScoringConfig.resolve(config, **options)
-    if resume and csv is None:
-        raise FidelityError("resuming needs the CSV of the interrupted run", option="csv")
-    run = RunOptions(workers=_positive("workers", workers, allow_none=True), progress=progress, client=client,
-                     csv=None if csv is None else os.fspath(csv), resume=bool(resume),
-                     chunk_size=_positive("chunk_size", chunk_size), max_pixels=max_pixels, max_bytes=max_bytes)
-    real_seq = as_sequence(real, "real", cfg.real_channel, max_pixels, max_bytes)
-    sim_seq = as_sequence(sim, "sim", cfg.sim_channel, max_pixels, max_bytes)
+    run, config_options = split_options(run, options)
+    cfg = scoring_config(ScoringConfig.resolve(config, **config_options))
+    real_seq = temperature_sequence(as_sequence(real, "real", cfg.real_channel, run.max_pixels, run.max_bytes),
+                                    "real", cfg)
+    sim_seq = temperature_sequence(as_sequence(sim, "sim", cfg.sim_channel, run.max_pixels, run.max_bytes), "sim",
+                                   cfg)
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError("empty sequences: nothing to score")
     pairing = _pairing(real_seq, sim_seq, cfg)
-    plan = make_plan(real_seq, sim_seq, pairing, CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise), cfg)
-    report = execute(real_seq, sim_seq, pairing, plan, run)
-    return with_intervals(report, ci)
-
-
+    camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
+    plan = make_plan(real_seq, sim_seq, pairing, camera, cfg)
+    return with_intervals(execute(real_seq, sim_seq, pairing, plan, run), ci)
 def with_intervals(report: SequenceReport, ci: bool | float) -> SequenceReport:
     """``report`` with ``ci`` and ``pooling["ci"]`` when asked for (``ci``: True, or a level)
     and when at least two frames were scored (else a note says why there is none)."""

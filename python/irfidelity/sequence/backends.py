@@ -13,28 +13,31 @@ as pairs finish, in any order.
 * :class:`ArrayLoop` — arrays and ``.npy`` files: a Python loop over
   :func:`irfidelity.pair_stats` (each call itself parallel in Rust).
 
-With ``Decoding.fingerprint`` (a run that keeps a log), every outcome carries the
-fingerprints of what was scored (:mod:`.fingerprint`), taken by the backend as it reads.
+Each takes the run's :class:`~irfidelity.sequence.options.RunOptions` (threads, decoding
+limits, the Dask client and chunk size). With ``fingerprint`` (a run that keeps a log), every
+outcome carries the fingerprints of what was scored (:mod:`.fingerprint`), taken by the
+backend as it reads.
 """
 
 from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
 
 from .. import _core
-from ..alignment import aligned_pair, find_registration
-from ..errors import FidelityError, ShapeError
+from ..alignment import RegisteredPair, score_registered
+from ..errors import FidelityError
 from ..frames import FrameSequence
 from ..registration import RegistrationWarning, from_engine
-from ..stats import KernelRequest, PairStats, pair_stats
+from ..stats import PairStats, pair_stats
+from ..temperature import TemperatureErrors, tolerance_for
 from .fingerprint import array_fingerprint, file_fingerprint
+from .options import RunOptions
 from .outcomes import Outcome
-from .plan import SequencePlan
+from .plan import SequencePlan, SequenceRequest
 
 __all__ = ["Backend", "RustEngine", "DaskBackend", "ArrayLoop", "choose_backend", "engine_reads", "Todo"]
 
@@ -44,16 +47,6 @@ Deliver = Callable[[list[Outcome]], None]
 
 class Backend(Protocol):
     def run(self, todo: Todo, deliver: Deliver) -> None: ...
-
-
-@dataclass(frozen=True)
-class Decoding:
-    """How frame files are decoded (limits do not change a score, only what is refused)."""
-
-    workers: int | None = None
-    max_pixels: int | None = None
-    max_bytes: int | None = None
-    fingerprint: bool = False  # fingerprint what is scored, for a resumable log
 
 
 def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
@@ -67,9 +60,10 @@ def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
 
 
 class RustEngine:
-    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, decoding: Decoding):
+    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, options: RunOptions,
+                 fingerprint: bool = False):
         self.real, self.sim = _file_sources(real), _file_sources(sim)
-        self.plan, self.decoding = plan, decoding
+        self.plan, self.options, self.fingerprint = plan, options, fingerprint
 
     def _outcomes(self, todo: Todo, rows: list) -> list[Outcome]:
         """Outcomes from the engine's ``(k, stats, error, shape, dtype, real extent,
@@ -87,16 +81,16 @@ class RustEngine:
         return out
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
-        request = self.plan.kernel_request(self.decoding.max_pixels, self.decoding.max_bytes)
+        request = self.plan.kernel_request(self.options.max_pixels, self.options.max_bytes)
         real = [self.real[r] for _, r, _ in todo]
         sim = [self.sim[s] for _, _, s in todo]
         _core.score_pairs([p for p, _ in real], [p for p, _ in sim], [g for _, g in real], [g for _, g in sim],
-                          request=request, workers=int(self.decoding.workers or 0),
+                          request=request, workers=int(self.options.workers or 0),
                           on_result=lambda rows: deliver(self._outcomes(todo, rows)),
-                          fingerprints=self.decoding.fingerprint)
+                          fingerprints=self.fingerprint)
 
 
-def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: list, request: KernelRequest,
+def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: list, request: SequenceRequest,
                 workers: int, fingerprints: bool = False) -> list:
     """Run on a Dask worker: score one chunk with the Rust engine; statistics as bytes (the
     files' fingerprints, taken by the worker as it decoded them, come back with them)."""
@@ -108,26 +102,23 @@ def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: 
 
 
 class DaskBackend(RustEngine):
-    def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, decoding: Decoding,
-                 client: Any, chunk_size: int):
-        super().__init__(real, sim, plan, decoding)
-        self.client, self.chunk_size = client, chunk_size
+    """The Rust engine on the workers of ``options.client``, ``options.chunk_size`` pairs a task."""
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
         try:
             from distributed import as_completed
         except ImportError as exc:  # only without the dask extra
             raise FidelityError("a Dask client needs dask.distributed (pip install 'irfidelity[dask]')") from exc
-        request = self.plan.kernel_request(self.decoding.max_pixels, self.decoding.max_bytes)
-        workers = int(self.decoding.workers or 1)
+        request = self.plan.kernel_request(self.options.max_pixels, self.options.max_bytes)
+        workers, chunk_size = int(self.options.workers or 1), self.options.chunk_size
         futures = {}
-        for start in range(0, len(todo), self.chunk_size):
-            chunk = todo[start:start + self.chunk_size]
+        for start in range(0, len(todo), chunk_size):
+            chunk = todo[start:start + chunk_size]
             real = [self.real[r] for _, r, _ in chunk]
             sim = [self.sim[s] for _, _, s in chunk]
-            future = self.client.submit(score_chunk, [p for p, _ in real], [p for p, _ in sim],
-                                        [g for _, g in real], [g for _, g in sim], request, workers,
-                                        self.decoding.fingerprint, pure=False)
+            future = self.options.client.submit(score_chunk, [p for p, _ in real], [p for p, _ in sim],
+                                                [g for _, g in real], [g for _, g in sim], request, workers,
+                                                self.fingerprint, pure=False)
             futures[future] = chunk
         try:
             for future in as_completed(list(futures)):
@@ -138,7 +129,7 @@ class DaskBackend(RustEngine):
                                                for k, data, *rest in rows]))
         finally:
             if futures:
-                self.client.cancel(list(futures))
+                self.options.client.cancel(list(futures))
 
 
 def _extent(frame: np.ndarray) -> tuple[float, float] | None:
@@ -152,54 +143,57 @@ class ArrayLoop:
 
     def _one(self, index: int, r: int, s: int) -> Outcome:
         cfg = self.plan.config
-        registration = None
+        registration = extent = None
         try:
             real, sim = np.asarray(self.real[r]), np.asarray(self.sim[s])
-            numeric_peak = cfg.peak if isinstance(cfg.peak, float) else None
-            bits, mask, hist_range = cfg.bits, None, cfg.hist_range
-            scored_real, scored_sim = real, sim
-            if cfg.register is not None:  # the frames as the Rust engine scores them
-                registration = self._registration(real, sim)
-                scored_real, scored_sim, mask = aligned_pair(real, sim, registration, valid=self.plan.valid)
-                bits, numeric_peak = None, numeric_peak or self.plan.default_peak
-                hist_range = self.plan.hist_range if self.plan.hist_range is not None else hist_range
-            st = pair_stats(scored_real, scored_sim, bits=bits, peak=numeric_peak, bins=cfg.bins, hist_range=hist_range,
-                            mask=mask, need=self.plan.image, nonfinite=cfg.nonfinite)
+            scored_sim, mask = sim, None
+            if cfg.register is not None:  # the frames as the Rust engine scores them, on the same path
+                st, pair = self._registered(real, sim)
+                registration, extent, scored_sim, mask = pair.registration, pair.extent, pair.sim, pair.mask
+            else:
+                st = pair_stats(real, sim, bits=cfg.bits, peak=cfg.numeric_peak, bins=cfg.bins,
+                                hist_range=cfg.hist_range, need=self.plan.image, nonfinite=cfg.nonfinite)
+                extent = _extent(real) if cfg.peak == "range" else None
+            temperature = None if cfg.unit is None else TemperatureErrors.of_frames(
+                real, scored_sim, mask=mask, unit=cfg.unit, tolerance=tolerance_for(cfg, self.plan.camera_metrics))
         except FidelityError as exc:
             return Outcome(index, None, str(exc))
-        extent = _extent(scored_real if mask is None else scored_real[mask]) if cfg.peak == "range" else None
         inputs = {"real": array_fingerprint(real), "sim": array_fingerprint(sim)} if self.fingerprint else None
         return Outcome(index, st, None, real.shape, real.dtype.name, extent,
-                       registration if cfg.register_each else None, inputs)
+                       registration if cfg.register_each else None, inputs, temperature)
 
-    def _registration(self, real: np.ndarray, sim: np.ndarray) -> Any:
-        """The plan's registration, or with ``register_each`` the pair's own (its confidence
-        is in the pair's row; the run counts the unsure ones instead of warning per pair)."""
-        if real.shape != sim.shape:
-            raise ShapeError(f"real and sim frames differ in shape: {real.shape} vs {sim.shape}")
-        if not self.plan.config.register_each:
-            return self.plan.registration
+    def _registered(self, real: np.ndarray, sim: np.ndarray) -> tuple[PairStats, RegisteredPair]:
+        """The pair scored through the plan's registration or, with ``register_each``, its
+        own (whose confidence is in the pair's row: the run counts the unsure ones instead
+        of warning per pair), as the engine scores a file pair."""
+        plan, cfg = self.plan, self.plan.config
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RegistrationWarning)
-            return find_registration(real, sim, self.plan.config)
+            pair = score_registered(real, sim, plan.pair_request(), model=cfg.register, method=cfg.register_method,
+                                    registration=None if cfg.register_each else plan.registration,
+                                    extent=plan.real_extent)
+        st = PairStats(pair.stats, peak=cfg.numeric_peak or plan.default_peak, bins=plan.bin_label)
+        return st, pair
 
     def run(self, todo: Todo, deliver: Deliver) -> None:
         for index, r, s in todo:
             deliver([self._one(index, r, s)])
 
 
-def choose_backend(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, decoding: Decoding,
-                   client: Any, chunk_size: int) -> Backend:
+def choose_backend(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, options: RunOptions,
+                   fingerprint: bool = False) -> Backend:
     """The Rust engine for files it decodes, Dask when a client is given, else the array loop."""
     files = engine_reads(real, sim)
-    if client is not None:
+    if options.client is not None:
         if not files:
-            raise FidelityError("a Dask client needs file sources (EXR/PNG/TIFF paths) for both sequences; "
-                                "arrays and .npy files are scored locally", option="client")
-        return DaskBackend(real, sim, plan, decoding, client, chunk_size)
+            local = ("frames scored in a unit (config.unit) are converted and scored locally" if plan.config.unit
+                     else "arrays and .npy files are scored locally")
+            raise FidelityError(f"a Dask client needs file sources (EXR/PNG/TIFF paths) for both sequences; {local}",
+                                option="client")
+        return DaskBackend(real, sim, plan, options, fingerprint)
     if files:
-        return RustEngine(real, sim, plan, decoding)
-    return ArrayLoop(real, sim, plan, decoding.fingerprint)
+        return RustEngine(real, sim, plan, options, fingerprint)
+    return ArrayLoop(real, sim, plan, fingerprint)
 
 
 def engine_reads(real: FrameSequence, sim: FrameSequence) -> bool:

@@ -15,13 +15,15 @@ import dataclasses
 from typing import Any, Mapping
 
 from ..bootstrap import DEFAULT_RESAMPLES, Intervals, Pool, bootstrap_ci, sequence_pool
+from ..camera import KINDS
 from ..errors import FidelityError
 from ..fuzzy import COMPONENTS
+from ..schema import IMAGE_COMPONENTS
 
 __all__ = ["FrameNumbers", "frame_numbers", "sequence_intervals", "CURVES"]
 
-#: Components measured once from camera curves: the same for every frame.
-CURVES = ("mtf", "sitf", "noise")
+#: Components measured once from the camera inputs: the same for every frame.
+CURVES = KINDS
 
 
 class FrameNumbers:
@@ -81,8 +83,8 @@ def frame_numbers(report: Any, exact: bool = True) -> FrameNumbers:
     names = [f["real"] if f.get("real") is not None else f["index"] for f in scored]
     sums = report.sources.get("sums") or {}
     curves = tuple(k for k in CURVES if k in report.components)
-    if exact and all(f["index"] in sums for f in scored):
-        image = [k for k in report.components if k not in curves]
+    image = [k for k in report.components if k not in curves]
+    if exact and set(image) <= set(IMAGE_COMPONENTS) and all(f["index"] in sums for f in scored):
         numbers: dict[str, list] = {}
         for f in scored:
             row = dict(sums[f["index"]])

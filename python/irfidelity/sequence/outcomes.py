@@ -1,21 +1,20 @@
-"""One frame pair's outcome, as a backend reports it, and its entry in the report.
-
-A frame entry has the keys of a single-pair result (:mod:`irfidelity.schema`): ``index``,
-``real``, ``sim``, ``rows``, ``cols``, ``dtype``, ``fidelity``, ``grade``, ``components``,
-``component_grades``, ``membership``, ``metrics``, ``registration`` (the one applied to the
-pair, or None) and ``error`` (None, or why the pair could not be scored — then the values
-are None and the dicts empty).
-"""
+"""One frame pair's outcome, as a backend reports it, and its entry in the report
+(:class:`~irfidelity.sequence.entry.FrameEntry`: the keys of a single-pair result, the
+frame's place, and ``error`` — None, or why the pair could not be scored, when the values
+are None and the dicts empty)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from collections.abc import Mapping
 from typing import Any
 
 from ..errors import FidelityError
 from ..schema import registration_values
 from ..scoring import image_components, psnr_peak, score_components
 from ..stats import PairStats
+from ..temperature import TemperatureErrors, temperature_scores
+from .entry import FrameEntry
 from .plan import SequencePlan
 
 __all__ = ["Outcome", "frame_entry", "error_entry"]
@@ -29,7 +28,8 @@ class Outcome:
     measured it (needed for ``peak="range"``); ``registration`` the pair's own
     :class:`~irfidelity.Registration` (``register_each``); ``inputs`` the fingerprints of
     what was scored, ``{"real": ..., "sim": ...}`` (:mod:`.fingerprint`), when asked for and
-    taken (a record is kept only with them).
+    taken (a record is kept only with them); ``temperature`` the pair's
+    :class:`~irfidelity.temperature.TemperatureErrors` when scored in a unit.
     """
 
     index: int
@@ -40,19 +40,12 @@ class Outcome:
     real_extent: tuple[float, float] | None = None
     registration: Any = None
     inputs: dict | None = None
+    temperature: TemperatureErrors | None = None
 
 
-def _blank(index: int, real: str | None, sim: str | None) -> dict:
-    return {"index": index, "real": real, "sim": sim, "rows": None, "cols": None, "dtype": None,
-            "fidelity": None, "grade": None, "components": {}, "component_grades": {}, "membership": {},
-            "metrics": {}, "registration": None, "error": None}
-
-
-def error_entry(index: int, real: str | None, sim: str | None, error: str) -> dict:
+def error_entry(index: int, real: str | None, sim: str | None, error: str) -> FrameEntry:
     """The entry of a pair that could not be scored."""
-    entry = _blank(index, real, sim)
-    entry["error"] = " ".join(str(error).split())  # one physical line in CSV
-    return entry
+    return FrameEntry(index, real, sim, error=" ".join(str(error).split()))  # one physical line in CSV
 
 
 def _frame_peak(plan: SequencePlan, outcome: Outcome, real_name: str) -> float | None:
@@ -65,7 +58,7 @@ def _frame_peak(plan: SequencePlan, outcome: Outcome, real_name: str) -> float |
                      where=real_name)
 
 
-def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str | None) -> tuple[dict, PairStats | None]:
+def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str | None) -> tuple[FrameEntry, PairStats | None]:
     """The report entry of one outcome, and the statistics to pool (None for a failure).
 
     The components come from the same functions :func:`irfidelity.evaluate` uses, so a
@@ -77,24 +70,29 @@ def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str
         return error_entry(outcome.index, real, sim, f"{real}: frame type {outcome.dtype} differs from the "
                            f"sequence's {plan.dtype.name} (its first readable real frame); store every frame "
                            f"in one sample type"), None
-    entry = _blank(outcome.index, real, sim)
-    if outcome.shape is not None:
-        entry["rows"], entry["cols"] = int(outcome.shape[0]), int(outcome.shape[1])
-    entry["dtype"] = outcome.dtype
     try:
         stats = outcome.stats.with_peak(_frame_peak(plan, outcome, str(real)))
         comps, metrics = image_components(stats, plan.image, plan.config)
+        if outcome.temperature is not None:
+            comps, metrics = _with_temperature(comps, metrics, outcome.temperature, plan)
         score = score_components(comps | plan.camera_components, metrics | plan.camera_metrics, plan.weights,
                                  plan.config)
     except FidelityError as exc:
         return error_entry(outcome.index, real, sim, str(exc)), None
-    entry.update(score.to_dict())
+    shape = outcome.shape
     registration = outcome.registration if outcome.registration is not None else plan.registration
-    entry["registration"] = None if registration is None else registration.to_dict()
-    return entry, stats
+    return FrameEntry(outcome.index, real, sim, rows=None if shape is None else int(shape[0]),
+                      cols=None if shape is None else int(shape[1]), dtype=outcome.dtype, **score.to_dict(),
+                      registration=None if registration is None else registration.to_dict()), stats
 
 
-def flat_row(entry: dict, columns: list[str]) -> list[Any]:
+def _with_temperature(comps: dict, metrics: dict, errors: TemperatureErrors, plan: SequencePlan
+                      ) -> tuple[dict, dict]:
+    temperature_comps, temperature_metrics = temperature_scores(errors, plan.weights)
+    return comps | temperature_comps, metrics | temperature_metrics
+
+
+def flat_row(entry: Mapping[str, Any], columns: list[str]) -> list[Any]:
     """The CSV values of an entry: frame keys, the registration's ``reg_*``, then metrics,
     then ``f_X`` = components.X."""
     metrics, comps = entry.get("metrics") or {}, entry.get("components") or {}

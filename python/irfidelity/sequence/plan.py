@@ -22,10 +22,43 @@ from ..fuzzy import Weights
 from ..registration import DEFAULT_ORDER
 from ..results import recorded_warnings
 from ..scoring import plan_components, psnr_peak
-from ..stats import KernelRequest, full_range, hist_params, peak_and_valid
+from ..stats import PairRequest, full_range, hist_params, peak_and_valid
 from .pairing import Pairing
 
-__all__ = ["SequencePlan", "make_plan"]
+__all__ = ["SequencePlan", "SequenceRequest", "make_plan"]
+
+
+@dataclass(frozen=True, slots=True)
+class SequenceRequest:
+    """What the Rust engine computes for every pair of a sequence and how it reads them:
+    the pairs' :class:`~irfidelity.stats.PairRequest` and what a sequence adds.
+
+    Attributes
+    ----------
+    pair : PairRequest
+        What each pair's kernel pass computes.
+    real_channel, sim_channel : str or None
+        The channel to decode from each side's files (``None``: the only one, or luminance).
+    real_extent : bool
+        Report each real frame's (min, max) over its finite scored values.
+    max_pixels, max_bytes : int or None
+        The decode limits per frame (``None``: the defaults).
+    warp : ((6 floats), int) or None
+        A registration applied to every pair — its matrix (simulated → real, row-major) and
+        interpolation order; the overlap is scored, both frames as float64.
+    register_each : (model, method, max_shift, order) or None
+        Register every pair on its own (:func:`irfidelity.register`'s model, method and
+        max_shift), then score it as with ``warp``; excludes ``warp``.
+    """
+
+    pair: PairRequest = PairRequest()
+    real_channel: str | None = None
+    sim_channel: str | None = None
+    real_extent: bool = False
+    max_pixels: int | None = None
+    max_bytes: int | None = None
+    warp: tuple[tuple[float, ...], int] | None = None
+    register_each: tuple[str, str, float | None, int] | None = None
 
 
 @dataclass(frozen=True)
@@ -62,16 +95,23 @@ class SequencePlan:
         """Whether frames share histogram edges, so their histograms pool."""
         return "nmi" in self.image and (self.levels or self.hist_range is not None)
 
-    def kernel_request(self, max_pixels: int | None = None, max_bytes: int | None = None) -> KernelRequest:
-        """What the Rust engine computes per pair (only what the image components need) and
-        how it decodes frames."""
+    def pair_request(self) -> PairRequest:
+        """What every pair's kernel pass computes (only what the image components need)."""
+        return PairRequest(sse="psnr" in self.image, moments="ssim" in self.image, bins=self.bins,
+                           levels=self.levels, hist_range=self.hist_range, valid=self.valid,
+                           mask_nonfinite=self.config.nonfinite == "mask")
+
+    @property
+    def real_extent(self) -> bool:
+        """Whether each pair reports its real frame's extent (the PSNR peak "range")."""
+        return self.config.peak == "range" and "psnr" in self.image
+
+    def kernel_request(self, max_pixels: int | None = None, max_bytes: int | None = None) -> SequenceRequest:
+        """What the Rust engine computes per pair and how it decodes frames."""
         cfg = self.config
-        return KernelRequest(sse="psnr" in self.image, moments="ssim" in self.image, bins=self.bins,
-                             levels=self.levels, hist_range=self.hist_range, valid=self.valid,
-                             mask_nonfinite=cfg.nonfinite == "mask", real_channel=cfg.real_channel,
-                             sim_channel=cfg.sim_channel, real_extent=cfg.peak == "range" and "psnr" in self.image,
-                             max_pixels=max_pixels, max_bytes=max_bytes, warp=self.warp,
-                             register_each=self.register_each)
+        return SequenceRequest(self.pair_request(), real_channel=cfg.real_channel, sim_channel=cfg.sim_channel,
+                               real_extent=self.real_extent, max_pixels=max_pixels, max_bytes=max_bytes,
+                               warp=self.warp, register_each=self.register_each)
 
     @property
     def warp(self) -> tuple[tuple[float, ...], int] | None:
@@ -146,7 +186,8 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
     given = camera.given()
     weights, image, skipped = plan_components(config.weights, config.missing, have_images=True,
                                               have_mtf=given["mtf"], have_sitf=given["sitf"],
-                                              have_noise=given["noise"])
+                                              have_noise=given["noise"], have_unit=config.unit is not None,
+                                              have_mrtd=given["mrtd"])
     if not image:
         raise FidelityError("a sequence needs a positive weight on psnr, nmi or ssim (the per-frame components); "
                             "to compare curves alone, score a single pair without frames", option="weights")
@@ -163,9 +204,8 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
             if "psnr" in image and config.peak != "range":  # "range": each frame's own
                 peak = psnr_peak(config, default_peak, _scene_range(first), where="the first real frame")
             if "nmi" in image:
-                numeric = config.peak if isinstance(config.peak, float) else None
                 bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
-                                                       full_range(dtype, config.bits, numeric))
+                                                       full_range(dtype, config.bits, config.numeric_peak))
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,
                         camera_metrics=fixed_metrics, inputs=inputs, camera_objects=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"

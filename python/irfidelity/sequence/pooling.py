@@ -18,6 +18,7 @@ import numpy as np
 from ..registration import LOW_CONFIDENCE
 from ..scoring import Score, image_components, psnr_peak, score_components
 from ..stats import PairStats, merge_all
+from ..temperature import pooled_metrics, temperature_scores
 from .plan import SequencePlan
 
 __all__ = ["Pool", "frame_statistics", "registration_summary"]
@@ -77,6 +78,10 @@ class Pool:
                 for key in ("nmi", "mi", "h_real", "h_sim", "h_joint"):
                     metrics[key] = math.fsum(f["metrics"][key] for f in scored) / len(scored)
                 comps["nmi"] = metrics["nmi"]
+        errors = pooled_metrics(f["metrics"] for f in scored)
+        if errors is not None:  # scored in a unit: from the frames' sums
+            temperature_comps, temperature_metrics = temperature_scores(errors, plan.weights)
+            comps, metrics = comps | temperature_comps, metrics | temperature_metrics
         score = score_components(comps | plan.camera_components, metrics | plan.camera_metrics, plan.weights,
                                  plan.config)
         return score, pooling

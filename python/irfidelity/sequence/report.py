@@ -12,20 +12,19 @@ import os
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
-from ..config import ScoringConfig
-from ..fuzzy import Weights
 from .. import readback
-from ..readback import Fields, shared_fields
-from ..results import component_lines, reading_report, registration_line, settings_line, version
-from ..schema import csv_columns, to_json
+from ..readback import Fields
+from ..results import ReportBase, registration_line
+from ..schema import csv_columns
+from .entry import FrameEntry
 from .log import csv_line
 from .outcomes import flat_row
 
 __all__ = ["SequenceReport"]
 
 
-@dataclass
-class SequenceReport:
+@dataclass(kw_only=True)
+class SequenceReport(ReportBase):
     """Fidelity of a whole sequence: pooled, and frame by frame.
 
     Attributes
@@ -35,10 +34,11 @@ class SequenceReport:
         (PSNR from ΣSSE/ΣN, SSIM from the pooled moments; NMI as ``pooling["nmi"]`` says),
         and the curve components, which are the same for every frame. None / empty when no
         frame was scored.
-    frames : list of dict
-        One entry per frame pair, in index order, with the keys of a single-pair result plus
-        ``index``, ``real``, ``sim``, ``rows``, ``cols``, ``dtype`` and ``error`` (None, or
-        why the pair could not be scored).
+    frames : list of FrameEntry
+        One entry per frame pair, in index order (:class:`~irfidelity.sequence.entry.FrameEntry`,
+        read as a mapping: ``frames[i]["metrics"]``), with the keys of a single-pair result
+        plus ``index``, ``real``, ``sim``, ``rows``, ``cols``, ``dtype`` and ``error`` (None,
+        or why the pair could not be scored).
     failed : list of int
         Indices of the frames with an error (not those in ``unpaired``).
     unpaired : list of int
@@ -54,7 +54,7 @@ class SequenceReport:
         ``frames`` (how many were pooled), ``n`` (pixel pairs), ``nmi`` ("histogram" or
         "frame_mean").
     weights, skipped, config, version, notes, inputs
-        As in :class:`~irfidelity.FidelityReport`.
+        As in :class:`~irfidelity.FidelityReport` (:class:`~irfidelity.results.ReportBase`).
     run : dict
         How the run went: ``pair_by`` (how frames were paired), ``workers``, ``csv``,
         ``resumed`` (frames taken from an earlier run).
@@ -97,28 +97,17 @@ class SequenceReport:
     [35.99, 29.97, 26.44]
     """
 
-    frames: list
-    weights: Weights
-    fidelity: float | None = None
-    grade: str | None = None
-    components: dict = field(default_factory=dict)
-    component_grades: dict = field(default_factory=dict)
-    membership: dict = field(default_factory=dict)
-    metrics: dict = field(default_factory=dict)
+    frames: list[FrameEntry]
     failed: list = field(default_factory=list)
     unpaired: list = field(default_factory=list)
     frame_stats: dict = field(default_factory=dict)
     pooling: dict = field(default_factory=dict)
-    skipped: dict = field(default_factory=dict)
-    config: ScoringConfig = field(default_factory=ScoringConfig)
-    version: str = field(default_factory=version)
-    notes: list = field(default_factory=list)
-    inputs: dict = field(default_factory=dict)
     run: dict = field(default_factory=dict)
-    registration: dict | None = None
     delay: dict | None = None
     ci: dict | None = None
-    sources: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        self.frames = [f if isinstance(f, FrameEntry) else FrameEntry.from_mapping(f) for f in self.frames]
 
     def to_html(self, path: str | os.PathLike | None = None, *, worst: int = 10) -> str:
         """A self-contained HTML report (figures embedded, no network): the pooled verdict, the
@@ -126,22 +115,21 @@ class SequenceReport:
         ``worst`` frames (with thumbnails when the frames can still be read), the failures and
         the curves. Written to ``path`` when given; returned either way. Needs matplotlib
         (``irfidelity[report]``)."""
-        from ..report import render_sequence_html, write_html
+        from ..report import write_html
 
-        html = render_sequence_html(self, worst=worst, frames=self.sources.get("frames"),
-                                    curves=self.sources.get("curves"))
-        return write_html(html, path)
+        return write_html(self._render(worst=worst), path)
 
-    def _repr_html_(self) -> str:
+    def _render(self, *, fragment: bool = False, **options: Any) -> str:
         from ..report import render_sequence_html
 
         return render_sequence_html(self, frames=self.sources.get("frames"), curves=self.sources.get("curves"),
-                                    fragment=True)
+                                    fragment=fragment, **options)
 
     @property
     def columns(self) -> list[str]:
         """The CSV columns (as in a single pair's CSV)."""
-        return csv_columns(self.weights.active(), registered=self.config.register is not None)
+        return csv_columns(self.weights.active(), registered=self.config.register is not None,
+                           temperature=self.config.unit is not None)
 
     def to_csv(self, path: str | os.PathLike) -> None:
         """Write one row per frame, in index order (the columns of ``csv=``)."""
@@ -150,38 +138,28 @@ class SequenceReport:
             fh.write(csv_line(cols))
             fh.writelines(csv_line(flat_row(f, cols)) for f in self.frames)
 
-    _FIELDS = ("fidelity", "grade", "components", "component_grades", "membership", "metrics", "failed",
-               "unpaired", "frame_stats", "pooling", "skipped", "notes", "inputs", "run", "registration", "delay",
-               "ci")
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict (non-finite floats as "inf"/"-inf"/"nan"); :meth:`from_dict` inverts it."""
-        out: dict[str, Any] = {"irfidelity": self.version}
-        out.update({k: getattr(self, k) for k in self._FIELDS})
-        out.update(weights=self.weights.as_dict(), config=self.config.to_dict(), frames=self.frames)
-        return to_json(out)
+    def _own_dict(self) -> dict:
+        return {"failed": self.failed, "unpaired": self.unpaired, "frame_stats": self.frame_stats,
+                "pooling": self.pooling, "run": self.run, "delay": self.delay, "ci": self.ci,
+                "frames": [dict(f) for f in self.frames]}
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> SequenceReport:
-        """A report from :meth:`to_dict`'s output; FidelityError naming what is wrong otherwise."""
-        with reading_report(cls, data) as d:
-            fields = Fields(d, "report")
-            report = cls(frames=fields.require("frames", readback.list_of(readback.frame)),
-                       fidelity=fields.get("fidelity", readback.optional(readback.fraction)),
-                       grade=fields.get("grade", readback.optional(readback.text)),
-                       failed=fields.get("failed", readback.list_of(readback.count), []),
-                       unpaired=fields.get("unpaired", readback.list_of(readback.count), []),
-                       frame_stats=fields.get("frame_stats", readback.frame_stats, {}),
-                       pooling=fields.get("pooling", readback.mapping_of(readback.anything), {}),
-                       run=fields.get("run", readback.mapping_of(readback.anything), {}),
-                       registration=fields.get("registration", readback.optional(readback.any_registration)),
-                       delay=fields.get("delay", readback.optional(readback.delay)),
-                       ci=fields.get("ci", readback.optional(readback.mapping_of(_interval))),
-                       **shared_fields(fields))
-            if (report.fidelity is None) != (report.grade is None):
-                raise readback.ReportError("report: fidelity and grade are both given (a pooled result) or both "
-                                           "null (no frame scored)")
-            return report
+    def _own_fields(cls, fields: Fields) -> dict[str, Any]:
+        own = {"frames": fields.require("frames", readback.list_of(readback.frame)),
+               "fidelity": fields.get("fidelity", readback.optional(readback.fraction)),
+               "grade": fields.get("grade", readback.optional(readback.text)),
+               "failed": fields.get("failed", readback.list_of(readback.count), []),
+               "unpaired": fields.get("unpaired", readback.list_of(readback.count), []),
+               "frame_stats": fields.get("frame_stats", readback.frame_stats, {}),
+               "pooling": fields.get("pooling", readback.mapping_of(readback.anything), {}),
+               "run": fields.get("run", readback.mapping_of(readback.anything), {}),
+               "registration": fields.get("registration", readback.optional(readback.any_registration)),
+               "delay": fields.get("delay", readback.optional(readback.delay)),
+               "ci": fields.get("ci", readback.optional(readback.mapping_of(_interval)))}
+        if (own["fidelity"] is None) != (own["grade"] is None):
+            raise readback.ReportError("report: fidelity and grade are both given (a pooled result) or both "
+                                       "null (no frame scored)")
+        return own
 
     def summary_text(self) -> str:
         """A short human-readable summary: pooled table, per-frame spread, failures."""
@@ -192,10 +170,7 @@ class SequenceReport:
         if self.fidelity is not None:
             lines.append("pooled over the scored frames (PSNR from ΣSSE/ΣN"
                          + (", NMI as the mean of the frames')" if self.pooling.get("nmi") == "frame_mean" else ")"))
-            lines += component_lines(self.components, self.component_grades, self.metrics, self.weights,
-                                     self.skipped)
-            lines.append(f"{'fidelity':<10} {'':>7} {self.fidelity:>8.4f}  (eq. 15, Σ k_i·f_i)")
-            lines.append(f"{'grade':<10} {'':>7} {self.grade:>8}")
+            lines += self._verdict_lines()
         if self.ci:
             info = self.pooling.get("ci", {})
             lines.append(f"intervals at {info.get('level', '?')} ({info.get('method', 'bootstrap')}): "
@@ -217,12 +192,7 @@ class SequenceReport:
         if self.registration:
             applied = "" if self.registration.get("each") else " (found on the first pair, applied to every pair)"
             lines.append(registration_line(self.registration) + applied)
-        lines.append(settings_line(self.config, self.version))
-        lines += [f"note: {note}" for note in self.notes]
-        return "\n".join(lines)
-
-    def __str__(self) -> str:
-        return self.summary_text()
+        return "\n".join(lines + self._made_lines())
 
 
 def _interval(value: Any, where: str) -> tuple[float, float]:

@@ -29,6 +29,7 @@ from .. import _core
 from ..errors import FidelityError
 from ..registration import Registration
 from ..stats import PairStats
+from ..temperature import TemperatureErrors
 from .fingerprint import Fingerprints
 from .log import FrameLog
 from .outcomes import Outcome, frame_entry
@@ -72,7 +73,7 @@ def _expected_make(plan: SequencePlan) -> tuple | None:
     value = plan.valid[0] if plan.valid is not None and dtype.kind in "ui" else 0
     pixel = np.full((1, 1), value, dtype=dtype)
     try:
-        return _make(_core.pair_stats(pixel, pixel, plan.kernel_request()), plan.keep_hist)
+        return _make(_core.pair_stats(pixel, pixel, plan.pair_request()), plan.keep_hist)
     except FidelityError:
         return None
 
@@ -133,7 +134,8 @@ class Resumer:
             self.changed += 1
             return False
         stats = self._stats(payload, shape)
-        outcome = Outcome(index, stats, None, shape, meta["dtype"], extent, registration, inputs)
+        outcome = Outcome(index, stats, None, shape, meta["dtype"], extent, registration, inputs,
+                          self._temperature(meta))
         real, sim = names(index)
         try:  # the scoring functions expect statistics a kernel made: a forged sum may upset them
             entry, pooled = frame_entry(self.plan, outcome, real, sim)
@@ -145,6 +147,15 @@ class Resumer:
             raise BadRecord("its statistics score no finite fidelity")
         keep(entry, pooled, extent, lambda: self._reload(where, shape))
         return True
+
+    def _temperature(self, meta: Any) -> TemperatureErrors | None:
+        """A record's temperature errors, checked (scored in a unit, every record has them)."""
+        if self.plan.config.unit is None:
+            return None
+        try:
+            return TemperatureErrors.from_dict(meta.get("temperature"))
+        except ValueError as exc:
+            raise BadRecord(f"its temperature errors are unusable: {exc}") from None
 
     def _meta(self, meta: Any) -> tuple[tuple[int, int], tuple[float, float] | None, Registration | None]:
         """The shape, extent and registration of a record's meta, checked."""

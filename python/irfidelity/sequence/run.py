@@ -4,17 +4,18 @@ from __future__ import annotations
 
 import hashlib
 import os
-from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Callable
 
 from .. import _core
 from ..errors import FidelityError
 from ..frames import FrameSequence
 from ..schema import csv_columns
 from ..stats import PairStats
-from .backends import Decoding, choose_backend, engine_reads
+from .backends import choose_backend, engine_reads
+from .entry import FrameEntry
 from .fingerprint import Fingerprints
 from .log import FrameLog
+from .options import RunOptions
 from .outcomes import Outcome, error_entry, flat_row, frame_entry
 from .pairing import Pairing
 from .plan import SequencePlan
@@ -23,25 +24,9 @@ from .progress import Progress
 from .report import SequenceReport
 from .resume import RecordBounds, Resumer
 from .sidecar import encode_record
+from .sources import FramePairs
 
 __all__ = ["RunOptions", "execute"]
-
-
-@dataclass(frozen=True)
-class RunOptions:
-    """How a run is carried out (never what it computes)."""
-
-    workers: int | None = None
-    progress: bool | Callable[[int, int], Any] = True
-    client: Any = None
-    csv: str | None = None
-    resume: bool = False
-    chunk_size: int = 16
-    max_pixels: int | None = None
-    max_bytes: int | None = None
-    #: ``backend(real, sim, plan, decoding)``: where pairs are scored instead of
-    #: :func:`~.backends.choose_backend`'s choice (several simulators sharing one engine).
-    backend: Callable[..., Any] | None = None
 
 
 def _log_settings(plan: SequencePlan, pairing: Pairing, real_names: list[str], sim_names: list[str],
@@ -65,7 +50,7 @@ class _Scorer:
                  log: FrameLog | None, progress: Progress, columns: list[str]):
         self.plan, self.pairing, self.log, self.progress, self.columns = plan, pairing, log, progress, columns
         self.real_names, self.sim_names = real_names, sim_names
-        self.entries: dict[int, dict] = {}
+        self.entries: dict[int, FrameEntry] = {}
         self.pool = Pool(plan)
         self.deferred: dict[int, tuple[Callable[[], PairStats], tuple | None]] = {}
         self.sums: dict[int, dict] = {}  # each scored frame's exact sums, for intervals
@@ -89,7 +74,7 @@ class _Scorer:
                 self.log.write(flat_row(entry, self.columns), _record(outcome, stats))
             self._keep(entry, stats, outcome.real_extent)
 
-    def resumed(self, entry: dict, stats: PairStats, extent: tuple | None, reload: Callable[[], PairStats]) -> None:
+    def resumed(self, entry: FrameEntry, stats: PairStats, extent: tuple | None, reload: Callable[[], PairStats]) -> None:
         """A frame taken from the log (``reload()`` reads its statistics again)."""
         index = entry["index"]
         ready = index == self.pool.next
@@ -97,7 +82,7 @@ class _Scorer:
             self.deferred[index] = (reload, extent)
         self._keep(entry, stats, extent, resumed=True, pool=ready)
 
-    def _keep(self, entry: dict, stats: PairStats | None, extent: tuple | None, *, resumed: bool = False,
+    def _keep(self, entry: FrameEntry, stats: PairStats | None, extent: tuple | None, *, resumed: bool = False,
               pool: bool = True) -> None:
         self.entries[entry["index"]] = entry
         sums = None if stats is None else stats.int_sums()
@@ -118,7 +103,8 @@ def _record(outcome: Outcome, stats: PairStats | None) -> bytes | None:
         return None
     meta = {"inputs": outcome.inputs, "shape": list(outcome.shape), "dtype": outcome.dtype,
             "extent": None if outcome.real_extent is None else list(outcome.real_extent),
-            "registration": None if outcome.registration is None else outcome.registration.to_dict()}
+            "registration": None if outcome.registration is None else outcome.registration.to_dict(),
+            "temperature": None if outcome.temperature is None else outcome.temperature.to_dict()}
     return encode_record(outcome.index, meta, stats.to_bytes())
 
 
@@ -140,7 +126,8 @@ def _bounds(plan: SequencePlan, options: RunOptions) -> RecordBounds:
 def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: SequencePlan,
             options: RunOptions) -> SequenceReport:
     """Score every pair of ``pairing`` (the module notes of :mod:`irfidelity.sequence`)."""
-    columns = csv_columns(plan.weights.active(), registered=plan.config.register is not None)
+    columns = csv_columns(plan.weights.active(), registered=plan.config.register is not None,
+                          temperature=plan.config.unit is not None)
     real_names, sim_names = real.names, sim.names
     log = None
     if options.csv is not None:
@@ -169,9 +156,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
             if plan.dtype is None:
                 scorer.deliver([Outcome(i, None, _unreadable(real, r)) for i, r, _ in todo])
             else:
-                decoding = Decoding(options.workers, options.max_pixels, options.max_bytes, fingerprint=log is not None)
-                backend = (options.backend(real, sim, plan, decoding) if options.backend is not None
-                           else choose_backend(real, sim, plan, decoding, options.client, options.chunk_size))
+                backend = (options.backend or choose_backend)(real, sim, plan, options, fingerprint=log is not None)
                 backend.run(todo, scorer.deliver)
         frames = [scorer.entries[i] for i in range(total)]
         if log is not None:
@@ -193,19 +178,8 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
         delay=None if pairing.delay is None else {**pairing.delay.to_dict(), "unpaired": pairing.unpaired},
         run={"pair_by": pairing.rule, "workers": options.workers,
              "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed},
-        sources={"frames": _loader(real, sim, pairing), "curves": plan.camera_objects, "sums": scorer.sums},
+        sources={"frames": FramePairs(real, sim, pairing.pairs), "curves": plan.camera_objects, "sums": scorer.sums},
         **pooled)
-
-
-def _loader(real: FrameSequence, sim: FrameSequence, pairing: Pairing) -> Callable[[int], tuple[Any, Any]]:
-    """``index -> (real frame, simulated frame)`` of a paired sequence (for report thumbnails)."""
-    def load(index: int) -> tuple[Any, Any]:
-        r, s = pairing.pairs[index]
-        if r is None or s is None:
-            raise FidelityError(f"frame {index} has no partner")
-        return real[r], sim[s]
-
-    return load
 
 
 def _unreadable(real: FrameSequence, index: int) -> str:

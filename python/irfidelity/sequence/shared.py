@@ -20,7 +20,8 @@ from typing import Any, Callable
 from .. import _core
 from ..errors import FidelityError
 from ..frames import FrameSequence
-from .backends import Decoding, Deliver, RustEngine, Todo
+from .backends import Deliver, RustEngine, Todo
+from .options import RunOptions
 from .plan import SequencePlan
 from .progress import Progress
 
@@ -72,9 +73,13 @@ class SharedRun:
         self.arrived: dict[str, SharedMember | None] = {}
         self.threads: dict[str, threading.Thread] = {}
 
-    def backend(self, name: str) -> Callable[[FrameSequence, FrameSequence, SequencePlan, Decoding], SharedMember]:
+    def backend(self, name: str) -> Callable[..., SharedMember]:
         """The ``RunOptions.backend`` of simulator ``name``."""
-        return lambda real, sim, plan, decoding: SharedMember(self, name, RustEngine(real, sim, plan, decoding))
+        def make(real: FrameSequence, sim: FrameSequence, plan: SequencePlan, options: RunOptions,
+                 fingerprint: bool = False) -> SharedMember:
+            return SharedMember(self, name, RustEngine(real, sim, plan, options, fingerprint))
+
+        return make
 
     def arrive(self, name: str, member: SharedMember | None) -> None:
         """``name``'s run has handed over its pairs (``member``), or ended without (None)."""
@@ -151,8 +156,8 @@ class SharedRun:
                 owners.append(r)
                 kinds.append(m)
                 task_of.append((m, position))
-        requests = [member.engine.plan.kernel_request(member.engine.decoding.max_pixels,
-                                                      member.engine.decoding.max_bytes) for member in members]
+        requests = [member.engine.plan.kernel_request(member.engine.options.max_pixels,
+                                                      member.engine.options.max_bytes) for member in members]
         progress = Progress(len(task_of), self.progress)
 
         def on_result(rows: list) -> None:
@@ -168,7 +173,7 @@ class SharedRun:
         try:
             _core.score_shared(real_paths, real_pages, sim_paths, sim_pages, owners, kinds, requests=requests,
                                workers=int(self.workers or 0), on_result=on_result,
-                               fingerprints=any(member.engine.decoding.fingerprint for member in members))
+                               fingerprints=any(member.engine.fingerprint for member in members))
         finally:
             progress.close()
 
