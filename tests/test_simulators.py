@@ -19,6 +19,7 @@ from scipy.ndimage import gaussian_filter
 import irfidelity as irf
 from irfidelity import _core
 from irfidelity.errors import FidelityError
+from irfidelity.sequence import RunOptions
 from irfidelity.sequence.intervals import sequence_intervals
 from irfidelity.sequence.plan import SequenceRequest
 from irfidelity.simulators import compare_reports
@@ -166,6 +167,9 @@ def test_per_simulator_csv_and_resume(stacks, tmp_path):
      "cannot name CSV files"),
     (lambda real, p: irf.score_simulators(real, p, resume=True, **OPTIONS), "resuming needs"),
     (lambda real, p: irf.score_simulators(real, p, level=2.0, **OPTIONS), "level"),
+    (lambda real, p: irf.score_simulators(real, p, client=object(), **OPTIONS), "no Dask client"),
+    (lambda real, p: irf.score_simulators(real, p, run=RunOptions(progress=False), workers=2, weights=WEIGHTS),
+     "workers"),
 ])
 def test_mistakes_are_clear_errors(stacks, call, match):
     real, paths, _ = stacks
@@ -303,3 +307,21 @@ def test_cli_score_ci(stacks, tmp_path):
     assert lo < data["fidelity"] < hi and "intervals at 0.95" in p.stdout
     single = str(DATA.parent / "cptv_v2_frame000.png")
     assert_user_error(run("score", single, single, "--ci"), "--ci applies to sequences")
+
+
+def test_run_options_and_a_unit_as_in_score_sequence():
+    """``run=RunOptions(...)`` as score_sequence takes it; frames scored in a unit rank on
+    the frame means, with the per-frame radiometry component."""
+    rng = np.random.default_rng(3)
+    real = gaussian_filter(rng.normal(300.0, 4.0, (12, 24, 24)), (0, 2, 2))
+    sims = {"close": real + rng.normal(0.1, 0.05, real.shape), "biased": real + 1.5 + rng.normal(0, 0.05, real.shape)}
+    weights = "ssim=0.5,radiometry=0.5"
+    result = irf.score_simulators(real, sims, unit="K", weights=weights, run=RunOptions(progress=False, workers=1),
+                                  resamples=199, ci=True)
+    assert result.order == ["close", "biased"]
+    for name, rep in result.reports.items():
+        alone = irf.score_sequence(real, sims[name], unit="K", weights=weights, progress=False, workers=1)
+        assert rep.fidelity == pytest.approx(alone.fidelity, abs=1e-12)
+        assert "radiometry" in rep.components and set(rep.ci) == {"fidelity", "ssim", "radiometry"}
+        assert "frame means" in rep.pooling["ci"]["method"]
+        assert irf.SequenceReport.from_dict(rep.to_dict()).ci == rep.ci
