@@ -332,17 +332,17 @@ fn extent(data: &FrameData) -> Option<(f64, f64)> {
     }
 }
 
-fn run_kernel(r: FrameData, s: FrameData, req: &Request) -> Result<PairStats> {
+fn run_kernel(r: &FrameData, s: &FrameData, req: &Request) -> Result<PairStats> {
     use FrameData::*;
     match (r, s) {
-        (U8(a), U8(b)) => stats::pair_stats(&a, &b, req),
-        (U16(a), U16(b)) => stats::pair_stats(&a, &b, req),
-        (I16(a), I16(b)) => stats::pair_stats(&a, &b, req),
-        (U32(a), U32(b)) => stats::pair_stats(&a, &b, req),
-        (F16(a), F16(b)) => stats::pair_stats(&a, &b, &Request { valid: None, ..req.clone() }),
-        (F32(a), F32(b)) => stats::pair_stats(&a, &b, &Request { valid: None, ..req.clone() }),
-        (F64(a), F64(b)) => stats::pair_stats(&a, &b, &Request { valid: None, ..req.clone() }),
-        (a, b) => Err(dtype_mismatch(&a, &b)),
+        (U8(a), U8(b)) => stats::pair_stats(a, b, req),
+        (U16(a), U16(b)) => stats::pair_stats(a, b, req),
+        (I16(a), I16(b)) => stats::pair_stats(a, b, req),
+        (U32(a), U32(b)) => stats::pair_stats(a, b, req),
+        (F16(a), F16(b)) => stats::pair_stats(a, b, &Request { valid: None, ..req.clone() }),
+        (F32(a), F32(b)) => stats::pair_stats(a, b, &Request { valid: None, ..req.clone() }),
+        (F64(a), F64(b)) => stats::pair_stats(a, b, &Request { valid: None, ..req.clone() }),
+        (a, b) => Err(dtype_mismatch(a, b)),
     }
 }
 
@@ -450,8 +450,48 @@ fn overlap_stats(real: &[f64], aligned: &[f64], overlap: &[bool], kreq: &Request
     Ok((st, extent))
 }
 
+/// A decoded real frame and its file's fingerprint (with [`SeqRequest::fingerprint`]).
+pub type Decoded = (Frame, Option<Fingerprint>);
+
+/// Decode a real frame once, for every simulated frame scored against it (a panic of the
+/// decoder becomes that frame's error).
+pub fn decode_real(real: &Source, req: &SeqRequest) -> Result<Decoded> {
+    let max_bytes = req.max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES);
+    catch_unwind(AssertUnwindSafe(|| decode(real, &req.real_channel, req, max_bytes)))
+        .unwrap_or_else(|payload| Err(caught(payload.as_ref(), &real.label())))
+}
+
+/// The error of a caught panic of `what`'s work: an allocation the budget refused as that
+/// error, anything else as an internal error.
+fn caught(payload: &(dyn std::any::Any + Send), what: &str) -> Error {
+    match budget::refused_error(payload) {
+        Some(err) => prefix(err, what),
+        None => Error::Value(format!("{what}: internal error: {}", panic_message(payload))),
+    }
+}
+
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "panic".into())
+}
+
 /// Decode and score one pair on the current thread (and the current rayon pool).
 pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -> PairOutcome {
+    score_against(index, real, &decode_real(real, req), sim, req)
+}
+
+/// Score a simulated frame against a real frame decoded beforehand ([`decode_real`]; its
+/// error is this pair's error).
+pub fn score_against(
+    index: usize,
+    real: &Source,
+    decoded: &Result<Decoded>,
+    sim: &Source,
+    req: &SeqRequest,
+) -> PairOutcome {
     let mut out = PairOutcome {
         index,
         stats: Err(Error::Value(String::new())),
@@ -465,7 +505,7 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
     let body = || -> Result<PairStats> {
         let what = || format!("{} vs {}", real.label(), sim.label());
         let max_bytes = req.max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES);
-        let (r, real_fp) = decode(real, &req.real_channel, req, max_bytes)?;
+        let (r, real_fp) = decoded.as_ref().map_err(Clone::clone)?;
         out.shape = Some((r.rows, r.cols));
         out.dtype = Some(r.data.dtype_name());
         let (plan, kind) = pair_plan((r.rows, r.cols), &r.data, req);
@@ -497,8 +537,8 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
             fortran: false,
         };
         let st = match &req.warp {
-            None => run_kernel(r.data, s.data, &kreq),
-            Some(warp) => warp.score_frames(&r, &s, &kreq, req.real_extent).map(|aligned| {
+            None => run_kernel(&r.data, &s.data, &kreq),
+            Some(warp) => warp.score_frames(r, &s, &kreq, req.real_extent).map(|aligned| {
                 out.registration = aligned.registration;
                 out.real_extent = aligned.extent;
                 aligned.stats
@@ -511,17 +551,7 @@ pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -
     let res = catch_unwind(AssertUnwindSafe(body));
     out.stats = match res {
         Ok(r) => r,
-        Err(payload) => match budget::refused_error(&*payload) {
-            Some(err) => Err(prefix(err, &format!("{} vs {}", real.label(), sim.label()))),
-            None => {
-                let msg = payload
-                    .downcast_ref::<&str>()
-                    .map(|s| s.to_string())
-                    .or_else(|| payload.downcast_ref::<String>().cloned())
-                    .unwrap_or_else(|| "panic".into());
-                Err(Error::Value(format!("{} vs {}: internal error: {msg}", real.label(), sim.label())))
-            }
-        },
+        Err(payload) => Err(caught(payload.as_ref(), &format!("{} vs {}", real.label(), sim.label()))),
     };
     out
 }
@@ -544,20 +574,21 @@ fn check_lengths(real: &[Source], sim: &[Source]) -> Result<()> {
     Ok(())
 }
 
-/// Score `real[i]` against `sim[i]` for every `i` on `workers` threads, handing each
-/// outcome to `sink` from the worker that produced it (completion order). `sink` may block
-/// to apply back-pressure: the worker then waits before decoding its next pair. Pairs not
-/// started when `progress.cancel` is set are skipped. Errors only when the thread pool
-/// cannot be built; frame problems are per-pair errors.
-fn score_pairs_with(
-    real: &[Source],
-    sim: &[Source],
-    req: &SeqRequest,
+/// One unit of work: score job `i`, handing each of its outcomes to the sink as it finishes.
+type Job = dyn Fn(usize, &dyn Fn(PairOutcome)) + Send + Sync;
+
+/// Run jobs `0..n` on `workers` threads, handing each outcome to `sink` from the worker that
+/// produced it (completion order). `sink` may block to apply back-pressure: the worker then
+/// waits before decoding its next frame. Jobs not started when `progress.cancel` is set are
+/// skipped. Errors only when the thread pool cannot be built; frame problems are per-pair
+/// errors.
+fn run_jobs(
+    n: usize,
+    job: &Job,
     workers: usize,
     progress: &Progress,
     sink: &(dyn Fn(PairOutcome) + Sync),
 ) -> Result<()> {
-    let n = real.len().min(sim.len());
     if n == 0 {
         return Ok(());
     }
@@ -567,6 +598,10 @@ fn score_pairs_with(
         .build()
         .map_err(|e| Error::Value(format!("cannot start {workers} worker threads: {e}")))?;
     let next = AtomicUsize::new(0);
+    let deliver = |outcome: PairOutcome| {
+        progress.done.fetch_add(1, Ordering::AcqRel);
+        sink(outcome);
+    };
     let work = || loop {
         if progress.cancel.load(Ordering::Relaxed) {
             break;
@@ -575,12 +610,10 @@ fn score_pairs_with(
         if i >= n {
             break;
         }
-        // While every worker has pairs left, each pair runs on its own thread; the last
-        // pairs may split their passes over threads that ran out of work.
+        // While every worker has jobs left, each job runs on its own thread; the last jobs
+        // may split their passes over threads that ran out of work.
         let busy = workers > 1 && i + workers < n;
-        let outcome = crate::kernel::with_pool_busy(busy, || score_pair(i, &real[i], &sim[i], req));
-        progress.done.fetch_add(1, Ordering::AcqRel);
-        sink(outcome);
+        crate::kernel::with_pool_busy(busy, || job(i, &deliver));
     };
     pool.scope(|s| {
         for _ in 0..workers {
@@ -629,7 +662,74 @@ pub struct Batch {
 /// Errors for different lengths or when the engine thread cannot start.
 pub fn stream_pairs(real: Vec<Source>, sim: Vec<Source>, req: SeqRequest, workers: usize) -> Result<PairStream> {
     check_lengths(&real, &sim)?;
-    let workers = effective_workers(workers).min(real.len()).max(1);
+    let n = real.len();
+    let job = move |i: usize, deliver: &dyn Fn(PairOutcome)| deliver(score_pair(i, &real[i], &sim[i], &req));
+    stream_jobs(n, Box::new(job), workers)
+}
+
+/// Simulated frames scored against shared real frames: task `k` scores `sims[k]` against
+/// `real[owners[k]]` with `requests[kinds[k]]`.
+#[derive(Clone, Debug)]
+pub struct SharedTasks {
+    pub real: Vec<Source>,
+    pub sims: Vec<Source>,
+    pub owners: Vec<usize>,
+    pub requests: Vec<SeqRequest>,
+    pub kinds: Vec<usize>,
+}
+
+impl SharedTasks {
+    fn check(&self) -> Result<()> {
+        let k = self.sims.len();
+        if self.owners.len() != k || self.kinds.len() != k {
+            return Err(Error::Value(format!(
+                "{k} simulated frames but {} owners and {} kinds; give one of each per simulated frame",
+                self.owners.len(),
+                self.kinds.len()
+            )));
+        }
+        if let Some(&bad) = self.owners.iter().find(|&&o| o >= self.real.len()) {
+            return Err(Error::Value(format!("owner {bad} is not a real frame (there are {})", self.real.len())));
+        }
+        if let Some(&bad) = self.kinds.iter().find(|&&q| q >= self.requests.len()) {
+            return Err(Error::Value(format!("kind {bad} is not a request (there are {})", self.requests.len())));
+        }
+        Ok(())
+    }
+
+    /// The tasks of every real frame that has any, in order: one job each.
+    fn groups(&self) -> Vec<(usize, Vec<usize>)> {
+        let mut by_real: Vec<Vec<usize>> = vec![Vec::new(); self.real.len()];
+        for (k, &owner) in self.owners.iter().enumerate() {
+            by_real[owner].push(k);
+        }
+        by_real.into_iter().enumerate().filter(|(_, tasks)| !tasks.is_empty()).collect()
+    }
+}
+
+/// Start scoring every task of `tasks` with `workers` threads, as [`stream_pairs`] does, but
+/// decoding each real frame once for all the simulated frames scored against it (one job per
+/// real frame: decode it, then decode and score its simulated frames one after another on
+/// the same worker). The real frame is decoded with the decode options of its first task's
+/// request (every request is expected to share them). An outcome's `index` is its task.
+pub fn stream_shared(tasks: SharedTasks, workers: usize) -> Result<PairStream> {
+    tasks.check()?;
+    let groups = tasks.groups();
+    let n = groups.len();
+    let job = move |i: usize, deliver: &dyn Fn(PairOutcome)| {
+        let (owner, members) = &groups[i];
+        let real = &tasks.real[*owner];
+        let decoded = decode_real(real, &tasks.requests[tasks.kinds[members[0]]]);
+        for &k in members {
+            deliver(score_against(k, real, &decoded, &tasks.sims[k], &tasks.requests[tasks.kinds[k]]));
+        }
+    };
+    stream_jobs(n, Box::new(job), workers)
+}
+
+/// Start `n` jobs on background threads; their outcomes come through the returned stream.
+fn stream_jobs(n: usize, job: Box<Job>, workers: usize) -> Result<PairStream> {
+    let workers = effective_workers(workers).min(n).max(1);
     let capacity = QUEUE_PER_WORKER * workers;
     let (sender, receiver) = sync_channel(capacity);
     let progress = Arc::new(Progress::default());
@@ -643,7 +743,7 @@ pub fn stream_pairs(real: Vec<Source>, sim: Vec<Source>, req: SeqRequest, worker
                     engine_progress.cancel.store(true, Ordering::Relaxed);
                 }
             };
-            score_pairs_with(&real, &sim, &req, workers, &engine_progress, &sink)
+            run_jobs(n, job.as_ref(), workers, &engine_progress, &sink)
         })
         .map_err(|e| Error::Value(format!("cannot start the sequence engine thread: {e}")))?;
     Ok(PairStream { outcomes: Some(receiver), progress, engine: Some(engine), workers, capacity })
@@ -1030,6 +1130,42 @@ mod tests {
             }
         }
         assert!(collect(&real, &sim, &sse_only(), 1).iter().all(|o| o.fingerprints.is_none()));
+    }
+
+    #[test]
+    fn shared_real_frames_score_as_separate_pairs() {
+        // three "simulators" of pages 0..6: pages shifted by 1, 2 and 3, the second with SSE only
+        let real = stack_sources(0..6);
+        let sims: Vec<Source> = (1..4).flat_map(|shift| stack_sources(shift..shift + 6)).collect();
+        let owners: Vec<usize> = (0..3).flat_map(|_| 0..6).collect();
+        let kinds: Vec<usize> = (0..3).flat_map(|sim| [usize::from(sim == 1); 6]).collect();
+        let requests = vec![SeqRequest::default(), sse_only()];
+        let tasks = SharedTasks { real: real.clone(), sims: sims.clone(), owners, requests, kinds };
+        let mut stream = stream_shared(tasks.clone(), 2).unwrap();
+        let mut out: Vec<PairOutcome> = stream.by_ref().collect();
+        assert_eq!(stream.progress().done.load(Ordering::SeqCst), 18);
+        stream.finish().unwrap();
+        out.sort_by_key(|o| o.index);
+        assert_eq!(out.iter().map(|o| o.index).collect::<Vec<_>>(), (0..18).collect::<Vec<_>>());
+        for o in &out {
+            let k = o.index;
+            let alone = score_pair(k, &real[k % 6], &sims[k], &tasks.requests[tasks.kinds[k]]);
+            assert_eq!(o.stats, alone.stats, "task {k}");
+            assert_eq!(o.shape, Some((120, 160)));
+        }
+        let bad = SharedTasks { owners: vec![6; 18], ..tasks };
+        assert!(stream_shared(bad, 1).err().unwrap().to_string().contains("owner 6"));
+    }
+
+    #[test]
+    fn an_unreadable_real_frame_fails_each_of_its_pairs() {
+        let real = vec![Source::new(data("thermal/missing.png"), 0)];
+        let sims = stack_sources(0..2);
+        let tasks =
+            SharedTasks { real, sims, owners: vec![0, 0], requests: vec![SeqRequest::default()], kinds: vec![0, 0] };
+        let out: Vec<PairOutcome> = stream_shared(tasks, 1).unwrap().collect();
+        assert_eq!(out.len(), 2);
+        assert!(out.iter().all(|o| matches!(&o.stats, Err(Error::Frame(m)) if m.contains("missing.png"))));
     }
 
     #[test]

@@ -40,7 +40,7 @@ def test_both_reports_share_one_base_and_its_json_keys():
                  "weights", "skipped", "config", "notes", "inputs", "registration", "verdict", "ceiling", "relative"}
     assert base_keys <= set(pair.to_dict()) and base_keys <= set(seq.to_dict())
     assert set(pair.to_dict()) - base_keys == {"grading"}
-    assert set(seq.to_dict()) - base_keys == {"failed", "unpaired", "frame_stats", "pooling", "run", "delay",
+    assert set(seq.to_dict()) - base_keys == {"failed", "unpaired", "frame_stats", "pooling", "run", "delay", "ci",
                                                "frames"}
 
 

@@ -25,6 +25,7 @@ from .results import FidelityReport
 from .radiometry import Radiometry, read_radiometry
 from .registration import Registration, RegistrationWarning, register
 from .sequence import SequenceReport, score_sequence
+from .simulators import SimulatorComparison, score_simulators
 from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
 
 __version__ = "0.2.0"
@@ -35,6 +36,8 @@ __all__ = [
     "score_sequence",
     "FidelityReport",
     "SequenceReport",
+    "score_simulators",
+    "SimulatorComparison",
     "ScoringConfig",
     "Weights",
     # frame statistics and image metrics

@@ -1,5 +1,5 @@
-//! Python wrappers of the sequence engine (`crate::sequence`): `score_pairs` and
-//! `merge_all`.
+//! Python wrappers of the sequence engine (`crate::sequence`): `score_pairs`, `score_shared`
+//! and `merge_all`.
 //!
 //! `score_pairs` starts the engine ([`sequence::stream_pairs`], which owns the bounded queue
 //! and the worker threads) and polls it: the calling thread waits for outcomes with the GIL
@@ -149,7 +149,18 @@ fn score_pairs<'py>(
     let sim = sources(sim_paths, sim_pages, "sim")?;
     let n = real.len();
     let req = sequence::SeqRequest { fingerprint: fingerprints, ..request.sequence_request()? };
-    let mut stream = sequence::stream_pairs(real, sim, req, workers)?;
+    let stream = sequence::stream_pairs(real, sim, req, workers)?;
+    drain(py, stream, n, progress, on_result)
+}
+
+/// Poll `stream` to its end, delivering its `n` outcomes to `on_result` or as a list.
+fn drain<'py>(
+    py: Python<'py>,
+    mut stream: PairStream,
+    n: usize,
+    progress: Option<Bound<'py, PyAny>>,
+    on_result: Option<Bound<'py, PyAny>>,
+) -> PyResult<Option<Bound<'py, PyList>>> {
     let mut delivery = match on_result {
         Some(cb) => Delivery::Stream(cb),
         None => Delivery::Collect((0..n).map(|_| None).collect()),
@@ -163,6 +174,48 @@ fn score_pairs<'py>(
     polled?;
     finished?;
     delivery.into_list(py)
+}
+
+/// `score_shared(real_paths, real_pages, sim_paths, sim_pages, owners, kinds, *, requests,
+/// workers=0, progress=None, on_result=None, fingerprints=False)`
+///
+/// Several simulators against one real sequence, each real frame decoded once: task `k`
+/// scores `(sim_paths[k], sim_pages[k])` against real frame `owners[k]` with
+/// `requests[kinds[k]]` (one `irfidelity.sequence.plan.SequenceRequest` per simulator; the
+/// real frame is decoded with the decode options of its first task's request). The outcomes,
+/// `progress`, `on_result` and `fingerprints` are those of `score_pairs`, an outcome's index
+/// being its task.
+#[pyfunction]
+#[pyo3(signature = (real_paths, real_pages, sim_paths, sim_pages, owners, kinds, *, requests, workers=0,
+                    progress=None, on_result=None, fingerprints=false))]
+#[allow(clippy::too_many_arguments)]
+fn score_shared<'py>(
+    py: Python<'py>,
+    real_paths: Vec<PathBuf>,
+    real_pages: Vec<usize>,
+    sim_paths: Vec<PathBuf>,
+    sim_pages: Vec<usize>,
+    owners: Vec<usize>,
+    kinds: Vec<usize>,
+    requests: Vec<Bound<'py, PyAny>>,
+    #[pyo3(from_py_with = args::workers)] workers: usize,
+    progress: Option<Bound<'py, PyAny>>,
+    on_result: Option<Bound<'py, PyAny>>,
+    fingerprints: bool,
+) -> PyResult<Option<Bound<'py, PyList>>> {
+    let real = sources(real_paths, Some(real_pages), "real")?;
+    let sims = sources(sim_paths, Some(sim_pages), "sim")?;
+    let n = sims.len();
+    let requests = requests
+        .iter()
+        .map(|r| -> PyResult<sequence::SeqRequest> {
+            let req = args::sequence_request(r)?;
+            Ok(sequence::SeqRequest { fingerprint: fingerprints, ..req.sequence_request()? })
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    let tasks = sequence::SharedTasks { real, sims, owners, requests, kinds };
+    let stream = sequence::stream_shared(tasks, workers)?;
+    drain(py, stream, n, progress, on_result)
 }
 
 /// `merge_all(stats, keep_hist=True) -> (PairStats | None, hist_merged)`: merge a list of
@@ -203,6 +256,7 @@ fn merge_all(
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(score_pairs, m)?)?;
+    m.add_function(wrap_pyfunction!(score_shared, m)?)?;
     m.add_function(wrap_pyfunction!(merge_all, m)?)?;
     Ok(())
 }

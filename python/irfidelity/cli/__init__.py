@@ -1,5 +1,5 @@
-"""Command line: ``irfidelity score REAL SIM ...``, ``irfidelity demo``, ``irfidelity config``,
-``irfidelity targets OUT``.
+"""Command line: ``irfidelity score REAL SIM ...``, ``irfidelity rank REAL SIM...``, ``irfidelity
+weights fit FILE``, ``irfidelity demo``, ``irfidelity config``, ``irfidelity targets OUT``.
 
 Exit status: 0 everything scored; 2 bad usage or input (one line on stderr naming the file
 or flag, no traceback); 3 a sequence finished but some frames failed.
@@ -48,6 +48,14 @@ def _run(a) -> int:
 
         report, sequence = score_command(a)
         return EXIT_FAILED_FRAMES if sequence and report.failed else EXIT_OK
+    if a.command in ("rank", "weights"):
+        from .rank import rank_command, weights_command
+
+        if a.command == "weights":
+            weights_command(a)
+            return EXIT_OK
+        result = rank_command(a)
+        return EXIT_FAILED_FRAMES if any(rep.failed for rep in result.reports.values()) else EXIT_OK
     if a.command == "targets":
         from .targets import targets_command
 

@@ -15,7 +15,7 @@ from ..errors import FidelityError
 from ..schema import csv_columns
 from .parser import flag_for
 
-__all__ = ["UsageError", "write_outputs", "message", "warning_lines"]
+__all__ = ["UsageError", "write_outputs", "write_json", "message", "warning_lines"]
 
 
 class UsageError(Exception):
@@ -81,7 +81,8 @@ def cli_wording(text: str, a: argparse.Namespace | None = None) -> str:
     return text
 
 
-def _write_json(data: Any, dest: str) -> None:
+def write_json(data: Any, dest: str) -> None:
+    """``data`` as indented JSON to ``dest``, or to stdout with ``"-"``."""
     text = json.dumps(data, indent=2, allow_nan=False)
     if dest == "-":
         sys.stdout.write(text + "\n")
@@ -133,7 +134,7 @@ def _html_budget(a: argparse.Namespace, sequence: bool) -> int | None:
 def write_outputs(report: Any, a: argparse.Namespace, *, sequence: bool) -> None:
     """Every output the arguments ask for; the summary unless JSON goes to stdout."""
     if getattr(a, "json", None) is not None:
-        _write_json(report.to_dict(), a.json)
+        write_json(report.to_dict(), a.json)
     if getattr(a, "csv", None) is not None and not sequence:
         _write_csv(report, a.csv)
     if getattr(a, "report", None) is not None:

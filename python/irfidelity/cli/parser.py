@@ -1,5 +1,5 @@
 """The command line's arguments: ``irfidelity score``, ``irfidelity demo``, ``irfidelity config``,
-``irfidelity targets``."""
+``irfidelity targets`` (``rank`` and ``weights``: :mod:`.rank`)."""
 
 from __future__ import annotations
 
@@ -239,6 +239,8 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
     o.add_argument("--report", metavar="PATH", help="write a self-contained HTML report")
     o.add_argument("--save-config", metavar="PATH", help="write the scoring configuration used (TOML or JSON)")
     o.add_argument("--resume", action="store_true", help="sequences: keep the frames already scored in --csv")
+    o.add_argument("--ci", action="store_true", help="sequences: also the 0.95 intervals of the pooled fidelity and "
+                                                     "components (block bootstrap over frames; report.ci)")
     o.add_argument("--workers", type=_positive_int, metavar="N", help="sequences: parallel workers")
     o.add_argument("--max-memory", type=_size, metavar="SIZE",
                    help="memory budget of the run, e.g. 2G, 512M or bytes: a sequence's workers share it (each "
@@ -256,6 +258,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"irfidelity {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     _add_score(sub)
+    from .rank import add_rank, add_weights
+
+    add_rank(sub, {"bits": _positive_int, "peak": _peak, "bins": _bins, "positive_int": _positive_int})
+    add_weights(sub)
     d = sub.add_parser(
         "demo", help="score a toy simulator on bundled real infrared data",
         description="Scores a simulated frame made by a simple camera model (Gaussian blur, gain/offset, "

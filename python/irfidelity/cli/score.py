@@ -24,20 +24,22 @@ _CONFIG_FLAGS = ("bits", "peak", "bins", "hist_range", "missing", "nonfinite", "
                  "pair_by", "unit", "temperature_tolerance")
 
 
-def _config(a: argparse.Namespace) -> ScoringConfig:
-    options: dict[str, Any] = {k: getattr(a, k) for k in _CONFIG_FLAGS}
+def scoring_config(a: argparse.Namespace, flags: tuple = _CONFIG_FLAGS) -> ScoringConfig:
+    """The configuration of ``--config``, ``--weights`` and the ``flags`` that set a field."""
+    options: dict[str, Any] = {k: getattr(a, k) for k in flags}
     if a.weights is not None:
         try:
             options["weights"] = Weights.parse(a.weights)
         except FidelityError as exc:
             raise UsageError(f"--weights: {exc}") from None
     config = ScoringConfig.resolve(a.config, **options)
-    calibration = dict(a.calibration or {})
+    calibration = dict(getattr(a, "calibration", None) or {})  # (``rank`` has no calibration flags)
     calibration.update({field: getattr(a, dest) for dest, (field, _, _) in CALIBRATION_FLAGS.items()
-                        if getattr(a, dest) is not None})
+                        if getattr(a, dest, None) is not None})
     if calibration:
         config = config.replace(calibration={**config.calibration, **calibration})
-    return config.replace(tolerances=tolerance_flags(a.tolerance, config.tolerances)) if a.tolerance else config
+    tolerance = getattr(a, "tolerance", None)
+    return config.replace(tolerances=tolerance_flags(tolerance, config.tolerances)) if tolerance else config
 
 
 def _is_sequence(path: str) -> bool:
@@ -94,7 +96,7 @@ def _sequence(a: argparse.Namespace, config: ScoringConfig, curves: dict) -> Any
         real = _pages(FrameSequence(a.real, channel=config.real_channel), a.pages)
         sim = _pages(FrameSequence(a.sim, channel=config.sim_channel), a.pages)
     return score_sequence(real, sim, config=config, workers=a.workers, progress=not a.no_progress, csv=a.csv,
-                          resume=a.resume, max_memory=a.max_memory, **curves)
+                          resume=a.resume, max_memory=a.max_memory, ci=a.ci, **curves)
 
 
 def _bars(path: str | None, side: str) -> str | None:
@@ -124,7 +126,7 @@ def _curves(a: argparse.Namespace) -> dict:
 
 def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
     """Score as the arguments say; returns the report and whether it is a sequence's."""
-    config = _config(a)
+    config = scoring_config(a)
     curves = _curves(a)
     seq_real, seq_sim = _is_sequence(a.real), _is_sequence(a.sim)
     if seq_real != seq_sim:
@@ -137,7 +139,7 @@ def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
                 raise UsageError(f"--{flag.replace('_', '-')} applies to single pairs; REAL and SIM are sequences")
         report = _sequence(a, config, curves)
     else:
-        for flag in ("resume", "pages"):
+        for flag in ("resume", "pages", "ci"):
             if getattr(a, flag):
                 raise UsageError(f"--{flag} applies to sequences; REAL and SIM are single frames")
         pair_options = pair_flags(a, config.real_channel)

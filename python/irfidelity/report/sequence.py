@@ -12,6 +12,7 @@ import numpy as np
 from .. import budget
 from ..errors import FidelityError
 from . import alignment, figures, sections
+from .comparison import intervals_section
 from .bars import bars as bars_section
 from .noise import noise as noise_section
 from .html import Missing, Raw, image, key_values, missing, number, page, paragraph, section, table, text
@@ -96,6 +97,7 @@ def render_sequence_html(
         missing("Verdict", "the report has no pooled result", anchor="verdict"),
         sections.components(verdict_source) if pooled else
         missing("Components", "the report has no pooled result", anchor="components"),
+        intervals_section(d),
         _timeline(d, rows),
         _distribution(rows),
         _worst(rows, worst, frames, thumbnails, max_bytes),

@@ -22,7 +22,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from .. import budget
+from ..bootstrap import check_level
 from ..camera import CameraInputs
 from ..config import ScoringConfig
 from ..errors import FidelityError
@@ -30,6 +30,7 @@ from ..frames import FrameSequence
 from ..results import recorded_warnings
 from ..temperature import scoring_config, temperature_sequence
 from .delay import find_delay
+from .intervals import sequence_intervals
 from .pairing import Pairing, pair_frames, pair_with_delay
 from .plan import make_plan
 from .report import SequenceReport
@@ -54,7 +55,7 @@ def _pairing(real: FrameSequence, sim: FrameSequence, cfg: ScoringConfig) -> Pai
 def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
                    sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
                    real_mrtd: Any = None, sim_mrtd: Any = None, config: ScoringConfig | None = None,
-                   run: RunOptions | None = None, **options: Any) -> SequenceReport:
+                   run: RunOptions | None = None, ci: bool | float = False, **options: Any) -> SequenceReport:
     """Score a simulated sequence against the real one, frame by frame and pooled.
 
     What is computed comes from ``config`` (a :class:`~irfidelity.ScoringConfig`); how the
@@ -72,6 +73,10 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         once, before any frame; their components enter every frame's and the pooled fidelity.
     config : ScoringConfig, mapping or TOML/JSON path, optional
         What decides the score; ScoringConfig fields given as keywords override it.
+    ci : bool or float
+        Also compute ``report.ci``, the block-bootstrap intervals of the pooled fidelity and
+        components over frames (True: at level 0.95; a float: that level;
+        :mod:`irfidelity.sequence.intervals`); it costs a bootstrap over the frames.
     run : RunOptions, optional
         How the run is carried out: ``workers``, ``progress``, ``client``, ``csv``,
         ``resume``, ``chunk_size``, ``max_pixels``, ``max_bytes``, ``max_memory`` (each described in
@@ -128,4 +133,19 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     pairing = _pairing(real_seq, sim_seq, cfg)
     camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
     plan = make_plan(real_seq, sim_seq, pairing, camera, cfg)
-    return execute(real_seq, sim_seq, pairing, plan, run)
+    return with_intervals(execute(real_seq, sim_seq, pairing, plan, run), ci)
+def with_intervals(report: SequenceReport, ci: bool | float) -> SequenceReport:
+    """``report`` with ``ci`` and ``pooling["ci"]`` when asked for (``ci``: True, or a level)
+    and when at least two frames were scored (else a note says why there is none)."""
+    if ci is False or ci is None:
+        return report
+    level = 0.95 if ci is True else check_level(ci)
+    scored = len(report.frames) - len(report.failed) - len(report.unpaired)
+    if scored < 2:
+        report.notes.append(f"no interval: {scored} frame(s) scored, at least 2 are needed")
+        return report
+    intervals = sequence_intervals(report, level=level)
+    report.ci = dict(intervals.ci)
+    report.pooling["ci"] = {"level": intervals.level, "method": intervals.method, "block": intervals.block,
+                            "resamples": intervals.resamples, "frames": intervals.frames}
+    return report

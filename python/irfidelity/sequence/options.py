@@ -62,6 +62,11 @@ class RunOptions:
         smaller of that and ``max_bytes`` when both are given; ``max_bytes`` becomes that
         per-pair budget), so the run holds at most ``workers`` × that budget plus a small fixed
         overhead (docs/design.md §14). With ``client``, per Dask task (one thread by default).
+    backend : callable, optional
+        ``backend(real, sim, plan, options, fingerprint=...)``, called as
+        :func:`~irfidelity.sequence.backends.choose_backend` is: where the pairs are scored
+        instead of that function's choice (:func:`irfidelity.score_simulators` hands each
+        simulator's pairs to one shared engine pass this way).
 
     Examples
     --------
@@ -83,6 +88,7 @@ class RunOptions:
     max_pixels: int | None = None
     max_bytes: int | None = None
     max_memory: int | None = None
+    backend: Callable[..., Any] | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__  # frozen: the checked values replace the given ones

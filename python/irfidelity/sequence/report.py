@@ -72,6 +72,10 @@ class SequenceReport(ReportBase):
         each side compared), ``max_delay``, ``correlation`` (per candidate delay) and
         ``unpaired`` (``{"real": [...], "sim": [...]}``: the names of the frames at the ends
         without a partner at this delay; their rows are listed in :attr:`unpaired`).
+    ci : dict or None
+        With ``score_sequence(ci=...)``: ``{"fidelity": (lo, hi), component: (lo, hi)}``, the
+        block-bootstrap intervals over frames (:mod:`irfidelity.sequence.intervals`);
+        ``pooling["ci"]`` has their level, method, block length and resamples.
 
     Examples
     --------
@@ -105,6 +109,7 @@ class SequenceReport(ReportBase):
     pooling: dict = field(default_factory=dict)
     run: dict = field(default_factory=dict)
     delay: dict | None = None
+    ci: dict | None = None
 
     def __post_init__(self) -> None:
         self.frames = [f if isinstance(f, FrameEntry) else FrameEntry.from_mapping(f) for f in self.frames]
@@ -141,7 +146,7 @@ class SequenceReport(ReportBase):
 
     def _own_dict(self) -> dict:
         return {"failed": self.failed, "unpaired": self.unpaired, "frame_stats": self.frame_stats,
-                "pooling": self.pooling, "run": self.run, "delay": self.delay,
+                "pooling": self.pooling, "run": self.run, "delay": self.delay, "ci": self.ci,
                 "frames": [dict(f) for f in self.frames]}
 
     @classmethod
@@ -155,7 +160,8 @@ class SequenceReport(ReportBase):
                "pooling": fields.get("pooling", readback.mapping_of(readback.anything), {}),
                "run": fields.get("run", readback.mapping_of(readback.anything), {}),
                "registration": fields.get("registration", readback.optional(readback.any_registration)),
-               "delay": fields.get("delay", readback.optional(readback.delay))}
+               "delay": fields.get("delay", readback.optional(readback.delay)),
+               "ci": fields.get("ci", readback.optional(readback.mapping_of(_interval)))}
         if (own["fidelity"] is None) != (own["grade"] is None):
             raise readback.ReportError("report: fidelity and grade are both given (a pooled result) or both "
                                        "null (no frame scored)")
@@ -171,6 +177,10 @@ class SequenceReport(ReportBase):
             lines.append("pooled over the scored frames (PSNR from ΣSSE/ΣN"
                          + (", NMI as the mean of the frames')" if self.pooling.get("nmi") == "frame_mean" else ")"))
             lines += self._verdict_lines()
+        if self.ci:
+            info = self.pooling.get("ci", {})
+            lines.append(f"intervals at {info.get('level', '?')} ({info.get('method', 'bootstrap')}): "
+                         + ", ".join(f"{k} [{lo:.4f}, {hi:.4f}]" for k, (lo, hi) in self.ci.items()))
         spread = [("fidelity", self.frame_stats.get("fidelity"))]
         spread += [(k, self.frame_stats.get("metrics", {}).get(k)) for k in ("psnr_db", "ssim", "nmi")]
         for key, s in spread:
@@ -189,6 +199,13 @@ class SequenceReport(ReportBase):
             applied = "" if self.registration.get("each") else " (found on the first pair, applied to every pair)"
             lines.append(registration_line(self.registration) + applied)
         return "\n".join(lines + self._made_lines())
+
+
+def _interval(value: Any, where: str) -> tuple[float, float]:
+    """An interval ``[lo, hi]`` of ``ci``."""
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise readback.ReportError(f"{where}: expected an interval [lo, hi], got {value!r}")
+    return readback.number(value[0], f"{where}[0]"), readback.number(value[1], f"{where}[1]")
 
 
 def _delay_line(delay: Mapping[str, Any]) -> str:

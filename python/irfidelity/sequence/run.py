@@ -54,6 +54,7 @@ class _Scorer:
         self.entries: dict[int, FrameEntry] = {}
         self.pool = Pool(plan)
         self.deferred: dict[int, tuple[Callable[[], PairStats], tuple | None]] = {}
+        self.sums: dict[int, dict] = {}  # each scored frame's exact sums, for intervals
 
     def names(self, index: int) -> tuple[str | None, str | None]:
         r, s = self.pairing.pairs[index]
@@ -85,6 +86,9 @@ class _Scorer:
     def _keep(self, entry: FrameEntry, stats: PairStats | None, extent: tuple | None, *, resumed: bool = False,
               pool: bool = True) -> None:
         self.entries[entry["index"]] = entry
+        sums = None if stats is None else stats.int_sums()
+        if sums is not None:
+            self.sums[entry["index"]] = {"n": stats.n, **sums}  # type: ignore[union-attr]
         if pool:
             self.pool.add(entry["index"], stats, extent)
         while self.pool.next in self.deferred:
@@ -153,7 +157,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
             if plan.dtype is None:
                 scorer.deliver([Outcome(i, None, _unreadable(real, r)) for i, r, _ in todo])
             else:
-                backend = choose_backend(real, sim, plan, options, fingerprint=log is not None)
+                backend = (options.backend or choose_backend)(real, sim, plan, options, fingerprint=log is not None)
                 backend.run(todo, scorer.deliver)
         frames = [scorer.entries[i] for i in range(total)]
         if log is not None:
@@ -179,7 +183,8 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
         run={"pair_by": pairing.rule, "workers": options.workers,
              "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed,
              "max_bytes": budget.resolve(options.max_bytes), "max_memory": options.max_memory},
-        sources={"frames": FramePairs(real, sim, pairing.pairs), "curves": plan.camera_objects}, **pooled)
+        sources={"frames": FramePairs(real, sim, pairing.pairs), "curves": plan.camera_objects, "sums": scorer.sums},
+        **pooled)
 
 
 def _unreadable(real: FrameSequence, index: int) -> str:
