@@ -54,7 +54,8 @@ def _curve_pool(report: Any, curves: tuple) -> Pool:
     """``sequence_pool`` of the report, its curve components read from the summed numbers
     (the fidelity is linear in them: eq. 15)."""
     weights = report.weights
-    image = sequence_pool(weights, config=report.config, peak=report.metrics.get("psnr_peak"),
+    peak = 1.0 if _relative(report) else report.metrics.get("psnr_peak")
+    image = sequence_pool(weights, config=report.config, peak=peak,
                           camera={k: 0.0 for k in curves})
     if not curves:
         return image
@@ -67,6 +68,13 @@ def _curve_pool(report: Any, curves: tuple) -> Pool:
         return out
 
     return pool
+
+
+def _relative(report: Any) -> bool:
+    """With ``peak="range"`` a sequence pools each frame's squared error relative to its own
+    range (:mod:`irfidelity.sequence.pooling`): the numbers then hold ``SSE_i / range_i²`` and
+    pool with the peak 1, the same for every simulator of a comparison."""
+    return report.config.peak == "range" and "psnr" in report.components
 
 
 def frame_numbers(report: Any, exact: bool = True) -> FrameNumbers:
@@ -84,10 +92,13 @@ def frame_numbers(report: Any, exact: bool = True) -> FrameNumbers:
     sums = report.sources.get("sums") or {}
     curves = tuple(k for k in CURVES if k in report.components)
     image = [k for k in report.components if k not in curves]
-    if exact and set(image) <= set(IMAGE_COMPONENTS) and all(f["index"] in sums for f in scored):
+    ranged = not _relative(report) or all(f["metrics"].get("psnr_peak") for f in scored)
+    if exact and ranged and set(image) <= set(IMAGE_COMPONENTS) and all(f["index"] in sums for f in scored):
         numbers: dict[str, list] = {}
         for f in scored:
             row = dict(sums[f["index"]])
+            if _relative(report):
+                row["sse"] = row["sse"] / float(f["metrics"]["psnr_peak"]) ** 2
             row.update({"nmi": f["components"]["nmi"]} if "nmi" in image else {})
             row.update({k: report.components[k] for k in curves})
             for key, value in row.items():
