@@ -342,3 +342,23 @@ def test_grades_never_improve_down_a_camera_ladder(ladder):
     expected_not = {"MTF50 scale": (0.69, ("excellent", "good")), "SiTF slope": (0.8, ("excellent",)),
                     "NETD factor": (3, ("excellent", "good", "fair"))}[ladder]
     assert by_step[expected_not[0]] not in expected_not[1]
+
+
+def test_defects_are_found_band_by_band_as_over_the_whole_frame():
+    # a frame of several bands, the cluster across a band boundary: the same pixels as a
+    # direct computation over the whole frame
+    from irfidelity import defects
+
+    rng = np.random.default_rng(5)
+    rows = 2 * (defects.BAND_PIXELS // 1000) + 40
+    real = 3000.0 + rng.normal(0, 2, (rows, 1000))
+    sim = real + rng.normal(0, 2, real.shape)
+    edge = defects.BAND_PIXELS // 1000
+    sim[edge - 20:edge + 20, 300:400] = 0.0
+    found = defects.concentrated_error(real, sim)
+    squared = ((sim - real) ** 2).ravel()
+    top = int(np.ceil(defects.TOP_SHARE * squared.size))
+    largest = np.sort(squared)[::-1][:top]
+    assert found is not None and found["pixels"] == top
+    assert found["share"] == pytest.approx(largest.sum() / squared.sum(), rel=1e-12)
+    assert found["rows"] == [edge - 20, edge + 19] and found["cols"] == [300, 399]

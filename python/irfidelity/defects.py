@@ -35,9 +35,33 @@ def _where(rows: np.ndarray, cols: np.ndarray) -> str:
     return f"scattered over {box}"
 
 
-def _border(shape: tuple[int, int]) -> np.ndarray:
-    ring = np.zeros(shape, dtype=bool)
-    ring[:_BORDER, :] = ring[-_BORDER:, :] = True
+#: Pixels a band holds: the frames are examined band by band, so the memory this takes is a
+#: few bands and the candidates, never copies of the whole frames.
+BAND_PIXELS = 1 << 20
+
+
+def _bands(rows: int, cols: int):
+    """Row ranges ``(start, stop)`` of at most :data:`BAND_PIXELS` pixels (a row at least)."""
+    step = max(1, BAND_PIXELS // max(cols, 1))
+    for start in range(0, rows, step):
+        yield start, min(start + step, rows)
+
+
+def _band(real: np.ndarray, sim: np.ndarray, mask: Any, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+    """The squared differences of rows ``start:stop`` (0 where not scored) and the scored pixels."""
+    r = real[start:stop].astype(np.float64)
+    s = sim[start:stop].astype(np.float64)
+    scored = np.isfinite(r) & np.isfinite(s)
+    if mask is not None:
+        scored &= mask[start:stop]
+    return np.where(scored, (s - r) ** 2, 0.0), scored
+
+
+def _ring(start: int, stop: int, shape: tuple[int, int]) -> np.ndarray:
+    """The border pixels (within :data:`_BORDER` of the frame's edge) of rows ``start:stop``."""
+    rows = np.arange(start, stop)
+    ring = np.zeros((stop - start, shape[1]), dtype=bool)
+    ring[(rows < _BORDER) | (rows >= shape[0] - _BORDER)] = True
     ring[:, :_BORDER] = ring[:, -_BORDER:] = True
     return ring
 
@@ -83,28 +107,53 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None) -> dict | None:
     >>> found["rows"], found["cols"], round(found["share"], 3)
     ([40, 45], [70, 75], 1.0)
     """
-    r = np.asarray(real, dtype=np.float64)
-    s = np.asarray(sim, dtype=np.float64)
-    scored = np.isfinite(r) & np.isfinite(s)
-    if mask is not None:
-        scored &= np.asarray(mask, dtype=bool)
-    squared = np.where(scored, (s - r) ** 2, 0.0)
-    total = math.fsum(squared.ravel())
-    count = int(scored.sum())
+    real, sim = np.asarray(real), np.asarray(sim)
+    mask = None if mask is None else np.asarray(mask, dtype=bool)
+    shape = real.shape
+    totals, ring_totals, count, ring_count = [], [], 0, 0
+    ring_rows, ring_cols = [], []
+    for start, stop in _bands(*shape):
+        squared, scored = _band(real, sim, mask, start, stop)
+        ring = _ring(start, stop, shape) & scored
+        totals.append(math.fsum(squared.ravel()))
+        ring_totals.append(math.fsum(squared[ring]))
+        count += int(scored.sum())
+        ring_count += int(ring.sum())
+        if ring.any():
+            where_rows, where_cols = np.nonzero(ring)
+            ring_rows += [start + int(where_rows.min()), start + int(where_rows.max())]
+            ring_cols += [int(where_cols.min()), int(where_cols.max())]
+    total = math.fsum(totals)
     if count == 0 or not total > 0:
         return None
     top = max(1, math.ceil(TOP_SHARE * count))
-    flat = np.argpartition(squared.ravel(), -top)[-top:]
-    largest = np.sort(squared.ravel()[flat])[::-1]
-    share = math.fsum(largest) / total
+    values, flat = _largest(real, sim, mask, top)
+    share = math.fsum(values) / total
     if share > MOST:
-        carrying = int(np.searchsorted(np.cumsum(largest), 0.9 * largest.sum())) + 1
-        order = flat[np.argsort(squared.ravel()[flat])[::-1][:carrying]]
-        rows, cols = np.unravel_index(order, squared.shape)
+        carrying = int(np.searchsorted(np.cumsum(values), 0.9 * values.sum())) + 1
+        rows, cols = np.unravel_index(flat[:carrying], shape)
         return _finding(top, count, share, rows, cols, _where(rows, cols))
-    ring = _border(squared.shape) & scored
-    share = math.fsum(squared[ring]) / total
-    if share > MOST and ring.sum() < 0.1 * count:
-        rows, cols = np.nonzero(ring)
-        return _finding(int(ring.sum()), count, share, rows, cols, f"along the frame's border ({_BORDER} px wide)")
+    share = math.fsum(ring_totals) / total
+    if share > MOST and ring_count < 0.1 * count:
+        return _finding(ring_count, count, share, np.array(ring_rows), np.array(ring_cols),
+                        f"along the frame's border ({_BORDER} px wide)")
     return None
+
+
+def _largest(real: np.ndarray, sim: np.ndarray, mask: Any, top: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``top`` largest squared differences, largest first, and their flat indices (ties
+    broken by the smaller index), kept band by band."""
+    best_values, best_flat = np.empty(0), np.empty(0, dtype=np.int64)
+    for start, stop in _bands(*real.shape):
+        squared, _ = _band(real, sim, mask, start, stop)
+        flat_band = squared.ravel()
+        keep = min(top, flat_band.size)
+        index = np.argpartition(flat_band, -keep)[-keep:]
+        values = np.concatenate([best_values, flat_band[index]])
+        flat = np.concatenate([best_flat, index + start * real.shape[1]])
+        if values.size > top:
+            chosen = np.argpartition(values, -top)[-top:]
+            values, flat = values[chosen], flat[chosen]
+        best_values, best_flat = values, flat
+    order = np.lexsort((best_flat, -best_values))
+    return best_values[order], best_flat[order]
