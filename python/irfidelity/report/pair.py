@@ -10,6 +10,7 @@ and, for float16 frames, the joint histogram's float32 copies.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Mapping
 from typing import Any
 
@@ -362,28 +363,40 @@ def _overlap_crop(real, sim, mask):
     return real, sim, outside, note
 
 
+def _rms_difference(real: np.ndarray, sim: np.ndarray) -> float:
+    """RMS of ``sim − real`` over the pixels where both are finite, band by band."""
+    total, count = 0.0, 0
+    for band in _bands(*real.shape):
+        d = sim[band].astype(np.float64) - real[band]
+        d = d[np.isfinite(d)]
+        total, count = total + float(np.square(d).sum()), count + d.size
+    return math.sqrt(total / count) if count else math.nan
+
+
 def _overlay_section(frames, sim_unregistered) -> Raw:
-    """Checkerboards of the real frame with the simulated one before and after registration."""
+    """Checkerboards of the real frame with the simulated one before and after registration,
+    drawn on the display copies (the page holds no full-size image of its own)."""
     title = "Registration overlay"
     real, after, _ = frames
     try:
-        before = _as_frame(sim_unregistered, "sim").astype(np.float64)
+        before = _as_frame(sim_unregistered, "sim")
     except FidelityError as exc:
         return missing(title, f"the simulated frame before registration cannot be shown: {exc}", anchor="overlay")
     if before.shape != real.shape:
         return missing(title, f"the simulated frame before registration has shape {before.shape}, the real one "
                               f"{real.shape}", anchor="overlay")
-    real = real.astype(np.float64)
     tile = max(4, min(real.shape) // 8)
-    rows, cols = np.indices(real.shape)
+    step = figures.display_step(real.shape)
+    shown = [np.asarray(f)[::step, ::step].astype(np.float64) for f in (real, before, after)]
+    rows, cols = np.indices(shown[0].shape) * step
     board = ((rows // tile + cols // tile) % 2).astype(bool)
     lo, hi = figures.frame_range(real, before)
-    images = panels([(figures.raster(np.where(board, before, real), "viridis", lo, hi), "checkerboard before",
-                      "before registration"),
-                     (figures.raster(np.where(board, after, real), "viridis", lo, hi), "checkerboard after",
-                      "after registration")])
+    images = panels([(figures.raster(np.where(board, shown[1], shown[0]), "viridis", lo, hi, shown_from=real.shape),
+                      "checkerboard before", "before registration"),
+                     (figures.raster(np.where(board, shown[2], shown[0]), "viridis", lo, hi, shown_from=real.shape),
+                      "checkerboard after", "after registration")])
     bar = colour_bar(figures.colour_stops("viridis"), _ticks(lo, hi), "grey level (one scale for both panels)")
-    rms = [np.sqrt(np.nanmean((sim - real) ** 2)) for sim in (before, after)]
+    rms = [_rms_difference(real, sim) for sim in (before, after)]
     caption = (f"Tiles of {tile} px alternate between the real frame and the simulated one, as given (left) and "
                f"resampled through the registration (right; grey: outside the overlap). Edges that run on across "
                f"tile borders mean aligned frames. RMS difference simulated − real: {rms[0]:.4g} before, "
