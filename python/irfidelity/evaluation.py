@@ -26,7 +26,7 @@ from .camera import CameraInputs, camera_components, describe_input
 from .alignment import score_registered
 from .config import ScoringConfig
 from .errors import FidelityError, RangeError, ShapeError
-from .regions import as_regions, masked_stats, score_regions, scored_mask, with_psnr_peak
+from .regions import as_regions, masked_stats, registered_union, score_regions, scored_mask, with_psnr_peak
 from .results import FidelityReport, recorded_warnings
 from .scoring import image_components, plan_components, score_components
 from .temperature import TemperatureErrors, scoring_config, temperature_scores, to_temperature, tolerance_for
@@ -92,23 +92,26 @@ def _check_scoring(r: Any, s: Any, mask: Any, max_bytes: int | None) -> None:
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any, regions: Any,
                  inputs: dict, sources: dict, max_bytes: int | None) -> tuple[_stats.PairStats, float | None]:
     """The pair's statistics and the real frame's range over the scored pixels (``mask``, within
-    the union of ``regions``)."""
+    the union of ``regions``; a registration is searched within ``mask`` alone)."""
     r = _load(real, "real", config.real_channel, max_bytes)
     s = _load(sim, "sim", config.sim_channel, _left(max_bytes, r) if isinstance(sim, (str, os.PathLike)) else None)
     if config.unit is not None:
         r, s = to_temperature(r, real, "real", config), to_temperature(s, sim, "sim", config)
-    mask = scored_mask(mask, regions, np.shape(r))
-    sources.update(real=r, sim=s, mask=mask)
+    scored = scored_mask(mask, regions, np.shape(r))
+    sources.update(real=r, sim=s, mask=scored)
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
                   dtype=np.asarray(r).dtype.name)
     if config.register is None and np.ndim(r) == 2:
-        _check_scoring(r, s, mask, max_bytes)
+        _check_scoring(r, s, scored, max_bytes)
     try:
         if config.register is not None:
             st, span = _registered(r, s, mask, components, config, sources, max_bytes)
-            st = with_psnr_peak(st, span, components, config, "real frame")
+            if regions is None:
+                st = with_psnr_peak(st, span, components, config, "real frame")
+            else:
+                st, span = registered_union(regions, sources, components, config, max_bytes)
         else:
-            st, span = masked_stats(r, s, components, config, mask, bits=config.bits, peak=config.numeric_peak)
+            st, span = masked_stats(r, s, components, config, scored, bits=config.bits, peak=config.numeric_peak)
     except (ShapeError, RangeError) as exc:
         paths = [f"{which} {inputs[which]}" for which, x in (("real", real), ("sim", sim))
                  if isinstance(x, (str, os.PathLike))]

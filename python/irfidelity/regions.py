@@ -31,8 +31,8 @@ from .fuzzy import Weights
 from .scoring import image_components, psnr_peak, score_components
 from .temperature import TemperatureErrors, temperature_scores, tolerance_for
 
-__all__ = ["Regions", "as_regions", "masked_stats", "with_psnr_peak", "score_regions", "region_columns",
-           "region_values", "MAX_LABEL"]
+__all__ = ["Regions", "as_regions", "masked_stats", "with_psnr_peak", "score_regions", "registered_union",
+           "region_columns", "region_values", "MAX_LABEL"]
 
 #: The largest label: a label image is one byte a pixel.
 MAX_LABEL = 255
@@ -276,6 +276,18 @@ def _frames(sources: Mapping[str, Any], config: ScoringConfig) -> tuple[np.ndarr
         return real, sim, config.bits, config.numeric_peak
     peak, _ = _stats.peak_and_valid(real.dtype, config.bits, config.numeric_peak)
     return real.astype(np.float64, copy=False), sim, None, peak
+
+
+def registered_union(regions: Regions, sources: dict, components: tuple, config: ScoringConfig,
+                     max_bytes: int | None) -> tuple[_stats.PairStats, float | None]:
+    """The statistics of a registered pair over the union of ``regions`` within the overlap (the
+    pair's scored pixels become those), and the real frame's range over them."""
+    real, sim, bits, peak = _frames(sources, config)
+    _check_budget(regions, sources, real is not sources["real"], max_bytes)
+    sources["mask"] = within = regions.union() & np.asarray(sources["mask"], dtype=bool)
+    if not within.any():
+        raise _fail("no labelled pixel lies in the overlap of the registered frames")
+    return masked_stats(real, sim, components, config, within, bits=bits, peak=peak)
 
 
 def _region_scored(regions: Regions, label: int, scored: Any) -> np.ndarray:
