@@ -230,7 +230,10 @@ def scored_mask(mask: Any, regions: Regions | None, shape: tuple[int, ...]) -> A
     given = np.asarray(mask)
     if given.shape != union.shape:
         raise ShapeError(f"mask has shape {given.shape}, frames have {union.shape}", option="mask")
-    return union & given.astype(bool, copy=False)
+    union &= given.astype(bool, copy=False)
+    if not union.any():
+        raise _fail("no labelled pixel lies within mask= (the pixels it keeps all carry label 0)")
+    return union
 
 
 # --------------------------------------------------------------------------- statistics of a mask
