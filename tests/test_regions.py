@@ -287,3 +287,13 @@ def test_cli_regions_refused_for_sequences(files, tmp_path, capsys):
     assert main(["score", str(DATA / "cptv_v2_all100frames_uint16.tif"), str(DATA / "cptv_v2_all100frames_uint16.tif"),
                  "--regions", files["png"]]) == 2
     assert "--regions applies to single pairs" in capsys.readouterr().err
+
+
+def test_regions_are_planned_against_the_pair_budget(pair):
+    """The label image and one region's mask at a time (a byte a pixel each) on top of the pair's plan."""
+    real, sim, labels = pair
+    n = real.size
+    irf.evaluate(real, sim, mask=labels != 0, bits=14, max_bytes=8 * n)       # the pair alone fits
+    with pytest.raises(irf.FidelityError, match="scoring regions of 240 x 320 pixel frames"):
+        irf.evaluate(real, sim, regions=labels, bits=14, max_bytes=9 * n)
+    assert irf.evaluate(real, sim, regions=labels, bits=14, max_bytes=10 * n).regions
