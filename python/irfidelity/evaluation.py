@@ -244,7 +244,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         raise FidelityError("real_ref was given without real and sim: it is a second real frame of their scene",
                             option="real_ref")
     in_unit = cfg.unit is not None and real is not None
-    regions = _region_input(regions, real, image_plan or in_unit)
+    regions = _region_input(regions, real, bool(image_plan) or in_unit)
     span = defect = None
     ceiling = None if ceiling is None else {str(k): float(v) for k, v in dict(ceiling).items()}
     with recorded_warnings() as notes:

@@ -304,6 +304,36 @@ def _region_scored(regions: Regions, label: int, scored: Any) -> np.ndarray:
     return mask
 
 
+def _own_scores(real: np.ndarray, sim: np.ndarray, mask: np.ndarray, plan: tuple, config: ScoringConfig,
+                weights: Weights, pair_metrics: Mapping[str, Any], bits: int | None, peak: float | None,
+                name: str) -> tuple[dict[str, float], dict[str, Any], float | None]:
+    """A region's own components and metrics — the image components over its pixels, and the
+    temperature errors in a unit — and the real frame's range over them."""
+    components: dict[str, float] = {}
+    metrics: dict[str, Any] = {}
+    span = None
+    if plan:
+        st, span = masked_stats(real, sim, plan, config, mask, bits=bits, peak=peak, where=f"region {name!r}")
+        components, metrics = image_components(st, plan, config)
+    if config.unit is not None:
+        errors = TemperatureErrors.of_frames(real, sim, mask=mask, tolerance=tolerance_for(config, pair_metrics),
+                                             unit=str(config.unit))
+        own, temperature_metrics = temperature_scores(errors, weights)
+        components.update(own)
+        metrics.update(temperature_metrics)
+    return components, metrics, span
+
+
+def _entry(label: int, pixels: int, score: Any, metrics: dict, ceiling: Any) -> dict:
+    """A region's entry of ``report.regions``."""
+    from .ceiling import relative_to
+
+    return {"label": label, "pixels": pixels, "fidelity": score.fidelity, "grade": score.grade,
+            "components": dict(score.components), "component_grades": dict(score.grading.component_grades),
+            "membership": dict(score.grading.membership), "metrics": metrics, "verdict": score.verdict.to_dict(),
+            "ceiling": ceiling, "relative": relative_to(ceiling, score.components)}
+
+
 def score_regions(regions: Regions, sources: Mapping[str, Any], plan: tuple, config: ScoringConfig,
                   weights: Weights, pair_components: Mapping[str, float], pair_metrics: Mapping[str, Any], *,
                   ceiling: Any = None, real_ref: Any = None, max_bytes: int | None = None) -> dict[str, dict]:
@@ -314,7 +344,7 @@ def score_regions(regions: Regions, sources: Mapping[str, Any], plan: tuple, con
     ``plan`` the image components; ``ceiling`` the values given for the pair, or ``real_ref``
     the second real frame from which each region's own ceiling is measured.
     """
-    from .ceiling import pair_ceiling, relative_to
+    from .ceiling import pair_ceiling
 
     real, sim, bits, peak = _frames(sources, config)
     _check_budget(regions, sources, real is not sources["real"], max_bytes)
@@ -322,32 +352,16 @@ def score_regions(regions: Regions, sources: Mapping[str, Any], plan: tuple, con
     out: dict[str, dict] = {}
     for label, name in regions.names.items():
         mask = _region_scored(regions, label, sources.get("mask"))
-        components, metrics, span, region_peak = dict(camera), {}, None, None
-        if plan:
-            st, span = masked_stats(real, sim, plan, config, mask, bits=bits, peak=peak, where=f"region {name!r}")
-            components_own, metrics = image_components(st, plan, config)
-            components.update(components_own)
-            region_peak = float(st.peak) if "psnr" in plan else None
-        if config.unit is not None:
-            errors = TemperatureErrors.of_frames(real, sim, mask=mask, tolerance=tolerance_for(config, pair_metrics),
-                                                 unit=str(config.unit))
-            own, temperature_metrics = temperature_scores(errors, weights)
-            components.update(own)
-            metrics.update(temperature_metrics)
+        own, metrics, span = _own_scores(real, sim, mask, plan, config, weights, pair_metrics, bits, peak, name)
         region_ceiling = ceiling
         if real_ref is not None and plan:
             region_ceiling = pair_ceiling(np.asarray(sources["real"]), real_ref, plan, config, mask=mask,
-                                          peak=region_peak)
+                                          peak=metrics.get("psnr_peak"))
+        del mask  # one region's mask at a time (the memory plan counts one)
         camera_metrics = {k: v for k, v in pair_metrics.items() if k not in metrics}
-        score = score_components(components, {**camera_metrics, **metrics}, weights, config, scene_range=span,
-                                 ceiling=region_ceiling)
-        del mask
-        out[name] = {"label": label, "pixels": regions.pixels[name], "fidelity": score.fidelity,
-                     "grade": score.grade, "components": dict(score.components),
-                     "component_grades": dict(score.grading.component_grades),
-                     "membership": dict(score.grading.membership), "metrics": metrics,
-                     "verdict": score.verdict.to_dict(), "ceiling": region_ceiling,
-                     "relative": relative_to(region_ceiling, score.components)}
+        score = score_components({**camera, **own}, {**camera_metrics, **metrics}, weights, config,
+                                 scene_range=span, ceiling=region_ceiling)
+        out[name] = _entry(label, regions.pixels[name], score, metrics, region_ceiling)
     return out
 
 
