@@ -77,6 +77,7 @@ def test_names_by_order_by_label_by_masks_and_by_default(pair):
     real, sim, labels = pair
     assert irf.Regions(labels).names == {1: "1", 2: "2"}
     assert irf.Regions(labels, names={"bg": 2, "hot": 1}).names == {1: "hot", 2: "bg"}
+    assert irf.Regions(labels, names={2: "bg", 1: "hot"}).names == {1: "hot", 2: "bg"}
     by_masks = irf.evaluate(real, sim, regions={"hot": labels == 1, "bg": labels == 2}, bits=14)
     by_labels = irf.evaluate(real, sim, regions=irf.Regions(labels, names=["hot", "bg"]), bits=14)
     assert by_masks.regions == by_labels.regions and list(by_masks.regions) == ["hot", "bg"]

@@ -68,13 +68,13 @@ def _label_image(labels: Any) -> np.ndarray:
 
 def _named(names: Any, present: list[int]) -> dict[int, str]:
     """``{label: name}`` from ``names`` (None: each label its number; a sequence: labels 1, 2,
-    ...; a mapping name → label), checked."""
+    ...; a mapping name → label, or label → name), checked."""
     if names is None:
         return {k: str(k) for k in present}
     if isinstance(names, str):
         raise _fail(f"names must be a list of names or a mapping name → label, got the string {names!r}")
     if isinstance(names, Mapping):
-        pairs = [(label, name) for name, label in names.items()]
+        pairs = [(key, value) if isinstance(value, str) else (value, key) for key, value in names.items()]
     elif isinstance(names, Sequence):
         pairs = list(enumerate(names, start=1))
     else:
@@ -103,7 +103,8 @@ class Regions:
         0: the pixel is not scored; 1..255: the region it belongs to. Stored as uint8 (one byte
         a pixel; uint8 input is kept without a copy). Float labels are an error.
     names : sequence of str or mapping, optional
-        A list names labels 1, 2, ... in order; a mapping ``{name: label}`` names any labels.
+        A list names labels 1, 2, ... in order; a mapping ``{name: label}`` (or
+        ``{label: name}``) names any labels.
         Names are letters, digits, ``_``, ``.``, ``-`` (they become CSV column names). Default:
         each label present its number (``"1"``, ``"2"``). Every named label must have a pixel,
         and with names every label present must be named.
