@@ -24,6 +24,7 @@ from .noise import Noise3D, NoiseWarning, noise3d, noise_similarity
 from .results import FidelityReport
 from .radiometry import Radiometry, read_radiometry
 from .registration import Registration, RegistrationWarning, register
+from .regions import Regions
 from .sequence import SequenceReport, score_sequence
 from .simulators import SimulatorComparison, score_simulators
 from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
@@ -52,6 +53,7 @@ __all__ = [
     "FrameSequence",
     "Curve",
     "BarFrames",
+    "Regions",
     # physical units (docs/radiometry.md)
     "read_radiometry",
     "Radiometry",

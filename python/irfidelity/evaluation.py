@@ -26,8 +26,9 @@ from .camera import CameraInputs, camera_components, describe_input
 from .alignment import score_registered
 from .config import ScoringConfig
 from .errors import FidelityError, RangeError, ShapeError
+from .regions import as_regions, masked_stats, registered_union, score_regions, scored_mask, with_psnr_peak
 from .results import FidelityReport, recorded_warnings
-from .scoring import image_components, plan_components, psnr_peak, score_components
+from .scoring import image_components, plan_components, score_components
 from .temperature import TemperatureErrors, scoring_config, temperature_scores, to_temperature, tolerance_for
 
 __all__ = ["evaluate", "SCORING_BYTES"]
@@ -88,37 +89,35 @@ def _check_scoring(r: Any, s: Any, mask: Any, max_bytes: int | None) -> None:
     budget.check("scoring a frame pair", r.shape, held + per_pixel * r.size, max_bytes)
 
 
-def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any,
+def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any, regions: Any,
                  inputs: dict, sources: dict, max_bytes: int | None) -> tuple[_stats.PairStats, float | None]:
-    """The pair's statistics and the real frame's range over the scored pixels."""
+    """The pair's statistics and the real frame's range over the scored pixels (``mask``, within
+    the union of ``regions``; a registration is searched within ``mask`` alone)."""
     r = _load(real, "real", config.real_channel, max_bytes)
     s = _load(sim, "sim", config.sim_channel, _left(max_bytes, r) if isinstance(sim, (str, os.PathLike)) else None)
     if config.unit is not None:
         r, s = to_temperature(r, real, "real", config), to_temperature(s, sim, "sim", config)
-    sources.update(real=r, sim=s, mask=mask)
+    scored = scored_mask(mask, regions, np.shape(r))
+    sources.update(real=r, sim=s, mask=scored)
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
                   dtype=np.asarray(r).dtype.name)
     if config.register is None and np.ndim(r) == 2:
-        _check_scoring(r, s, mask, max_bytes)
+        _check_scoring(r, s, scored, max_bytes)
     try:
         if config.register is not None:
             st, span = _registered(r, s, mask, components, config, sources, max_bytes)
+            if regions is None:
+                st = with_psnr_peak(st, span, components, config, "real frame")
+            else:
+                st, span = registered_union(regions, sources, components, config, max_bytes)
         else:
-            st = _stats.pair_stats(r, s, bits=config.bits, peak=config.numeric_peak, bins=config.bins,
-                                   hist_range=config.hist_range, mask=mask, need=components,
-                                   nonfinite=config.nonfinite)
-            span = _stats.real_range(r, mask, config.nonfinite) if "psnr" in components else None
+            st, span = masked_stats(r, s, components, config, scored, bits=config.bits, peak=config.numeric_peak)
     except (ShapeError, RangeError) as exc:
         paths = [f"{which} {inputs[which]}" for which, x in (("real", real), ("sim", sim))
                  if isinstance(x, (str, os.PathLike))]
         if not paths:
             raise
         raise type(exc)(f"{' / '.join(paths)}: {exc}", option=getattr(exc, "option", None)) from None
-    if "psnr" in components:
-        # st.peak is the default peak (2**bits - 1, the dtype's): psnr_peak needs it only without a peak
-        peak = psnr_peak(config, st.peak, span, where="real frame")
-        if peak != st.peak:
-            st = st.with_peak(peak)
     return st, span
 
 
@@ -131,13 +130,15 @@ def _ceiling(real_ref: Any, components: tuple, config: ScoringConfig, stats: _st
     if config.unit is not None:
         ref = to_temperature(ref, real_ref, "real_ref", config)
     inputs["real_ref"] = describe_input(real_ref)
+    sources["real_ref"] = ref  # each region's ceiling; dropped once the regions are scored
     peak = float(stats.peak) if "psnr" in components else None
     return pair_ceiling(sources["real"], ref, components, config, mask=sources.get("mask"), peak=peak)
 
 
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
              real_sitf: Any = None, sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-             real_mrtd: Any = None, sim_mrtd: Any = None, mask: Any = None, real_ref: Any = None,
+             real_mrtd: Any = None, sim_mrtd: Any = None, mask: Any = None, regions: Any = None,
+             real_ref: Any = None,
              ceiling: dict | None = None, config: ScoringConfig | None = None, max_bytes: int | None = None,
              **options: Any) -> FidelityReport:
     """Fidelity of a simulator on one scene (paper eq. 15) with its five components.
@@ -167,6 +168,13 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         :func:`irfidelity.curves.mrtd_similarity` (docs/bars.md).
     mask : 2-D bool array, optional
         ``False`` excludes a pixel pair from the image components.
+    regions : Regions, 2-D integer array or mapping, optional
+        Labelled regions scored each on its own (``report.regions``,
+        :class:`~irfidelity.Regions`): a label image (0 not scored, 1..255 a region, named by
+        its number), ``{name: 2-D bool array}``, or a ``Regions`` with names. The whole is
+        scored over the union of the regions (within ``mask``); each region's entry equals
+        ``evaluate(mask=region)``: its image components, the pair's camera components, its
+        fidelity and grade.
     real_ref : 2-D array or frame path, optional
         A second real frame of the same scene: the real-vs-real components are the ceiling
         (``report.ceiling``, ``report.relative``) against which NMI and SSIM are graded
@@ -236,13 +244,14 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         raise FidelityError("real_ref was given without real and sim: it is a second real frame of their scene",
                             option="real_ref")
     in_unit = cfg.unit is not None and real is not None
+    regions = _region_input(regions, real, bool(image_plan) or in_unit)
     span = defect = None
     ceiling = None if ceiling is None else {str(k): float(v) for k, v in dict(ceiling).items()}
     with recorded_warnings() as notes:
         components, metrics, inputs, compared = camera_components(camera, weights, cfg)
         sources: dict[str, Any] = {"curves": compared}
         if image_plan or in_unit:
-            st, span = _image_stats(real, sim, image_plan, cfg, mask, inputs, sources, max_bytes)
+            st, span = _image_stats(real, sim, image_plan, cfg, mask, regions, inputs, sources, max_bytes)
             image, image_metrics = image_components(st, image_plan, cfg)
             components.update(image)
             metrics.update(image_metrics)
@@ -255,6 +264,10 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
             image, image_metrics = temperature_scores(errors, weights)
             components.update(image)
             metrics.update(image_metrics)
+        ref = sources.pop("real_ref", None)
+        by_region = {} if regions is None else score_regions(regions, sources, image_plan, cfg, weights, components,
+                                                             metrics, ceiling=ceiling, real_ref=ref,
+                                                             max_bytes=max_bytes)
     score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling)
     registration = sources.get("registration")
     return FidelityReport(fidelity=score.fidelity, grade=score.grade, components=score.components,
@@ -264,4 +277,18 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
                           matrix=score.grading.matrix, notes=notes, inputs=inputs, sources=sources,
                           registration=None if registration is None else registration.to_dict(),
                           verdict={**score.verdict.to_dict(), "defect": defect}, ceiling=ceiling,
-                          relative=relative_to(ceiling, score.components))
+                          relative=relative_to(ceiling, score.components), regions=by_region)
+
+
+def _region_input(regions: Any, real: Any, scores_images: bool) -> Any:
+    """``regions=`` as :class:`~irfidelity.Regions` (None when not given), checked against what
+    is scored."""
+    if regions is None:
+        return None
+    if real is None:
+        raise FidelityError("regions were given without real and sim: they label the pixels of the frames",
+                            option="regions")
+    if not scores_images:
+        raise FidelityError("regions score the image components, and none is weighted (psnr, nmi, ssim, or "
+                            "radiometry in a unit)", option="regions")
+    return as_regions(regions)

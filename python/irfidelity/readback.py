@@ -255,6 +255,11 @@ def components(value: Any, where: str) -> dict:
 RESULT = {"components": components, "component_grades": mapping_of(text), "membership": mapping_of(fraction),
           "metrics": mapping_of(metric)}
 
+#: A labelled region's entry of a single pair's report (``report.regions[name]``).
+region = record({"label": count, "pixels": count, "fidelity": fraction, "grade": text, **RESULT},
+                {"verdict": mapping_of(anything), "ceiling": optional(mapping_of(number)),
+                 "relative": optional(mapping_of(number))})
+
 #: One frame pair's entry of a sequence report.
 frame = record({"index": count, "error": optional(text)},
                {"fidelity": optional(fraction), "grade": optional(text), **RESULT,

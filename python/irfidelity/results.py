@@ -272,6 +272,13 @@ class FidelityReport(ReportBase):
         The registration applied before the image components (``config.register``):
         :meth:`irfidelity.Registration.to_dict` — model, method, matrix, shift, angle, scale,
         confidence, overlap. The image components then count the overlap only.
+    regions : dict
+        With ``evaluate(..., regions=...)``, ``{name: entry}`` per labelled region (labels
+        ascending; empty otherwise): ``label``, ``pixels``, ``fidelity``, ``grade``,
+        ``components`` (the region's image components and the pair's camera components),
+        ``component_grades``, ``membership``, ``metrics`` (the region's own), ``verdict``,
+        ``ceiling``, ``relative`` (:mod:`irfidelity.regions`). The pair's own fields describe
+        the union of the regions.
 
     Examples
     --------
@@ -291,6 +298,7 @@ class FidelityReport(ReportBase):
     fidelity: float
     grade: str
     matrix: dict = field(default_factory=dict)
+    regions: dict = field(default_factory=dict)
 
     @property
     def grading(self) -> dict:
@@ -321,7 +329,7 @@ class FidelityReport(ReportBase):
                                 fragment=fragment, **options)
 
     def _own_dict(self) -> dict:
-        return {"grading": self.grading}
+        return {"grading": self.grading, **({"regions": self.regions} if self.regions else {})}
 
     @classmethod
     def _own_fields(cls, fields: Fields) -> dict[str, Any]:
@@ -329,14 +337,25 @@ class FidelityReport(ReportBase):
         return {"fidelity": fields.require("fidelity", readback.fraction),
                 "grade": fields.require("grade", readback.text),
                 "matrix": grading.get("matrix", {}),
-                "registration": fields.get("registration", readback.optional(readback.registration))}
+                "registration": fields.get("registration", readback.optional(readback.registration)),
+                "regions": fields.get("regions", readback.mapping_of(readback.region), {})}
 
     def summary_text(self) -> str:
         """Human-readable table: components, weights, grades, fidelity, how it was made."""
-        lines = self._verdict_lines()
+        lines = self._verdict_lines() + [region_line(name, entry) for name, entry in self.regions.items()]
         if self.registration:
             lines.append(registration_line(self.registration))
         return "\n".join(lines + self._made_lines())
+
+
+def region_line(name: str, entry: Mapping[str, Any]) -> str:
+    """One line: a labelled region's size, image components, fidelity and grade."""
+    from .regions import OWN_COMPONENTS
+
+    own = "; ".join(f"{k} {v:.4f}" for k, v in entry["components"].items() if k in OWN_COMPONENTS)
+    n = entry.get("metrics", {}).get("n", entry["pixels"])
+    return (f"region {name} (label {entry['label']}, {n} px scored): fidelity {entry['fidelity']:.4f} "
+            f"{entry['grade']}; {own}")
 
 
 def verdict_lines(grade: str | None, verdict: Mapping[str, Any], ceiling: Mapping[str, float] | None,

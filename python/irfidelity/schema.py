@@ -17,8 +17,8 @@ import numpy as np
 
 from .fuzzy import COMPONENTS
 
-__all__ = ["METRICS", "FRAME_COLUMNS", "REGISTRATION", "REGISTRATION_COLUMNS", "metric_names", "csv_columns",
-           "registration_values", "to_json", "from_json"]
+__all__ = ["METRICS", "FRAME_COLUMNS", "REGISTRATION", "REGISTRATION_COLUMNS", "REGION_COLUMNS", "metric_names",
+           "csv_columns", "registration_values", "to_json", "from_json"]
 
 #: Raw metrics behind each component: (key, unit, meaning), in report and CSV order.
 METRICS: dict[str, tuple[tuple[str, str, str], ...]] = {
@@ -154,6 +154,18 @@ REGISTRATION_COLUMNS: tuple[tuple[str, str, str, str], ...] = (
     ("reg_overlap", "overlap", "1", "fraction of the real frame the warped simulated frame covers"),
 )
 
+#: A single pair's ``regions`` (``evaluate(..., regions=...)``): each region's entry holds these
+#: keys beside ``components``, ``component_grades``, ``membership``, ``metrics`` (its own: n,
+#: the image metrics, the temperature errors), ``verdict``, ``ceiling`` and ``relative``. In
+#: CSV, after the pair's columns, per region (labels ascending) ``region_<name>_<key>``:
+#: label, pixels, n, its metrics, ``f_<component>`` of its image components, fidelity, grade.
+REGION_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("label", "", "the region's label in the label image (1..255)"),
+    ("pixels", "px", "pixels carrying the label (n: those scored, within mask= and a registration's overlap)"),
+    ("fidelity", "1", "Σ k_i·f_i (eq. 15) with the region's image components and the pair's camera components"),
+    ("grade", "", "the region's grade (docs/interpretation.md)"),
+)
+
 IMAGE_COMPONENTS = ("psnr", "nmi", "ssim")
 CURVE_COMPONENTS = ("mtf", "sitf")
 
@@ -227,4 +239,9 @@ def markdown_table() -> str:
         lines.append(f"| `{key}` | `{key}` | {unit} | {meaning} |")
     for key, unit, meaning in REGISTRATION:
         lines.append(f"| `registration.{key}` | – | {unit} | {meaning} |")
+    for key, unit, meaning in REGION_COLUMNS:
+        lines.append(f"| `regions.NAME.{key}` | `region_NAME_{key}` | {unit} | {meaning} |")
+    lines.append("| `regions.NAME.metrics.Y` | `region_NAME_Y` | | the region's own metric Y (n, image metrics, "
+                 "temperature errors) |")
+    lines.append("| `regions.NAME.components.X` | `region_NAME_f_X` | 1 | the region's image component X |")
     return "\n".join(lines)

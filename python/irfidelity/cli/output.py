@@ -12,6 +12,7 @@ import sys
 from typing import Any
 
 from ..errors import FidelityError
+from ..regions import region_columns, region_values
 from ..schema import csv_columns
 from .parser import flag_for
 
@@ -104,14 +105,14 @@ def _single_row(report: Any) -> list[Any]:
     shape = inputs.get("shape") or (None, None)
     entry = {"index": 0, "real": inputs.get("real"), "sim": inputs.get("sim"), "rows": shape[0], "cols": shape[1],
              "dtype": inputs.get("dtype"), "error": None, **report.to_dict()}
-    return flat_row(entry, _columns(report))
+    return flat_row(entry, _columns(report)) + region_values(getattr(report, "regions", None) or {})
 
 
 def _write_csv(report: Any, dest: str) -> None:
     from ..sequence.log import csv_line
 
     with open(dest, "w", newline="", encoding="utf-8") as fh:
-        fh.write(csv_line(_columns(report)))
+        fh.write(csv_line(_columns(report) + region_columns(getattr(report, "regions", None) or {})))
         fh.write(csv_line(_single_row(report)))
 
 

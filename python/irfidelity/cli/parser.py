@@ -169,6 +169,12 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                    help="a second real frame of the scene: the real-vs-real ceiling NMI and SSIM are graded against")
     v.add_argument("--mask", metavar="PATH", help="score only the pixels where this PNG/NPY/TIFF is non-zero")
     v.add_argument("--roi", metavar="Y0:Y1,X0:X1", help="score only this region (rows Y0..Y1-1, columns X0..X1-1)")
+    v.add_argument("--regions", metavar="PATH",
+                   help="a label image (PNG/NPY/TIFF: 0 not scored, 1..255 a region): each region scored on its own "
+                        "beside the whole (their union)")
+    v.add_argument("--region-names", metavar="NAME,...|NAME=LABEL,...",
+                   help="names of the --regions labels: in label order (target,background) or by label "
+                        "(target=1,background=2)")
     t = s.add_argument_group("temperatures (radiometric files; float frames are taken as already in the unit)")
     t.add_argument("--unit", choices=("K", "C"), help="score temperatures in kelvin or degrees Celsius: adds the "
                                                      "temperature errors and the opt-in 'radiometry' component")

@@ -13,7 +13,7 @@ from ..frames import MULTIPAGE_EXTENSIONS, FrameSequence, page_chain
 from ..fuzzy import Weights
 from .output import UsageError, write_outputs
 from .parser import CALIBRATION_FLAGS
-from .regions import pair_flags, tolerance_flags
+from .regions import pair_flags, region_flags, tolerance_flags
 
 __all__ = ["score_command"]
 
@@ -137,12 +137,14 @@ def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
         for flag in ("real_ref", "mask", "roi"):
             if getattr(a, flag) is not None:
                 raise UsageError(f"--{flag.replace('_', '-')} applies to single pairs; REAL and SIM are sequences")
+        if a.regions is not None:
+            raise UsageError("--regions applies to single pairs; REAL and SIM are sequences")
         report = _sequence(a, config, curves)
     else:
         for flag in ("resume", "pages", "ci"):
             if getattr(a, flag):
                 raise UsageError(f"--{flag} applies to sequences; REAL and SIM are single frames")
-        pair_options = pair_flags(a, config.real_channel)
+        pair_options = {**pair_flags(a, config.real_channel), **region_flags(a)}
         for name, path in (("REAL", a.real), ("SIM", a.sim)):
             if not os.path.isfile(path):
                 raise UsageError(f"{name} {path!r}: no such file")

@@ -23,6 +23,7 @@ from ..stats import _as_frame, pair_stats
 from . import figures, sections
 from .bars import bars as bars_section
 from .noise import noise as noise_section
+from .regions import regions as regions_section
 from .temperature import temperatures
 from .html import Missing, Raw, colour_bar, image, missing, page, panels, paragraph, section
 
@@ -129,6 +130,7 @@ def render_pair_html(
         sections.header(title or "Fidelity report", _subtitle(d)),
         sections.verdict(d),
         sections.components(d),
+        *regions_section(d),
         *(_frame_sections(d, frames, ssim, joint_histogram, peak, max_bytes) if isinstance(frames, tuple) else
           [missing(t, frames, anchor=a) for t, a in _FRAME_SECTIONS]),
         *([_overlay_section(frames, sim_unregistered)] if isinstance(frames, tuple) and sim_unregistered is not None
