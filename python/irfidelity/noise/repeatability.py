@@ -263,6 +263,8 @@ def noise_ceiling(real: Any, noise: Any, components: tuple[str, ...], config: Sc
     out: dict[str, float] = {}
     if "psnr" in wanted:
         numeric = ceiling_peak(frame, cfg, peak)
+        if numeric is None and frame.dtype.kind in "ui":
+            numeric = _stats.peak_and_valid(frame.dtype, cfg.bits, None)[0]  # 2**bits − 1, else the type's
         if numeric is None:
             raise FidelityError("the PSNR ceiling of float frames needs a peak (the largest possible value)",
                                 option="peak")

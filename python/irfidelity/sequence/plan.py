@@ -235,4 +235,5 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
                         camera_metrics=fixed_metrics, inputs=inputs, camera_objects=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
                         else None, bins=bins, levels=levels, hist_range=hist_range, registration=registration,
-                        ceiling=ceiling, ceiling_source=ceiling_source, scene_range=None if first is None else _scene_range(first))
+                        ceiling=ceiling, ceiling_source=ceiling_source,
+                        scene_range=None if first is None else _scene_range(first))
