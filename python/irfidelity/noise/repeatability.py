@@ -110,7 +110,7 @@ def _frame(real: Any) -> np.ndarray:
 
 def _frame_moments(real: np.ndarray, config: ScoringConfig, mask: Any) -> tuple[float, float]:
     """Mean and population variance of the real frame over its scored pixels."""
-    st = _stats.pair_stats(real, real, bits=config.bits, mask=mask, need=("ssim",), nonfinite=config.nonfinite)
+    st = _stats.pair_stats(real, real, mask=mask, need=("ssim",), nonfinite=config.nonfinite)
     moments = st.moments()
     return float(moments["mean_real"]), float(moments["var_real"])
 

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..ceiling import CEILING_SOURCES
 from ..errors import FidelityError
 from . import figures
 from .html import Raw, image, key_values, missing, number, paragraph, section, table, text
