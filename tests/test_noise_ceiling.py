@@ -234,3 +234,11 @@ def test_bad_noise_and_degenerate_frames(scene):
     with pytest.warns(NoiseWarning, match="at least the real frame's variance"):
         loud = noise_ceiling(a, {"tvh": 100.0}, COMPONENTS, CONFIG)
     assert loud["ssim"] == 0.0 and loud["nmi"] < 0.05
+
+
+def test_temperature_frames_get_no_noise_ceiling(scene):
+    # the noise is in counts; frames scored in kelvin would be compared with it in other units
+    real = 290.0 + scene / 100.0
+    with pytest.warns(NoiseWarning, match="frame units and the frames are scored in K"):
+        rep = irf.evaluate(real, real + 0.05, unit="K", real_noise=QUIET, weights="nmi=0.5,ssim=0.5")
+    assert rep.ceiling is None and rep.ceiling_source is None
