@@ -197,7 +197,7 @@ def test_sequence_takes_the_noise(scene):
     consecutive = irf.score_sequence(real, sim, config=CONFIG, progress=False)
     assert consecutive.ceiling_source == "sequence"
     with_noise = irf.score_sequence(real, sim, config=CONFIG, progress=False, real_noise=QUIET)
-    assert with_noise.ceiling_source == "noise3d"
+    assert with_noise.ceiling_source == "noise3d" and with_noise.inputs["real_noise"] == "dict"
     for k in ("nmi", "ssim"):  # a still scene: both ceilings estimate the same repeatability
         assert with_noise.ceiling[k] == pytest.approx(consecutive.ceiling[k], abs=0.01)
     one = irf.score_sequence(real[:1], sim[:1], config=CONFIG, progress=False, real_noise=QUIET)

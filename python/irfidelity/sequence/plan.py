@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..alignment import find_registration
-from ..camera import CameraInputs, as_noise, camera_components
+from ..camera import CameraInputs, as_noise, camera_components, describe_input
 from ..ceiling import sequence_ceiling
 from ..config import ScoringConfig
 from ..errors import FidelityError
@@ -231,6 +231,8 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
                 bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
                                                        full_range(dtype, config.bits, config.numeric_peak))
             ceiling, ceiling_source = _ceiling(real, camera, compared, image, config, peak)
+            if ceiling_source == "noise3d":
+                inputs.setdefault("real_noise", describe_input(camera.real_noise))
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,
                         camera_metrics=fixed_metrics, inputs=inputs, camera_objects=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
