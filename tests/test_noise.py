@@ -655,9 +655,10 @@ def test_noise_component_in_evaluate_sequences_and_cli(tmp_path):
     assert rep.metrics["noise_sigma_tvh_real"] == expected.metrics()["noise_sigma_tvh_real"]
     assert rep.fidelity == pytest.approx(sum(rep.weights[k] * v for k, v in rep.components.items()), rel=1e-15)
     assert "noise" in rep.summary_text()
-    # weight 0 (the default): the recordings are not read at all, and the paper's five are scored
-    plain = irf.evaluate(*lepton, real_noise="does/not/exist", sim_noise="nor/this", bits=14)
-    assert "noise" not in plain.components and "noise" not in plain.skipped
+    # weight 0 (the default): the simulator's recording is not read at all, and the paper's five are
+    # scored; the real camera's noise still sets the ceiling (tests/test_noise_ceiling.py)
+    plain = irf.evaluate(*lepton, real_noise=real_noise, sim_noise="nor/this", bits=14)
+    assert "noise" not in plain.components and "noise" not in plain.skipped and plain.ceiling_source == "noise3d"
     # a weighted noise component without recordings is dropped like any other
     dropped = irf.evaluate(*lepton, weights=weights, bits=14)
     assert "real_noise/sim_noise" in dropped.skipped["noise"]

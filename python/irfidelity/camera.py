@@ -36,7 +36,8 @@ KINDS = ("mtf", "sitf", "noise", "mrtd")
 
 @dataclass(frozen=True)
 class CameraInputs:
-    """The camera-property inputs of a scene (any of them None; given in pairs)."""
+    """The camera-property inputs of a scene (any of them None; given in pairs, except the real
+    camera's noise, which alone sets the ceiling: :mod:`irfidelity.noise.repeatability`)."""
 
     real_mtf: Any = None
     sim_mtf: Any = None
@@ -50,13 +51,14 @@ class CameraInputs:
     def __post_init__(self) -> None:
         for kind in KINDS:
             real, sim = getattr(self, f"real_{kind}"), getattr(self, f"sim_{kind}")
-            if (real is None) != (sim is None):
+            if (real is None) != (sim is None) and not (kind == "noise" and sim is None):
                 given, absent = (f"real_{kind}", f"sim_{kind}") if sim is None else (f"sim_{kind}", f"real_{kind}")
                 raise FidelityError(f"{given} was given without {absent}: give both or neither", option=absent)
 
     def given(self) -> dict[str, bool]:
         """``{kind: whether both inputs were given}`` for mtf, sitf, noise and mrtd."""
-        return {kind: getattr(self, f"real_{kind}") is not None for kind in KINDS}
+        return {kind: getattr(self, f"real_{kind}") is not None and getattr(self, f"sim_{kind}") is not None
+                for kind in KINDS}
 
 
 def describe_input(x: Any) -> Any:

@@ -9,7 +9,14 @@ are ``report.relative``, and NMI and SSIM are graded relative to it
 * one pair: ``real_ref=`` a second real frame of the same scene (:func:`pair_ceiling`);
 * a sequence: consecutive real frames t and t + 1 (:func:`sequence_ceiling`; the median over
   up to :data:`CEILING_PAIRS` pairs spread over the sequence). A moving scene adds its motion to
-  the difference, so the ceiling of a panning sequence is lower than the sensor's repeatability.
+  the difference, so the ceiling of a panning sequence is lower than the sensor's repeatability;
+* the real camera's 3-D noise (``real_noise=``): the components a second real frame would reach,
+  the temporal noise added to the real frame (:mod:`irfidelity.noise.repeatability`).
+
+Where a report's ceiling came from is its ``ceiling_source`` (:data:`CEILING_SOURCES`). A pair
+takes ``ceiling=`` before ``real_ref=`` before the noise; a sequence takes the noise, when the
+real camera's is given, before its consecutive frames (a moving scene's are not the camera's
+repeatability).
 """
 
 from __future__ import annotations
@@ -23,10 +30,15 @@ from . import stats as _stats
 from .config import ScoringConfig
 from .errors import FidelityError
 
-__all__ = ["CEILING_COMPONENTS", "CEILING_PAIRS", "pair_ceiling", "sequence_ceiling", "relative_to"]
+__all__ = ["CEILING_COMPONENTS", "CEILING_PAIRS", "CEILING_SOURCES", "pair_ceiling", "ceiling_peak",
+           "sequence_ceiling", "relative_to"]
 
 #: The components that have a ceiling (the image components; psnr's is reported, not graded).
 CEILING_COMPONENTS = ("psnr", "nmi", "ssim")
+
+#: Where a ceiling came from, and the words a verdict says it with.
+CEILING_SOURCES = {"given": "given", "real_ref": "two real frames", "sequence": "consecutive real frames",
+                   "noise3d": "from the real camera's 3-D noise"}
 
 #: Consecutive real pairs a sequence's ceiling is measured on (spread over the sequence).
 CEILING_PAIRS = 8
@@ -56,13 +68,24 @@ def pair_ceiling(real: np.ndarray, real_ref: np.ndarray, components: tuple[str, 
     if r.shape != ref.shape:
         raise FidelityError(f"real_ref has shape {ref.shape}, the real frame {r.shape}: the ceiling needs a second "
                             "real frame of the same scene and size", option="real_ref")
-    numeric_peak = peak if peak is not None else config.peak if isinstance(config.peak, float) else None
-    if numeric_peak is None and config.peak == "range" and "psnr" in wanted:
-        numeric_peak = float(np.nanmax(r)) - float(np.nanmin(r)) or None
+    numeric_peak = ceiling_peak(r, config, peak) if "psnr" in wanted else peak if peak is not None else \
+        config.numeric_peak
     st = _stats.pair_stats(r, ref, bits=config.bits, peak=numeric_peak, bins=config.bins,
                            hist_range=config.hist_range, mask=mask, need=wanted, nonfinite=config.nonfinite)
     values, _ = image_components(st, wanted, config)
     return values
+
+
+def ceiling_peak(real: np.ndarray, config: ScoringConfig, peak: float | None) -> float | None:
+    """The PSNR peak of a ceiling: ``peak`` (the simulator's pair's), the configured number, the
+    real frame's range with ``peak="range"``, or None (the frame type's default)."""
+    if peak is not None:
+        return peak
+    if isinstance(config.peak, float):
+        return config.peak
+    if config.peak == "range":
+        return float(np.nanmax(real)) - float(np.nanmin(real)) or None
+    return None
 
 
 def sequence_ceiling(real: Any, components: tuple[str, ...], config: ScoringConfig,

@@ -14,6 +14,7 @@ against the budget before they allocate.
 from __future__ import annotations
 
 import os
+import warnings
 from typing import Any
 
 import numpy as np
@@ -25,7 +26,7 @@ from .defects import concentrated_error
 from .camera import CameraInputs, camera_components, describe_input
 from .alignment import score_registered
 from .config import ScoringConfig
-from .errors import FidelityError, RangeError, ShapeError
+from .errors import FidelityError, NoiseWarning, RangeError, ShapeError
 from .regions import as_regions, masked_stats, registered_union, score_regions, scored_mask, with_psnr_peak
 from .results import FidelityReport, recorded_warnings
 from .scoring import image_components, plan_components, score_components
@@ -135,6 +136,28 @@ def _ceiling(real_ref: Any, components: tuple, config: ScoringConfig, stats: _st
     return pair_ceiling(sources["real"], ref, components, config, mask=sources.get("mask"), peak=peak)
 
 
+def _noise_ceiling(real_noise: Any, components: tuple, config: ScoringConfig, stats: _stats.PairStats,
+                   sources: dict, inputs: dict, max_bytes: int | None) -> dict | None:
+    """The ceiling from the real camera's 3-D noise (:mod:`irfidelity.noise.repeatability`);
+    None for frames scored in temperature (the noise is in frame units)."""
+    from collections.abc import Mapping
+
+    from .camera import as_noise
+    from .noise.repeatability import noise_ceiling
+
+    if config.unit is not None:
+        warnings.warn(f"the real camera's noise is in frame units and the frames are scored in {config.unit}: no "
+                      f"ceiling is derived from it (give real_ref=, a second real frame)", NoiseWarning, stacklevel=3)
+        return None
+    noise = sources["curves"].get("real_noise")
+    if noise is None:
+        noise = real_noise if isinstance(real_noise, Mapping) else as_noise(real_noise, "real", config)
+    inputs.setdefault("real_noise", describe_input(real_noise))
+    peak = float(stats.peak) if "psnr" in components else None
+    return noise_ceiling(sources["real"], noise, components, config, mask=sources.get("mask"), peak=peak,
+                         max_bytes=max_bytes)
+
+
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
              real_sitf: Any = None, sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
              real_mrtd: Any = None, sim_mrtd: Any = None, mask: Any = None, regions: Any = None,
@@ -160,6 +183,9 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         glob, multi-page TIFF), optional
         The opt-in ``noise`` component (weight 0 by default: give it a weight, e.g.
         ``weights="psnr=0.3,nmi=0.2,ssim=0.3,noise=0.2"``); :func:`irfidelity.noise.noise3d`.
+        Without ``real_ref`` and ``ceiling``, ``real_noise`` (also a mapping of the temporal σ
+        ``{"t", "tv", "th", "tvh"}`` in frame units) gives the ceiling: the components a second
+        real frame would reach (:mod:`irfidelity.noise.repeatability`).
     real_mrtd, sim_mrtd : Curve, (x, y), CSV path, or bar frames, optional
         The opt-in ``mrtd`` component (weight 0 by default): MRTD curves (e.g. the model
         :func:`irfidelity.curves.mrtd` from MTF and NETD), or bar frames
@@ -181,7 +207,9 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         (:mod:`irfidelity.ceiling`).
     ceiling : mapping, optional
         A ceiling measured before (``{"nmi": ..., "ssim": ...}``, e.g. a sequence report's
-        ``ceiling``), instead of ``real_ref``.
+        ``ceiling``), instead of ``real_ref``. Where the ceiling came from is
+        ``report.ceiling_source``: "given", "real_ref" or "noise3d" (``ceiling`` before
+        ``real_ref`` before ``real_noise``; ``ceiling`` and ``real_ref`` together are an error).
     config : ScoringConfig, mapping or TOML/JSON path, optional
         What decides the score (weights, bits, peak, bins, ...); default: the defaults.
     max_bytes : int, optional
@@ -247,6 +275,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     regions = _region_input(regions, real, bool(image_plan) or in_unit)
     span = defect = None
     ceiling = None if ceiling is None else {str(k): float(v) for k, v in dict(ceiling).items()}
+    ceiling_source = None if ceiling is None else "given"
     with recorded_warnings() as notes:
         components, metrics, inputs, compared = camera_components(camera, weights, cfg)
         sources: dict[str, Any] = {"curves": compared}
@@ -256,7 +285,10 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
             components.update(image)
             metrics.update(image_metrics)
             if real_ref is not None and image_plan:
-                ceiling = _ceiling(real_ref, image_plan, cfg, st, sources, inputs)
+                ceiling, ceiling_source = _ceiling(real_ref, image_plan, cfg, st, sources, inputs), "real_ref"
+            elif ceiling is None and real_noise is not None and image_plan:
+                ceiling = _noise_ceiling(real_noise, image_plan, cfg, st, sources, inputs, max_bytes)
+                ceiling_source = None if ceiling is None else "noise3d"
             defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"))
         if in_unit:
             errors = TemperatureErrors.of_frames(sources["real"], sources["sim"], mask=sources["mask"],
@@ -268,7 +300,8 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         by_region = {} if regions is None else score_regions(regions, sources, image_plan, cfg, weights, components,
                                                              metrics, ceiling=ceiling, real_ref=ref,
                                                              max_bytes=max_bytes)
-    score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling)
+    score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling,
+                             ceiling_source=ceiling_source)
     registration = sources.get("registration")
     return FidelityReport(fidelity=score.fidelity, grade=score.grade, components=score.components,
                           weights=weights, metrics=score.metrics,

@@ -16,6 +16,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Self
 
+from .ceiling import CEILING_SOURCES
 from .config import ScoringConfig
 from .errors import FidelityError
 from .fuzzy import COMPONENTS, PAPER_COMPONENTS, Weights
@@ -186,6 +187,13 @@ class ReportBase:
     def grades(self) -> tuple:
         """Grade names, best first."""
         return tuple(self.membership)
+
+    @property
+    def ceiling_source(self) -> str | None:
+        """Where :attr:`ceiling` came from (``verdict["ceiling_source"]``): "given", "real_ref",
+        "sequence" or "noise3d" (:data:`irfidelity.ceiling.CEILING_SOURCES`); None without one."""
+        source = self.verdict.get("ceiling_source") if self.ceiling else None
+        return source if isinstance(source, str) else None
 
     # ------------------------------------------------------------------ JSON form
     def to_dict(self) -> dict:
@@ -369,7 +377,8 @@ def verdict_lines(grade: str | None, verdict: Mapping[str, Any], ceiling: Mappin
     if ceiling:
         parts = [f"{k} {v:.4f} (simulator {100 * relative[k]:.1f} %)" if relative and k in relative else
                  f"{k} {v:.4f}" for k, v in ceiling.items()]
-        lines.append("ceiling (real vs real): " + ", ".join(parts))
+        source = CEILING_SOURCES.get(str(verdict.get("ceiling_source"))) if verdict else None
+        lines.append("ceiling (real vs real)" + (f", {source}" if source else "") + ": " + ", ".join(parts))
     return lines
 
 

@@ -152,12 +152,13 @@ class Score:
 
 def score_components(components: Mapping[str, float], metrics: Mapping[str, Any], weights: Weights,
                      config: ScoringConfig, *, scene_range: float | None = None,
-                     ceiling: Mapping[str, float] | None = None) -> Score:
+                     ceiling: Mapping[str, float] | None = None, ceiling_source: str | None = None) -> Score:
     """Eq. (15) and the grade of a set of components, judged by the configured tolerances
     (``scene_range``: the real frame's max − min; ``ceiling``: NMI and SSIM of two real
-    frames; :func:`irfidelity.verdict.judge`)."""
+    frames, and ``ceiling_source`` where they came from; :func:`irfidelity.verdict.judge`)."""
     comps = ordered_components(components)
-    verdict = judge(comps, metrics, weights, config, scene_range=scene_range, ceiling=ceiling)
+    verdict = judge(comps, metrics, weights, config, scene_range=scene_range, ceiling=ceiling,
+                    ceiling_source=ceiling_source)
     return Score(fidelity=fidelity_sum(weights, comps), components=comps, metrics=dict(metrics),
                  grading=verdict.grading(weights), verdict=verdict)
 

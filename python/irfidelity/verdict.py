@@ -18,6 +18,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from .ceiling import CEILING_SOURCES
 from .errors import FidelityError
 from .fuzzy import COMPONENTS, Grading, Weights
 from .tolerances import COMPONENT_OF, KINDS, Tolerances, component_cuts
@@ -160,7 +161,7 @@ def _radiometry_measure(value: float, metrics: Mapping[str, Any]) -> tuple[float
 
 
 def _measure(component: str, value: float, basis: str, metrics: Mapping[str, Any], config: Any,
-             span: float | None, ceiling: float | None) -> tuple[float, str]:
+             span: float | None, ceiling: float | None, source: str | None) -> tuple[float, str]:
     if component in ("mtf", "sitf"):
         options = config.mtf_options if component == "mtf" else config.sitf_options
         return _curve_measure(component, value, metrics, float(options.get("alpha", 1.0)))
@@ -182,7 +183,8 @@ def _measure(component: str, value: float, basis: str, metrics: Mapping[str, Any
     if basis == "absolute":
         return value, f"{component} {value:.3f}"
     share = value / ceiling if ceiling else 0.0
-    return share, f"{component} {value:.3f}, {_percent(share)} of the ceiling {ceiling:.3f} (two real frames)"
+    words = CEILING_SOURCES.get(source or "", "real vs real")
+    return share, f"{component} {value:.3f}, {_percent(share)} of the ceiling {ceiling:.3f} ({words})"
 
 
 @dataclass(frozen=True)
@@ -202,6 +204,9 @@ class Verdict:
         tolerance of the next better grade.
     components : dict
         ``{component: ComponentVerdict}``.
+    ceiling_source : str or None
+        Where the ceiling NMI and SSIM were graded against came from: a key of
+        :data:`irfidelity.ceiling.CEILING_SOURCES` ("given", "real_ref", "sequence", "noise3d").
     """
 
     grades: tuple
@@ -209,6 +214,7 @@ class Verdict:
     decided_by: str
     reason: str
     components: dict
+    ceiling_source: str | None = None
 
     def grading(self, weights: Weights) -> Grading:
         """The fuzzy evaluation these grades give: ``R`` one-hot, ``B`` the weight per grade."""
@@ -221,7 +227,8 @@ class Verdict:
     def to_dict(self) -> dict:
         return {"grade": self.grade, "decided_by": self.decided_by, "reason": self.reason,
                 "rule": "the worst grade of the weighted components, each graded by its tolerance",
-                "components": {k: c.to_dict() for k, c in self.components.items()}}
+                "components": {k: c.to_dict() for k, c in self.components.items()},
+                "ceiling_source": self.ceiling_source}
 
 
 def _grade_names(config: Any) -> tuple:
@@ -243,7 +250,8 @@ def _reason(names: tuple, grade: str, decider: ComponentVerdict) -> str:
 
 
 def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: Weights, config: Any, *,
-          scene_range: float | None = None, ceiling: Mapping[str, float] | None = None) -> Verdict:
+          scene_range: float | None = None, ceiling: Mapping[str, float] | None = None,
+          ceiling_source: str | None = None) -> Verdict:
     """Grade every weighted component by its tolerance, and the whole by the weakest one.
 
     Parameters
@@ -259,6 +267,8 @@ def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: 
     ceiling : mapping, optional
         ``{"nmi": value, "ssim": value}`` of two real frames; without one NMI and SSIM are
         graded by the calibrated absolute boundaries.
+    ceiling_source : str, optional
+        Where the ceiling came from (:data:`irfidelity.ceiling.CEILING_SOURCES`), said in the reason.
 
     Examples
     --------
@@ -288,7 +298,7 @@ def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: 
         met = [i for i, cut in enumerate(cuts) if value >= cut - _ROUNDING]
         grade = names[met[0] if met else 3]
         span = scene_range if basis == "range" else (None if peak is None else float(peak))
-        measure, text = _measure(k, value, basis, metrics, config, span, roof)
+        measure, text = _measure(k, value, basis, metrics, config, span, roof, ceiling_source)
         limits = cuts if basis == "absolute" else tolerances.limits(_TOLERANCE_OF[k])
         judged[k] = ComponentVerdict(k, value, grade, tuple(cuts), basis, measure, tuple(limits), text)
     if not judged:
@@ -298,4 +308,5 @@ def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: 
     candidates = [c for c in judged.values() if names.index(c.grade) == worst]
     decider = max(candidates, key=lambda c: c.excess(level))
     return Verdict(grades=names, grade=names[worst], decided_by=decider.component,
-                   reason=_reason(names, names[worst], decider), components=judged)
+                   reason=_reason(names, names[worst], decider), components=judged,
+                   ceiling_source=ceiling_source if ceiling else None)

@@ -216,9 +216,13 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                    help="detector pixel pitch, to convert cycles/pixel <-> line pairs/mm")
     k.add_argument("--focal-length", type=_positive_float, metavar="MM", dest="focal_length_mm",
                    help="focal length, to convert cycles/mrad <-> line pairs/mm")
-    n = s.add_argument_group("sensor noise (the opt-in 'noise' component: give it a weight in --weights)")
+    n = s.add_argument_group("sensor noise (the opt-in 'noise' component: give it a weight in --weights; the real "
+                             "camera's alone also sets the ceiling)")
     n.add_argument("--real-noise", metavar="DIR|TIF", help="frames of a uniform source (blackbody) from the real "
-                                                          "camera: a directory, glob or multi-page TIFF")
+                                                          "camera: a directory, glob or multi-page TIFF; without "
+                                                          "--real-ref, its 3-D noise sets the ceiling NMI and SSIM are "
+                                                          "graded against (for a sequence, instead of consecutive "
+                                                          "frames)")
     n.add_argument("--sim-noise", metavar="DIR|TIF", help="the same from the simulator")
     b = s.add_argument_group("bar targets (the opt-in 'mrtd' component: give it a weight in --weights)")
     b.add_argument("--real-bars", metavar="DIR", help="frames of bar targets from the real camera, listed with their "

@@ -115,7 +115,7 @@ def _curves(a: argparse.Namespace) -> dict:
     curves.update(real_mrtd=_bars(a.real_bars, "real"), sim_mrtd=_bars(a.sim_bars, "sim"))
     for kind in ("mtf", "sitf", "noise", "mrtd"):
         real, sim = curves[f"real_{kind}"], curves[f"sim_{kind}"]
-        if (real is None) != (sim is None):
+        if (real is None) != (sim is None) and not (kind == "noise" and sim is None):  # alone: the ceiling
             given, absent = ("real", "sim") if sim is None else ("sim", "real")
             alternative = f" (or --{absent}-edge)" if kind == "mtf" else ""
             flag = "bars" if kind == "mrtd" else kind

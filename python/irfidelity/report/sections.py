@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..ceiling import CEILING_SOURCES
 from ..errors import FidelityError
 from . import figures
 from .html import Raw, image, key_values, missing, number, paragraph, section, table, text
@@ -87,7 +88,8 @@ def verdict(d: Mapping, *, score_key: str = "fidelity", label: str = "Fidelity")
     parts += [paragraph(line) for line in (reason, defect) if isinstance(line, str)]
     ceiling, relative = mapping(d, "ceiling"), mapping(d, "relative")
     if ceiling:
-        parts.append(paragraph("The camera against itself (two real frames of the scene): the ceiling of each image "
+        words = CEILING_SOURCES.get(str(mapping(d, "verdict").get("ceiling_source")), "two real frames of the scene")
+        parts.append(paragraph(f"The camera against itself ({words}): the ceiling of each image "
                                "component, and the simulator's value as a fraction of it."))
         parts.append(table(["", *ceiling], [["ceiling", *ceiling.values()],
                                             ["simulator / ceiling", *(relative.get(k) for k in ceiling)]]))

@@ -71,6 +71,7 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd :
         The camera curves, noise recordings and MRTD inputs, as in :func:`irfidelity.evaluate`: compared
         once, before any frame; their components enter every frame's and the pooled fidelity.
+        ``real_noise`` (also alone) sets the ceiling instead of consecutive real frames.
     config : ScoringConfig, mapping or TOML/JSON path, optional
         What decides the score; ScoringConfig fields given as keywords override it.
     ci : bool or float

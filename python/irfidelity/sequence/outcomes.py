@@ -77,7 +77,7 @@ def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str
             comps, metrics = _with_temperature(comps, metrics, outcome.temperature, plan)
         extent = outcome.real_extent
         score = score_components(comps | plan.camera_components, metrics | plan.camera_metrics, plan.weights,
-                                 plan.config, ceiling=plan.ceiling,
+                                 plan.config, ceiling=plan.ceiling, ceiling_source=plan.ceiling_source,
                                  scene_range=plan.scene_range if extent is None else extent[1] - extent[0])
     except FidelityError as exc:
         return error_entry(outcome.index, real, sim, str(exc)), None

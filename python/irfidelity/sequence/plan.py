@@ -8,13 +8,14 @@ sample type every frame must have, the PSNR peak, and the histogram binning.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..alignment import find_registration
-from ..camera import CameraInputs, camera_components
+from ..camera import CameraInputs, as_noise, camera_components, describe_input
 from ..ceiling import sequence_ceiling
 from ..config import ScoringConfig
 from ..errors import FidelityError
@@ -83,7 +84,8 @@ class SequencePlan:
     levels: bool
     hist_range: tuple[float, float] | None
     registration: Any = None  # found once on the first readable pair (config.register, not register_each)
-    ceiling: dict | None = None  # real frame t vs t + 1 (irfidelity.ceiling)
+    ceiling: dict | None = None  # real frame t vs t + 1, or from the real camera's noise (irfidelity.ceiling)
+    ceiling_source: str | None = None  # "sequence" or "noise3d" (irfidelity.ceiling.CEILING_SOURCES)
     scene_range: float | None = None  # of the first readable real frame: for frames without their own extent
 
     @property
@@ -184,6 +186,23 @@ def _scene_range(frame: np.ndarray) -> float | None:
     return float(values.max()) - float(values.min()) if values.size else None
 
 
+def _ceiling(real: Any, camera: CameraInputs, compared: dict, image: tuple[str, ...], config: ScoringConfig,
+             peak: float | None) -> tuple[dict | None, str | None]:
+    """The run's ceiling and where it came from: the real camera's 3-D noise when it is given (the
+    camera's repeatability, whatever the scene does), else consecutive real frames."""
+    from ..noise.repeatability import sequence_noise_ceiling
+
+    if camera.real_noise is None or config.unit is not None:  # the noise is in frame units
+        ceiling = sequence_ceiling(real, image, config, peak=peak)
+        return ceiling, None if ceiling is None else "sequence"
+    noise = compared.get("real_noise")
+    if noise is None:
+        noise = camera.real_noise if isinstance(camera.real_noise, Mapping) else \
+            as_noise(camera.real_noise, "real", config)
+    ceiling = sequence_noise_ceiling(real, noise, image, config, peak=peak)
+    return ceiling, None if ceiling is None else "noise3d"
+
+
 def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera: CameraInputs,
               config: ScoringConfig) -> SequencePlan:
     """Plan a sequence run (raises before any pair is scored when the plan cannot work)."""
@@ -203,7 +222,7 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
         default_peak = valid = None
         peak = bins = hist_range = None
         levels = False
-        ceiling = None
+        ceiling = ceiling_source = None
         if dtype is not None:
             default_peak, valid = peak_and_valid(dtype, config.bits, None)
             if "psnr" in image and config.peak != "range":  # "range": each frame's own
@@ -211,9 +230,12 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
             if "nmi" in image:
                 bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
                                                        full_range(dtype, config.bits, config.numeric_peak))
-            ceiling = sequence_ceiling(real, image, config, peak=peak)
+            ceiling, ceiling_source = _ceiling(real, camera, compared, image, config, peak)
+            if ceiling_source == "noise3d":
+                inputs.setdefault("real_noise", describe_input(camera.real_noise))
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,
                         camera_metrics=fixed_metrics, inputs=inputs, camera_objects=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
                         else None, bins=bins, levels=levels, hist_range=hist_range, registration=registration,
-                        ceiling=ceiling, scene_range=None if first is None else _scene_range(first))
+                        ceiling=ceiling, ceiling_source=ceiling_source,
+                        scene_range=None if first is None else _scene_range(first))

@@ -105,7 +105,7 @@ class Pool:
             comps, metrics = comps | temperature_comps, metrics | temperature_metrics
         score = score_components(comps | plan.camera_components, metrics | plan.camera_metrics, plan.weights,
                                  plan.config, scene_range=self.scene_range() or plan.scene_range,
-                                 ceiling=plan.ceiling)
+                                 ceiling=plan.ceiling, ceiling_source=plan.ceiling_source)
         return score, pooling
 
 

@@ -65,7 +65,8 @@ class SequenceReport(ReportBase):
         frame's is in ``frames[i]["registration"]``).
     verdict, ceiling, relative
         As in :class:`~irfidelity.results.ReportBase`, for the pooled result; the ceiling is that of
-        consecutive real frames (t, t + 1; :func:`irfidelity.ceiling.sequence_ceiling`).
+        consecutive real frames (t, t + 1; :func:`irfidelity.ceiling.sequence_ceiling`), or with
+        ``real_noise`` the real camera's repeatability (``ceiling_source`` "noise3d").
     delay : dict or None
         With ``config.max_delay``: the frame offset found — ``frames`` (real frame ``i``
         pairs with simulated frame ``i + frames``), ``confidence``, ``window`` (frames of
