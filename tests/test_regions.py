@@ -298,3 +298,12 @@ def test_regions_are_planned_against_the_pair_budget(pair):
     with pytest.raises(irf.FidelityError, match="scoring regions of 240 x 320 pixel frames"):
         irf.evaluate(real, sim, regions=labels, bits=14, max_bytes=9 * n)
     assert irf.evaluate(real, sim, regions=labels, bits=14, max_bytes=10 * n).regions
+
+
+def test_regions_reuse_the_noise_ceiling_and_say_so(pair):
+    real, sim, labels = pair
+    rep = irf.evaluate(real, sim, regions=labels, real_noise={"tvh": 2.0}, bits=14)
+    assert rep.ceiling_source == "noise3d"
+    for entry in rep.regions.values():
+        assert entry["ceiling"] == rep.ceiling
+        assert entry["verdict"]["ceiling_source"] == "noise3d"

@@ -299,7 +299,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         ref = sources.pop("real_ref", None)
         by_region = {} if regions is None else score_regions(regions, sources, image_plan, cfg, weights, components,
                                                              metrics, ceiling=ceiling, real_ref=ref,
-                                                             max_bytes=max_bytes)
+                                                             ceiling_source=ceiling_source, max_bytes=max_bytes)
     score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling,
                              ceiling_source=ceiling_source)
     registration = sources.get("registration")

@@ -337,13 +337,15 @@ def _entry(label: int, pixels: int, score: Any, metrics: dict, ceiling: Any) -> 
 
 def score_regions(regions: Regions, sources: Mapping[str, Any], plan: tuple, config: ScoringConfig,
                   weights: Weights, pair_components: Mapping[str, float], pair_metrics: Mapping[str, Any], *,
-                  ceiling: Any = None, real_ref: Any = None, max_bytes: int | None = None) -> dict[str, dict]:
+                  ceiling: Any = None, ceiling_source: str | None = None, real_ref: Any = None,
+                  max_bytes: int | None = None) -> dict[str, dict]:
     """Each region's entry of ``report.regions`` (labels ascending): its image components over
     its own pixels, the pair's camera components, eq. (15) and the grade.
 
     ``sources`` are the pair's frames as scored (``real``, ``sim``, ``mask``, ``registration``);
-    ``plan`` the image components; ``ceiling`` the values given for the pair, or ``real_ref``
-    the second real frame from which each region's own ceiling is measured.
+    ``plan`` the image components; ``ceiling`` the pair's ceiling (given, or from the real
+    camera's noise; ``ceiling_source`` says which), or ``real_ref`` the second real frame from
+    which each region's own ceiling is measured.
     """
     from .ceiling import pair_ceiling
 
@@ -361,7 +363,8 @@ def score_regions(regions: Regions, sources: Mapping[str, Any], plan: tuple, con
         del mask  # one region's mask at a time (the memory plan counts one)
         camera_metrics = {k: v for k, v in pair_metrics.items() if k not in metrics}
         score = score_components({**camera, **own}, {**camera_metrics, **metrics}, weights, config,
-                                 scene_range=span, ceiling=region_ceiling)
+                                 scene_range=span, ceiling=region_ceiling,
+                                 ceiling_source="real_ref" if real_ref is not None and plan else ceiling_source)
         out[name] = _entry(label, regions.pixels[name], score, metrics, region_ceiling)
     return out
 
