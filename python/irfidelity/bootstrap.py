@@ -575,9 +575,9 @@ def sequence_pool(weights: Any = None, *, config: ScoringConfig | None = None, p
     --------
     >>> import numpy as np, irfidelity as irf
     >>> from irfidelity.bootstrap import pool_numbers, sequence_pool
-    >>> real = np.arange(64, dtype=np.uint16).reshape(8, 8)
-    >>> frame = irf.evaluate(real, real + 2, weights="psnr=0.5,ssim=0.5", peak=63.0)
-    >>> sums = pool_numbers(frame, ("psnr", "ssim"))
+    >>> real = np.arange(64, dtype=np.uint16).reshape(1, 8, 8)
+    >>> rep = irf.score_sequence(real, real + 2, weights="psnr=0.5,ssim=0.5", peak=63.0, progress=False)
+    >>> sums = pool_numbers(rep.frames[0], ("psnr", "ssim"))
     >>> pool = sequence_pool("psnr=0.5,ssim=0.5", peak=63.0)
     >>> {k: round(v, 4) for k, v in pool(sums, 1).items()}
     {'fidelity': 0.9488, 'psnr': 0.8996, 'ssim': 0.9981}
