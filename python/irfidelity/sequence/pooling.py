@@ -27,11 +27,15 @@ Sums are exact (integer sums, :func:`math.fsum`) and rounded once; a weighted me
 within its frames' values against that last rounding. Statistics are merged in frame-index
 order whatever order frames finish in, so float results do not depend on scheduling.
 
+Frames weigh by their pixel pairs ``N_i`` (they differ when registration overlaps or masks
+do), the weight ΣSSE/ΣN gives them, so that every component weighs the frames alike.
+
 The pooled fidelity is eq. 15 of the pooled components. SSIM, NMI and the camera components
 are linear in the frames' values, normalised PSNR and radiometry are not (a log and a power of
-a mean), so the fidelity can lie outside the frames' fidelities by at most the weighted spread
-of those two components between the weighted mean of the frames' values and the pooled value
-(docs/interpretation.md).
+a mean), so the pooled fidelity is the pixel-weighted mean of the frames' fidelities plus the
+weighted departure of those two components from their own pixel-weighted means, and lies
+outside the frames' fidelities by at most those components' weighted spread over the frames
+(docs/interpretation.md has how far it went).
 """
 
 from __future__ import annotations
