@@ -132,8 +132,8 @@ def sequence_intervals(report: Any, *, level: float = 0.95, resamples: int = DEF
     Parameters
     ----------
     report : SequenceReport
-        From :func:`irfidelity.score_sequence` in this process (the per-frame sums are not
-        in its JSON; a report read back gets frame-mean intervals).
+        From :func:`irfidelity.score_sequence`, or read back from its JSON (whose frames have
+        the numbers too, the squared error then as ``mse·n``).
     level, resamples, block, rng
         As in :func:`irfidelity.bootstrap.bootstrap_ci`.
 
