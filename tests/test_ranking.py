@@ -23,7 +23,7 @@ import irfidelity as irf
 from irfidelity import FidelityError
 from irfidelity.errors import AHPConsistencyWarning
 from irfidelity.bootstrap import (Resampling, block_length, bootstrap_ci, frame_series, linearize, noise_interval,
-                                  paired_bootstrap, psnr_noise_interval, sequence_pool)
+                                  paired_bootstrap, pool_numbers, psnr_noise_interval, sequence_pool)
 from irfidelity.fuzzy import PAPER_COMPONENTS, ahp, combine_ahp, fit_weights
 from irfidelity.judgements import read_judgements
 from irfidelity.ranking import holm, rank
@@ -95,8 +95,9 @@ def test_sequence_pool_reproduces_the_sequence_pooled_fidelity(recording):
     real, sim, rep = recording.real, recording.sims["mid"], recording.reports["mid"]
     per_frame: dict[str, list] = {}
     for index, frame in enumerate(rep.frames):
-        stats = irf.pair_stats(real[index], sim[index], need=("sse", "moments"))
-        for key, value in {"n": stats.n, **stats.int_sums(), "nmi": frame["components"]["nmi"]}.items():
+        stats = irf.pair_stats(real[index], sim[index], need=("sse",))
+        numbers = pool_numbers(frame, ("psnr", "nmi", "ssim")) | {"sse": stats.int_sums()["sse"]}
+        for key, value in numbers.items():
             per_frame.setdefault(key, []).append(value)
     pool = sequence_pool(WEIGHTS, peak=rep.metrics["psnr_peak"])
     ci = bootstrap_ci(per_frame, pool=pool, level=0.95, resamples=999)

@@ -133,22 +133,26 @@ def test_pooled_psnr_is_exact_from_summed_errors(lepton):
     assert rep.frame_stats["metrics"]["psnr_db"]["mean"] == pytest.approx(mean_db, rel=1e-15)
 
 
-def test_pooled_stats_equal_one_pass_over_all_frames(lepton):
-    """With shared histogram edges the pooled statistics are those of the whole recording."""
+def test_pooled_errors_equal_one_pass_and_nmi_ssim_are_pixel_means(lepton):
+    """With shared histogram edges too: the pooled squared error is that of the whole recording;
+    NMI and SSIM are the pixel-weighted means of the frames' (not of one merged histogram or
+    of the pooled moments), so they lie within the frames' values."""
     real_path, sim_path, real, sim = lepton
     rep = score_sequence(real_path, sim_path, bits=14, hist_range="full", workers=2, progress=False)
     whole = irf.pair_stats(real.reshape(-1, 160), sim.reshape(-1, 160), bits=14, hist_range="full")
     want = whole.metrics()
-    got = {k: rep.metrics[k] for k in want}
-    assert got == want
-    assert rep.pooling["nmi"] == "histogram"
-    assert rep.components["nmi"] == want["nmi"]
+    assert {k: rep.metrics[k] for k in ("n", "mse", "psnr_db")} == {k: want[k] for k in ("n", "mse", "psnr_db")}
+    assert rep.pooling["nmi"] == rep.pooling["ssim"] == "pixel_mean"
+    for key in ("nmi", "mi", "h_joint", "ssim", "ssim_contrast"):
+        frames = [f["metrics"][key] for f in rep.frames]
+        assert rep.metrics[key] == pytest.approx(math.fsum(frames) / len(frames), rel=1e-15), key
+        assert min(frames) <= rep.metrics[key] <= max(frames)
 
 
-def test_default_hist_range_pools_nmi_as_frame_mean(lepton):
+def test_default_hist_range_pools_nmi_as_pixel_mean(lepton):
     real_path, sim_path, real, sim = lepton
     rep = score_sequence(real_path, sim_path, bits=14, progress=False)
-    assert rep.pooling["nmi"] == "frame_mean"
+    assert rep.pooling["nmi"] == "pixel_mean"
     assert rep.metrics["nmi"] == pytest.approx(np.mean([f["metrics"]["nmi"] for f in rep.frames]), rel=1e-15)
     s = rep.frame_stats["fidelity"]
     assert s["p5"] <= s["p50"] <= s["p95"] and s["min"] <= s["mean"] <= s["max"]

@@ -124,13 +124,14 @@ def test_report_ci_holds_the_pooled_values_and_round_trips(compared):
     assert 'id="intervals"' in rep.to_html()
 
 
-def test_score_sequence_ci_option_and_frame_means_for_float_frames():
+def test_score_sequence_ci_option_pools_float_frames_as_the_sequence():
     rng = np.random.default_rng(5)
     real = rng.normal(100.0, 10.0, (20, 16, 16)).astype(np.float32)
     sim = (real + rng.normal(0, 1.0, real.shape)).astype(np.float32)
     rep = irf.score_sequence(real, sim, weights="psnr=0.5,ssim=0.5", peak=100.0, progress=False, ci=0.9)
-    assert rep.pooling["ci"]["level"] == 0.9 and "frame means" in rep.pooling["ci"]["method"]
-    assert rep.ci["fidelity"][0] <= rep.ci["fidelity"][1]
+    assert rep.pooling["ci"]["level"] == 0.9 and "pooled as the sequence pools" in rep.pooling["ci"]["method"]
+    for component, (lo, hi) in rep.ci.items():
+        assert lo <= (rep.fidelity if component == "fidelity" else rep.components[component]) <= hi, component
     assert irf.score_sequence(real, sim, weights="psnr=1", peak=100.0, progress=False).ci is None
     with pytest.raises(FidelityError, match="level"):
         irf.score_sequence(real, sim, weights="psnr=1", peak=100.0, progress=False, ci=1.5)
@@ -310,8 +311,8 @@ def test_cli_score_ci(stacks, tmp_path):
 
 
 def test_run_options_and_a_unit_as_in_score_sequence():
-    """``run=RunOptions(...)`` as score_sequence takes it; frames scored in a unit rank on
-    the frame means, with the per-frame radiometry component."""
+    """``run=RunOptions(...)`` as score_sequence takes it; frames scored in a unit rank pooled
+    as the sequence pools, the radiometry component from each frame's errors."""
     rng = np.random.default_rng(3)
     real = gaussian_filter(rng.normal(300.0, 4.0, (12, 24, 24)), (0, 2, 2))
     sims = {"close": real + rng.normal(0.1, 0.05, real.shape), "biased": real + 1.5 + rng.normal(0, 0.05, real.shape)}
@@ -323,5 +324,7 @@ def test_run_options_and_a_unit_as_in_score_sequence():
         alone = irf.score_sequence(real, sims[name], unit="K", weights=weights, progress=False, workers=1)
         assert rep.fidelity == pytest.approx(alone.fidelity, abs=1e-12)
         assert "radiometry" in rep.components and set(rep.ci) == {"fidelity", "ssim", "radiometry"}
-        assert "frame means" in rep.pooling["ci"]["method"]
+        assert "pooled as the sequence pools" in rep.pooling["ci"]["method"]
+        for component, (lo, hi) in rep.ci.items():
+            assert lo <= (rep.fidelity if component == "fidelity" else rep.components[component]) <= hi, component
         assert irf.SequenceReport.from_dict(rep.to_dict()).ci == rep.ci

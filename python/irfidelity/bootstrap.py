@@ -4,8 +4,8 @@
   sequence from a *studentized circular block bootstrap* over frames (frames of a recording
   are correlated, so frames are resampled in blocks; :func:`block_length` states the rule).
   A pooled quantity is recomputed on every resample the way the sequence pools it: pass
-  per-frame sufficient numbers (Σ squared error and pixel count for PSNR, ...) and a ``pool``
-  callable, e.g. :func:`sequence_pool`.
+  per-frame sufficient numbers (Σ squared error and pixel count for PSNR, ...:
+  :func:`pool_numbers`) and a ``pool`` callable, e.g. :func:`sequence_pool`.
 * :func:`paired_bootstrap` — the difference of two simulators scored on the same frames
   (both resampled with the same blocks): its interval, a p-value and ``significant``.
 * :func:`psnr_noise_interval` (analytic) and :func:`noise_interval` (Monte Carlo through any
@@ -38,11 +38,12 @@ import numpy as np
 from .config import ScoringConfig
 from .errors import FidelityError
 from .fuzzy import COMPONENTS, Weights, fidelity_sum
-from .metrics import psnr_from_mse, ssim_from_moments
+from .metrics import psnr_from_mse
 from .normalize import DEFAULT_PSNR_ANCHORS, normalize_psnr
+from .temperature import frame_exponent, radiometry_of_exponent
 
 __all__ = ["block_length", "bootstrap_ci", "paired_bootstrap", "Intervals", "PairedTest", "sequence_pool",
-           "psnr_noise_interval", "noise_interval", "DEFAULT_RESAMPLES"]
+           "pool_numbers", "POOL_INPUTS", "psnr_noise_interval", "noise_interval", "DEFAULT_RESAMPLES"]
 
 #: Resamples drawn when none is given.
 DEFAULT_RESAMPLES = 2000
@@ -505,63 +506,80 @@ def paired_bootstrap(per_frame_a: Mapping[str, Any], per_frame_b: Mapping[str, A
 
 
 # --------------------------------------------------------------------------- the sequence's pooling
-#: Per-frame numbers :func:`sequence_pool` needs for each image component (the keys of
-#: :meth:`irfidelity.PairStats.int_sums`, the pixel count ``n``, and the frame's NMI).
+#: Per-frame numbers :func:`sequence_pool` needs for each component pooled from the frames
+#: (:func:`pool_numbers` makes them from a frame's entry): the pixel pairs ``n``, the squared
+#: error ``sse``, and each frame's value weighted by its pixel pairs.
 POOL_INPUTS = {
     "psnr": ("n", "sse"),
-    "ssim": ("n", "sum_real", "sum_sim", "sum_real_sq", "sum_sim_sq", "sum_cross"),
-    "nmi": ("nmi",),
+    "nmi": ("n", "n_nmi"),
+    "ssim": ("n", "n_ssim"),
+    "radiometry": ("n", "n_radiometry_exponent"),
 }
 
 
-def _pooled_ssim(sums: Mapping[str, float], exponents: tuple) -> float:
-    n = sums["n"]
-    mean_real, mean_sim = sums["sum_real"] / n, sums["sum_sim"] / n
-    var_real = sums["sum_real_sq"] / n - mean_real * mean_real
-    var_sim = sums["sum_sim_sq"] / n - mean_sim * mean_sim
-    cov = sums["sum_cross"] / n - mean_real * mean_sim
-    value = ssim_from_moments(mean_real, mean_sim, var_real, var_sim, cov, alpha=exponents[0], beta=exponents[1],
-                              gamma=exponents[2]).value
-    return max(float(value), 0.0)
+def pool_numbers(frame: Mapping[str, Any], components: Any) -> dict[str, float]:
+    """The per-frame numbers of :data:`POOL_INPUTS` for ``components`` from a sequence frame's
+    entry (``frame["metrics"]``, ``frame["components"]``): ``n``, ``sse = mse·n``, ``n_nmi``,
+    ``n_ssim`` (the frame's component times ``n``) and ``n_radiometry_exponent`` (``n`` times
+    :func:`irfidelity.temperature.frame_exponent`).
+
+    Examples
+    --------
+    >>> from irfidelity.bootstrap import pool_numbers
+    >>> frame = {"metrics": {"n": 100, "mse": 4.0}, "components": {"ssim": 0.5, "psnr": 0.9}}
+    >>> pool_numbers(frame, ("psnr", "ssim"))
+    {'n': 100, 'sse': 400.0, 'n_ssim': 50.0}
+    """
+    metrics, comps = frame["metrics"], frame["components"]
+    n = int(metrics["n"])
+    out: dict[str, float] = {"n": n}
+    if "psnr" in components:
+        out["sse"] = float(metrics["mse"]) * n
+    for component in ("nmi", "ssim"):
+        if component in components:
+            out[f"n_{component}"] = n * float(comps[component])
+    if "radiometry" in components:
+        out["n_radiometry_exponent"] = n * frame_exponent(metrics)
+    return out
 
 
 def sequence_pool(weights: Any = None, *, config: ScoringConfig | None = None, peak: float | None = None,
                   camera: Mapping[str, float] | None = None) -> Pool:
     """A ``pool`` for :func:`bootstrap_ci` that pools a resample as a sequence does.
 
-    PSNR from ΣSSE / ΣN (eq. 5, normalised by eq. 6 with ``config.psnr_anchors``), SSIM from
-    the summed moments (eqs. 11–14 with ``config.ssim_exponents``, clipped at 0), NMI as the
-    mean of the frames' NMI (the sequence's pooling with per-frame binning, the default), the
-    curve components ``camera`` (mtf, sitf, noise: the same for every frame), and the
-    fidelity (eq. 15) under ``weights``.
+    PSNR from ΣSSE / ΣN (eq. 5, normalised by eq. 6 with ``config.psnr_anchors``), SSIM and NMI
+    as the pixel-weighted means of the frames' (Σ n·x / Σ n), radiometry as ``0.9`` to the
+    pixel-weighted mean of the frames' exponents, the camera components ``camera`` (mtf, sitf,
+    noise, mrtd: the same for every frame), and the fidelity (eq. 15) under ``weights``
+    (:mod:`irfidelity.sequence.pooling` says why each lies within its frames' values).
 
     Parameters
     ----------
     weights : Weights or anything :meth:`Weights.coerce` accepts, optional
         Default ``config.weights``.
     config : ScoringConfig, optional
-        Anchors and exponents (default ``ScoringConfig()``).
+        Anchors (default ``ScoringConfig()``).
     peak : float
         The PSNR peak the sequence used (``report.metrics["psnr_peak"]``); needed when psnr
         is weighted.
     camera : {component: value}, optional
-        The curve components (``report.components`` of mtf, sitf, noise) when weighted.
+        The camera components (``report.components`` of mtf, sitf, noise, mrtd) when weighted.
 
     Returns
     -------
     callable(sums, frames) -> {"fidelity": f, component: f_i, ...}
-        It reads the per-frame numbers :data:`POOL_INPUTS` lists for the weighted image
-        components: ``n``, ``sse`` and the ``int_sums`` of :meth:`irfidelity.PairStats.int_sums`,
-        and ``nmi``.
+        It reads the per-frame numbers :data:`POOL_INPUTS` lists for the weighted components
+        (:func:`pool_numbers` makes them from a frame's entry).
 
     Examples
     --------
     >>> import numpy as np, irfidelity as irf
-    >>> from irfidelity.bootstrap import sequence_pool
-    >>> real = np.arange(64, dtype=np.uint16).reshape(8, 8)
-    >>> sums = irf.pair_stats(real, real + 2).int_sums()
+    >>> from irfidelity.bootstrap import pool_numbers, sequence_pool
+    >>> real = np.arange(64, dtype=np.uint16).reshape(1, 8, 8)
+    >>> rep = irf.score_sequence(real, real + 2, weights="psnr=0.5,ssim=0.5", peak=63.0, progress=False)
+    >>> sums = pool_numbers(rep.frames[0], ("psnr", "ssim"))
     >>> pool = sequence_pool("psnr=0.5,ssim=0.5", peak=63.0)
-    >>> {k: round(v, 4) for k, v in pool({"n": 64, **sums}, 1).items()}
+    >>> {k: round(v, 4) for k, v in pool(sums, 1).items()}
     {'fidelity': 0.9488, 'psnr': 0.8996, 'ssim': 0.9981}
     """
     cfg = ScoringConfig() if config is None else config
@@ -586,10 +604,11 @@ def sequence_pool(weights: Any = None, *, config: ScoringConfig | None = None, p
         if "psnr" in image:
             db = psnr_from_mse(sums["sse"] / sums["n"], float(peak))  # type: ignore[arg-type]
             comps["psnr"] = normalize_psnr(db, anchors=cfg.psnr_anchors)
-        if "nmi" in image:
-            comps["nmi"] = sums["nmi"] / frames
-        if "ssim" in image:
-            comps["ssim"] = _pooled_ssim(sums, cfg.ssim_exponents)
+        for component in ("nmi", "ssim"):
+            if component in image:
+                comps[component] = sums[f"n_{component}"] / sums["n"]
+        if "radiometry" in image:
+            comps["radiometry"] = radiometry_of_exponent(sums["n_radiometry_exponent"] / sums["n"])
         return {"fidelity": fidelity_sum(w, comps), **{k: comps[k] for k in COMPONENTS if k in comps}}
 
     return pool

@@ -15,7 +15,9 @@ Then, besides the image components on the temperature frames, the errors of the 
 temperatures — bias, RMSE, MAE and the fraction of pixels within a tolerance — and the opt-in
 ``radiometry`` component, ``0.9 ** ((bias² + rmse²) / (2·tolerance²))``: 1 for equal
 temperatures, 0.9 for a pure offset of one tolerance (bias = RMSE = tolerance), 0.9⁴ for two,
-0.9⁹ for three. Gain and offset errors, to which NMI and SSIM are blind, move it.
+0.9⁹ for three. Gain and offset errors, to which NMI and SSIM are blind, move it. A sequence's
+component pools the frames' own errors (:func:`pooled_radiometry`), so it lies within the
+frames' components; its ``temperature_*`` metrics are those of all pixel pairs together.
 """
 
 from __future__ import annotations
@@ -36,7 +38,8 @@ from .radiometry import CALIBRATION_FIELDS, UNITS, Radiometry, read_radiometry
 
 __all__ = ["UNITS", "LINEAR_FIELDS", "PLANCK_FIELDS", "DEFAULT_TOLERANCE", "TemperatureErrors", "frame_temperature",
            "to_temperature", "temperature_sequence", "temperature_scores", "scoring_config", "radiometry_component",
-           "tolerance_for", "pooled_metrics", "unit_fields"]
+           "tolerance_for", "pooled_metrics", "pooled_radiometry", "pooled_temperature_scores",
+           "radiometry_exponent", "radiometry_of_exponent", "frame_exponent", "unit_fields"]
 
 #: A linear calibration of integer counts: temperature (in the unit) = gain·count + offset.
 LINEAR_FIELDS = ("gain", "offset")
@@ -297,10 +300,19 @@ def radiometry_component(bias: float, rmse: float, tolerance: float) -> float:
     >>> radiometry_component(0.0, 0.0, 1.0), round(radiometry_component(2.0, 2.0, 1.0), 4)
     (1.0, 0.6561)
     """
+    return radiometry_of_exponent(radiometry_exponent(bias, rmse, tolerance))
+
+
+def radiometry_exponent(bias: float, rmse: float, tolerance: float) -> float:
+    """``(bias² + rmse²) / (2·tolerance²)``: the radiometry component is ``0.9`` to this power."""
     if not tolerance > 0:
         raise FidelityError(f"the temperature tolerance must be positive, got {tolerance!r}",
                             option="temperature_tolerance")
-    exponent = (bias * bias + rmse * rmse) / (2.0 * tolerance * tolerance)
+    return (bias * bias + rmse * rmse) / (2.0 * tolerance * tolerance)
+
+
+def radiometry_of_exponent(exponent: float) -> float:
+    """``0.9 ** exponent`` (0 for an infinite exponent): decreasing in the exponent."""
     return _ONE_TOLERANCE ** exponent if math.isfinite(exponent) else 0.0
 
 
@@ -336,6 +348,45 @@ def pooled_metrics(frames: Iterable[Mapping[str, Any]]) -> TemperatureErrors | N
         rmse=math.sqrt(math.fsum(m["temperature_rmse"] ** 2 * m["n"] for m in parts) / n),
         mae=math.fsum(m["temperature_mae"] * m["n"] for m in parts) / n, within=int(within),
         tolerance=float(parts[0]["temperature_tolerance"]), unit=str(parts[0]["temperature_unit"]))
+
+
+def frame_exponent(metrics: Mapping[str, Any]) -> float:
+    """A frame's :func:`radiometry_exponent` from its entry's ``temperature_*`` metrics."""
+    return radiometry_exponent(metrics["temperature_bias"], metrics["temperature_rmse"],
+                               metrics["temperature_tolerance"])
+
+
+def pooled_radiometry(frames: Iterable[Mapping[str, Any]]) -> float:
+    """The radiometry component of a sequence's scored frames (each frame's entry ``metrics``,
+    with ``n``): ``0.9`` to the pixel-weighted mean of the frames' exponents
+    ``(bias_i² + rmse_i²) / (2·tolerance²)``.
+
+    Each frame's error counts with its own bias, so opposite offsets of two frames do not
+    cancel (as they would in the bias of all pixel pairs together), and the component, a
+    decreasing function of a weighted mean of the frames' exponents, lies within the frames'
+    components. The mean is an exact sum (:func:`math.fsum`) rounded once and kept within the
+    frames' exponents.
+    """
+    parts = [m for m in frames if "temperature_bias" in m]
+    if not parts:
+        raise FidelityError("no frame has temperature errors to pool")
+    exponents = [frame_exponent(m) for m in parts]
+    n = sum(int(m["n"]) for m in parts)
+    mean = math.fsum(int(m["n"]) * e for m, e in zip(parts, exponents)) / n
+    return radiometry_of_exponent(min(max(mean, min(exponents)), max(exponents)))
+
+
+def pooled_temperature_scores(frames: Iterable[Mapping[str, Any]], weights: Any
+                              ) -> tuple[dict[str, float], dict[str, Any]] | None:
+    """(components, metrics) of a sequence in a unit: the ``temperature_*`` metrics of all
+    pixel pairs together (:func:`pooled_metrics`) and, when weighted, the radiometry component
+    of :func:`pooled_radiometry`. None when no frame has temperature errors."""
+    parts = [m for m in frames if "temperature_bias" in m]
+    errors = pooled_metrics(parts)
+    if errors is None:
+        return None
+    components = {"radiometry": pooled_radiometry(parts)} if weights["radiometry"] > 0 else {}
+    return components, errors.metrics()
 
 
 def scoring_config(config: Any) -> Any:

@@ -11,7 +11,7 @@ frame and pooled. The package, in the order a run goes through it:
 * :mod:`.outcomes` — a scored pair as a report entry (the same functions as ``evaluate``);
 * :mod:`.log`, :mod:`.sidecar`, :mod:`.lock`, :mod:`.fingerprint`, :mod:`.resume` — the
   streamed CSV and what makes resuming safe;
-* :mod:`.pooling` — the merged statistics of every scored frame;
+* :mod:`.pooling` — the pooled result, every component within its frames' values;
 * :mod:`.options` — how a run is carried out (:class:`RunOptions`);
 * :mod:`.run` — one run, start to end; :mod:`.report` — its result (:mod:`.entry`: a
   frame's row).

@@ -1,12 +1,13 @@
 """How sure a sequence's score is: ``report.ci``, the block-bootstrap intervals of the pooled
 fidelity and of every component (docs/ranking.md says what they mean).
 
-A run keeps each scored frame's exact sums (``n`` and :meth:`irfidelity.PairStats.int_sums`);
-with the frames' NMI and the curve components they are the per-frame numbers that
-:func:`irfidelity.bootstrap.sequence_pool` pools the way the sequence does, so a resample is
-pooled like the recording (PSNR from ΣSSE/ΣN, SSIM from the summed moments). Frames without
-exact sums (float frames, registered pairs) fall back to the frame means of the per-frame
-fidelity and components, and the intervals say so (``method``).
+The per-frame numbers come from each scored frame's entry (:func:`irfidelity.bootstrap.pool_numbers`:
+pixel pairs, squared error — the exact integer sum when the run kept it —, the frame's SSIM
+and NMI weighted by its pixel pairs, its radiometry exponent) and the curve components;
+:func:`irfidelity.bootstrap.sequence_pool` pools a resample of them the way the sequence pools
+(:mod:`irfidelity.sequence.pooling`), so the intervals are those of the reported values. Frames
+without those numbers fall back to the frame means of the per-frame fidelity and components,
+and the intervals say so (``method``).
 """
 
 from __future__ import annotations
@@ -14,11 +15,10 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, Mapping
 
-from ..bootstrap import DEFAULT_RESAMPLES, Intervals, Pool, bootstrap_ci, sequence_pool
+from ..bootstrap import DEFAULT_RESAMPLES, POOL_INPUTS, Intervals, Pool, bootstrap_ci, pool_numbers, sequence_pool
 from ..camera import KINDS
 from ..errors import FidelityError
 from ..fuzzy import COMPONENTS
-from ..schema import IMAGE_COMPONENTS
 
 __all__ = ["FrameNumbers", "frame_numbers", "sequence_intervals", "CURVES"]
 
@@ -80,8 +80,9 @@ def _relative(report: Any) -> bool:
 def frame_numbers(report: Any, exact: bool = True) -> FrameNumbers:
     """The per-frame numbers of a :class:`~irfidelity.SequenceReport`'s scored frames.
 
-    With ``exact`` and the exact sums the run kept for every scored frame (integer frames,
-    not registered): ``n``, the ``int_sums``, ``nmi`` and the curve components, pooled by
+    With ``exact`` and the numbers of :func:`~irfidelity.bootstrap.pool_numbers` in every scored
+    frame's entry: those (the squared error as the exact integer sum when the run kept it, or
+    relative to the frame's range with ``peak="range"``) and the curve components, pooled by
     ``sequence_pool``. Otherwise the per-frame ``fidelity`` and components, pooled as frame
     means.
     """
@@ -89,25 +90,39 @@ def frame_numbers(report: Any, exact: bool = True) -> FrameNumbers:
     if not scored:
         raise FidelityError("the report has no scored frame: no interval")
     names = [f["real"] if f.get("real") is not None else f["index"] for f in scored]
-    sums = report.sources.get("sums") or {}
     curves = tuple(k for k in CURVES if k in report.components)
-    image = [k for k in report.components if k not in curves]
-    ranged = not _relative(report) or all(f["metrics"].get("psnr_peak") for f in scored)
-    if exact and ranged and set(image) <= set(IMAGE_COMPONENTS) and all(f["index"] in sums for f in scored):
+    rows = _pooled_rows(report, scored, curves) if exact else None
+    if rows is not None:
         numbers: dict[str, list] = {}
-        for f in scored:
-            row = dict(sums[f["index"]])
-            if _relative(report):
-                row["sse"] = row["sse"] / float(f["metrics"]["psnr_peak"]) ** 2
-            row.update({"nmi": f["components"]["nmi"]} if "nmi" in image else {})
-            row.update({k: report.components[k] for k in curves})
-            for key, value in row.items():
+        for row in rows:
+            for key, value in (row | {k: report.components[k] for k in curves}).items():
                 numbers.setdefault(key, []).append(value)
         return FrameNumbers(names, numbers, _curve_pool(report, curves))
     keys = [k for k in COMPONENTS if k in report.components]
     numbers = {"fidelity": [f["fidelity"] for f in scored],
                **{k: [f["components"].get(k, report.components[k]) for f in scored] for k in keys}}
     return FrameNumbers(names, numbers, None)
+
+
+def _pooled_rows(report: Any, scored: list, curves: tuple) -> list[dict] | None:
+    """Each scored frame's :func:`~irfidelity.bootstrap.pool_numbers`, or None when a frame lacks them."""
+    pooled = [k for k in report.components if k not in curves]
+    if not set(pooled) <= set(POOL_INPUTS):
+        return None
+    sums = report.sources.get("sums") or {}  # exact integer sums of integer frames
+    relative = _relative(report)
+    rows = []
+    for f in scored:
+        try:
+            row = pool_numbers(f, pooled)
+            if "psnr" in pooled and relative:
+                row["sse"] /= float(f["metrics"]["psnr_peak"]) ** 2
+            elif "psnr" in pooled and f["index"] in sums:
+                row["sse"] = sums[f["index"]]["sse"]
+        except (KeyError, TypeError, ValueError, ZeroDivisionError, FidelityError):
+            return None
+        rows.append(row)
+    return rows
 
 
 def sequence_intervals(report: Any, *, level: float = 0.95, resamples: int = DEFAULT_RESAMPLES,
@@ -117,8 +132,8 @@ def sequence_intervals(report: Any, *, level: float = 0.95, resamples: int = DEF
     Parameters
     ----------
     report : SequenceReport
-        From :func:`irfidelity.score_sequence` in this process (the per-frame sums are not
-        in its JSON; a report read back gets frame-mean intervals).
+        From :func:`irfidelity.score_sequence`, or read back from its JSON (whose frames have
+        the numbers too, the squared error then as ``mse·n``).
     level, resamples, block, rng
         As in :func:`irfidelity.bootstrap.bootstrap_ci`.
 

@@ -1,18 +1,41 @@
-"""The pooled result of a sequence: the metrics of the merged statistics of every scored frame.
+"""The pooled result of a sequence: every pooled component lies within its frames' values.
 
-PSNR comes from ΣSSE/ΣN (not a mean of dB values) and SSIM from the pooled moments, exactly
-for integer frames. Statistics are merged in frame-index order whatever order frames finish
-in, so float results do not depend on scheduling. NMI pools only when every frame was binned
-on the same edges (``hist_range="full"``, an explicit ``(lo, hi)`` or ``bins="levels"``);
-with the default ``"data"`` each frame is binned over its own range and the pooled NMI is the
-mean of the frames' NMI.
+Each component pools so that the pooled value lies within ``[min, max]`` of the scored frames'
+values by construction (``docs/design.md`` §11, "Pooled values inside their frames"):
 
-A frame's range (max − min of its real frame) scales its error: the pooled RMS error relative
-to the range is ``sqrt(Σ SSE_i/range_i² / Σ N_i)``, each frame's squared error relative to its own
-range, so it lies within the frames' values; with ``peak="range"`` the pooled PSNR is
-``10·log10(Σ N_i / Σ SSE_i/range_i²)``, the pixel-weighted mean of the frames' ``MSE/peak²``, and
-lies within the frames' PSNRs too (its ``psnr_peak`` is the effective range: the RMS of the
-pooled errors over the pooled relative RMS error).
+* **psnr** (and the RMS error it is graded by) from the frames' squared errors:
+  ``ΣSSE_i/ΣN_i`` for a fixed peak, exactly for integer frames (one rounding of the exact
+  ratio); with ``peak="range"`` each frame's squared error relative to its own real frame's
+  range, ``10·log10(Σ N_i / Σ SSE_i/range_i²)``. Both are pixel-weighted means of the frames'
+  ``MSE/peak²``, and PSNR is monotone in it. The RMS error relative to the range pools as
+  ``sqrt(Σ SSE_i/range_i² / Σ N_i)`` with any peak (``psnr_peak`` is then the effective range:
+  the RMS of the pooled errors over the pooled relative RMS error).
+* **ssim** and **nmi**: the pixel-weighted mean ``Σ N_i·x_i / Σ N_i`` of the frames' values, and
+  the same for their raw metrics (``ssim_luminance``, ``mi``, ``h_joint``, ...). Not the SSIM
+  of the pooled moments nor the NMI of a pooled joint histogram: those treat the frames as one
+  image, so on a moving or panning scene the spread between frames counts as contrast (or as
+  joint-histogram spread), and the value can lie outside every frame's — on a pan of the test
+  recording the moment-pooled SSIM was 0.879 against frames' 0.905–0.914.
+* **radiometry**: ``0.9`` to the pixel-weighted mean of the frames' exponents
+  ``(bias_i² + rmse_i²)/(2·tolerance²)`` (:func:`irfidelity.temperature.pooled_radiometry`),
+  so opposite offsets of two frames do not cancel; the ``temperature_*`` metrics are those of
+  all pixel pairs together.
+* the camera components (mtf, sitf, noise, mrtd) are measured once for the camera, not per
+  frame: the pooled value is that value.
+
+Sums are exact (integer sums, :func:`math.fsum`) and rounded once; a weighted mean is kept
+within its frames' values against that last rounding. Statistics are merged in frame-index
+order whatever order frames finish in, so float results do not depend on scheduling.
+
+Frames weigh by their pixel pairs ``N_i`` (they differ when registration overlaps or masks
+do), the weight ΣSSE/ΣN gives them, so that every component weighs the frames alike.
+
+The pooled fidelity is eq. 15 of the pooled components. SSIM, NMI and the camera components
+are linear in the frames' values, normalised PSNR and radiometry are not (a log and a power of
+a mean), so the pooled fidelity is the pixel-weighted mean of the frames' fidelities plus the
+weighted departure of those two components from their own pixel-weighted means, and lies
+outside the frames' fidelities by at most those components' weighted spread over the frames
+(docs/interpretation.md has how far it went).
 """
 
 from __future__ import annotations
@@ -25,10 +48,14 @@ import numpy as np
 from ..registration import LOW_CONFIDENCE
 from ..scoring import Score, image_components, psnr_peak, score_components
 from ..stats import PairStats, merge_all
-from ..temperature import pooled_metrics, temperature_scores
+from ..temperature import pooled_temperature_scores
 from .plan import SequencePlan
 
-__all__ = ["Pool", "frame_statistics", "registration_summary"]
+__all__ = ["Pool", "pixel_mean", "frame_statistics", "registration_summary"]
+
+#: The raw metrics pooled, like their component, as the pixel-weighted mean of the frames'.
+MEAN_METRICS = {"nmi": ("nmi", "mi", "h_real", "h_sim", "h_joint"),
+                "ssim": ("ssim", "ssim_luminance", "ssim_contrast", "ssim_structure")}
 
 _PERCENTILES = (5, 50, 95)
 
@@ -61,7 +88,7 @@ class Pool:
                 run.append(item)
             self.next += 1
         if len(run) > (self.merged is not None):
-            self.merged = merge_all(run, histograms=self.plan.keep_hist)
+            self.merged = merge_all(run, histograms=False)  # no pooled component reads a histogram
 
     def scene_range(self) -> float | None:
         """The range that makes the pooled MSE's relative error the frames' pooled one (see the
@@ -85,28 +112,33 @@ class Pool:
         """The pooled score (None when no frame was scored) and how it was pooled."""
         plan = self.plan
         scored = [f for f in frames if f["error"] is None]
-        pooling: dict[str, Any] = {"frames": len(scored), "n": 0, "nmi": None}
+        pooling: dict[str, Any] = {"frames": len(scored), "n": 0}
         if self.merged is None or self.merged.n == 0:
             return None, pooling
         pooling["n"] = int(self.merged.n)
-        hist_pooled = "nmi" in plan.image and plan.keep_hist
-        image = tuple(c for c in plan.image if c != "nmi" or hist_pooled)
-        stats = self.merged.with_peak(self._peak())
-        comps, metrics = image_components(stats, image, plan.config)
-        if "nmi" in plan.image:
-            pooling["nmi"] = "histogram" if hist_pooled else "frame_mean"
-            if not hist_pooled:
-                for key in ("nmi", "mi", "h_real", "h_sim", "h_joint"):
-                    metrics[key] = math.fsum(f["metrics"][key] for f in scored) / len(scored)
-                comps["nmi"] = metrics["nmi"]
-        errors = pooled_metrics(f["metrics"] for f in scored)
-        if errors is not None:  # scored in a unit: from the frames' sums
-            temperature_comps, temperature_metrics = temperature_scores(errors, plan.weights)
-            comps, metrics = comps | temperature_comps, metrics | temperature_metrics
+        psnr = tuple(c for c in plan.image if c == "psnr")
+        comps, metrics = image_components(self.merged.with_peak(self._peak()), psnr, plan.config)
+        for component in (c for c in plan.image if c in MEAN_METRICS):
+            pooling[component] = "pixel_mean"
+            comps[component] = pixel_mean(scored, "components", component)
+            metrics.update({key: pixel_mean(scored, "metrics", key) for key in MEAN_METRICS[component]})
+        temperature = pooled_temperature_scores((f["metrics"] for f in scored), plan.weights)
+        if temperature is not None:  # scored in a unit
+            comps, metrics = comps | temperature[0], metrics | temperature[1]
         score = score_components(comps | plan.camera_components, metrics | plan.camera_metrics, plan.weights,
                                  plan.config, scene_range=self.scene_range() or plan.scene_range,
                                  ceiling=plan.ceiling, ceiling_source=plan.ceiling_source)
         return score, pooling
+
+
+def pixel_mean(frames: list[dict], group: str, key: str) -> float:
+    """``Σ N_i·x_i / Σ N_i`` of value ``frames[i][group][key]`` weighted by the frame's pixel pairs
+    ``N_i`` (``metrics["n"]``): an exact sum (:func:`math.fsum`) rounded once, kept within
+    ``[min, max]`` of the frames' values against that rounding."""
+    values = [float(f[group][key]) for f in frames]
+    counts = [int(f["metrics"]["n"]) for f in frames]
+    mean = math.fsum(n * v for n, v in zip(counts, values)) / sum(counts)
+    return min(max(mean, min(values)), max(values))
 
 
 def _percentiles(values: list[float]) -> dict:

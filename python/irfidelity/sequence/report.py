@@ -30,10 +30,10 @@ class SequenceReport(ReportBase):
     Attributes
     ----------
     fidelity, grade, components, component_grades, membership, metrics
-        The pooled result: the metrics of the merged statistics of every scored frame
-        (PSNR from ΣSSE/ΣN, SSIM from the pooled moments; NMI as ``pooling["nmi"]`` says),
-        and the curve components, which are the same for every frame. None / empty when no
-        frame was scored.
+        The pooled result, each component within its frames' values
+        (:mod:`irfidelity.sequence.pooling`: PSNR from ΣSSE/ΣN, SSIM and NMI as the
+        pixel-weighted means of the frames'), and the curve components, which are the same
+        for every frame. None / empty when no frame was scored.
     frames : list of FrameEntry
         One entry per frame pair, in index order (:class:`~irfidelity.sequence.entry.FrameEntry`,
         read as a mapping: ``frames[i]["metrics"]``), with the keys of a single-pair result
@@ -51,8 +51,8 @@ class SequenceReport(ReportBase):
         Mean, p5, p50, p95, min and max over the scored frames of ``fidelity``, of each
         component (``frame_stats["components"]``) and of each metric (``["metrics"]``).
     pooling : dict
-        ``frames`` (how many were pooled), ``n`` (pixel pairs), ``nmi`` ("histogram" or
-        "frame_mean").
+        ``frames`` (how many were pooled), ``n`` (pixel pairs), and ``"pixel_mean"`` under
+        ``nmi`` and ``ssim`` when they are scored.
     weights, skipped, config, version, notes, inputs
         As in :class:`~irfidelity.FidelityReport` (:class:`~irfidelity.results.ReportBase`).
     run : dict
@@ -175,8 +175,9 @@ class SequenceReport(ReportBase):
         lines = [f"sequence of {n} frame pairs: {n - len(self.failed) - alone} scored, {len(self.failed)} failed"
                  f"{lonely} (paired by {self.run.get('pair_by', 'order')})"]
         if self.fidelity is not None:
+            means = " and ".join(k.upper() for k in ("ssim", "nmi") if self.pooling.get(k) == "pixel_mean")
             lines.append("pooled over the scored frames (PSNR from ΣSSE/ΣN"
-                         + (", NMI as the mean of the frames')" if self.pooling.get("nmi") == "frame_mean" else ")"))
+                         + (f", {means} as the pixel-weighted mean of the frames')" if means else ")"))
             lines += self._verdict_lines()
         if self.ci:
             info = self.pooling.get("ci", {})
