@@ -42,6 +42,16 @@ def assert_user_error(p, *needles):
 
 
 # --------------------------------------------------------------------------- score
+def test_a_warning_is_printed_once(capsys):
+    """The summary prints a warning as a note; stderr repeats it only when no summary is printed."""
+    assert main(["score", SMALL, SMALL.replace("000", "001")]) == 0
+    out, err = capsys.readouterr()
+    assert out.count("PeakWarning") == 1 and "PeakWarning" not in err
+    assert main(["score", SMALL, SMALL.replace("000", "001"), "--json", "-"]) == 0
+    out, err = capsys.readouterr()
+    assert err.count("PeakWarning") == 1 and "irfidelity: warning" in err
+
+
 def test_score_table():
     p = run("score", REAL, SIM, "--bits", "14", check_rc=0)
     out = p.stdout

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import irfidelity as irf
+from irfidelity.errors import PeakWarning
 from irfidelity.cli import main
 from irfidelity.readback import ReportError
 
@@ -307,3 +308,12 @@ def test_regions_reuse_the_noise_ceiling_and_say_so(pair):
     for entry in rep.regions.values():
         assert entry["ceiling"] == rep.ceiling
         assert entry["verdict"]["ceiling_source"] == "noise3d"
+
+
+def test_the_peak_warning_is_the_pairs_alone(pair):
+    real, sim, labels = pair
+    real, sim = real // 8, sim // 8  # a range far below the uint16 peak
+    with pytest.warns(PeakWarning) as caught:
+        rep = irf.evaluate(real, sim, regions=labels)
+    assert len([w for w in caught if issubclass(w.category, PeakWarning)]) == 1
+    assert sum("PeakWarning" in n for n in rep.notes) == 1

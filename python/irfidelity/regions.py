@@ -18,6 +18,7 @@ byte a pixel) exists at a time.
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -26,7 +27,7 @@ import numpy as np
 from . import budget
 from . import stats as _stats
 from .config import ScoringConfig
-from .errors import FidelityError, RangeError, ShapeError
+from .errors import FidelityError, PeakWarning, RangeError, ShapeError
 from .fuzzy import Weights
 from .scoring import image_components, psnr_peak, score_components
 from .temperature import TemperatureErrors, temperature_scores, tolerance_for
@@ -355,7 +356,9 @@ def score_regions(regions: Regions, sources: Mapping[str, Any], plan: tuple, con
     out: dict[str, dict] = {}
     for label, name in regions.names.items():
         mask = _region_scored(regions, label, sources.get("mask"))
-        own, metrics, span = _own_scores(real, sim, mask, plan, config, weights, pair_metrics, bits, peak, name)
+        with warnings.catch_warnings():  # the pair's PeakWarning covers its regions: the same peak
+            warnings.simplefilter("ignore", PeakWarning)
+            own, metrics, span = _own_scores(real, sim, mask, plan, config, weights, pair_metrics, bits, peak, name)
         region_ceiling = ceiling
         if real_ref is not None and plan:
             region_ceiling = pair_ceiling(np.asarray(sources["real"]), real_ref, plan, config, mask=mask,

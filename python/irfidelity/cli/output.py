@@ -34,7 +34,10 @@ def message(exc: BaseException, a: argparse.Namespace | None = None) -> str:
 
 
 def warning_lines(caught: list, a: argparse.Namespace | None = None) -> list[str]:
-    return [f"irfidelity: warning: {w.category.__name__}: {message(w.message, a)}" for w in caught]
+    """The warnings for stderr, less those the summary on stdout already printed as notes."""
+    shown = getattr(a, "shown_notes", set())
+    return [f"irfidelity: warning: {w.category.__name__}: {message(w.message, a)}" for w in caught
+            if f"{w.category.__name__}: {w.message}" not in shown]
 
 
 #: Which channel flags decode each input's files: (arguments holding paths, flags).
@@ -146,3 +149,4 @@ def write_outputs(report: Any, a: argparse.Namespace, *, sequence: bool) -> None
         if not sequence and hasattr(a, "real"):
             print(f"real: {a.real}\nsim:  {a.sim}\n")
         print(report.summary_text())
+        a.shown_notes = set(getattr(report, "notes", ()))
