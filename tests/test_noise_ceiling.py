@@ -218,6 +218,31 @@ def test_cli_real_noise_sets_the_ceiling(tmp_path, capsys):
     assert "needs the real one too" in capsys.readouterr().err
 
 
+def test_cli_noise_detrend_and_roi_measure_as_noise3d_does(tmp_path, capsys):
+    from irfidelity.noise import noise3d
+
+    out = tmp_path / "pair.json"
+    args = ["score", str(BB150[0]), str(BB150[1]), "--real-noise", str(LWIR_UNIFORM)]
+    assert main([*args, "--noise-detrend", "plane", "--noise-roi", "8:60,10:70", "--json", str(out)]) == 0
+    noise = noise3d(str(LWIR_UNIFORM), detrend="plane", roi=(8, 60, 10, 70))
+    want = irf.evaluate(str(BB150[0]), str(BB150[1]), real_noise=noise)
+    assert json.loads(out.read_text())["ceiling"] == want.ceiling
+    capsys.readouterr()
+    assert main([*args, "--noise-roi", "8:72"]) == 2
+    assert "--noise-roi: expected Y0:Y1,X0:X1" in capsys.readouterr().err
+    assert main([*args, "--noise-roi", "8:72,16:9000"]) == 2
+    err = capsys.readouterr().err
+    assert "outside" in err and "--real-noise" in err and err.count("\n") == 1
+
+
+def test_cli_words_the_noise_advice_as_flags():
+    from irfidelity.cli.output import cli_wording
+
+    text = "... pass detrend='plane' to remove it ... a uniform region with roi=(r0, r1, c0, c1)"
+    assert cli_wording(text) == "... pass --noise-detrend plane to remove it ... a uniform region with --noise-roi " \
+                                "Y0:Y1,X0:X1"
+
+
 def test_bad_noise_and_degenerate_frames(scene):
     a = real_frame(scene, QUIET, np.random.default_rng(9))
     with pytest.raises(FidelityError, match="σ_tvh .* must be a finite number >= 0") as err:

@@ -57,6 +57,13 @@ _DTYPE_ADVICE = {
 }
 
 
+#: The noise analysis's advice, as the command line gives it.
+_NOISE_ADVICE = {
+    "pass detrend='plane'": "pass --noise-detrend plane",
+    "with roi=(r0, r1, c0, c1)": "with --noise-roi Y0:Y1,X0:X1",
+}
+
+
 def _literal_part(path: str) -> str:
     """What the name of a file an input holds starts with: the path, or a glob's directory."""
     if not glob.has_magic(path):
@@ -80,7 +87,7 @@ def cli_wording(text: str, a: argparse.Namespace | None = None) -> str:
     """``text`` with the library's keyword-argument advice replaced by the flags to use."""
     if "channel=..." in text:
         text = text.replace("channel=...", _channel_flags(text, a))
-    for api, cli in _DTYPE_ADVICE.items():
+    for api, cli in (_DTYPE_ADVICE | _NOISE_ADVICE).items():
         text = text.replace(api, cli)
     return text
 
@@ -148,5 +155,5 @@ def write_outputs(report: Any, a: argparse.Namespace, *, sequence: bool) -> None
     if getattr(a, "json", None) != "-":
         if not sequence and hasattr(a, "real"):
             print(f"real: {a.real}\nsim:  {a.sim}\n")
-        print(report.summary_text())
+        print(cli_wording(report.summary_text(), a))
         a.shown_notes = set(getattr(report, "notes", ()))

@@ -224,6 +224,11 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                                                           "graded against (for a sequence, instead of consecutive "
                                                           "frames)")
     n.add_argument("--sim-noise", metavar="DIR|TIF", help="the same from the simulator")
+    n.add_argument("--noise-detrend", choices=("plane",), help="remove a gradient (plane) across the uniform "
+                                                               "source's frames before measuring their noise")
+    n.add_argument("--noise-roi", metavar="Y0:Y1,X0:X1", help="measure the noise within this box of the uniform "
+                                                               "source's frames (rows, then columns; 0-based, end "
+                                                               "excluded)")
     b = s.add_argument_group("bar targets (the opt-in 'mrtd' component: give it a weight in --weights)")
     b.add_argument("--real-bars", metavar="DIR", help="frames of bar targets from the real camera, listed with their "
                                                      "frequency and ΔT in DIR/bars.csv (docs/bars.md)")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import glob
 import os
+import re
 from typing import Any
 
 from ..config import ScoringConfig
@@ -109,9 +110,35 @@ def _bars(path: str | None, side: str) -> str | None:
     return path
 
 
-def _curves(a: argparse.Namespace) -> dict:
+def _noise_roi(text: str) -> tuple[int, int, int, int]:
+    """``--noise-roi Y0:Y1,X0:X1`` as ``(r0, r1, c0, c1)`` (the recording checks the bounds)."""
+    match = re.fullmatch(r"\s*(\d+):(\d+)\s*,\s*(\d+):(\d+)\s*", text)
+    if match is None:
+        raise UsageError(f"--noise-roi: expected Y0:Y1,X0:X1 (rows, then columns; 0-based, end excluded), "
+                         f"got {text!r}")
+    r0, r1, c0, c1 = (int(g) for g in match.groups())
+    return r0, r1, c0, c1
+
+
+def _noise(a: argparse.Namespace, config: ScoringConfig, path: str | None, side: str) -> Any:
+    """A noise recording as given, or its 3-D noise measured as ``--noise-detrend`` and
+    ``--noise-roi`` say."""
+    if path is None or (a.noise_detrend is None and a.noise_roi is None):
+        return path
+    from ..noise import noise3d
+
+    roi = None if a.noise_roi is None else _noise_roi(a.noise_roi)
+    channel = config.real_channel if side == "real" else config.sim_channel
+    try:
+        return noise3d(path, bits=config.bits, channel=channel, detrend=a.noise_detrend, roi=roi)
+    except FidelityError as exc:
+        raise FidelityError(f"{side} noise recording {path}: {exc}", option=f"{side}_noise") from None
+
+
+def _curves(a: argparse.Namespace, config: ScoringConfig) -> dict:
     curves = {f"{side}_{kind}": _curve(a, side, kind) for side in ("real", "sim") for kind in ("mtf", "sitf")}
-    curves.update(real_noise=a.real_noise, sim_noise=a.sim_noise)
+    curves.update(real_noise=_noise(a, config, a.real_noise, "real"),
+                  sim_noise=_noise(a, config, a.sim_noise, "sim"))
     curves.update(real_mrtd=_bars(a.real_bars, "real"), sim_mrtd=_bars(a.sim_bars, "sim"))
     for kind in ("mtf", "sitf", "noise", "mrtd"):
         real, sim = curves[f"real_{kind}"], curves[f"sim_{kind}"]
@@ -127,7 +154,7 @@ def _curves(a: argparse.Namespace) -> dict:
 def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
     """Score as the arguments say; returns the report and whether it is a sequence's."""
     config = scoring_config(a)
-    curves = _curves(a)
+    curves = _curves(a, config)
     seq_real, seq_sim = _is_sequence(a.real), _is_sequence(a.sim)
     if seq_real != seq_sim:
         one, other = ("REAL", "SIM") if seq_real else ("SIM", "REAL")
