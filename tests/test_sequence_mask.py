@@ -68,9 +68,12 @@ def _quiet(fn, *args, **kwargs):
 
 
 def _same_numbers(a, b):
-    """Two sequence reports with the same frames and pooled values."""
-    assert a.frames == b.frames
-    assert a.metrics == b.metrics and a.components == b.components and a.fidelity == b.fidelity
+    """Two sequence reports with the same values per frame and pooled (whatever the frames' names)."""
+    numbers = ("metrics", "components", "fidelity", "grade", "error", "registration")
+    assert [[f[k] for k in numbers] for f in a.frames] == [[f[k] for k in numbers] for f in b.frames]
+    # pooled: Pool sums each frame's error relative to its range in completion order (float)
+    assert a.metrics == pytest.approx(b.metrics, rel=1e-13) and a.components == pytest.approx(b.components, rel=1e-13)
+    assert a.fidelity == pytest.approx(b.fidelity, rel=1e-13) and a.grade == b.grade
 
 
 # ---- the numbers --------------------------------------------------------------------------
@@ -99,7 +102,7 @@ def test_the_pooled_error_is_that_of_the_masked_pixels(lepton):
     relative = ((diff.astype(float) ** 2).mean(axis=1) / ranges ** 2).mean()
     assert rep.metrics["psnr_db"] == pytest.approx(-10 * np.log10(relative), rel=1e-12)
     # with a fixed peak, the pooled MSE is exactly that of every masked pixel
-    fixed = score_sequence(real, sim, config=CONFIG.replace(peak=16383.0), run=QUIET, mask=mask)
+    fixed = _quiet(score_sequence, real, sim, config=CONFIG.replace(peak=16383.0), run=QUIET, mask=mask)
     assert fixed.metrics["mse"] == pytest.approx((diff.astype(float) ** 2).mean(), rel=1e-15)
 
 
@@ -113,7 +116,8 @@ def test_an_roi_equals_its_mask_and_the_cropped_frames(lepton):
     cropped = score_sequence(real[:, 10:90, 20:140], sim[:, 10:90, 20:140], config=CONFIG, run=QUIET)
     _same_numbers(by_roi, by_mask)
     _same_numbers(by_roi, by_tuple)
-    assert by_roi.metrics == cropped.metrics and by_roi.fidelity == cropped.fidelity
+    assert by_roi.metrics["masked"] == FRAMES * (120 * 160 - 80 * 120) and cropped.metrics["masked"] == 0
+    assert {**by_roi.metrics, "masked": 0} == cropped.metrics and by_roi.fidelity == cropped.fidelity
     assert by_roi.inputs["mask"] == {"pixels": 80 * 120, "of": 120 * 160, "shape": [120, 160],
                                      "roi": [10, 90, 20, 140], "mask": None}
     assert by_mask.inputs["mask"]["mask"] == "array" and by_mask.inputs["mask"]["roi"] is None
@@ -146,32 +150,36 @@ def test_every_backend_gives_the_same_numbers(lepton, tmp_path):
 
 
 @pytest.mark.parametrize("each", [False, True], ids=["registered-once", "registered-each"])
-def test_registration_scores_the_overlap_within_the_mask(lepton, each):
-    real_path, _, real, _, mask = lepton
+def test_registration_is_searched_and_scored_within_the_mask(lepton, each):
+    real_path, _, real, _, _ = lepton
     shifted = np.roll(_simulate(real, 2), (2, -3), axis=(1, 2))
+    mask = np.ones(real.shape[1:], dtype=bool)
+    mask[:5] = False
+    mask[46:60, 74:90] = False  # the defects, where they are in both frames
     config = CONFIG.replace(register="translation", register_each=each, bins=64)
+    with pytest.raises(irf.RegistrationError):  # the defects mislead the registration
+        _quiet(irf.evaluate, real[0], shifted[0], config=config)
     rep = _quiet(score_sequence, real, shifted, config=config, run=QUIET, mask=mask)
+    assert not rep.failed
     for i in (0, FRAMES - 1):
-        alone = _quiet(irf.evaluate, real[i], shifted[i], config=config, mask=mask)
-        if each:
-            assert rep.frames[i]["metrics"] == alone.metrics
         reg = irf.Registration.from_dict(rep.frames[i]["registration"] if each else rep.registration)
-        covered = reg.apply(shifted[i])[1]
-        assert rep.frames[i]["metrics"]["n"] == np.count_nonzero(covered & mask)
-    if not each:  # the registration applied to every pair was found over the mask
+        assert reg.shift == pytest.approx((-2, 3), abs=0.05)
+        # scored: the real pixels within the mask covered by unmasked simulated pixels
+        assert rep.frames[i]["metrics"]["n"] == np.count_nonzero(reg.apply(shifted[i], mask=mask)[1] & mask)
+        if each:
+            assert rep.frames[i]["metrics"] == _quiet(irf.evaluate, real[i], shifted[i], config=config,
+                                                      mask=mask).metrics
+    if not each:  # the registration applied to every pair is the first pair's, found over the mask
         assert rep.registration == _quiet(irf.evaluate, real[0], shifted[0], config=config, mask=mask).registration
-    bare = _quiet(score_sequence, real, shifted, config=config, run=QUIET)
-    assert rep.frames[0]["metrics"]["n"] < bare.frames[0]["metrics"]["n"]
-    tifffile.imwrite(pathlib.Path(real_path).with_name(f"shifted{int(each)}.tif"), shifted)
-    files = _quiet(score_sequence, real_path, pathlib.Path(real_path).with_name(f"shifted{int(each)}.tif"),
-                   config=config, run=QUIET, mask=mask)
-    _same_numbers(rep, files)
+    path = pathlib.Path(real_path).with_name(f"shifted{int(each)}.tif")
+    tifffile.imwrite(path, shifted)
+    _same_numbers(rep, _quiet(score_sequence, real_path, path, config=config, run=QUIET, mask=mask))
 
 
 def test_the_ceiling_is_measured_over_the_mask(lepton):
     _, _, real, sim, mask = lepton
-    rep = score_sequence(real, sim, config=CONFIG.replace(peak=16383.0), run=QUIET, mask=mask)
-    bare = score_sequence(real, sim, config=CONFIG.replace(peak=16383.0), run=QUIET)
+    rep = _quiet(score_sequence, real, sim, config=CONFIG.replace(peak=16383.0), run=QUIET, mask=mask)
+    bare = _quiet(score_sequence, real, sim, config=CONFIG.replace(peak=16383.0), run=QUIET)
     assert rep.ceiling is not None and rep.ceiling != bare.ceiling
     starts = sorted({int(round(i)) for i in np.linspace(0, FRAMES - 2, min(8, FRAMES - 1))})
     for key in ("nmi", "ssim"):
@@ -221,11 +229,13 @@ def test_a_wrong_mask_or_roi_is_a_clear_error(lepton, tmp_path):
         assert needle in str(err.value) and err.value.option == option, (kwargs, str(err.value))
 
 
-def test_a_frame_of_another_shape_than_the_mask_is_its_own_error_row(lepton):
+def test_a_frame_of_another_shape_than_the_mask_is_its_own_error_row(lepton, tmp_path):
     _, _, real, sim, mask = lepton
-    reals = [real[0], real[1, :100], real[2]]
-    sims = [sim[0], sim[1, :100], sim[2]]
-    rep = score_sequence(reals, sims, config=CONFIG, run=QUIET, mask=mask)
+    for side, frames in (("real", real), ("sim", sim)):
+        (tmp_path / side).mkdir()
+        for i in range(3):
+            cv2.imwrite(str(tmp_path / side / f"f{i}.png"), frames[i, :100] if i == 1 else frames[i])
+    rep = score_sequence(tmp_path / "real", tmp_path / "sim", config=CONFIG, run=QUIET, mask=mask)
     assert rep.failed == [1] and "the mask has shape (120, 160), the frames (100, 160)" in rep.frames[1]["error"]
 
 
