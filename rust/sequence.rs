@@ -1206,7 +1206,8 @@ mod tests {
         let owners: Vec<usize> = (0..3).flat_map(|_| 0..6).collect();
         let kinds: Vec<usize> = (0..3).flat_map(|sim| [usize::from(sim == 1); 6]).collect();
         let requests = vec![SeqRequest::default(), sse_only()];
-        let tasks = SharedTasks { real: real.clone(), sims: sims.clone(), owners, requests, kinds, mask: None };
+        let mask = Some(band_mask());
+        let tasks = SharedTasks { real: real.clone(), sims: sims.clone(), owners, requests, kinds, mask };
         let mut stream = stream_shared(tasks.clone(), 2).unwrap();
         let mut out: Vec<PairOutcome> = stream.by_ref().collect();
         assert_eq!(stream.progress().done.load(Ordering::SeqCst), 18);
@@ -1215,8 +1216,9 @@ mod tests {
         assert_eq!(out.iter().map(|o| o.index).collect::<Vec<_>>(), (0..18).collect::<Vec<_>>());
         for o in &out {
             let k = o.index;
-            let alone = score_pair(k, &real[k % 6], &sims[k], &tasks.requests[tasks.kinds[k]]);
+            let alone = score_pair(k, &real[k % 6], &sims[k], &tasks.requests[tasks.kinds[k]], tasks.mask.as_ref());
             assert_eq!(o.stats, alone.stats, "task {k}");
+            assert_eq!(o.stats.as_ref().unwrap().n, 70 * 140);
             assert_eq!(o.shape, Some((120, 160)));
         }
         let bad = SharedTasks { owners: vec![6; 18], ..tasks };
