@@ -293,7 +293,8 @@ def test_cli_masks_and_rois_sequences(lepton, tmp_path, capsys):
         out = tmp_path / f"{name}.json"
         assert main([*base, "--mask", str(tmp_path / name), "--roi", "0:100,:", "--json", str(out)]) == 0
         got = json.loads(out.read_text())
-        assert got["metrics"] == json.loads(json.dumps(want.metrics))
+        # (the pooled PSNR peak sums the frames' relative errors in completion order: last bits)
+        assert got["metrics"] == pytest.approx(json.loads(json.dumps(want.metrics)), rel=1e-13)
         assert got["inputs"]["mask"]["roi"] == [0, 100, 0, 160]
         assert got["inputs"]["mask"]["pixels"] == int((mask[:100]).sum())
     capsys.readouterr()
