@@ -1,5 +1,5 @@
-"""Command-line flags that say what is scored and how it is judged: ``--mask``, ``--roi``
-(:mod:`irfidelity.masks`), ``--real-ref`` (single pairs) and ``--tolerance``."""
+"""Command-line flags that say what is scored and how it is judged: ``--mask``, ``--roi``,
+``--real-ref`` (single pairs) and ``--tolerance``."""
 
 from __future__ import annotations
 
