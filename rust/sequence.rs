@@ -174,6 +174,39 @@ pub struct PairSlices<'a, T> {
     pub mask: Option<&'a [bool]>,
 }
 
+/// One mask for every pair of a sequence: the pixel positions scored (`true`), row-major,
+/// shared by the workers (never copied per pair).
+#[derive(Clone, Debug)]
+pub struct SeqMask {
+    values: Arc<[bool]>,
+    shape: (usize, usize),
+}
+
+impl SeqMask {
+    /// A mask of `shape` (`values` row-major); an error when the lengths differ or no pixel
+    /// is scored.
+    pub fn new(values: Arc<[bool]>, shape: (usize, usize)) -> Result<SeqMask> {
+        if values.len() != shape.0 * shape.1 {
+            return Err(Error::Shape(format!("mask: {} values for a ({}, {}) mask", values.len(), shape.0, shape.1)));
+        }
+        if !values.iter().any(|&keep| keep) {
+            return Err(Error::Value("mask: no pixel is scored (every value is false)".into()));
+        }
+        Ok(SeqMask { values, shape })
+    }
+
+    /// The mask's values for a pair of `shape` frames, or a shape error.
+    fn for_shape(&self, shape: (usize, usize)) -> Result<&[bool]> {
+        if shape != self.shape {
+            return Err(Error::Shape(format!(
+                "the mask has shape ({}, {}), the frames ({}, {})",
+                self.shape.0, self.shape.1, shape.0, shape.1
+            )));
+        }
+        Ok(&self.values)
+    }
+}
+
 impl Warp {
     /// What scoring a `shape` pair through this registration holds besides the frames as
     /// given, and the kind of error over budget: the real frame as float64, the resampled
@@ -229,13 +262,20 @@ impl Warp {
         Ok(Aligned { registration, stats, extent, sim: aligned, scored })
     }
 
-    /// [`Warp::score_pair`] on two decoded frames (of one sample type, else a shape error).
-    fn score_frames(&self, r: &Frame, s: &Frame, kreq: &Request, want_extent: bool) -> Result<Aligned> {
+    /// [`Warp::score_pair`] on two decoded frames (of one sample type, else a shape error)
+    /// over `mask`.
+    fn score_frames(
+        &self,
+        (r, s): (&Frame, &Frame),
+        mask: Option<&[bool]>,
+        kreq: &Request,
+        want_extent: bool,
+    ) -> Result<Aligned> {
         use FrameData::*;
         let shape = (r.rows, r.cols);
         macro_rules! pair {
             ($a:expr, $b:expr) => {
-                self.score_pair(&PairSlices { real: $a, sim: $b, shape, mask: None }, kreq, want_extent)
+                self.score_pair(&PairSlices { real: $a, sim: $b, shape, mask }, kreq, want_extent)
             };
         }
         match (&r.data, &s.data) {
@@ -316,19 +356,22 @@ fn finite_extent(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     })
 }
 
-/// (min, max) over the finite values of a frame; None when it has none.
-fn extent(data: &FrameData) -> Option<(f64, f64)> {
-    fn fold<T: Copy>(v: &[T], to_f64: impl Fn(T) -> f64) -> Option<(f64, f64)> {
-        finite_extent(v.iter().map(|&x| to_f64(x)))
+/// (min, max) over the finite values of a frame (within `mask`); None when it has none.
+fn extent(data: &FrameData, mask: Option<&[bool]>) -> Option<(f64, f64)> {
+    fn fold<T: Copy>(v: &[T], mask: Option<&[bool]>, to_f64: impl Fn(T) -> f64) -> Option<(f64, f64)> {
+        match mask {
+            None => finite_extent(v.iter().map(|&x| to_f64(x))),
+            Some(mask) => finite_extent(v.iter().zip(mask).filter(|&(_, &keep)| keep).map(|(&x, _)| to_f64(x))),
+        }
     }
     match data {
-        FrameData::U8(v) => fold(v, f64::from),
-        FrameData::U16(v) => fold(v, f64::from),
-        FrameData::I16(v) => fold(v, f64::from),
-        FrameData::U32(v) => fold(v, f64::from),
-        FrameData::F16(v) => fold(v, f64::from),
-        FrameData::F32(v) => fold(v, f64::from),
-        FrameData::F64(v) => fold(v, |x| x),
+        FrameData::U8(v) => fold(v, mask, f64::from),
+        FrameData::U16(v) => fold(v, mask, f64::from),
+        FrameData::I16(v) => fold(v, mask, f64::from),
+        FrameData::U32(v) => fold(v, mask, f64::from),
+        FrameData::F16(v) => fold(v, mask, f64::from),
+        FrameData::F32(v) => fold(v, mask, f64::from),
+        FrameData::F64(v) => fold(v, mask, |x| x),
     }
 }
 
@@ -413,21 +456,28 @@ fn sample_bytes(data: &FrameData) -> usize {
 /// - unregistered: the kernel's float32 copies of float16 frames;
 /// - a fixed warp: the real frame as float64, the simulated one resampled and its overlap;
 /// - registering each pair: both frames as float64, then registration's working memory
-///   ([`register::register_plan`]) or the resampled frame and its overlap, whichever is more.
-pub fn pair_plan(shape: (usize, usize), real: &FrameData, req: &SeqRequest) -> (Plan, budget::Kind) {
+///   ([`register::register_plan`]) or the resampled frame and its overlap, whichever is more;
+/// - with a sequence's mask (`masked`): the mask (1 byte a pixel, counted in every pair's
+///   budget though the run holds it once) and, registered, the overlap within it (1 more).
+pub fn pair_plan(shape: (usize, usize), real: &FrameData, req: &SeqRequest, masked: bool) -> (Plan, budget::Kind) {
     let frames = 2.0 * sample_bytes(real) as f64;
+    let mask = match (masked, req.warp.is_some()) {
+        (false, _) => 0.0,
+        (true, false) => 1.0,
+        (true, true) => 2.0,
+    };
     match &req.warp {
         None => {
             let widened = if matches!(real, FrameData::F16(_)) { 8.0 } else { 0.0 };
-            (Plan::new("scoring a frame pair", shape, frames + widened, 0), Error::Value)
+            (Plan::new("scoring a frame pair", shape, frames + widened + mask, 0), Error::Value)
         }
         Some(Warp::Fixed(_)) => {
-            (Plan::new("resampling and scoring a frame pair", shape, frames + 17.0, 0), Error::Value)
+            (Plan::new("resampling and scoring a frame pair", shape, frames + 17.0 + mask, 0), Error::Value)
         }
         Some(Warp::Each(each)) => {
             let search = register::register_plan(shape, &each.options);
             let resampled = register::warp_plan(shape).bytes;
-            let held = Plan::new("", shape, frames + 16.0, 0).bytes;
+            let held = Plan::new("", shape, frames + 16.0 + mask, 0).bytes;
             let operation = format!("{} and scoring of a frame pair", search.operation);
             (Plan { operation, shape, bytes: search.bytes.max(resampled).saturating_add(held) }, Error::Registration)
         }
@@ -478,19 +528,22 @@ fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
         .unwrap_or_else(|| "panic".into())
 }
 
-/// Decode and score one pair on the current thread (and the current rayon pool).
-pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest) -> PairOutcome {
-    score_against(index, real, &decode_real(real, req), sim, req)
+/// Decode and score one pair on the current thread (and the current rayon pool), over `mask`
+/// when given.
+pub fn score_pair(index: usize, real: &Source, sim: &Source, req: &SeqRequest, mask: Option<&SeqMask>) -> PairOutcome {
+    score_against(index, real, &decode_real(real, req), sim, req, mask)
 }
 
 /// Score a simulated frame against a real frame decoded beforehand ([`decode_real`]; its
-/// error is this pair's error).
+/// error is this pair's error), over `mask` when given (a mask of another shape than the
+/// frames is this pair's error).
 pub fn score_against(
     index: usize,
     real: &Source,
     decoded: &Result<Decoded>,
     sim: &Source,
     req: &SeqRequest,
+    mask: Option<&SeqMask>,
 ) -> PairOutcome {
     let mut out = PairOutcome {
         index,
@@ -508,10 +561,11 @@ pub fn score_against(
         let (r, real_fp) = decoded.as_ref().map_err(Clone::clone)?;
         out.shape = Some((r.rows, r.cols));
         out.dtype = Some(r.data.dtype_name());
-        let (plan, kind) = pair_plan((r.rows, r.cols), &r.data, req);
+        let mask = mask.map(|m| m.for_shape((r.rows, r.cols))).transpose().map_err(|e| prefix(e, &what()))?;
+        let (plan, kind) = pair_plan((r.rows, r.cols), &r.data, req, mask.is_some());
         plan.check(max_bytes, kind).map_err(|e| prefix(e, &what()))?;
         if req.real_extent && req.warp.is_none() {
-            out.real_extent = extent(&r.data);
+            out.real_extent = extent(&r.data, mask);
         }
         let held = budget::size_of_vec::<u8>(r.data.len() * sample_bytes(&r.data));
         let (s, sim_fp) = decode(sim, &req.sim_channel, req, max_bytes.saturating_sub(held))?;
@@ -530,7 +584,7 @@ pub fn score_against(
             sse: req.sse,
             moments: req.moments,
             hist: req.hist.clone(),
-            mask: None,
+            mask,
             valid: req.valid,
             mask_nonfinite: req.mask_nonfinite,
             shape: (r.rows, r.cols),
@@ -538,7 +592,7 @@ pub fn score_against(
         };
         let st = match &req.warp {
             None => run_kernel(&r.data, &s.data, &kreq),
-            Some(warp) => warp.score_frames(r, &s, &kreq, req.real_extent).map(|aligned| {
+            Some(warp) => warp.score_frames((r, &s), mask, &kreq, req.real_extent).map(|aligned| {
                 out.registration = aligned.registration;
                 out.real_extent = aligned.extent;
                 aligned.stats
@@ -659,16 +713,26 @@ pub struct Batch {
 /// through a queue of [`QUEUE_PER_WORKER`] per worker: at most `capacity() + workers()`
 /// finished outcomes are ever waiting for the consumer, whatever the sequence length.
 ///
+/// With `mask`, every pair is scored over it (the workers share it).
+///
 /// Errors for different lengths or when the engine thread cannot start.
-pub fn stream_pairs(real: Vec<Source>, sim: Vec<Source>, req: SeqRequest, workers: usize) -> Result<PairStream> {
+pub fn stream_pairs(
+    real: Vec<Source>,
+    sim: Vec<Source>,
+    req: SeqRequest,
+    mask: Option<SeqMask>,
+    workers: usize,
+) -> Result<PairStream> {
     check_lengths(&real, &sim)?;
     let n = real.len();
-    let job = move |i: usize, deliver: &dyn Fn(PairOutcome)| deliver(score_pair(i, &real[i], &sim[i], &req));
+    let job =
+        move |i: usize, deliver: &dyn Fn(PairOutcome)| deliver(score_pair(i, &real[i], &sim[i], &req, mask.as_ref()));
     stream_jobs(n, Box::new(job), workers)
 }
 
 /// Simulated frames scored against shared real frames: task `k` scores `sims[k]` against
-/// `real[owners[k]]` with `requests[kinds[k]]`.
+/// `real[owners[k]]` with `requests[kinds[k]]`, over `mask` when given (one mask: it is on
+/// the real frames' grid).
 #[derive(Clone, Debug)]
 pub struct SharedTasks {
     pub real: Vec<Source>,
@@ -676,6 +740,7 @@ pub struct SharedTasks {
     pub owners: Vec<usize>,
     pub requests: Vec<SeqRequest>,
     pub kinds: Vec<usize>,
+    pub mask: Option<SeqMask>,
 }
 
 impl SharedTasks {
@@ -721,7 +786,8 @@ pub fn stream_shared(tasks: SharedTasks, workers: usize) -> Result<PairStream> {
         let real = &tasks.real[*owner];
         let decoded = decode_real(real, &tasks.requests[tasks.kinds[members[0]]]);
         for &k in members {
-            deliver(score_against(k, real, &decoded, &tasks.sims[k], &tasks.requests[tasks.kinds[k]]));
+            let req = &tasks.requests[tasks.kinds[k]];
+            deliver(score_against(k, real, &decoded, &tasks.sims[k], req, tasks.mask.as_ref()));
         }
     };
     stream_jobs(n, Box::new(job), workers)
@@ -885,7 +951,7 @@ mod tests {
 
     /// Every outcome of a stream, in index order; checks each index arrives exactly once.
     fn collect(real: &[Source], sim: &[Source], req: &SeqRequest, workers: usize) -> Vec<PairOutcome> {
-        let mut stream = stream_pairs(real.to_vec(), sim.to_vec(), req.clone(), workers).unwrap();
+        let mut stream = stream_pairs(real.to_vec(), sim.to_vec(), req.clone(), None, workers).unwrap();
         let mut out: Vec<PairOutcome> = stream.by_ref().collect();
         assert_eq!(stream.progress().done.load(Ordering::SeqCst), real.len());
         stream.finish().unwrap();
@@ -1024,9 +1090,9 @@ mod tests {
 
     #[test]
     fn mismatched_lengths_fail_before_any_work() {
-        let e = stream_pairs(stack_sources(0..3), stack_sources(0..2), SeqRequest::default(), 1).err().unwrap();
+        let e = stream_pairs(stack_sources(0..3), stack_sources(0..2), SeqRequest::default(), None, 1).err().unwrap();
         assert!(e.to_string().contains("3 frames") && e.to_string().contains(" 2;"));
-        let mut empty = stream_pairs(vec![], vec![], SeqRequest::default(), 0).unwrap();
+        let mut empty = stream_pairs(vec![], vec![], SeqRequest::default(), None, 0).unwrap();
         assert!(empty.next().is_none());
         empty.finish().unwrap();
     }
@@ -1034,7 +1100,7 @@ mod tests {
     #[test]
     fn a_slow_consumer_bounds_the_queue() {
         let n = 100;
-        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), 2).unwrap();
+        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), None, 2).unwrap();
         let (workers, capacity) = (stream.workers(), stream.capacity());
         assert_eq!((workers, capacity), (2, 2 * QUEUE_PER_WORKER));
         // finished but not received: the queue, plus one outcome per worker waiting to enter it
@@ -1062,7 +1128,7 @@ mod tests {
     #[test]
     fn cancel_stops_new_pairs_and_delivers_those_in_flight() {
         let n = 100;
-        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), 2).unwrap();
+        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), None, 2).unwrap();
         let first: Vec<PairOutcome> = stream.by_ref().take(3).collect();
         stream.cancel();
         let rest: Vec<PairOutcome> = stream.by_ref().collect();
@@ -1082,7 +1148,7 @@ mod tests {
     #[test]
     fn dropping_the_stream_stops_the_workers() {
         let n = 100;
-        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), 2).unwrap();
+        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), None, 2).unwrap();
         let progress = Arc::clone(stream.progress());
         assert!(stream.next().is_some());
         wait_for("a full queue", || progress.done.load(Ordering::SeqCst) > stream.capacity());
@@ -1098,7 +1164,7 @@ mod tests {
     #[test]
     fn batches_wait_for_a_round_and_end_with_finished() {
         let n = 20;
-        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), 2).unwrap();
+        let mut stream = stream_pairs(stack_sources(0..n), stack_sources(0..n), sse_only(), None, 2).unwrap();
         let first = stream.next_batch(5, Duration::from_secs(60));
         assert!(first.outcomes.len() >= 5 && !first.finished);
         let mut idx: Vec<usize> = first.outcomes.iter().map(|o| o.index).collect();
@@ -1140,7 +1206,8 @@ mod tests {
         let owners: Vec<usize> = (0..3).flat_map(|_| 0..6).collect();
         let kinds: Vec<usize> = (0..3).flat_map(|sim| [usize::from(sim == 1); 6]).collect();
         let requests = vec![SeqRequest::default(), sse_only()];
-        let tasks = SharedTasks { real: real.clone(), sims: sims.clone(), owners, requests, kinds };
+        let mask = Some(band_mask());
+        let tasks = SharedTasks { real: real.clone(), sims: sims.clone(), owners, requests, kinds, mask };
         let mut stream = stream_shared(tasks.clone(), 2).unwrap();
         let mut out: Vec<PairOutcome> = stream.by_ref().collect();
         assert_eq!(stream.progress().done.load(Ordering::SeqCst), 18);
@@ -1149,8 +1216,9 @@ mod tests {
         assert_eq!(out.iter().map(|o| o.index).collect::<Vec<_>>(), (0..18).collect::<Vec<_>>());
         for o in &out {
             let k = o.index;
-            let alone = score_pair(k, &real[k % 6], &sims[k], &tasks.requests[tasks.kinds[k]]);
+            let alone = score_pair(k, &real[k % 6], &sims[k], &tasks.requests[tasks.kinds[k]], tasks.mask.as_ref());
             assert_eq!(o.stats, alone.stats, "task {k}");
+            assert_eq!(o.stats.as_ref().unwrap().n, 70 * 140);
             assert_eq!(o.shape, Some((120, 160)));
         }
         let bad = SharedTasks { owners: vec![6; 18], ..tasks };
@@ -1161,8 +1229,14 @@ mod tests {
     fn an_unreadable_real_frame_fails_each_of_its_pairs() {
         let real = vec![Source::new(data("thermal/missing.png"), 0)];
         let sims = stack_sources(0..2);
-        let tasks =
-            SharedTasks { real, sims, owners: vec![0, 0], requests: vec![SeqRequest::default()], kinds: vec![0, 0] };
+        let tasks = SharedTasks {
+            real,
+            sims,
+            owners: vec![0, 0],
+            requests: vec![SeqRequest::default()],
+            kinds: vec![0, 0],
+            mask: None,
+        };
         let out: Vec<PairOutcome> = stream_shared(tasks, 1).unwrap().collect();
         assert_eq!(out.len(), 2);
         assert!(out.iter().all(|o| matches!(&o.stats, Err(Error::Frame(m)) if m.contains("missing.png"))));
@@ -1176,6 +1250,53 @@ mod tests {
         for o in collect(&real, &sim, &req, 2) {
             let st = o.stats.unwrap();
             assert!(st.has_sse && !st.has_moments && st.hist.is_none());
+        }
+    }
+
+    /// A mask of the stack's (120, 160) frames: a band of rows and a block cut out of it.
+    fn band_mask() -> SeqMask {
+        let values: Vec<bool> =
+            (0..120 * 160).map(|i| (20..90).contains(&(i / 160)) && !(40..60).contains(&(i % 160))).collect();
+        SeqMask::new(values.into(), (120, 160)).unwrap()
+    }
+
+    #[test]
+    fn a_mask_scores_its_pixels_in_every_pair() {
+        let (real, sim) = (stack_sources(0..4), stack_sources(10..14));
+        let mask = band_mask();
+        let req = SeqRequest { real_extent: true, ..Default::default() };
+        let mut stream = stream_pairs(real.clone(), sim.clone(), req, Some(mask.clone()), 2).unwrap();
+        let mut out: Vec<PairOutcome> = stream.by_ref().collect();
+        stream.finish().unwrap();
+        out.sort_by_key(|o| o.index);
+        for (i, o) in out.iter().enumerate() {
+            let (r, s) = (u16_frame(&real[i]), u16_frame(&sim[i]));
+            let kreq = Request { shape: (120, 160), mask: Some(&mask.values), ..Request::default() };
+            assert_eq!(o.stats.as_ref().unwrap(), &stats::pair_stats(&r, &s, &kreq).unwrap(), "frame {i}");
+            let inside = r.iter().zip(mask.values.iter()).filter(|&(_, &keep)| keep).map(|(&v, _)| f64::from(v));
+            assert_eq!(o.real_extent, finite_extent(inside));
+        }
+    }
+
+    #[test]
+    fn a_mask_of_another_shape_fails_each_pair_and_an_empty_one_is_refused() {
+        let mask = SeqMask::new(vec![true; 12].into(), (3, 4)).unwrap();
+        let mut stream = stream_pairs(stack_sources(0..2), stack_sources(2..4), sse_only(), Some(mask), 1).unwrap();
+        let out: Vec<PairOutcome> = stream.by_ref().collect();
+        stream.finish().unwrap();
+        assert!(out.iter().all(|o| matches!(&o.stats, Err(Error::Shape(m)) if m.contains("mask has shape (3, 4)"))));
+        assert!(SeqMask::new(vec![false; 12].into(), (3, 4)).is_err());
+        assert!(SeqMask::new(vec![true; 11].into(), (3, 4)).is_err());
+    }
+
+    #[test]
+    fn a_mask_costs_its_bytes_in_the_pair_plan() {
+        let frame = FrameData::U16(vec![0; 4]);
+        for warp in [None, Some(Warp::Fixed(FixedWarp::from_matrix([1.0, 0.0, 0.0, 0.0, 1.0, 0.0], 1).unwrap()))] {
+            let req = SeqRequest { warp, ..Default::default() };
+            let bare = pair_plan((100, 100), &frame, &req, false).0.bytes;
+            let masked = pair_plan((100, 100), &frame, &req, true).0.bytes;
+            assert!(masked >= bare + 10_000, "{masked} vs {bare}");
         }
     }
 }

@@ -150,6 +150,7 @@ def score_pairs(
     progress: Callable[[int], Any] | None = None,
     on_result: Callable[[list[Any]], Any] | None = None,
     fingerprints: bool = False,
+    mask: npt.NDArray[np.bool_] | None = None,
 ) -> list[_PairOutcome] | None: ...
 def score_shared(
     real_paths: list[str | os.PathLike[str]],
@@ -164,6 +165,7 @@ def score_shared(
     progress: Callable[[int], Any] | None = None,
     on_result: Callable[[list[Any]], Any] | None = None,
     fingerprints: bool = False,
+    mask: npt.NDArray[np.bool_] | None = None,
 ) -> list[_PairOutcome] | None: ...
 def merge_all(stats: list[PairStats], keep_hist: bool = True) -> tuple[PairStats | None, bool]: ...
 

@@ -89,10 +89,11 @@ def ceiling_peak(real: np.ndarray, config: ScoringConfig, peak: float | None) ->
 
 
 def sequence_ceiling(real: Any, components: tuple[str, ...], config: ScoringConfig,
-                     peak: float | None = None) -> dict[str, float] | None:
+                     peak: float | None = None, mask: Any = None) -> dict[str, float] | None:
     """The median ceiling over up to :data:`CEILING_PAIRS` pairs of consecutive real frames
-    (t, t + 1) spread over the sequence ``real`` (a :class:`~irfidelity.FrameSequence`); None
-    for fewer than two frames or when no pair decodes."""
+    (t, t + 1) spread over the sequence ``real`` (a :class:`~irfidelity.FrameSequence`), over
+    the pixels of ``mask`` when given (the run's); None for fewer than two frames or when no
+    pair decodes."""
     count = len(real)
     if count < 2:
         return None
@@ -100,7 +101,7 @@ def sequence_ceiling(real: Any, components: tuple[str, ...], config: ScoringConf
     found: list[dict[str, float]] = []
     for t in starts:
         try:
-            found.append(pair_ceiling(real[t], real[t + 1], components, config, peak=peak))
+            found.append(pair_ceiling(real[t], real[t + 1], components, config, mask=mask, peak=peak))
         except FidelityError:
             continue  # an unreadable frame is the scoring's error row, not the ceiling's
     if not found:

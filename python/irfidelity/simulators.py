@@ -23,6 +23,7 @@ from .bootstrap import DEFAULT_RESAMPLES, check_level
 from .camera import CameraInputs
 from .config import ScoringConfig
 from .errors import FidelityError
+from .masks import MaskSpec
 from .ranking import Ranking, rank
 from .schema import to_json
 from .sequence import SequenceReport, _pairing, with_intervals
@@ -217,14 +218,14 @@ def _once_each() -> Iterator[None]:
 
 
 def _prepare(real_seq: Any, sim: Any, name: str, cfg: ScoringConfig, run: RunOptions,
-             camera: CameraInputs) -> tuple:
-    """A simulator's sequence, pairing and plan."""
+             camera: CameraInputs, mask: MaskSpec) -> tuple:
+    """A simulator's sequence, pairing and plan (over ``mask``, resolved once for all)."""
     sim_seq = temperature_sequence(as_sequence(sim, f"simulators[{name!r}]", cfg.sim_channel, run.max_pixels,
                                                run.max_bytes), "sim", cfg)
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError(f"empty sequences ({name}): nothing to score")
     pairing = _pairing(real_seq, sim_seq, cfg)
-    return sim_seq, pairing, make_plan(real_seq, sim_seq, pairing, camera, cfg)
+    return sim_seq, pairing, make_plan(real_seq, sim_seq, pairing, camera, cfg, mask)
 
 
 def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any = None, real_sitf: Any = None,
@@ -233,7 +234,7 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
                      sim_mrtd: Mapping[str, Any] | None = None, config: ScoringConfig | None = None,
                      run: RunOptions | None = None, ci: bool | float = False, level: float = 0.95,
                      correction: str = "holm", resamples: int = DEFAULT_RESAMPLES, rng: Any = 0,
-                     **options: Any) -> SimulatorComparison:
+                     mask: Any = None, roi: Any = None, **options: Any) -> SimulatorComparison:
     """Score several simulators against one real recording in one pass, and rank them.
 
     Parameters
@@ -258,6 +259,9 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
         Also give each report its ``report.ci`` (as ``score_sequence(ci=...)``).
     level, correction, resamples, rng
         The ranking's (:func:`irfidelity.ranking.rank`).
+    mask, roi : optional
+        One mask and/or ROI on the real frames' grid, for every simulator's every pair (as in
+        ``score_sequence``).
     **options
         ScoringConfig fields and, without ``run``, the run keywords (``workers=2``,
         ``progress=False``, ``csv="frames"``, ``resume=True``, ...), as in ``score_sequence``.
@@ -294,11 +298,12 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
     real_seq = temperature_sequence(as_sequence(real, "real", cfg.real_channel, run.max_pixels, run.max_bytes),
                                     "real", cfg)
     runs = {}
+    region = MaskSpec(mask, roi)
     with _once_each():  # the real side's warnings (a PSNR peak, ...) come once, not per simulator
         for name, sim in sims.items():
             camera = CameraInputs(real_mtf, curves["sim_mtf"][name], real_sitf, curves["sim_sitf"][name],
                                   real_noise, curves["sim_noise"][name], real_mrtd, curves["sim_mrtd"][name])
-            runs[name] = _prepare(real_seq, sim, name, cfg, run, camera)
+            runs[name] = _prepare(real_seq, sim, name, cfg, run, camera, region)
     shared = all(engine_reads(real_seq, sim_seq) for sim_seq, _, _ in runs.values())
 
     def options_for(name: str, backend: Any = None) -> RunOptions:

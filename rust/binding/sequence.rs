@@ -11,12 +11,14 @@ use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
+use numpy::{PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
 
 use super::args::{self, SequenceRequest};
+use super::dtypes::contiguous;
 use super::stats::PyPairStats;
-use crate::sequence::{self, Batch, PairOutcome, PairStream, Source};
+use crate::sequence::{self, Batch, PairOutcome, PairStream, SeqMask, Source};
 use crate::Error;
 
 const POLL: Duration = Duration::from_millis(100);
@@ -27,6 +29,19 @@ fn sources(paths: Vec<PathBuf>, pages: Option<Vec<usize>>, which: &str) -> crate
         return Err(Error::Value(format!("{which}: {} paths but {} pages", paths.len(), pages.len())));
     }
     Ok(paths.into_iter().zip(pages).map(|(p, g)| Source::new(p, g)).collect())
+}
+
+/// The sequence's `mask` argument (a 2-D bool array, C-contiguous) copied once, for every
+/// pair and worker to share.
+fn sequence_mask(mask: Option<PyReadonlyArrayDyn<'_, bool>>) -> crate::Result<Option<SeqMask>> {
+    let Some(mask) = mask else { return Ok(None) };
+    let &[rows, cols] = mask.shape() else {
+        return Err(Error::Shape(format!(
+            "mask must be 2-D (the frames' rows and columns), got shape {:?}",
+            mask.shape()
+        )));
+    };
+    SeqMask::new(contiguous(&mask, "the mask")?.into(), (rows, cols)).map(Some)
 }
 
 fn outcome_tuple<'py>(py: Python<'py>, o: PairOutcome) -> PyResult<Bound<'py, PyTuple>> {
@@ -109,7 +124,7 @@ fn poll<'py>(
 }
 
 /// `score_pairs(real_paths, sim_paths, real_pages=None, sim_pages=None, *, request,
-/// workers=0, progress=None, on_result=None, fingerprints=False)`
+/// workers=0, progress=None, on_result=None, fingerprints=False, mask=None)`
 ///
 /// Decode and score every pair `(real_paths[i] page real_pages[i], sim_paths[i] page
 /// sim_pages[i])` on `workers` threads (0 = all cores) with the GIL released, as
@@ -129,9 +144,13 @@ fn poll<'py>(
 /// `progress(done)` is called from the calling thread whenever the count of finished
 /// pairs changed (at most every 100 ms, and at the end). Ctrl-C (or an exception in a
 /// callback) stops new pairs from starting, waits for the ones in flight and raises.
+///
+/// `mask` (a 2-D bool array of the frames' shape, copied once for the whole run): every
+/// pair is scored over its `True` pixels (registered: over the overlap within it, the
+/// registration searched over it); a pair of another shape is that pair's error.
 #[pyfunction]
 #[pyo3(signature = (real_paths, sim_paths, real_pages=None, sim_pages=None, *, request, workers=0,
-                    progress=None, on_result=None, fingerprints=false))]
+                    progress=None, on_result=None, fingerprints=false, mask=None))]
 #[allow(clippy::too_many_arguments)]
 fn score_pairs<'py>(
     py: Python<'py>,
@@ -144,12 +163,13 @@ fn score_pairs<'py>(
     progress: Option<Bound<'py, PyAny>>,
     on_result: Option<Bound<'py, PyAny>>,
     fingerprints: bool,
+    mask: Option<PyReadonlyArrayDyn<'py, bool>>,
 ) -> PyResult<Option<Bound<'py, PyList>>> {
     let real = sources(real_paths, real_pages, "real")?;
     let sim = sources(sim_paths, sim_pages, "sim")?;
     let n = real.len();
     let req = sequence::SeqRequest { fingerprint: fingerprints, ..request.sequence_request()? };
-    let stream = sequence::stream_pairs(real, sim, req, workers)?;
+    let stream = sequence::stream_pairs(real, sim, req, sequence_mask(mask)?, workers)?;
     drain(py, stream, n, progress, on_result)
 }
 
@@ -177,17 +197,17 @@ fn drain<'py>(
 }
 
 /// `score_shared(real_paths, real_pages, sim_paths, sim_pages, owners, kinds, *, requests,
-/// workers=0, progress=None, on_result=None, fingerprints=False)`
+/// workers=0, progress=None, on_result=None, fingerprints=False, mask=None)`
 ///
 /// Several simulators against one real sequence, each real frame decoded once: task `k`
 /// scores `(sim_paths[k], sim_pages[k])` against real frame `owners[k]` with
 /// `requests[kinds[k]]` (one `irfidelity.sequence.plan.SequenceRequest` per simulator; the
 /// real frame is decoded with the decode options of its first task's request). The outcomes,
-/// `progress`, `on_result` and `fingerprints` are those of `score_pairs`, an outcome's index
-/// being its task.
+/// `progress`, `on_result`, `fingerprints` and `mask` (one for every task: it is on the real
+/// frames' grid) are those of `score_pairs`, an outcome's index being its task.
 #[pyfunction]
 #[pyo3(signature = (real_paths, real_pages, sim_paths, sim_pages, owners, kinds, *, requests, workers=0,
-                    progress=None, on_result=None, fingerprints=false))]
+                    progress=None, on_result=None, fingerprints=false, mask=None))]
 #[allow(clippy::too_many_arguments)]
 fn score_shared<'py>(
     py: Python<'py>,
@@ -202,6 +222,7 @@ fn score_shared<'py>(
     progress: Option<Bound<'py, PyAny>>,
     on_result: Option<Bound<'py, PyAny>>,
     fingerprints: bool,
+    mask: Option<PyReadonlyArrayDyn<'py, bool>>,
 ) -> PyResult<Option<Bound<'py, PyList>>> {
     let real = sources(real_paths, Some(real_pages), "real")?;
     let sims = sources(sim_paths, Some(sim_pages), "sim")?;
@@ -213,7 +234,7 @@ fn score_shared<'py>(
             Ok(sequence::SeqRequest { fingerprint: fingerprints, ..req.sequence_request()? })
         })
         .collect::<PyResult<Vec<_>>>()?;
-    let tasks = sequence::SharedTasks { real, sims, owners, requests, kinds };
+    let tasks = sequence::SharedTasks { real, sims, owners, requests, kinds, mask: sequence_mask(mask)? };
     let stream = sequence::stream_shared(tasks, workers)?;
     drain(py, stream, n, progress, on_result)
 }

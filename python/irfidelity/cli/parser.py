@@ -164,10 +164,12 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                         "(mismatch), noise_ratio, rms_error (fraction of the scene's range), nmi, ssim (fraction of "
                         "the ceiling), radiometry (temperature tolerances); e.g. mtf50=0.03,0.08,0.15 "
                         "(docs/interpretation.md)")
-    v = s.add_argument_group("what is scored (single pairs)")
+    v = s.add_argument_group("what is scored")
     v.add_argument("--real-ref", metavar="FILE",
-                   help="a second real frame of the scene: the real-vs-real ceiling NMI and SSIM are graded against")
-    v.add_argument("--mask", metavar="PATH", help="score only the pixels where this PNG/NPY/TIFF is non-zero")
+                   help="a second real frame of the scene: the real-vs-real ceiling NMI and SSIM are graded against "
+                        "(single pairs)")
+    v.add_argument("--mask", metavar="PATH", help="score only the pixels where this PNG/NPY/TIFF is non-zero (on the "
+                                                  "real frame's grid; a sequence: in every frame pair)")
     v.add_argument("--roi", metavar="Y0:Y1,X0:X1", help="score only this region (rows Y0..Y1-1, columns X0..X1-1)")
     v.add_argument("--regions", metavar="PATH",
                    help="a label image (PNG/NPY/TIFF: 0 not scored, 1..255 a region): each region scored on its own "

@@ -49,6 +49,9 @@ def add_rank(sub: argparse._SubParsersAction, types: dict) -> None:
     r.add_argument("--peak", type=types["peak"], metavar="X|range", help="PSNR peak: a number, or 'range'")
     r.add_argument("--bins", type=types["bins"], metavar="N|levels", help="histogram bins for NMI")
     r.add_argument("--pair-by", choices=PAIRING_RULES, help="pair frames by file name or by order")
+    r.add_argument("--mask", metavar="PATH", help="score only the pixels where this PNG/NPY/TIFF is non-zero "
+                                                  "(on the real frames' grid; every simulator, every frame)")
+    r.add_argument("--roi", metavar="Y0:Y1,X0:X1", help="score only this region (rows Y0..Y1-1, columns X0..X1-1)")
     r.add_argument("--level", type=_level, default=0.95, metavar="P",
                    help="confidence level of the intervals and tests (default 0.95)")
     r.add_argument("--resamples", type=types["positive_int"], default=2000, metavar="N",
@@ -112,7 +115,7 @@ def rank_command(a: argparse.Namespace) -> Any:
     result = score_simulators(a.real, dict(zip(names, a.sims)), config=scoring_config(a, _CONFIG_FLAGS),
                               workers=a.workers, progress=not a.no_progress, csv=a.frames_csv, resume=a.resume,
                               ci=a.ci and a.level, level=a.level, resamples=a.resamples,
-                              correction="none" if a.no_correction else "holm")
+                              correction="none" if a.no_correction else "holm", mask=a.mask, roi=a.roi)
     if a.json is not None:
         write_json(result.to_dict(), a.json)
     if a.csv is not None:

@@ -4,18 +4,16 @@
 from __future__ import annotations
 
 import argparse
-import re
 from typing import Any
 
 import numpy as np
 
 from ..errors import FidelityError
+from ..masks import parse_roi, scoring_mask
 from ..tolerances import Tolerances, parse_tolerance
 from .output import UsageError
 
 __all__ = ["pair_flags", "tolerance_flags", "parse_roi", "region_flags", "parse_region_names"]
-
-_ROI = re.compile(r"^\s*(\d*):(\d*)\s*,\s*(\d*):(\d*)\s*$")
 
 
 def tolerance_flags(given: list[str], base: Tolerances) -> Tolerances:
@@ -30,39 +28,6 @@ def tolerance_flags(given: list[str], base: Tolerances) -> Tolerances:
     return Tolerances.from_dict(limits)
 
 
-def parse_roi(text: str, shape: tuple[int, int]) -> tuple[slice, slice]:
-    """``"Y0:Y1,X0:X1"`` (an end left out: the frame's edge) as two slices within ``shape``.
-
-    Examples
-    --------
-    >>> parse_roi("10:20,:32", (120, 160))
-    (slice(10, 20, None), slice(0, 32, None))
-    """
-    m = _ROI.match(text)
-    if m is None:
-        raise UsageError(f"--roi: expected Y0:Y1,X0:X1 (rows, then columns; 0-based, end excluded), got {text!r}")
-    y0, y1, x0, x1 = (int(v) if v else None for v in m.groups())
-    rows = slice(y0 or 0, shape[0] if y1 is None else y1)
-    cols = slice(x0 or 0, shape[1] if x1 is None else x1)
-    for what, s, size in (("rows", rows, shape[0]), ("columns", cols, shape[1])):
-        if not s.start < s.stop <= size:
-            raise UsageError(f"--roi {text!r}: {what} {s.start}:{s.stop} are not a non-empty range within the "
-                             f"frame's {size} {what}")
-    return rows, cols
-
-
-def _mask_file(path: str, shape: tuple[int, int]) -> np.ndarray:
-    from ..frames import load_frame
-
-    try:
-        values = np.asarray(load_frame(path))
-    except FidelityError as exc:
-        raise UsageError(f"--mask: {exc}") from None
-    if values.shape != shape:
-        raise UsageError(f"--mask {path!r}: shape {values.shape} differs from the frames' {shape}")
-    return values != 0
-
-
 def pair_flags(a: argparse.Namespace, real_channel: str | None) -> dict[str, Any]:
     """``evaluate``'s ``mask`` (from ``--mask`` and ``--roi``, both: their intersection) and
     ``real_ref``."""
@@ -72,15 +37,7 @@ def pair_flags(a: argparse.Namespace, real_channel: str | None) -> dict[str, Any
     from ..frames import load_frame
 
     shape = np.shape(load_frame(a.real, channel=real_channel))
-    mask = np.ones(shape, dtype=bool) if a.mask is None else _mask_file(a.mask, shape)
-    if a.roi is not None:
-        rows, cols = parse_roi(a.roi, shape)
-        inside = np.zeros(shape, dtype=bool)
-        inside[rows, cols] = True
-        mask &= inside
-    if not mask.any():
-        raise UsageError("--mask/--roi leave no pixel to score")
-    options["mask"] = mask
+    options["mask"] = scoring_mask(a.mask, a.roi, shape).values  # type: ignore[union-attr]
     return options
 
 

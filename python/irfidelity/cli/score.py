@@ -97,7 +97,7 @@ def _sequence(a: argparse.Namespace, config: ScoringConfig, curves: dict) -> Any
         real = _pages(FrameSequence(a.real, channel=config.real_channel), a.pages)
         sim = _pages(FrameSequence(a.sim, channel=config.sim_channel), a.pages)
     return score_sequence(real, sim, config=config, workers=a.workers, progress=not a.no_progress, csv=a.csv,
-                          resume=a.resume, max_memory=a.max_memory, ci=a.ci, **curves)
+                          resume=a.resume, max_memory=a.max_memory, ci=a.ci, mask=a.mask, roi=a.roi, **curves)
 
 
 def _bars(path: str | None, side: str) -> str | None:
@@ -161,9 +161,9 @@ def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
         raise UsageError(f"{one} is a sequence (a directory, glob or multi-page TIFF) but {other} is a single frame "
                          f"({a.real!r} vs {a.sim!r})")
     if seq_real:
-        for flag in ("real_ref", "mask", "roi"):
-            if getattr(a, flag) is not None:
-                raise UsageError(f"--{flag.replace('_', '-')} applies to single pairs; REAL and SIM are sequences")
+        if a.real_ref is not None:
+            raise UsageError("--real-ref applies to single pairs; REAL and SIM are sequences (their ceiling is "
+                             "measured on consecutive real frames, or from --real-noise)")
         if a.regions is not None:
             raise UsageError("--regions applies to single pairs; REAL and SIM are sequences")
         report = _sequence(a, config, curves)

@@ -282,14 +282,14 @@ def noise_ceiling(real: Any, noise: Any, components: tuple[str, ...], config: Sc
 
 
 def sequence_noise_ceiling(real: Any, noise: Any, components: tuple[str, ...], config: ScoringConfig,
-                           peak: float | None = None) -> dict[str, float] | None:
+                           peak: float | None = None, mask: Any = None) -> dict[str, float] | None:
     """The median noise ceiling of up to :data:`~irfidelity.ceiling.CEILING_PAIRS` real frames
-    spread over the sequence ``real``; None when no frame decodes."""
+    spread over the sequence ``real`` (over ``mask`` when given); None when no frame decodes."""
     count = len(real)
     found: list[dict[str, float]] = []
     for t in sorted({int(round(i)) for i in np.linspace(0, count - 1, min(CEILING_PAIRS, count))}):
         try:
-            found.append(noise_ceiling(real[t], noise, components, config, peak=peak))
+            found.append(noise_ceiling(real[t], noise, components, config, mask=mask, peak=peak))
         except FidelityError:
             continue  # an unreadable frame is the scoring's error row, not the ceiling's
     if not found:

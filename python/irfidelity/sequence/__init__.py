@@ -27,6 +27,7 @@ from ..camera import CameraInputs
 from ..config import ScoringConfig
 from ..errors import FidelityError
 from ..frames import FrameSequence
+from ..masks import MaskSpec
 from ..results import recorded_warnings
 from ..temperature import scoring_config, temperature_sequence
 from .delay import find_delay
@@ -55,7 +56,8 @@ def _pairing(real: FrameSequence, sim: FrameSequence, cfg: ScoringConfig) -> Pai
 def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
                    sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
                    real_mrtd: Any = None, sim_mrtd: Any = None, config: ScoringConfig | None = None,
-                   run: RunOptions | None = None, ci: bool | float = False, **options: Any) -> SequenceReport:
+                   run: RunOptions | None = None, ci: bool | float = False, mask: Any = None, roi: Any = None,
+                   **options: Any) -> SequenceReport:
     """Score a simulated sequence against the real one, frame by frame and pooled.
 
     What is computed comes from ``config`` (a :class:`~irfidelity.ScoringConfig`); how the
@@ -122,6 +124,12 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     >>> again = irf.score_sequence(real, real + 1, bits=14, peak="range", weights="psnr=1", progress=False)
     >>> again.frames == rep.frames
     True
+
+    Only the top half of every frame:
+
+    >>> top = irf.score_sequence(real, real + 1, config=config, run=RunOptions(progress=False), roi="0:4,:")
+    >>> top.inputs["mask"]["pixels"], top.inputs["mask"]["roi"]
+    (32, [0, 4, 0, 8])
     """
     run, config_options = split_options(run, options)
     cfg = scoring_config(ScoringConfig.resolve(config, **config_options))
@@ -133,7 +141,7 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         raise FidelityError("empty sequences: nothing to score")
     pairing = _pairing(real_seq, sim_seq, cfg)
     camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
-    plan = make_plan(real_seq, sim_seq, pairing, camera, cfg)
+    plan = make_plan(real_seq, sim_seq, pairing, camera, cfg, MaskSpec(mask, roi))
     return with_intervals(execute(real_seq, sim_seq, pairing, plan, run), ci)
 def with_intervals(report: SequenceReport, ci: bool | float) -> SequenceReport:
     """``report`` with ``ci`` and ``pooling["ci"]`` when asked for (``ci``: True, or a level)

@@ -14,7 +14,8 @@ as pairs finish, in any order.
   :func:`irfidelity.pair_stats` (each call itself parallel in Rust).
 
 Each takes the run's :class:`~irfidelity.sequence.options.RunOptions` (threads, decoding
-limits, the Dask client and chunk size). With ``fingerprint`` (a run that keeps a log), every
+limits, the Dask client and chunk size) and scores every pair over the plan's mask when it has
+one (``plan.mask``: one array for the whole run; Dask sends it to each worker once). With ``fingerprint`` (a run that keeps a log), every
 outcome carries the fingerprints of what was scored (:mod:`.fingerprint`), taken by the
 backend as it reads.
 """
@@ -29,7 +30,7 @@ import numpy as np
 
 from .. import _core
 from ..alignment import RegisteredPair, score_registered
-from ..errors import FidelityError
+from ..errors import FidelityError, ShapeError
 from ..frames import FrameSequence
 from ..registration import RegistrationWarning, from_engine
 from ..stats import PairStats, pair_stats
@@ -87,17 +88,18 @@ class RustEngine:
         _core.score_pairs([p for p, _ in real], [p for p, _ in sim], [g for _, g in real], [g for _, g in sim],
                           request=request, workers=int(self.options.workers or 0),
                           on_result=lambda rows: deliver(self._outcomes(todo, rows)),
-                          fingerprints=self.fingerprint)
+                          fingerprints=self.fingerprint, mask=self.plan.mask_values)
 
 
 def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: list, request: SequenceRequest,
-                workers: int, fingerprints: bool = False) -> list:
-    """Run on a Dask worker: score one chunk with the Rust engine; statistics as bytes (the
-    files' fingerprints, taken by the worker as it decoded them, come back with them)."""
+                workers: int, fingerprints: bool = False, mask: np.ndarray | None = None) -> list:
+    """Run on a Dask worker: score one chunk with the Rust engine (over ``mask``); statistics
+    as bytes (the files' fingerprints, taken by the worker as it decoded them, come back with
+    them)."""
     from irfidelity import _core as core
 
     out = core.score_pairs(real_paths, sim_paths, real_pages, sim_pages, request=request, workers=workers,
-                           fingerprints=fingerprints)
+                           fingerprints=fingerprints, mask=mask)
     return [(k, None if st is None else st.to_bytes(), *rest) for k, st, *rest in out]
 
 
@@ -111,14 +113,16 @@ class DaskBackend(RustEngine):
             raise FidelityError("a Dask client needs dask.distributed (pip install 'irfidelity[dask]')") from exc
         request = self.plan.kernel_request(self.options.max_pixels, self.options.max_bytes)
         workers, chunk_size = int(self.options.workers or 1), self.options.chunk_size
+        client = self.options.client
+        # the mask goes to every worker once, not with each chunk
+        mask = None if self.plan.mask is None else client.scatter(self.plan.mask_values, broadcast=True)
         futures = {}
         for start in range(0, len(todo), chunk_size):
             chunk = todo[start:start + chunk_size]
             real = [self.real[r] for _, r, _ in chunk]
             sim = [self.sim[s] for _, _, s in chunk]
-            future = self.options.client.submit(score_chunk, [p for p, _ in real], [p for p, _ in sim],
-                                                [g for _, g in real], [g for _, g in sim], request, workers,
-                                                self.fingerprint, pure=False)
+            future = client.submit(score_chunk, [p for p, _ in real], [p for p, _ in sim], [g for _, g in real],
+                                   [g for _, g in sim], request, workers, self.fingerprint, mask, pure=False)
             futures[future] = chunk
         try:
             for future in as_completed(list(futures)):
@@ -129,10 +133,13 @@ class DaskBackend(RustEngine):
                                                for k, data, *rest in rows]))
         finally:
             if futures:
-                self.options.client.cancel(list(futures))
+                client.cancel(list(futures))
 
 
-def _extent(frame: np.ndarray) -> tuple[float, float] | None:
+def _extent(frame: np.ndarray, mask: np.ndarray | None) -> tuple[float, float] | None:
+    """The frame's (min, max) over its finite values within ``mask``; None when there are none."""
+    if mask is not None:
+        frame = frame[mask]
     values = frame[np.isfinite(frame)] if frame.dtype.kind == "f" else frame
     return (float(values.min()), float(values.max())) if values.size else None
 
@@ -148,14 +155,14 @@ class ArrayLoop:
         registration = extent = None
         try:
             real, sim = np.asarray(self.real[r]), np.asarray(self.sim[s])
-            scored_sim, mask = sim, None
+            scored_sim, mask = sim, self._mask(real)
             if cfg.register is not None:  # the frames as the Rust engine scores them, on the same path
-                st, pair = self._registered(real, sim)
+                st, pair = self._registered(real, sim, mask)
                 registration, extent, scored_sim, mask = pair.registration, pair.extent, pair.sim, pair.mask
             else:
                 st = pair_stats(real, sim, bits=cfg.bits, peak=cfg.numeric_peak, bins=cfg.bins,
-                                hist_range=cfg.hist_range, need=self.plan.image, nonfinite=cfg.nonfinite)
-                extent = _extent(real) if self.plan.real_extent else None
+                                hist_range=cfg.hist_range, need=self.plan.image, nonfinite=cfg.nonfinite, mask=mask)
+                extent = _extent(real, mask) if self.plan.real_extent else None
             temperature = None if cfg.unit is None else TemperatureErrors.of_frames(
                 real, scored_sim, mask=mask, unit=cfg.unit, tolerance=tolerance_for(cfg, self.plan.camera_metrics))
         except FidelityError as exc:
@@ -164,15 +171,24 @@ class ArrayLoop:
         return Outcome(index, st, None, real.shape, real.dtype.name, extent,
                        registration if cfg.register_each else None, inputs, temperature)
 
-    def _registered(self, real: np.ndarray, sim: np.ndarray) -> tuple[PairStats, RegisteredPair]:
+    def _mask(self, real: np.ndarray) -> np.ndarray | None:
+        """The plan's mask for this pair (a frame of another shape: the pair's error, as the
+        engine gives it)."""
+        mask = self.plan.mask
+        if mask is not None and real.shape != mask.shape:
+            raise ShapeError(f"the mask has shape {mask.shape}, the frames {real.shape}", option="mask")
+        return None if mask is None else mask.values
+
+    def _registered(self, real: np.ndarray, sim: np.ndarray,
+                    mask: np.ndarray | None) -> tuple[PairStats, RegisteredPair]:
         """The pair scored through the plan's registration or, with ``register_each``, its
         own (whose confidence is in the pair's row: the run counts the unsure ones instead
-        of warning per pair), as the engine scores a file pair."""
+        of warning per pair), over ``mask``, as the engine scores a file pair."""
         plan, cfg = self.plan, self.plan.config
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RegistrationWarning)
             pair = score_registered(real, sim, plan.pair_request(), model=cfg.register, method=cfg.register_method,
-                                    registration=None if cfg.register_each else plan.registration,
+                                    registration=None if cfg.register_each else plan.registration, mask=mask,
                                     extent=plan.real_extent, max_bytes=self.max_bytes)
         st = PairStats(pair.stats, peak=cfg.numeric_peak or plan.default_peak, bins=plan.bin_label)
         return st, pair

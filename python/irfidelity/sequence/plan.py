@@ -3,7 +3,9 @@
 The plan fixes, from the configuration and the first readable real frame: the weights and
 image components (the same :func:`~irfidelity.scoring.plan_components` as a single pair),
 the camera-curve components (compared once, so a bad curve fails before any work), the
-sample type every frame must have, the PSNR peak, and the histogram binning.
+sample type every frame must have, the PSNR peak, the histogram binning, and the pixels
+scored in every pair (a mask and/or ROI, :mod:`irfidelity.masks`, checked against that
+frame's shape).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from ..config import ScoringConfig
 from ..errors import FidelityError
 from ..frames import FrameSequence
 from ..fuzzy import Weights
+from ..masks import MaskSpec, ScoringMask
 from ..registration import DEFAULT_ORDER
 from ..results import recorded_warnings
 from ..scoring import plan_components, psnr_peak
@@ -87,6 +90,12 @@ class SequencePlan:
     ceiling: dict | None = None  # real frame t vs t + 1, or from the real camera's noise (irfidelity.ceiling)
     ceiling_source: str | None = None  # "sequence" or "noise3d" (irfidelity.ceiling.CEILING_SOURCES)
     scene_range: float | None = None  # of the first readable real frame: for frames without their own extent
+    mask: ScoringMask | None = None  # the pixels scored in every pair (None: all)
+
+    @property
+    def mask_values(self) -> np.ndarray | None:
+        """The mask every pair is scored over, as the engine takes it (bool, C-contiguous)."""
+        return None if self.mask is None else self.mask.values
 
     @property
     def bin_label(self) -> Any:
@@ -140,7 +149,8 @@ class SequencePlan:
         return {"dtype": None if self.dtype is None else self.dtype.name, "peak": self.peak,
                 "bins": self.bin_label, "hist_range": None if self.hist_range is None else list(self.hist_range),
                 "curves": {k: float(v) for k, v in self.camera_components.items()},
-                "registration": None if self.registration is None else self.registration.to_dict()}
+                "registration": None if self.registration is None else self.registration.to_dict(),
+                **({} if self.mask is None else {"mask": self.mask.digest()})}
 
 
 def _first_readable(real: FrameSequence, pairing: Pairing) -> np.ndarray | None:
@@ -155,10 +165,11 @@ def _first_readable(real: FrameSequence, pairing: Pairing) -> np.ndarray | None:
     return None
 
 
-def _registration(real: FrameSequence, sim: FrameSequence, pairing: Pairing, config: ScoringConfig) -> Any:
+def _registration(real: FrameSequence, sim: FrameSequence, pairing: Pairing, config: ScoringConfig,
+                  mask: ScoringMask | None) -> Any:
     """With ``config.register``: the registration of the first pair whose frames both decode
-    (the camera geometry is fixed, so one registration serves every pair). None with
-    ``register_each`` (every pair is registered as it is scored)."""
+    (the camera geometry is fixed, so one registration serves every pair), searched over
+    ``mask``. None with ``register_each`` (every pair is registered as it is scored)."""
     if config.register is None:
         return None
     if config.bins == "levels":
@@ -174,38 +185,45 @@ def _registration(real: FrameSequence, sim: FrameSequence, pairing: Pairing, con
         except FidelityError:
             continue
         try:
-            return find_registration(real_frame, sim_frame, config, max_bytes=real.max_bytes)
+            return find_registration(real_frame, sim_frame, config, max_bytes=real.max_bytes,
+                                     mask=None if mask is None else mask.values)
         except FidelityError as exc:
             raise type(exc)(f"registering the first readable pair ({real.names[r]} and {sim.names[s]}): {exc}",
                             option="register") from None
     return None
 
 
-def _scene_range(frame: np.ndarray) -> float | None:
+def _scene_range(frame: np.ndarray, mask: ScoringMask | None = None) -> float | None:
+    """max − min of the frame's finite values (within ``mask``); None when there are none."""
+    if mask is not None and frame.shape == mask.shape:
+        frame = frame[mask.values]
     values = frame[np.isfinite(frame)] if frame.dtype.kind == "f" else frame
     return float(values.max()) - float(values.min()) if values.size else None
 
 
 def _ceiling(real: Any, camera: CameraInputs, compared: dict, image: tuple[str, ...], config: ScoringConfig,
-             peak: float | None) -> tuple[dict | None, str | None]:
-    """The run's ceiling and where it came from: the real camera's 3-D noise when it is given (the
-    camera's repeatability, whatever the scene does), else consecutive real frames."""
+             peak: float | None, mask: np.ndarray | None) -> tuple[dict | None, str | None]:
+    """The run's ceiling over ``mask`` and where it came from: the real camera's 3-D noise when it
+    is given (the camera's repeatability, whatever the scene does), else consecutive real frames."""
     from ..noise.repeatability import sequence_noise_ceiling
 
     if camera.real_noise is None or config.unit is not None:  # the noise is in frame units
-        ceiling = sequence_ceiling(real, image, config, peak=peak)
+        ceiling = sequence_ceiling(real, image, config, peak=peak, mask=mask)
         return ceiling, None if ceiling is None else "sequence"
     noise = compared.get("real_noise")
     if noise is None:
         noise = camera.real_noise if isinstance(camera.real_noise, Mapping) else \
             as_noise(camera.real_noise, "real", config)
-    ceiling = sequence_noise_ceiling(real, noise, image, config, peak=peak)
+    ceiling = sequence_noise_ceiling(real, noise, image, config, peak=peak, mask=mask)
     return ceiling, None if ceiling is None else "noise3d"
 
 
 def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera: CameraInputs,
-              config: ScoringConfig) -> SequencePlan:
-    """Plan a sequence run (raises before any pair is scored when the plan cannot work)."""
+              config: ScoringConfig, mask: MaskSpec | None = None) -> SequencePlan:
+    """Plan a sequence run (raises before any pair is scored when the plan cannot work).
+
+    ``mask`` (a mask and/or ROI) is resolved against the first readable real frame's shape;
+    every pair, the registration found for all and the ceiling are computed over it."""
     given = camera.given()
     weights, image, skipped = plan_components(config.weights, config.missing, have_images=True,
                                               have_mtf=given["mtf"], have_sitf=given["sitf"],
@@ -216,8 +234,12 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
                             "to compare curves alone, score a single pair without frames", option="weights")
     with recorded_warnings() as notes:
         fixed, fixed_metrics, inputs, compared = camera_components(camera, weights, config)
-        registration = _registration(real, sim, pairing, config)
         first = _first_readable(real, pairing)
+        scored = None if first is None or mask is None else mask.resolve(first.shape)
+        if scored is not None:
+            inputs = {**inputs, "mask": scored.describe()}
+            notes.append(scored.note())
+        registration = _registration(real, sim, pairing, config, scored)
         dtype = None if first is None else first.dtype
         default_peak = valid = None
         peak = bins = hist_range = None
@@ -226,11 +248,12 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
         if dtype is not None:
             default_peak, valid = peak_and_valid(dtype, config.bits, None)
             if "psnr" in image and config.peak != "range":  # "range": each frame's own
-                peak = psnr_peak(config, default_peak, _scene_range(first), where="the first real frame")
+                peak = psnr_peak(config, default_peak, _scene_range(first, scored), where="the first real frame")
             if "nmi" in image:
                 bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
                                                        full_range(dtype, config.bits, config.numeric_peak))
-            ceiling, ceiling_source = _ceiling(real, camera, compared, image, config, peak)
+            ceiling, ceiling_source = _ceiling(real, camera, compared, image, config, peak,
+                                               None if scored is None else scored.values)
             if ceiling_source == "noise3d":
                 inputs.setdefault("real_noise", describe_input(camera.real_noise))
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,
@@ -238,4 +261,4 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
                         else None, bins=bins, levels=levels, hist_range=hist_range, registration=registration,
                         ceiling=ceiling, ceiling_source=ceiling_source,
-                        scene_range=None if first is None else _scene_range(first))
+                        scene_range=None if first is None else _scene_range(first, scored), mask=scored)

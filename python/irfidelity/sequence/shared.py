@@ -158,6 +158,10 @@ class SharedRun:
                 task_of.append((m, position))
         requests = [member.engine.plan.kernel_request(member.engine.options.max_pixels,
                                                       member.engine.options.max_bytes) for member in members]
+        mask = first.plan.mask
+        if any(member.engine.plan.mask is not mask for member in members):
+            raise FidelityError("the simulators' runs were planned with different masks; one pass scores every "
+                                "simulator over one mask (on the real frames' grid)", option="mask")
         progress = Progress(len(task_of), self.progress)
 
         def on_result(rows: list) -> None:
@@ -173,7 +177,8 @@ class SharedRun:
         try:
             _core.score_shared(real_paths, real_pages, sim_paths, sim_pages, owners, kinds, requests=requests,
                                workers=int(self.workers or 0), on_result=on_result,
-                               fingerprints=any(member.engine.fingerprint for member in members))
+                               fingerprints=any(member.engine.fingerprint for member in members),
+                               mask=first.plan.mask_values)
         finally:
             progress.close()
 
