@@ -241,3 +241,23 @@ def test_random_sequences_pool_within_their_frames(case):
     rep = _score(real, sim, weights=IMAGE, bits=14, peak=peak, hist_range=hist_range)
     assert_pooled_within(rep, real)
     assert_fidelity_bound(rep)
+
+
+def test_the_pool_does_not_depend_on_the_order_frames_finish_in():
+    import itertools
+    import types
+
+    from irfidelity.sequence.pooling import Pool
+
+    rng = np.random.default_rng(5)
+    frames = [(rng.integers(0, 4000, (16, 16)).astype(np.uint16), rng.integers(0, 4000, (16, 16)).astype(np.uint16))
+              for _ in range(4)]
+    plan = types.SimpleNamespace(image=("psnr",))
+    ranges = []
+    for order in itertools.permutations(range(4)):
+        pool = Pool(plan)
+        for i in order:
+            real, sim = frames[i]
+            pool.add(i, irf.pair_stats(real, sim, need=("psnr",)), (float(real.min()), float(real.max()) * (1 + i)))
+        ranges.append(pool.scene_range())
+    assert len(set(ranges)) == 1

@@ -69,7 +69,7 @@ class Pool:
         self.next = 0
         self.merged: PairStats | None = None
         self.extent: tuple[float, float] | None = None  # the real frames' (min, max)
-        self.relative_sse = 0.0  # Σ SSE_i / range_i² over the frames with a range
+        self.relative_terms: list[float] = []  # SSE_i / range_i² of the frames with a range (fsum: any order)
         self.relative_n = 0  # Σ N_i over those frames
 
     def add(self, index: int, stats: PairStats | None, real_extent: tuple[float, float] | None = None) -> None:
@@ -79,7 +79,7 @@ class Pool:
             lo, hi = real_extent
             self.extent = (lo, hi) if self.extent is None else (min(self.extent[0], lo), max(self.extent[1], hi))
             if hi > lo and stats.n and "psnr" in self.plan.image:
-                self.relative_sse += stats.mse() * stats.n / (hi - lo) ** 2
+                self.relative_terms.append(stats.mse() * stats.n / (hi - lo) ** 2)
                 self.relative_n += stats.n
         run = [] if self.merged is None else [self.merged]
         while self.next in self.pending:
@@ -96,8 +96,9 @@ class Pool:
         if self.merged is None or "psnr" not in self.plan.image:
             return None
         mse = self.merged.mse()
-        if self.relative_n and self.relative_sse > 0 and mse > 0:
-            return math.sqrt(mse * self.relative_n / self.relative_sse)
+        relative_sse = math.fsum(self.relative_terms)  # correctly rounded: the same in any finishing order
+        if self.relative_n and relative_sse > 0 and mse > 0:
+            return math.sqrt(mse * self.relative_n / relative_sse)
         return None if self.extent is None else self.extent[1] - self.extent[0]
 
     def _peak(self) -> float | None:
