@@ -56,7 +56,7 @@ def pair_ceiling(real: np.ndarray, real_ref: np.ndarray, components: tuple[str, 
     if r.shape != ref.shape:
         raise FidelityError(f"real_ref has shape {ref.shape}, the real frame {r.shape}: the ceiling needs a second "
                             "real frame of the same scene and size", option="real_ref")
-    numeric_peak = peak if peak is not None else config.peak if isinstance(config.peak, float) else None
+    numeric_peak = peak if peak is not None else config.numeric_peak
     if numeric_peak is None and config.peak == "range" and "psnr" in wanted:
         numeric_peak = float(np.nanmax(r)) - float(np.nanmin(r)) or None
     st = _stats.pair_stats(r, ref, bits=config.bits, peak=numeric_peak, bins=config.bins,
