@@ -25,6 +25,10 @@ pub enum Joint {
     Sparse(Vec<(u64, u64)>),
 }
 
+/// Most uniform bins a histogram may have (exposed as `_core.MAX_HIST_BINS`; the Python
+/// layer's one check of `bins` holds callers to it, `irfidelity.stats.bins_value`).
+pub const MAX_BINS: usize = 1 << 20;
+
 /// Largest `bins` stored densely: `bins²` u64 counters per worker must stay cache-sized.
 pub const DENSE_MAX_BINS: usize = 512;
 

@@ -121,7 +121,7 @@ def test_a_bad_request_is_a_fidelity_error():
         _core.pair_stats(real, sim, PairRequest(bins="many"))
     with pytest.raises(FidelityError, match=r"SequenceRequest\.pair: .*PairRequest\.hist_range"):
         _core.score_pairs(["a"], ["b"], request=SequenceRequest(PairRequest(hist_range=(0.0, 1.0, 2.0))))
-    with pytest.raises(FidelityError, match="model must be 'translation', 'rigid' or 'similarity', got \"affine\""):
+    with pytest.raises(FidelityError, match="model must be one of 'translation', 'rigid', 'similarity', got \"affine\""):
         _core.score_pairs(["a"], ["b"], request=SequenceRequest(register_each=("affine", "auto", None, 3)))
     with pytest.raises(FidelityError, match="warp order must be 1 .* got 2"):
         _core.score_pairs(["a"], ["b"], request=SequenceRequest(register_each=("rigid", "auto", None, 2)))
@@ -151,7 +151,7 @@ def test_core_errors_are_irfidelity_classes(tmp_path):
         _core.pair_stats(real, sim.T.copy(), PairRequest())
     with pytest.raises(ShapeError, match=r"unsupported frame dtype int64"):
         _core.pair_stats(real.astype(np.int64), sim.astype(np.int64), PairRequest())
-    with pytest.raises(ShapeError, match=r"expected 2-D frames, got shape \(1517,\)"):
+    with pytest.raises(ShapeError, match=r"^real: expected a 2-D frame, got shape \(1517,\)"):
         _core.pair_stats(real.ravel(), sim.ravel(), PairRequest())
     with pytest.raises(ShapeError, match=r"mask: shape \(41, 37\)"):
         _core.pair_stats(real, sim, PairRequest(), np.ones((41, 37), bool))

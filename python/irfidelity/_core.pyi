@@ -11,6 +11,7 @@ from irfidelity.sequence.plan import SequenceRequest
 from irfidelity.stats import PairRequest
 
 __all__ = [
+    "MAX_HIST_BINS",
     "MS_SSIM_WEIGHTS",
     "NoiseSums",
     "PairStats",
@@ -50,6 +51,8 @@ __all__ = [
 
 #: numpy names of the frame dtypes the kernel accepts.
 SUPPORTED_DTYPES: tuple[str, ...]
+#: The most uniform histogram bins (``bins``) a pair's statistics may have.
+MAX_HIST_BINS: int
 
 @final
 class PairStats:

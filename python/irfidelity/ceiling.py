@@ -81,8 +81,8 @@ def ceiling_peak(real: np.ndarray, config: ScoringConfig, peak: float | None) ->
     real frame's range with ``peak="range"``, or None (the frame type's default)."""
     if peak is not None:
         return peak
-    if isinstance(config.peak, float):
-        return config.peak
+    if config.numeric_peak is not None:
+        return config.numeric_peak
     if config.peak == "range":
         return float(np.nanmax(real)) - float(np.nanmin(real)) or None
     return None

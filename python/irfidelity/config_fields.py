@@ -12,8 +12,9 @@ from typing import Any
 
 from . import _core
 from .curves.similarity import MAX_FEATURE_POINTS
-from .errors import FidelityError
+from .errors import ConfigError, FidelityError
 from .fuzzy import GradeScale
+from .stats import bins_value
 
 __all__ = ["MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "REGISTRATION_METHODS", "PAIRING_RULES",
            "PEAK_RULES", "CURVE_OPTIONS", "ConfigError", "choice", "optional_int", "optional_positive", "finite_numbers",
@@ -26,13 +27,6 @@ REGISTRATION_MODELS: tuple[str, ...] = tuple(_core.REGISTRATION_MODELS)
 REGISTRATION_METHODS: tuple[str, ...] = tuple(_core.REGISTRATION_METHODS)
 PAIRING_RULES = ("auto", "name", "order")
 PEAK_RULES = ("range",)
-
-
-class ConfigError(FidelityError):
-    """A scoring configuration value (or file) that is not valid; names the field."""
-
-    def __init__(self, field_name: str, message: str):
-        super().__init__(f"{field_name}: {message}", option=field_name.split(".")[0])
 
 
 def choice(name: str, value: Any, choices: tuple) -> str:
@@ -109,14 +103,6 @@ def peak_value(value: Any) -> float | str | None:
     if isinstance(value, str):
         return choice("peak", value, PEAK_RULES)
     return optional_positive("peak", value)
-
-
-def bins_value(value: Any) -> int | str:
-    if isinstance(value, str) and value == "levels":
-        return value
-    if isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= (1 << 20):
-        return int(value)
-    raise ConfigError("bins", f"expected an integer in 1..1048576 or 'levels'; got {_short(value)}")
 
 
 def hist_range_value(value: Any) -> str | tuple:

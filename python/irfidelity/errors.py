@@ -11,7 +11,7 @@ issue one re-export it (``irfidelity.curves.edge.EdgeWarning`` is this module's 
 
 from __future__ import annotations
 
-__all__ = ["FidelityError", "FrameError", "ShapeError", "RangeError", "RegistrationError", "FidelityWarning",
+__all__ = ["FidelityError", "ConfigError", "FrameError", "ShapeError", "RangeError", "RegistrationError", "FidelityWarning",
            "PeakWarning", "RegistrationWarning", "EdgeWarning", "CurveUnitsWarning", "NoiseWarning",
            "AHPConsistencyWarning", "BarWarning", "BarClippingWarning", "BarSamplingWarning", "BarPolarityWarning",
            "ColtmanWarning", "MRTDWarning", "RadiometryWarning"]
@@ -27,6 +27,16 @@ class FidelityError(ValueError):
     def __init__(self, *args: object, option: str | None = None):
         super().__init__(*args)
         self.option = option
+
+
+class ConfigError(FidelityError):
+    """A scoring-option value (a :class:`~irfidelity.ScoringConfig` field, a configuration file's
+    or a function's keyword) that is not valid: ``"bins: expected ...; got 0"``. ``option`` is
+    the field and ``detail`` the message without it (the command line prefixes its flag)."""
+
+    def __init__(self, field_name: str, message: str):
+        super().__init__(f"{field_name}: {message}", option=field_name.split(".")[0])
+        self.detail = message
 
 
 class FrameError(FidelityError, OSError):

@@ -22,6 +22,7 @@ import numpy as np
 
 from . import _core
 from .errors import FidelityError, FrameError, RadiometryWarning, RangeError
+from .frames import FRAME_DTYPES
 
 __all__ = ["Radiometry", "read_radiometry", "RadiometryWarning", "CALIBRATION_FIELDS", "UNITS"]
 
@@ -150,7 +151,7 @@ class Radiometry:
         scalar = array.ndim == 0
         if array.dtype.kind == "b" or array.dtype.kind not in "iuf":
             raise FidelityError(f"expected an integer or float array, got dtype {array.dtype}")
-        if array.dtype not in _NATIVE:
+        if array.dtype not in FRAME_DTYPES:  # what the core converts without a copy
             array = array.astype(np.float64)
         array = np.require(array, requirements=["C", "A"])
         try:
@@ -237,10 +238,6 @@ class Radiometry:
 
 #: The fields a conversion uses (and that overrides may replace), in the order of the file record.
 CALIBRATION_FIELDS = tuple(f.name for f in dataclasses.fields(Radiometry))[:17]
-
-#: dtypes the core converts without a copy.
-_NATIVE = tuple(np.dtype(t) for t in _core.SUPPORTED_DTYPES)
-
 
 def _field_named(message: str) -> str | None:
     """The calibration field a core message starts with (``"emissivity = 1.5 ..."``)."""

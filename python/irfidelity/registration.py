@@ -340,8 +340,6 @@ def register(real: Any, sim: Any, *, model: str = "translation", method: str = D
             raise FidelityError(f"max_shift must be a number of pixels or None, got {max_shift!r}") from None
     r = np.ascontiguousarray(_as_frame(real, "real"))
     s = np.ascontiguousarray(_as_frame(sim, "sim"))
-    if r.shape != s.shape:
-        raise ShapeError(f"real and sim frames differ in shape: {r.shape} vs {s.shape}")
     if mask is not None:
         mask = np.ascontiguousarray(mask, dtype=bool)
         if mask.shape != r.shape:

@@ -419,8 +419,8 @@ def _per_frame_registration_line(reg: Mapping[str, Any]) -> str:
 
 
 def _peak_text(config: ScoringConfig) -> str:
-    if isinstance(config.peak, float):
-        return f"{config.peak:g}"
+    if config.numeric_peak is not None:
+        return f"{config.numeric_peak:g}"
     if config.peak == "range":
         return "the real frame's temperature range (max − min)" if config.unit else "the real frame's max − min"
     return "2^bits − 1" if config.bits else "the dtype's maximum"

@@ -15,6 +15,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from . import _core
 from .fuzzy import COMPONENTS
 
 __all__ = ["METRICS", "FRAME_COLUMNS", "REGISTRATION", "REGISTRATION_COLUMNS", "REGION_COLUMNS", "metric_names",
@@ -130,7 +131,7 @@ RESULT_COLUMNS: tuple[tuple[str, str, str], ...] = (
 #: A single pair's ``registration`` (``evaluate(..., register=MODEL)``; JSON only):
 #: :meth:`irfidelity.Registration.to_dict`.
 REGISTRATION: tuple[tuple[str, str, str], ...] = (
-    ("model", "", "'translation', 'rigid' or 'similarity'"),
+    ("model", "", " or ".join(", ".join(f"'{m}'" for m in _core.REGISTRATION_MODELS).rsplit(", ", 1))),
     ("method", "", "the method whose result was kept: 'phase' or 'nmi'"),
     ("matrix", "px", "2×3 affine matrix, simulated → real pixel coordinates (x = column, y = row)"),
     ("shift", "px", "(dy, dx) of the frame centre: real ≈ shift(sim, (dy, dx)), scikit-image's sign"),

@@ -8,7 +8,9 @@ frames are summed exactly, float frames with centred, compensated sums.
 
 from __future__ import annotations
 
+import numbers
 import os
+import reprlib
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -16,14 +18,15 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from . import _core
-from .errors import FidelityError, ShapeError
+from .errors import ConfigError, FidelityError, ShapeError
+from .frames import FRAME_DTYPES
 from .metrics import NMI, SSIM, nmi_from_entropies, psnr_from_mse, ssim_from_moments
 
-__all__ = ["PairStats", "pair_stats", "merge_all", "mse", "psnr", "ssim", "nmi", "plan_need", "peak_and_valid", "hist_params"]
+__all__ = ["PairStats", "pair_stats", "merge_all", "mse", "psnr", "ssim", "nmi", "plan_need", "peak_and_valid", "hist_params",
+           "bins_value"]
 
-_SUPPORTED = _core.SUPPORTED_DTYPES
 # dtype.name is slow (it formats a string); compare the type objects instead
-_SUPPORTED_TYPES = frozenset(np.dtype(n).type for n in _SUPPORTED)
+_SUPPORTED_TYPES = frozenset(d.type for d in FRAME_DTYPES)
 
 # What each metric needs from the pass (docs/design.md §2, "plan only what is needed").
 _NEEDS = {
@@ -370,18 +373,17 @@ def _as_frame(x, name: str) -> np.ndarray:
     if arr.ndim != 2:
         raise ShapeError(f"{name}: expected a 2-D frame, got shape {arr.shape}")
     if arr.dtype.type not in _SUPPORTED_TYPES:
-        raise ShapeError(f"{name}: unsupported dtype {arr.dtype}; expected one of {', '.join(_SUPPORTED)}")
+        raise ShapeError(f"{name}: unsupported dtype {arr.dtype}; expected one of {', '.join(_core.SUPPORTED_DTYPES)}")
     if not arr.dtype.isnative:
         arr = arr.astype(arr.dtype.newbyteorder("="))
     return arr
 
 
 def _frame_pair(real, sim) -> tuple[np.ndarray, np.ndarray]:
-    """``real`` and ``sim`` as 2-D frames of one shape and one dtype (else a ShapeError)."""
+    """``real`` and ``sim`` as 2-D frames of one dtype (else a ShapeError); the Rust call they
+    are given to checks that they have one shape (``_core``'s one check of a pair's shapes)."""
     r = _as_frame(real, "real")
     s = _as_frame(sim, "sim")
-    if r.shape != s.shape:
-        raise ShapeError(f"real and sim frames differ in shape: {r.shape} vs {s.shape}")
     if r.dtype != s.dtype:
         raise ShapeError(
             f"real and sim frames differ in dtype: {r.dtype} vs {s.dtype}; convert one explicitly "
@@ -423,28 +425,40 @@ def peak_and_valid(dtype: np.dtype, bits, peak):
 
 def full_range(dtype: np.dtype, bits: int | None, peak: float | None) -> tuple[float, float] | None:
     """The edges of ``hist_range="full"``: ``0..2**bits - 1`` (the values' range, also when a
-    peak is given), else ``0..peak``; a signed integer dtype's whole range when neither is
-    given; None for float frames without a peak."""
-    if bits is None and peak is None and dtype.kind == "i":
+    peak is given), else ``0..peak``; an integer dtype's whole range (from 0 for unsigned
+    dtypes) when neither is given; None for float frames without a peak. ``bits`` and
+    ``peak`` are those :func:`peak_and_valid` checked."""
+    if bits is not None:
+        return 0.0, float((1 << int(bits)) - 1)
+    if peak is not None:
+        return 0.0, float(peak)
+    if dtype.kind in "ui":
         info = np.iinfo(dtype)
-        return float(info.min), float(info.max)
-    top, _ = peak_and_valid(dtype, bits, None if bits is not None else peak)
-    return None if top is None else (0.0, float(top))
+        return float(min(info.min, 0)), float(info.max)
+    return None
+
+
+def bins_value(bins: Any) -> int | str:
+    """``bins`` checked: an integer in ``1.._core.MAX_HIST_BINS`` or ``"levels"``, else a
+    :class:`~irfidelity.errors.ConfigError` naming ``bins``. The one check of ``bins``:
+    :class:`~irfidelity.ScoringConfig`, :func:`pair_stats` (and the metrics on it) and the
+    command line's ``--bins`` make it."""
+    if isinstance(bins, str) and bins == "levels":
+        return bins
+    if isinstance(bins, numbers.Integral) and not isinstance(bins, bool) and 1 <= bins <= _core.MAX_HIST_BINS:
+        return int(bins)
+    raise ConfigError("bins", f"expected an integer in 1..{_core.MAX_HIST_BINS} or 'levels'; got {reprlib.repr(bins)}")
 
 
 def hist_params(bins, hist_range, dtype: np.dtype, full: tuple[float, float] | None):
     """``(nbins, levels, range)`` for the kernel from ``bins``/``hist_range`` (see :func:`pair_stats`);
     ``full`` is :func:`full_range`. Shared with the sequence engine, so both bin frames alike."""
-    levels = isinstance(bins, str) and bins == "levels"
-    nbins = None
-    if levels:
-        if dtype.kind not in "ui":
-            raise FidelityError("the 'levels' binning needs integer frames; give a number of bins for float frames",
-                                option="bins")
-    elif isinstance(bins, (int, np.integer)) and not isinstance(bins, bool) and 1 <= bins <= (1 << 20):
-        nbins = int(bins)
-    else:
-        raise FidelityError(f"bins must be an integer in 1..1048576 or 'levels', got {bins!r}", option="bins")
+    bins = bins_value(bins)
+    levels = bins == "levels"
+    nbins = None if levels else int(bins)
+    if levels and dtype.kind not in "ui":
+        raise FidelityError("the 'levels' binning needs integer frames; give a number of bins for float frames",
+                            option="bins")
     rng = None
     if isinstance(hist_range, str) and hist_range == "full":
         if full is None:

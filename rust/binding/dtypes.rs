@@ -1,24 +1,17 @@
-//! The frame dtypes the bindings accept, listed once, and the one dispatch from a numpy
-//! dtype to its Rust sample type (`with_frame_dtype!`, in scope in the modules declared
-//! after this one).
+//! The one dispatch from a numpy dtype to its Rust sample type (`with_frame_dtype!`, in
+//! scope in the modules declared after this one; the names are `crate::dtype::Dtype`'s), and
+//! the checks every binding makes of the frames it is given.
 
-/// Calls `$m!($args … list)` with the list of supported `Rust sample type => numpy dtype name`.
+/// Calls `$m!($args … list)` with the list of supported `Rust sample type => Dtype variant`
+/// (the names are `crate::dtype::Dtype`'s).
 macro_rules! frame_dtypes {
     ($m:ident, $($args:tt)*) => {
         $m! {
-            $($args)* u8 => "uint8", u16 => "uint16", i16 => "int16", u32 => "uint32",
-            half::f16 => "float16", f32 => "float32", f64 => "float64"
+            $($args)* u8 => U8, u16 => U16, i16 => I16, u32 => U32,
+            half::f16 => F16, f32 => F32, f64 => F64
         }
     };
 }
-
-macro_rules! dtype_names {
-    ($($t:ty => $name:literal),*) => {
-        /// The frame dtypes the kernels accept (exposed as `_core.SUPPORTED_DTYPES`).
-        pub(crate) const SUPPORTED_DTYPES: &[&str] = &[$($name),*];
-    };
-}
-frame_dtypes!(dtype_names,);
 
 /// `Some($body)` evaluated with the type `$T` standing for the Rust sample type of the numpy
 /// dtype `$dtype`, or `None` when the dtype is not supported.
@@ -26,7 +19,7 @@ macro_rules! with_frame_dtype {
     ($py:expr, $dtype:expr, |$T:ident| $body:expr) => {
         frame_dtypes!(with_frame_dtype, @each $py, $dtype, $T, $body;)
     };
-    (@each $py:expr, $dtype:expr, $T:ident, $body:expr; $($t:ty => $name:literal),*) => {{
+    (@each $py:expr, $dtype:expr, $T:ident, $body:expr; $($t:ty => $variant:ident),*) => {{
         let dtype = $dtype;
         $(
             if dtype.is_equiv_to(&numpy::dtype::<$t>($py)) {
@@ -39,12 +32,52 @@ macro_rules! with_frame_dtype {
     }};
 }
 
+/// The frame dtypes the kernels accept, by name (exposed as `_core.SUPPORTED_DTYPES`).
+pub(crate) fn supported_dtypes() -> [&'static str; 7] {
+    crate::dtype::Dtype::ALL.map(crate::dtype::Dtype::name)
+}
+
 /// The one error for an array whose dtype no kernel takes (`what` names the array).
 pub(crate) fn unsupported_dtype(what: &str, dtype: impl std::fmt::Display) -> crate::Error {
     crate::Error::Shape(format!(
         "{what}: unsupported frame dtype {dtype}: expected one of {}",
-        SUPPORTED_DTYPES.join(", ")
+        crate::dtype::Dtype::names()
     ))
+}
+
+/// `(rows, cols)` of the real frame when the simulated one has its shape: the one check of
+/// a frame pair's shapes (both 2-D, one shape) for every binding that takes a pair.
+pub(crate) fn pair_shape(
+    real: &pyo3::Bound<'_, numpy::PyUntypedArray>,
+    sim: &pyo3::Bound<'_, numpy::PyUntypedArray>,
+) -> crate::Result<(usize, usize)> {
+    use numpy::PyUntypedArrayMethods;
+    for (what, frame) in [("real", real), ("sim", sim)] {
+        if frame.ndim() != 2 {
+            return Err(crate::Error::Shape(format!(
+                "{what}: expected a 2-D frame, got shape {}",
+                shape_text(frame.shape())
+            )));
+        }
+    }
+    if real.shape() != sim.shape() {
+        return Err(crate::Error::Shape(format!(
+            "real and sim frames differ in shape: {} vs {}",
+            shape_text(real.shape()),
+            shape_text(sim.shape())
+        )));
+    }
+    Ok((real.shape()[0], real.shape()[1]))
+}
+
+/// A shape as numpy prints it: `(2, 3)`, `(5,)`.
+pub(crate) fn shape_text(shape: &[usize]) -> String {
+    let dims: Vec<String> = shape.iter().map(usize::to_string).collect();
+    if dims.len() == 1 {
+        format!("({},)", dims[0])
+    } else {
+        format!("({})", dims.join(", "))
+    }
 }
 
 /// The contiguous samples of an array the Python layer laid out (C order), or an internal

@@ -7,7 +7,7 @@ use numpy::{PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, P
 use pyo3::prelude::*;
 
 use super::args;
-use super::dtypes::SUPPORTED_DTYPES;
+use super::dtypes::pair_shape;
 use super::register::nbytes;
 use crate::maps::{self, SsimParams};
 use crate::Error;
@@ -30,25 +30,12 @@ fn contiguous<'a, T: numpy::Element>(a: &'a PyReadonlyArrayDyn<'_, T>) -> PyResu
     })
 }
 
-/// `(rows, cols)` of two 2-D frames of one shape.
-fn frame_shape(real: &Bound<'_, PyUntypedArray>, sim: &Bound<'_, PyUntypedArray>) -> PyResult<(usize, usize)> {
-    if real.ndim() != 2 || real.shape() != sim.shape() {
-        return Err(crate::Error::Shape(format!(
-            "real and sim must be 2-D frames of one shape, got {:?} and {:?}",
-            real.shape(),
-            sim.shape()
-        ))
-        .into());
-    }
-    Ok((real.shape()[0], real.shape()[1]))
-}
-
 fn unsupported(real: &Bound<'_, PyUntypedArray>, sim: &Bound<'_, PyUntypedArray>) -> PyErr {
     PyErr::from(crate::Error::Shape(format!(
         "unsupported frame dtype pair ({}, {}): expected two frames of the same dtype among {}",
         real.dtype(),
         sim.dtype(),
-        SUPPORTED_DTYPES.join(", ")
+        crate::dtype::Dtype::names()
     )))
 }
 
@@ -72,7 +59,7 @@ fn ssim_map<'py>(
     step: usize,
     #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, f64)> {
-    let (rows, cols) = frame_shape(real, sim)?;
+    let (rows, cols) = pair_shape(real, sim)?;
     let params = SsimParams { sigma, win_size, k1, k2, peak };
     params.check()?;
     maps::ssim_map_plan((rows, cols), &params, step)
@@ -110,7 +97,7 @@ fn ms_ssim(
     scales: Option<usize>,
     #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<(f64, Vec<f64>, Vec<f64>, Vec<f64>)> {
-    let (rows, cols) = frame_shape(real, sim)?;
+    let (rows, cols) = pair_shape(real, sim)?;
     let params = SsimParams { sigma, win_size, k1, k2, peak };
     params.check()?;
     maps::ms_ssim_plan((rows, cols), &params)

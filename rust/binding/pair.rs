@@ -7,8 +7,8 @@ use numpy::{IntoPyArray, PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUn
 use pyo3::prelude::*;
 
 use super::args::{self, PairRequest};
-use super::dtypes::{contiguous, mask_samples, unsupported_dtype};
-use super::register::{mask_bytes, nbytes, registration_tuple, shape_of, RegistrationTuple};
+use super::dtypes::{contiguous, mask_samples, pair_shape, unsupported_dtype};
+use super::register::{mask_bytes, nbytes, registration_tuple, RegistrationTuple};
 use super::stats::PyPairStats;
 use crate::kernel::Sample;
 use crate::register::{Method, Model, Options};
@@ -57,11 +57,7 @@ fn score_registered<'py>(
     #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<Registered<'py>> {
     let warp = warp_of(search, matrix, order)?;
-    let shape = shape_of(real, "real")?;
-    if shape_of(sim, "simulated")? != shape {
-        let message = format!("real and simulated frames differ in shape: {:?} vs {:?}", real.shape(), sim.shape());
-        return Err(Error::Shape(message).into());
-    }
+    let shape = pair_shape(real, sim)?;
     let mask = mask_samples(mask.as_ref(), shape)?;
     let (plan, kind) = warp.plan(shape);
     plan.holding(nbytes(&[real, sim]) + mask_bytes(mask))

@@ -10,7 +10,7 @@ use numpy::{IntoPyArray, PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUn
 use pyo3::prelude::*;
 
 use super::args;
-use super::dtypes::{mask_samples, unsupported_dtype};
+use super::dtypes::{mask_samples, pair_shape, unsupported_dtype};
 use crate::budget;
 use crate::register::{self, Affine, Frame, Interp, Method, Model, Options, Source};
 use crate::Error;
@@ -33,7 +33,7 @@ pub(crate) fn registration_tuple(reg: &register::Registration) -> RegistrationTu
     (flat(&reg.matrix), reg.method.name(), reg.confidence, reg.overlap, reg.inverted)
 }
 
-pub(crate) fn shape_of(a: &Bound<'_, PyUntypedArray>, what: &str) -> crate::Result<(usize, usize)> {
+fn shape_of(a: &Bound<'_, PyUntypedArray>, what: &str) -> crate::Result<(usize, usize)> {
     match a.shape() {
         &[rows, cols] => Ok((rows, cols)),
         s => Err(crate::Error::Shape(format!("{what} frame must be 2-D, got shape {s:?}"))),
@@ -85,12 +85,8 @@ fn register_frames(
         method: Method::parse(method).map_err(PyErr::from)?,
         max_shift,
     };
-    let (rows, cols) = shape_of(real, "real")?;
+    let (rows, cols) = pair_shape(real, sim)?;
     let mask = mask_samples(mask.as_ref(), (rows, cols))?;
-    if shape_of(sim, "simulated")? != (rows, cols) {
-        let message = format!("real and simulated frames differ in shape: {:?} vs {:?}", real.shape(), sim.shape());
-        return Err(crate::Error::Shape(message).into());
-    }
     register::register_plan((rows, cols), &opts)
         .holding(nbytes(&[real, sim]) + mask_bytes(mask))
         .check(max_bytes.unwrap_or(crate::io::DEFAULT_MAX_BYTES), Error::Registration)?;

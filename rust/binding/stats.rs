@@ -11,7 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
 use super::args::{self, PairRequest};
-use super::dtypes::{unsupported_dtype, SUPPORTED_DTYPES};
+use super::dtypes::{pair_shape, shape_text, supported_dtypes, unsupported_dtype};
 use crate::hist::{Entropies, HistSpec, JointTable};
 use crate::stats::{self, Request, Sample, Sums};
 
@@ -187,7 +187,7 @@ fn dtype_mismatch(real: &Bound<'_, PyUntypedArray>, sim: &Bound<'_, PyUntypedArr
         "real and sim frames differ in dtype: {} vs {}; expected two frames of the same dtype among {}",
         real.dtype(),
         sim.dtype(),
-        SUPPORTED_DTYPES.join(", ")
+        crate::dtype::Dtype::names()
     ))
 }
 
@@ -223,23 +223,6 @@ fn common_layout<'py>(
     Ok((laid_out(real, fortran)?, laid_out(sim, fortran)?, fortran))
 }
 
-fn frame_shape(arr: &Bound<'_, PyUntypedArray>) -> crate::Result<(usize, usize)> {
-    match arr.shape() {
-        &[rows, cols] => Ok((rows, cols)),
-        _ => Err(crate::Error::Shape(format!("expected 2-D frames, got shape {}", shape_text(arr)))),
-    }
-}
-
-/// A shape as numpy prints it: `(2, 3)`.
-fn shape_text(arr: &Bound<'_, PyUntypedArray>) -> String {
-    let dims: Vec<String> = arr.shape().iter().map(usize::to_string).collect();
-    if dims.len() == 1 {
-        format!("({},)", dims[0])
-    } else {
-        format!("({})", dims.join(", "))
-    }
-}
-
 /// The mask in the frames' memory order (a copy if it is not), checked against their shape.
 fn mask_laid_out<'py>(
     mask: &Bound<'py, PyArrayDyn<bool>>,
@@ -247,7 +230,7 @@ fn mask_laid_out<'py>(
     fortran: bool,
 ) -> PyResult<Bound<'py, PyArrayDyn<bool>>> {
     if mask.shape() != frame.shape() {
-        let (got, want) = (shape_text(mask.as_untyped()), shape_text(frame));
+        let (got, want) = (shape_text(mask.shape()), shape_text(frame.shape()));
         return Err(crate::Error::Shape(format!("mask: shape {got} differs from the frames' {want}")).into());
     }
     Ok(laid_out(mask.as_untyped(), fortran)?.cast_into::<PyArrayDyn<bool>>()?)
@@ -264,15 +247,7 @@ fn pair_stats(
     #[pyo3(from_py_with = args::pair_request)] request: PairRequest,
     mask: Option<&Bound<'_, PyArrayDyn<bool>>>,
 ) -> PyResult<PyPairStats> {
-    let shape = frame_shape(real)?;
-    if sim.shape() != real.shape() {
-        return Err(crate::Error::Shape(format!(
-            "real and sim frames differ in shape: {} vs {}",
-            shape_text(real),
-            shape_text(sim)
-        ))
-        .into());
-    }
+    let shape = pair_shape(real, sim)?;
     let (real, sim, fortran) = common_layout(real, sim)?;
     let mask = mask.map(|m| mask_laid_out(m, &real, fortran)).transpose()?;
     let mask = mask.as_ref().map(readonly).transpose()?;
@@ -326,6 +301,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(plain_moments, m)?)?;
     m.add_class::<PyPairStats>()?;
     m.add_function(wrap_pyfunction!(pair_stats, m)?)?;
-    m.add("SUPPORTED_DTYPES", PyTuple::new(m.py(), SUPPORTED_DTYPES)?)?;
+    m.add("SUPPORTED_DTYPES", PyTuple::new(m.py(), supported_dtypes())?)?;
+    m.add("MAX_HIST_BINS", crate::hist::MAX_BINS)?;
     Ok(())
 }

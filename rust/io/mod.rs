@@ -25,6 +25,7 @@ use std::io::{BufRead, BufReader, Cursor, Seek};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 
+use crate::dtype::Dtype;
 use crate::{Error, Result};
 use tiff_pages::FileKey;
 
@@ -89,17 +90,22 @@ impl FrameData {
         }
     }
 
+    /// The sample type.
+    pub fn dtype(&self) -> Dtype {
+        match self {
+            FrameData::U8(_) => Dtype::U8,
+            FrameData::U16(_) => Dtype::U16,
+            FrameData::I16(_) => Dtype::I16,
+            FrameData::U32(_) => Dtype::U32,
+            FrameData::F16(_) => Dtype::F16,
+            FrameData::F32(_) => Dtype::F32,
+            FrameData::F64(_) => Dtype::F64,
+        }
+    }
+
     /// numpy-style name of the sample type ("uint16", "float16", ...).
     pub fn dtype_name(&self) -> &'static str {
-        match self {
-            FrameData::U8(_) => "uint8",
-            FrameData::U16(_) => "uint16",
-            FrameData::I16(_) => "int16",
-            FrameData::U32(_) => "uint32",
-            FrameData::F16(_) => "float16",
-            FrameData::F32(_) => "float32",
-            FrameData::F64(_) => "float64",
-        }
+        self.dtype().name()
     }
 }
 

@@ -6,7 +6,7 @@ use super::range::data_range;
 use super::request::{HistRequest, Request};
 use super::sample::Sample;
 use crate::error::{Error, Result};
-use crate::hist::{HistSpec, DENSE_MAX_BINS};
+use crate::hist::{HistSpec, DENSE_MAX_BINS, MAX_BINS};
 
 /// Integer bins, exact: the bin of `v` is `clamp(floor((v − lo) / width), 0, top)`, where
 /// `top` is the bin holding the range's upper end, so values below the range land in bin 0
@@ -132,9 +132,8 @@ pub(super) fn plan_hist<T: Sample>(
     match hreq {
         HistRequest::Levels => {
             if !T::IS_INT {
-                return Err(Error::Value(
-                    "bins='levels' needs integer frames; use an integer bin count for float frames".into(),
-                ));
+                // the Python layer refuses 'levels' for float frames (stats.hist_params)
+                return Err(Error::Value("internal: one bin per level asked of float frames".into()));
             }
             // A small data span is stored densely (same counts, faster than sorting keys).
             let (lo, hi) = data_range(r, s, req).unwrap_or((0.0, 0.0));
@@ -150,8 +149,9 @@ pub(super) fn plan_hist<T: Sample>(
         }
         HistRequest::Bins { bins, range } => {
             let bins = *bins;
-            if bins == 0 || bins > (1 << 20) {
-                return Err(Error::Value(format!("bins must be between 1 and 1048576, got {bins}")));
+            if bins == 0 || bins > MAX_BINS {
+                // the Python layer checks `bins` once (stats.bins_value)
+                return Err(Error::Value(format!("internal: {bins} histogram bins asked, outside 1..={MAX_BINS}")));
             }
             let (lo, hi) = match range {
                 Some((lo, hi)) => {
@@ -264,7 +264,7 @@ mod tests {
             (-limit, -limit + 3),
             (i64::MIN as i128, i64::MAX as i128),
         ];
-        for bins in [1usize, 2, 3, 255, 256, 512, 65536, 65537, 1 << 20] {
+        for bins in [1usize, 2, 3, 255, 256, 512, 65536, 65537, MAX_BINS] {
             for &(lo, hi) in &ranges {
                 let edges = IntEdges::new(bins, lo, hi);
                 assert!(edges.top() < bins, "bins {bins} ({lo}, {hi})");

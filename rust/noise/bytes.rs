@@ -10,7 +10,6 @@ use super::{Acc, Dtype, NoiseSums, MAX_FRAMES};
 use crate::{Error, Result};
 
 const MAGIC: &[u8; 4] = b"IFN1";
-const DTYPES: [Dtype; 7] = [Dtype::U8, Dtype::U16, Dtype::I16, Dtype::U32, Dtype::F16, Dtype::F32, Dtype::F64];
 
 fn bad() -> Error {
     Error::Value("not serialized 3-D noise sums (corrupt, or written by another version)".into())
@@ -95,7 +94,7 @@ impl NoiseSums {
         w.u64(self.rows as u64);
         w.u64(self.cols as u64);
         w.u64(self.frames as u64);
-        w.put(&[DTYPES.iter().position(|&d| d == self.dtype).expect("known dtype") as u8]);
+        w.put(&[Dtype::ALL.iter().position(|&d| d == self.dtype).expect("known dtype") as u8]);
         match &self.acc {
             Acc::Int(a) => {
                 w.i64s(&[a.lo, a.hi, a.min, a.max]);
@@ -130,7 +129,7 @@ impl NoiseSums {
             return Err(bad());
         }
         let (rows, cols, frames) = (rd.usize()?, rd.usize()?, rd.usize()?);
-        let dtype = *DTYPES.get(rd.u8()? as usize).ok_or_else(bad)?;
+        let dtype = *Dtype::ALL.get(rd.u8()? as usize).ok_or_else(bad)?;
         if rows == 0 || cols == 0 || frames > MAX_FRAMES {
             return Err(bad());
         }

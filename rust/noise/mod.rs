@@ -35,69 +35,8 @@ pub use wide::U256;
 /// The seven parts, in the order every array of this module uses.
 pub const PARTS: [&str; 7] = ["t", "v", "h", "tv", "th", "vh", "tvh"];
 
-/// Sample types of a recording.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Dtype {
-    U8,
-    U16,
-    I16,
-    U32,
-    F16,
-    F32,
-    F64,
-}
-
-impl Dtype {
-    pub fn name(self) -> &'static str {
-        match self {
-            Dtype::U8 => "uint8",
-            Dtype::U16 => "uint16",
-            Dtype::I16 => "int16",
-            Dtype::U32 => "uint32",
-            Dtype::F16 => "float16",
-            Dtype::F32 => "float32",
-            Dtype::F64 => "float64",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<Dtype> {
-        Some(match name {
-            "uint8" => Dtype::U8,
-            "uint16" => Dtype::U16,
-            "int16" => Dtype::I16,
-            "uint32" => Dtype::U32,
-            "float16" => Dtype::F16,
-            "float32" => Dtype::F32,
-            "float64" => Dtype::F64,
-            _ => return None,
-        })
-    }
-
-    /// Bytes of one sample.
-    pub fn size(self) -> usize {
-        match self {
-            Dtype::U8 => 1,
-            Dtype::U16 | Dtype::I16 | Dtype::F16 => 2,
-            Dtype::U32 | Dtype::F32 => 4,
-            Dtype::F64 => 8,
-        }
-    }
-
-    pub fn is_int(self) -> bool {
-        matches!(self, Dtype::U8 | Dtype::U16 | Dtype::I16 | Dtype::U32)
-    }
-
-    /// Smallest and largest value of an integer type.
-    pub fn int_range(self) -> Option<(i64, i64)> {
-        Some(match self {
-            Dtype::U8 => (0, u8::MAX as i64),
-            Dtype::U16 => (0, u16::MAX as i64),
-            Dtype::I16 => (i16::MIN as i64, i16::MAX as i64),
-            Dtype::U32 => (0, u32::MAX as i64),
-            _ => return None,
-        })
-    }
-}
+/// Sample types of a recording: the crate's one list of frame sample types.
+pub use crate::dtype::Dtype;
 
 /// The accumulated sums, exact (integer frames) or compensated (float frames).
 #[derive(Clone, Debug, PartialEq)]

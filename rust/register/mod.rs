@@ -70,7 +70,7 @@ impl Model {
         Model::ALL
             .into_iter()
             .find(|m| m.name() == name)
-            .ok_or_else(|| Error::Value(format!("model must be 'translation', 'rigid' or 'similarity', got {name:?}")))
+            .ok_or_else(|| unknown_name("model", &Model::ALL.map(Model::name), name))
     }
 
     pub fn name(self) -> &'static str {
@@ -103,7 +103,7 @@ impl Method {
         Method::ALL
             .into_iter()
             .find(|m| m.name() == name)
-            .ok_or_else(|| Error::Value(format!("method must be 'auto', 'phase' or 'nmi', got {name:?}")))
+            .ok_or_else(|| unknown_name("method", &Method::ALL.map(Method::name), name))
     }
 
     pub fn name(self) -> &'static str {
@@ -113,6 +113,13 @@ impl Method {
             Method::Auto => "auto",
         }
     }
+}
+
+/// The error for a `what` (model, method) that is none of `names`: "model must be one of
+/// 'translation', 'rigid', 'similarity', got "affine"".
+fn unknown_name(what: &str, names: &[&str], got: &str) -> Error {
+    let quoted: Vec<String> = names.iter().map(|n| format!("'{n}'")).collect();
+    Error::Value(format!("{what} must be one of {}, got {got:?}", quoted.join(", ")))
 }
 
 /// What to search for.
@@ -186,8 +193,9 @@ pub fn register_frames(real: &Frame, sim: &Frame, opts: &Options) -> Result<Regi
 
 fn search(real: &Frame, sim: &Frame, opts: &Options) -> Result<Registration> {
     if (real.rows, real.cols) != (sim.rows, sim.cols) {
-        return Err(Error::Shape(format!(
-            "real and simulated frames differ in shape: ({}, {}) vs ({}, {})",
+        // every caller wraps both frames with one shape (the bindings check the arrays given)
+        return Err(Error::Value(format!(
+            "internal: registration of frames of two shapes, {}×{} and {}×{}",
             real.rows, real.cols, sim.rows, sim.cols
         )));
     }
