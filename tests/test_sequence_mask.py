@@ -317,3 +317,19 @@ def test_cli_masks_and_rois_sequences(lepton, tmp_path, capsys):
             err = capsys.readouterr().err.strip()
             assert len(err.splitlines()) == 1 and needle in err, err
             assert "--mask" in err or "--roi" in err
+
+
+def test_a_ceilings_range_peak_is_the_masked_range():
+    from irfidelity.ceiling import pair_ceiling
+    from irfidelity.config import ScoringConfig
+
+    rng = np.random.default_rng(3)
+    a = rng.integers(100, 200, (32, 32)).astype(np.uint16)
+    a[0, 0] = 4000  # outside the mask: must not set the peak
+    b = (a.astype(np.int64) + rng.integers(-3, 4, a.shape)).clip(0).astype(np.uint16)
+    mask = np.ones(a.shape, bool)
+    mask[0, 0] = False
+    got = pair_ceiling(a, b, ("psnr",), ScoringConfig(peak="range", weights="psnr=1"), mask=mask)
+    peak = float(a[mask].max()) - float(a[mask].min())
+    want = irf.evaluate(a, b, mask=mask, peak=peak, weights="psnr=1").components["psnr"]
+    assert got["psnr"] == pytest.approx(want, rel=1e-12)

@@ -68,7 +68,7 @@ def pair_ceiling(real: np.ndarray, real_ref: np.ndarray, components: tuple[str, 
     if r.shape != ref.shape:
         raise FidelityError(f"real_ref has shape {ref.shape}, the real frame {r.shape}: the ceiling needs a second "
                             "real frame of the same scene and size", option="real_ref")
-    numeric_peak = ceiling_peak(r, config, peak) if "psnr" in wanted else peak if peak is not None else \
+    numeric_peak = ceiling_peak(r, config, peak, mask) if "psnr" in wanted else peak if peak is not None else \
         config.numeric_peak
     st = _stats.pair_stats(r, ref, bits=config.bits, peak=numeric_peak, bins=config.bins,
                            hist_range=config.hist_range, mask=mask, need=wanted, nonfinite=config.nonfinite)
@@ -76,15 +76,16 @@ def pair_ceiling(real: np.ndarray, real_ref: np.ndarray, components: tuple[str, 
     return values
 
 
-def ceiling_peak(real: np.ndarray, config: ScoringConfig, peak: float | None) -> float | None:
+def ceiling_peak(real: np.ndarray, config: ScoringConfig, peak: float | None, mask: Any = None) -> float | None:
     """The PSNR peak of a ceiling: ``peak`` (the simulator's pair's), the configured number, the
-    real frame's range with ``peak="range"``, or None (the frame type's default)."""
+    real frame's range over the scored pixels (``mask``) with ``peak="range"``, or None (the frame
+    type's default)."""
     if peak is not None:
         return peak
     if config.numeric_peak is not None:
         return config.numeric_peak
     if config.peak == "range":
-        return float(np.nanmax(real)) - float(np.nanmin(real)) or None
+        return _stats.real_range(real, mask, config.nonfinite) or None
     return None
 
 

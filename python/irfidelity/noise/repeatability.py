@@ -262,7 +262,7 @@ def noise_ceiling(real: Any, noise: Any, components: tuple[str, ...], config: Sc
     sigma = temporal_sigma(noise)
     out: dict[str, float] = {}
     if "psnr" in wanted:
-        numeric = ceiling_peak(frame, cfg, peak)
+        numeric = ceiling_peak(frame, cfg, peak, mask)
         if numeric is None and frame.dtype.kind in "ui":
             numeric = _stats.peak_and_valid(frame.dtype, cfg.bits, None)[0]  # 2**bits − 1, else the type's
         if numeric is None:
