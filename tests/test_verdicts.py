@@ -362,3 +362,69 @@ def test_defects_are_found_band_by_band_as_over_the_whole_frame():
     assert found is not None and found["pixels"] == top
     assert found["share"] == pytest.approx(largest.sum() / squared.sum(), rel=1e-12)
     assert found["rows"] == [edge - 20, edge + 19] and found["cols"] == [300, 399]
+
+
+def _whole_frame_defect(real, sim, mask):
+    """concentrated_error's two tests computed directly over the whole frame (the reference)."""
+    from irfidelity import defects
+
+    scored = np.isfinite(real) & np.isfinite(sim) & (np.ones(real.shape, bool) if mask is None else mask)
+    squared = np.where(scored, (sim.astype(float) - real) ** 2, 0.0)
+    total, count = squared.sum(), int(scored.sum())
+    top = int(np.ceil(defects.TOP_SHARE * count))
+    if np.sort(squared.ravel())[::-1][:top].sum() / total > defects.MOST:
+        return "top", np.sort(squared.ravel())[::-1][:top].sum() / total
+    ring = np.zeros(real.shape, bool)
+    ring[:2] = ring[-2:] = True
+    ring[:, :2] = ring[:, -2:] = True
+    ring &= scored
+    share = squared[ring].sum() / total
+    if share > defects.MOST and ring.sum() < 0.1 * count:
+        rows, cols = np.nonzero(ring)
+        return "ring", share, [rows.min(), rows.max()], [cols.min(), cols.max()], int(ring.sum())
+    return None
+
+
+@pytest.mark.parametrize("case", ["hot border", "cold border masked", "nan and mask", "spread", "int cluster",
+                                  "three rows"])
+def test_defects_equal_a_whole_frame_reference(case, monkeypatch):
+    from irfidelity import defects
+
+    monkeypatch.setattr(defects, "BAND_PIXELS", 40 * 97)  # several bands of 40 rows
+    rng = np.random.default_rng(len(case))
+    real = 3000.0 + rng.normal(0, 3, (203, 97))
+    sim = real + rng.normal(0, 3, real.shape)
+    mask = None
+    if case == "hot border":
+        sim[:2] += 400
+        sim[:, -2:] += 400
+    elif case == "cold border masked":
+        sim[-2:] -= 500
+        sim[:, :2] -= 500
+        mask = np.ones(real.shape, bool)
+        mask[100:110, :] = False
+    elif case == "nan and mask":
+        real[5, 5] = np.nan
+        sim[7, 9] = np.inf
+        sim[150:152, 40:44] = 0.0
+        mask = rng.random(real.shape) > 0.1
+    elif case == "int cluster":
+        real, sim = real.astype(np.uint16), sim.astype(np.uint16)
+        sim[60:66, 10:16] = 0
+    elif case == "three rows":  # every row is a border row: counted once
+        real, sim = real[:3], sim[:3].copy()
+        sim[:, :2] += 900
+    found = defects.concentrated_error(real, sim, mask)
+    want = _whole_frame_defect(real.astype(float), sim.astype(float), mask)
+    if want is None:
+        assert found is None
+    elif want[0] == "top":
+        assert found is not None and found["share"] == pytest.approx(want[1], rel=1e-9)
+    else:
+        assert found is not None and found["share"] == pytest.approx(want[1], rel=1e-9)
+        assert found["rows"] == want[2] and found["cols"] == want[3] and found["pixels"] == want[4]
+    assert (want is None) == (case in ("spread", "three rows"))
+    if case == "three rows":  # every pixel is on the border, counted once
+        squared, scored = defects._band(real, sim, None, 0, 3)
+        total, count, _ = defects._ring_sums(squared, scored, 0, 3)
+        assert count == real.size and total == pytest.approx(squared.sum(), rel=1e-12)

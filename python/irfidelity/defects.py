@@ -47,23 +47,50 @@ def _bands(rows: int, cols: int):
         yield start, min(start + step, rows)
 
 
-def _band(real: np.ndarray, sim: np.ndarray, mask: Any, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
-    """The squared differences of rows ``start:stop`` (0 where not scored) and the scored pixels."""
-    r = real[start:stop].astype(np.float64)
-    s = sim[start:stop].astype(np.float64)
-    scored = np.isfinite(r) & np.isfinite(s)
+def _band(real: np.ndarray, sim: np.ndarray, mask: Any, start: int, stop: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """The squared differences of rows ``start:stop`` (0 where not scored) and the scored pixels
+    (None: all of them — integer frames without a mask)."""
+    squared = np.subtract(sim[start:stop], real[start:stop], dtype=np.float64)
+    np.multiply(squared, squared, out=squared)
+    scored = None
+    if real.dtype.kind == "f" or sim.dtype.kind == "f":
+        scored = np.isfinite(real[start:stop]) & np.isfinite(sim[start:stop])
     if mask is not None:
-        scored &= mask[start:stop]
-    return np.where(scored, (s - r) ** 2, 0.0), scored
+        scored = mask[start:stop] if scored is None else scored & mask[start:stop]
+    if scored is not None:
+        squared[~scored] = 0.0
+    return squared, scored
 
 
-def _ring(start: int, stop: int, shape: tuple[int, int]) -> np.ndarray:
-    """The border pixels (within :data:`_BORDER` of the frame's edge) of rows ``start:stop``."""
-    rows = np.arange(start, stop)
-    ring = np.zeros((stop - start, shape[1]), dtype=bool)
-    ring[(rows < _BORDER) | (rows >= shape[0] - _BORDER)] = True
-    ring[:, :_BORDER] = ring[:, -_BORDER:] = True
-    return ring
+def _ring_sums(squared: np.ndarray, scored: np.ndarray | None, start: int, rows: int) -> tuple[float, int, list]:
+    """Squared error, scored pixels and their bounding boxes within :data:`_BORDER` of the
+    frame's edge, in rows ``start:start + len(squared)`` (slices: the interior is not touched)."""
+    stop = start + squared.shape[0]
+    top = min(stop, _BORDER)
+    bottom = max(start, rows - _BORDER, top)  # rows [start, top) and [bottom, stop)
+    inner = (max(start, _BORDER) - start, min(stop, rows - _BORDER) - start)  # band rows off the edge rows
+    cols = squared.shape[1]
+    parts = [(slice(0, max(0, top - start)), slice(None), 0), (slice(bottom - start, None), slice(None), 0)]
+    if inner[1] > inner[0]:
+        parts += [(slice(*inner), slice(0, _BORDER), 0), (slice(*inner), slice(cols - _BORDER, cols), cols - _BORDER)]
+    total, count, box = 0.0, 0, []
+    for row_part, col_part, first_col in parts:
+        values = squared[row_part, col_part]
+        if values.size == 0:
+            continue
+        first_row = start + (row_part.start or 0)
+        if scored is None:  # every pixel: the slice's own extent
+            total, count = total + float(values.sum()), count + values.size
+            box.append((first_row, first_row + values.shape[0] - 1, first_col, first_col + values.shape[1] - 1))
+            continue
+        kept = scored[row_part, col_part]
+        if not kept.any():
+            continue
+        total, count = total + float(values[kept].sum()), count + int(kept.sum())
+        rr, cc = np.nonzero(kept)
+        box.append((first_row + int(rr.min()), first_row + int(rr.max()), first_col + int(cc.min()),
+                    first_col + int(cc.max())))
+    return total, count, box
 
 
 def _finding(pixels: int, count: int, share: float, rows: np.ndarray, cols: np.ndarray, where: str) -> dict:
@@ -110,42 +137,58 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None) -> dict | None:
     real, sim = np.asarray(real), np.asarray(sim)
     mask = None if mask is None else np.asarray(mask, dtype=bool)
     shape = real.shape
-    totals, ring_totals, count, ring_count = [], [], 0, 0
-    ring_rows, ring_cols = [], []
-    for start, stop in _bands(*shape):
+    total = ring_total = largest = 0.0
+    count = ring_count = 0
+    boxes: list = []
+    bands = list(_bands(*shape))
+    for start, stop in bands:
         squared, scored = _band(real, sim, mask, start, stop)
-        ring = _ring(start, stop, shape) & scored
-        totals.append(math.fsum(squared.ravel()))
-        ring_totals.append(math.fsum(squared[ring]))
-        count += int(scored.sum())
-        ring_count += int(ring.sum())
-        if ring.any():
-            where_rows, where_cols = np.nonzero(ring)
-            ring_rows += [start + int(where_rows.min()), start + int(where_rows.max())]
-            ring_cols += [int(where_cols.min()), int(where_cols.max())]
-    total = math.fsum(totals)
+        total += float(squared.sum())  # pairwise summation: the decisions below are against 1/2
+        largest = max(largest, float(squared.max()))
+        count += squared.size if scored is None else int(scored.sum())
+        band_total, band_count, band_boxes = _ring_sums(squared, scored, start, shape[0])
+        ring_total, ring_count, boxes = ring_total + band_total, ring_count + band_count, boxes + band_boxes
     if count == 0 or not total > 0:
         return None
     top = max(1, math.ceil(TOP_SHARE * count))
-    values, flat = _largest(real, sim, mask, top)
-    share = math.fsum(values) / total
-    if share > MOST:
-        carrying = int(np.searchsorted(np.cumsum(values), 0.9 * values.sum())) + 1
-        rows, cols = np.unravel_index(flat[:carrying], shape)
-        return _finding(top, count, share, rows, cols, _where(rows, cols))
-    share = math.fsum(ring_totals) / total
+    held = squared if len(bands) == 1 else None  # a frame of one band: its squares are at hand
+    if _may_dominate(real, sim, mask, top, MOST * total, largest, held):
+        values, flat = _largest(real, sim, mask, top, held)
+        share = math.fsum(values) / total
+        if share > MOST:
+            carrying = int(np.searchsorted(np.cumsum(values), 0.9 * values.sum())) + 1
+            rows, cols = np.unravel_index(flat[:carrying], shape)
+            return _finding(top, count, share, rows, cols, _where(rows, cols))
+    share = ring_total / total
     if share > MOST and ring_count < 0.1 * count:
-        return _finding(ring_count, count, share, np.array(ring_rows), np.array(ring_cols),
+        box = np.array(boxes)
+        return _finding(ring_count, count, share, box[:, :2].ravel(), box[:, 2:].ravel(),
                         f"along the frame's border ({_BORDER} px wide)")
     return None
 
 
-def _largest(real: np.ndarray, sim: np.ndarray, mask: Any, top: int) -> tuple[np.ndarray, np.ndarray]:
+def _may_dominate(real: np.ndarray, sim: np.ndarray, mask: Any, top: int, limit: float, largest: float,
+                  held: np.ndarray | None) -> bool:
+    """Whether the ``top`` largest squared differences can sum to more than ``limit``, by two
+    bounds that need no search: ``top × largest``, and with τ = limit / (2·top) the sum of the
+    values above τ plus ``top × τ`` (each of the ``top`` largest is above τ or at most τ)."""
+    if top * largest <= limit:
+        return False
+    tau = limit / (2 * top)
+    above = 0.0
+    for start, stop in [(0, real.shape[0])] if held is not None else _bands(*real.shape):
+        squared = held if held is not None else _band(real, sim, mask, start, stop)[0]
+        above += float(squared[squared > tau].sum())
+    return above + top * tau > limit
+
+
+def _largest(real: np.ndarray, sim: np.ndarray, mask: Any, top: int,
+             held: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The ``top`` largest squared differences, largest first, and their flat indices (ties
-    broken by the smaller index), kept band by band."""
+    broken by the smaller index), kept band by band (``held``: a one-band frame's squares)."""
     best_values, best_flat = np.empty(0), np.empty(0, dtype=np.int64)
     for start, stop in _bands(*real.shape):
-        squared, _ = _band(real, sim, mask, start, stop)
+        squared = held if held is not None else _band(real, sim, mask, start, stop)[0]
         flat_band = squared.ravel()
         keep = min(top, flat_band.size)
         index = np.argpartition(flat_band, -keep)[-keep:]
