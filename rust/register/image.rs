@@ -60,10 +60,11 @@ impl Plane {
         Ok(Plane { rows, cols, values, valid, n_valid })
     }
 
-    /// A plane of `rows × cols` samples known to be all finite and unmasked.
-    pub fn from_clean<T: Sample>(data: &[T], rows: usize, cols: usize) -> Plane {
+    /// A plane of `rows × cols` samples known to be all finite and unmasked, mapped to
+    /// working values by `normal` as they are converted (one pass).
+    pub fn from_clean<T: Sample>(data: &[T], rows: usize, cols: usize, normal: Normalisation) -> Plane {
         debug_assert_eq!(data.len(), rows * cols);
-        Plane::all_valid(rows, cols, Buffer::collect_exact(data.len(), data.iter().map(|v| v.to_f64())))
+        Plane::all_valid(rows, cols, Buffer::collect_exact(data.len(), data.iter().map(|v| normal.apply(v.to_f64()))))
     }
 
     fn all_valid(rows: usize, cols: usize, values: Buffer<f64>) -> Plane {

@@ -93,11 +93,12 @@ fn neighbourhood_avx2(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize,
 fn neighbourhood_impl(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize, isize)) -> [[f64; 3]; 3] {
     let (rows, cols) = (spec.rows, spec.cols);
     let tau = 2.0 * std::f64::consts::PI;
-    // e^{2πi·k·shift/n}, the product reduced modulo n first (exact for any shift)
-    let phasor = |k: usize, shift: isize, n: usize| {
-        let turns = (k as isize * shift).rem_euclid(n as isize) as f64 / n as f64;
-        C64::from_polar(1.0, tau * turns)
-    };
+    // e^{2πi·m/n} for m in 0..n; e^{2πi·k·shift/n} is the entry k·shift modulo n (exact
+    // for any shift)
+    let unit = |n: usize| -> Vec<C64> { (0..n).map(|m| C64::from_polar(1.0, tau * (m as f64 / n as f64))).collect() };
+    let (by_row, by_col) = (unit(rows), unit(cols));
+    let phasor =
+        |k: usize, shift: isize, table: &[C64]| table[(k as isize * shift).rem_euclid(table.len() as isize) as usize];
     let mut t_re: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0f32; rows]);
     let mut t_im: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0f32; rows]);
     for kx in 0..spec.width() {
@@ -105,7 +106,7 @@ fn neighbourhood_impl(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize,
         // that are their own mirror (DC, and Nyquist for even widths)
         let weight = if kx == 0 || (cols % 2 == 0 && kx == cols / 2) { 1.0 } else { 2.0 };
         let turn = |dx: isize| {
-            let b = weight * phasor(kx, peak.1 + dx, cols);
+            let b = weight * phasor(kx, peak.1 + dx, &by_col);
             (b.re as f32, b.im as f32)
         };
         let column = &spec.data[kx * rows..(kx + 1) * rows];
@@ -116,7 +117,7 @@ fn neighbourhood_impl(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize,
         for (dy, row) in (-1isize..=1).zip(out.iter_mut()) {
             // at integer shifts every row (the Nyquist row too) counts once, whatever the
             // sign of its frequency
-            let a = phasor(ky, peak.0 + dy, rows);
+            let a = phasor(ky, peak.0 + dy, &by_row);
             for (slot, (re, im)) in row.iter_mut().zip(t_re.iter().zip(&t_im)) {
                 *slot += f64::from(re[ky]) * a.re - f64::from(im[ky]) * a.im;
             }
@@ -253,35 +254,5 @@ mod tests {
             // and were one judged, it would not count
             assert_eq!(judge(&real, &sim, (0, 0), sign, &[(0, 1), (1, 1)], 64), None);
         }
-    }
-}
-
-#[cfg(test)]
-mod scratch_timing {
-    use super::super::fft;
-    use super::*;
-
-    #[test]
-    #[ignore]
-    fn time_neighbourhood() {
-        let (rows, cols) = (512, 640);
-        let values: Vec<f32> = (0..rows * cols).map(|i| ((i * 7919) % 1013) as f32 * 0.01 + (i % 7) as f32).collect();
-        let spec = fft::forward(&values, rows, cols);
-        let mut best = f64::INFINITY;
-        let mut keep = 0.0;
-        for _ in 0..50 {
-            let t = std::time::Instant::now();
-            let c = neighbourhood(&spec, |h| h * h.norm_sqr().sqrt(), (3, -5));
-            best = best.min(t.elapsed().as_secs_f64());
-            keep += c[1][1];
-        }
-        let mut fbest = f64::INFINITY;
-        for _ in 0..20 {
-            let t = std::time::Instant::now();
-            let s = fft::forward(&values, rows, cols);
-            fbest = fbest.min(t.elapsed().as_secs_f64());
-            keep += s.data[3].re as f64;
-        }
-        println!("neighbourhood {:.3} ms, forward {:.3} ms ({keep})", best * 1e3, fbest * 1e3);
     }
 }
