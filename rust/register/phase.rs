@@ -332,10 +332,16 @@ impl Score {
         let chunks = line.chunks_exact(8);
         let tail = chunks.remainder().iter().fold(f32::NEG_INFINITY, |m, &v| m.max(self.of(v)));
         for chunk in chunks {
-            for (m, &v) in lanes.iter_mut().zip(chunk) {
-                let s = self.of(v);
-                *m = if s > *m { s } else { *m };
-            }
+            // a new array each step keeps the lanes in a register (updated in place, they
+            // went through memory with a masked store)
+            lanes = std::array::from_fn(|k| {
+                let s = self.of(chunk[k]);
+                if s > lanes[k] {
+                    s
+                } else {
+                    lanes[k]
+                }
+            });
         }
         lanes.into_iter().fold(tail, f32::max)
     }
