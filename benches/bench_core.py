@@ -18,6 +18,12 @@ Pairs:
   ±40, and float32 normal values (300 ± 30) against a copy with N(0, 2) errors, at 640×512 and
   2048×2048.
 
+For the real pairs it also times the whole of :func:`irfidelity.evaluate` on the pair
+(unregistered, and registered with ``register="translation", register_method="phase"``; the
+simulated copy is shifted by (1.4, −2.6) px for the latter): what a user waits for per pair.
+No peer does that work in one call, so these rows give times only (for comparisons between
+builds: run the script once with each on ``PYTHONPATH``).
+
 Usage: ``python benches/bench_core.py [--threads N] [--repeat R] [--pairs real|synthetic|all]``.
 By default the Rust pool is limited to one thread (``RAYON_NUM_THREADS=1``) so the ratio is
 core-for-core, and times are the process's CPU time (best of the repeats), which the other jobs
@@ -118,6 +124,27 @@ def time_pair(r, s, kw, peak):
     return best(ours, args.repeat, CLOCK), best(peers, max(2, args.repeat // 3), CLOCK)
 
 
+def time_evaluate(r, s, kw):
+    """Best times of the whole :func:`irfidelity.evaluate` on the pair: unregistered, and
+    registered by phase correlation with the simulated frame shifted."""
+    import warnings
+
+    import scipy.ndimage as ndi
+
+    shifted = ndi.shift(s.astype(np.float64), (1.4, -2.6), order=3, mode="nearest").round().astype(s.dtype)
+
+    def quiet(fn):
+        def run():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return fn()
+        return run
+
+    plain = quiet(lambda: irf.evaluate(r, s, **kw))
+    registered = quiet(lambda: irf.evaluate(r, shifted, register="translation", register_method="phase", **kw))
+    return best(plain, args.repeat, CLOCK), best(registered, args.repeat, CLOCK)
+
+
 def main():
     clock = "CPU time" if CLOCK is time.process_time else "wall time"
     print(f"irfidelity {irf.__version__}; Rust threads = {args.threads} ({clock}); numpy {np.__version__}; "
@@ -128,6 +155,10 @@ def main():
         t_ours, t_peer = time_pair(r, s, kw, peak)
         per_px[name] = t_ours / r.size
         print(f"{name:<40}{t_ours * 1e3:>15.2f}{t_peer * 1e3:>12.1f}{t_peer / t_ours:>8.1f}x{t_ours / r.size * 1e9:>11.2f}")
+    for name, r, s, kw, _ in pairs("real") if args.pairs in ("real", "all") else []:
+        t_plain, t_registered = time_evaluate(r, s, kw)
+        print(f"evaluate {name}: unregistered {t_plain * 1e3:.2f} ms, registered (translation, phase) "
+              f"{t_registered * 1e3:.2f} ms")
     for dtype in ("uint16", "float32"):
         small, large = (per_px.get(f"synthetic {dtype} {size}") for size in ("640x512", "2048x2048"))
         if small and large:

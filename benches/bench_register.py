@@ -38,8 +38,15 @@ Rust pool, OpenCV, OpenBLAS/OpenMP behind numpy and scikit-image) and the time i
 CPU time — core-for-core ratios that a busy machine disturbs little. ``--threads N`` lets every
 library use N threads and measures wall time instead.
 
+``--against PATH``: another build of irfidelity (a checkout whose ``python/irfidelity`` holds its
+built extension, such as an older commit) runs in a subprocess, and each irfidelity method is
+timed on each case by both builds in turn (the best of ``--rounds`` alternations of ``--repeat``
+calls each), so that a busy machine disturbs both alike; the table then gives, per frame and
+method, both builds' worst errors and times and the ratio this build ÷ PATH's (median over the
+cases, with their range). The peers are not run.
+
 Usage: ``python benches/bench_register.py [--quick] [--repeat R] [--threads N] [--models M,...]
-[--simulators S,...] [--docs]``.
+[--simulators S,...] [--docs] [--against PATH [--rounds K]]``.
 The table goes to bench-out/registration.md, the error-vs-time figure to
 bench-out/registration.png (``--docs``: docs/registration.png). The "Registration" section of
 docs/performance.md gives the ranges over several runs of this table.
@@ -48,8 +55,11 @@ docs/performance.md gives the ranges over several runs of this table.
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import pathlib
+import pickle
+import subprocess
 import sys
 import time
 
@@ -77,7 +87,7 @@ CLOCK = time.process_time if THREADS == 1 else time.perf_counter
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benches"))
 
-from registration_cases import METHODS, SIMULATORS, run  # noqa: E402
+from registration_cases import METHODS, SIMULATORS, corner_error, frames, irf_method, run, timed  # noqa: E402
 
 
 def group(row) -> tuple[str, str, str]:
@@ -149,6 +159,91 @@ def choose(ap, flag: str, given: str, known) -> tuple[str, ...]:
     return names
 
 
+#: The other build's side of ``--against``: reads pickled ``(real, sim, model, method, repeat)``
+#: from stdin, answers the found matrix (None when refused) and the best time of ``repeat`` calls.
+WORKER = r"""
+import pickle, sys, time, warnings
+sys.path.insert(0, sys.argv[1])
+import irfidelity as irf
+clock = time.process_time if sys.argv[2] == "cpu" else time.perf_counter
+inp, out = sys.stdin.buffer, sys.stdout.buffer
+pickle.dump(irf.__file__, out)
+out.flush()
+while True:
+    try:
+        real, sim, model, method, repeat = pickle.load(inp)
+    except EOFError:
+        break
+    best, found = float("inf"), None
+    for _ in range(repeat):
+        t0 = clock()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                found = irf.register(real, sim, model=model, method=method).matrix
+            except irf.FidelityError:
+                found = None
+        best = min(best, clock() - t0)
+    pickle.dump((found, best), out)
+    out.flush()
+"""
+
+
+class OtherBuild:
+    """irfidelity of the checkout ``root``, registering in a subprocess."""
+
+    def __init__(self, root: pathlib.Path):
+        package = root.resolve() / "python"
+        self.proc = subprocess.Popen([sys.executable, "-c", WORKER, str(package), "cpu" if THREADS == 1 else "wall"],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+        self.location = pickle.load(self.proc.stdout)
+        if not self.location.startswith(str(package)):
+            raise SystemExit(f"--against {root}: imported irfidelity from {self.location}, not from {package}")
+
+    def timed(self, real, sim, model, method, repeat):
+        pickle.dump((real, sim, model, method, repeat), self.proc.stdin)
+        self.proc.stdin.flush()
+        return pickle.load(self.proc.stdout)
+
+    def close(self):
+        self.proc.stdin.close()
+        self.proc.wait()
+
+
+def compare(other: OtherBuild, n: int, repeat: int, rounds: int, models, simulators) -> str:
+    """The table of this build against ``other``: per frame, simulator, model and irfidelity
+    method, both builds' worst corner errors and median times, and the time ratio."""
+    out = [f"this build: {pathlib.Path(__import__('irfidelity').__file__).parent}; against: "
+           f"{pathlib.Path(other.location).parent}\n",
+           "| frames | simulator | model | method | worst error this / against (px) | time this / against (ms) "
+           "| time ratio this ÷ against: median [range over cases] |",
+           "|---|---|---|---|---|---|---|"]
+    for (fname, scene), simulator, model in itertools.product(frames().items(), simulators, models):
+        rng = np.random.default_rng(2026)
+        cases = [SIMULATORS[simulator](scene, model, rng) for _ in range(n)]
+        for method in ("phase", "auto"):
+            fn = irf_method(model, method)
+            errs, times, ratios_ = ([], []), ([], []), []
+            for real, sim, truth in cases:
+                mine, theirs = (None, np.inf), (None, np.inf)
+                for _ in range(rounds):  # alternating, so that both see the same load
+                    found, t = timed(fn, real, sim, repeat, CLOCK)
+                    mine = (found, min(mine[1], t))
+                    found, t = other.timed(real, sim, model, method, repeat)
+                    theirs = (found, min(theirs[1], t))
+                for side, (found, t) in enumerate((mine, theirs)):
+                    ok = found is not None and not isinstance(found, Exception)
+                    errs[side].append(corner_error(found, truth, real.shape) if ok else np.inf)
+                    times[side].append(t)
+                ratios_.append(mine[1] / theirs[1])
+            row = (f"| {fname} | {simulator} | {model} | irfidelity {method} | {max(errs[0]):.4f} / {max(errs[1]):.4f} "
+                   f"| {1e3 * np.median(times[0]):.2f} / {1e3 * np.median(times[1]):.2f} "
+                   f"| {np.median(ratios_):.3f} [{min(ratios_):.3f}–{max(ratios_):.3f}] |")
+            print(row, flush=True)
+            out.append(row)
+    return "\n".join(out)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="3 cases per frame and model, 1 timing repeat")
@@ -160,11 +255,24 @@ def main():
     ap.add_argument("--simulators", default=",".join(SIMULATORS),
                     help=f"comma-separated simulated-frame kinds (default all: {','.join(SIMULATORS)})")
     ap.add_argument("--docs", action="store_true", help="write the figure to docs/registration.png")
+    ap.add_argument("--against", type=pathlib.Path, default=None,
+                    help="a checkout with another build of irfidelity: time both builds' methods in turn")
+    ap.add_argument("--rounds", type=int, default=3, help="alternations per case with --against (default 3)")
     args = ap.parse_args()
     models = choose(ap, "--models", args.models, METHODS)
     simulators = choose(ap, "--simulators", args.simulators, SIMULATORS)
     n = args.cases or (3 if args.quick else 8)
     repeat = args.repeat or (2 if args.quick else 3)
+    if args.against is not None:
+        other = OtherBuild(args.against)
+        try:
+            md = compare(other, n, repeat, args.rounds, models, simulators)
+        finally:
+            other.close()
+        out_dir = ROOT / "bench-out"
+        out_dir.mkdir(exist_ok=True)
+        (out_dir / "registration-against.md").write_text(md + "\n")
+        return 0
     cv2.setRNGSeed(0)
     rows = run(n, repeat, CLOCK, models=models, simulators=simulators)
     md = table(rows)

@@ -66,7 +66,25 @@ pub fn forward(values: &[f32], rows: usize, cols: usize) -> Spectrum {
 
 /// Forward transform of a `rows × cols` real image whose row `r` `fill_row(r, line)` writes
 /// into `line` (so an image computed row by row, such as a tapered frame, is never stored).
-pub fn forward_rows(rows: usize, cols: usize, mut fill_row: impl FnMut(usize, &mut [f32])) -> Spectrum {
+/// The packing and scattering around the transforms run in a copy compiled for AVX2 when the
+/// CPU has it (same code, same results).
+pub fn forward_rows(rows: usize, cols: usize, fill_row: impl FnMut(usize, &mut [f32])) -> Spectrum {
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernel::use_avx2() {
+        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+        return unsafe { forward_rows_avx2(rows, cols, fill_row) };
+    }
+    forward_rows_impl(rows, cols, fill_row)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn forward_rows_avx2(rows: usize, cols: usize, fill_row: impl FnMut(usize, &mut [f32])) -> Spectrum {
+    forward_rows_impl(rows, cols, fill_row)
+}
+
+#[inline(always)]
+fn forward_rows_impl(rows: usize, cols: usize, mut fill_row: impl FnMut(usize, &mut [f32])) -> Spectrum {
     let (row_fft, col_fft) = plans(rows, cols, FftDirection::Forward);
     let width = cols / 2 + 1;
     let mut data = Buffer::scratch(width * rows); // every coefficient is written below
@@ -102,6 +120,7 @@ pub fn forward_rows(rows: usize, cols: usize, mut fill_row: impl FnMut(usize, &m
 
 /// The half spectra `a`, `b` of two real rows from the transform `z` of `a + i·b`:
 /// `A(k) = (Z(k) + conj Z(−k))/2`, `B(k) = (Z(k) − conj Z(−k))/(2i)`.
+#[inline(always)]
 fn unpack_rows(z: &[C32], a: &mut [C32], b: &mut [C32]) {
     let n = z.len();
     a[0] = C32::new(z[0].re, 0.0);
@@ -116,6 +135,7 @@ fn unpack_rows(z: &[C32], a: &mut [C32], b: &mut [C32]) {
 
 /// The transform `z` of `a + i·b` from the half spectra `a`, `b` of two real rows (the
 /// inverse of [`unpack_rows`]): `Z(k) = A(k) + i·B(k)`, with `A(−k) = conj A(k)`.
+#[inline(always)]
 fn pack_rows(a: &[C32], b: &[C32], z: &mut [C32]) {
     let n = z.len();
     let width = a.len();
@@ -129,8 +149,25 @@ fn pack_rows(a: &[C32], b: &[C32], z: &mut [C32]) {
 }
 
 /// Inverse transform, normalised (`inverse(forward(x)) == x` up to rounding), in float32:
-/// the precision the transforms carry. `spec` is consumed as scratch space.
-pub fn inverse(mut spec: Spectrum) -> Buffer<f32> {
+/// the precision the transforms carry. `spec` is consumed as scratch space. Compiled for
+/// AVX2 when the CPU has it, as [`forward_rows`].
+pub fn inverse(spec: Spectrum) -> Buffer<f32> {
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernel::use_avx2() {
+        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+        return unsafe { inverse_avx2(spec) };
+    }
+    inverse_impl(spec)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn inverse_avx2(spec: Spectrum) -> Buffer<f32> {
+    inverse_impl(spec)
+}
+
+#[inline(always)]
+fn inverse_impl(mut spec: Spectrum) -> Buffer<f32> {
     let (rows, cols) = (spec.rows, spec.cols);
     let (row_ifft, col_ifft) = plans(rows, cols, FftDirection::Inverse);
     let width = cols / 2 + 1;

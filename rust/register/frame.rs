@@ -43,7 +43,8 @@ enum Pixels<'a> {
 /// What a frame's own samples can do, whatever their type.
 trait Samples: Send + Sync {
     fn taper_row(&self, r: usize, cols: usize, centring: Normalisation, w_row: f64, w_cols: &[f64], line: &mut [f32]);
-    fn plane(&self, rows: usize, cols: usize) -> Plane;
+    /// The samples as a plane of working values.
+    fn plane(&self, rows: usize, cols: usize, normal: Normalisation) -> Plane;
     /// Σ working values (the second pass of an accurate mean).
     fn working_sum(&self, normal: Normalisation) -> f64;
 }
@@ -53,8 +54,8 @@ impl<T: Sample> Samples for &[T] {
         taper_row(&self[r * cols..(r + 1) * cols], None, centring, w_row, w_cols, line);
     }
 
-    fn plane(&self, rows: usize, cols: usize) -> Plane {
-        Plane::from_clean(self, rows, cols)
+    fn plane(&self, rows: usize, cols: usize, normal: Normalisation) -> Plane {
+        Plane::from_clean(self, rows, cols, normal)
     }
 
     fn working_sum(&self, normal: Normalisation) -> f64 {
@@ -114,11 +115,9 @@ impl<'a> Frame<'a> {
     pub fn plane(&self) -> &Plane {
         match &self.pixels {
             Pixels::Plane(plane) => plane,
-            Pixels::Samples { samples, normal, plane } => plane.get_or_init(|| {
-                let mut converted = samples.plane(self.rows, self.cols);
-                converted.normalise(*normal);
-                converted
-            }),
+            Pixels::Samples { samples, normal, plane } => {
+                plane.get_or_init(|| samples.plane(self.rows, self.cols, *normal))
+            }
         }
     }
 

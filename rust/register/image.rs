@@ -60,10 +60,11 @@ impl Plane {
         Ok(Plane { rows, cols, values, valid, n_valid })
     }
 
-    /// A plane of `rows × cols` samples known to be all finite and unmasked.
-    pub fn from_clean<T: Sample>(data: &[T], rows: usize, cols: usize) -> Plane {
+    /// A plane of `rows × cols` samples known to be all finite and unmasked, mapped to
+    /// working values by `normal` as they are converted (one pass).
+    pub fn from_clean<T: Sample>(data: &[T], rows: usize, cols: usize, normal: Normalisation) -> Plane {
         debug_assert_eq!(data.len(), rows * cols);
-        Plane::all_valid(rows, cols, Buffer::collect_exact(data.len(), data.iter().map(|v| v.to_f64())))
+        Plane::all_valid(rows, cols, Buffer::collect_exact(data.len(), data.iter().map(|v| normal.apply(v.to_f64()))))
     }
 
     fn all_valid(rows: usize, cols: usize, values: Buffer<f64>) -> Plane {
@@ -246,6 +247,23 @@ pub fn lane_sum<T: Sample>(values: &[T]) -> f64 {
 /// is not finite if a value is not (or, for float64 values beyond about 1e303, if it
 /// overflows); the extremes skip NaN.
 pub fn lane_sum_range<T: Sample>(values: &[T]) -> (f64, f64, f64) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernel::use_avx2() {
+        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+        return unsafe { lane_sum_range_avx2(values) };
+    }
+    lane_sum_range_impl(values)
+}
+
+/// [`lane_sum_range`] compiled for AVX2 (same code, same results).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn lane_sum_range_avx2<T: Sample>(values: &[T]) -> (f64, f64, f64) {
+    lane_sum_range_impl(values)
+}
+
+#[inline(always)]
+fn lane_sum_range_impl<T: Sample>(values: &[T]) -> (f64, f64, f64) {
     let chunks = values.chunks_exact(8);
     let tail = chunks.remainder();
     let (mut sum, mut lo, mut hi) = ([0.0f64; 8], [f64::INFINITY; 8], [f64::NEG_INFINITY; 8]);

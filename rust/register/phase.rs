@@ -206,12 +206,29 @@ fn correlate_spectra(
 /// becomes `X/|X|` (both 0 where `|X|` is below 1e-12 of the product of the spectra's
 /// largest parts, which bounds it: numerically zero).
 ///
-/// Computed in float32, eight coefficients per vector instruction, in one pass over the
-/// coefficients after finding each spectrum's largest part (the passes are memory-bound).
+/// Computed in float32, eight coefficients per vector instruction (in a copy compiled for
+/// AVX2 when the CPU has it: same code, same results), in one pass over the coefficients
+/// after finding each spectrum's largest part (the passes are memory-bound).
 /// Each spectrum is first scaled by a power of two (exact) to a largest part in [0.5, 1),
 /// so `|X|²` can neither overflow nor, above the floor, underflow. The scale changes `X/|X|`
 /// not at all and `X/|X|^½` by a constant factor, which moves no peak.
 fn whiten(a: &mut [C32], b: &mut [C32]) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernel::use_avx2() {
+        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+        return unsafe { whiten_avx2(a, b) };
+    }
+    whiten_impl(a, b)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn whiten_avx2(a: &mut [C32], b: &mut [C32]) {
+    whiten_impl(a, b)
+}
+
+#[inline(always)]
+fn whiten_impl(a: &mut [C32], b: &mut [C32]) {
     let (la, lb) = (largest_part(a), largest_part(b));
     let (sa, sb) = (unit_scale(la), unit_scale(lb));
     let floor = 1e-12 * (la * sa) * (lb * sb);
@@ -227,6 +244,7 @@ fn whiten(a: &mut [C32], b: &mut [C32]) {
 }
 
 /// The largest real or imaginary part of `z` in absolute value (0 if empty).
+#[inline(always)]
 fn largest_part(z: &[C32]) -> f32 {
     let mut lanes = [0.0f32; 8];
     let parts = z.chunks_exact(4);
@@ -291,16 +309,39 @@ impl Score {
         }
     }
 
-    /// The highest score over `line` (−∞ if empty), in eight lanes (vectorised).
+    /// The highest score over `line` (−∞ if empty), in eight lanes (vectorised; compiled for
+    /// AVX2 when the CPU has it).
     fn top(self, line: &[f32]) -> f32 {
+        #[cfg(target_arch = "x86_64")]
+        if crate::kernel::use_avx2() {
+            // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+            return unsafe { self.top_avx2(line) };
+        }
+        self.top_impl(line)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn top_avx2(self, line: &[f32]) -> f32 {
+        self.top_impl(line)
+    }
+
+    #[inline(always)]
+    fn top_impl(self, line: &[f32]) -> f32 {
         let mut lanes = [f32::NEG_INFINITY; 8];
         let chunks = line.chunks_exact(8);
         let tail = chunks.remainder().iter().fold(f32::NEG_INFINITY, |m, &v| m.max(self.of(v)));
         for chunk in chunks {
-            for (m, &v) in lanes.iter_mut().zip(chunk) {
-                let s = self.of(v);
-                *m = if s > *m { s } else { *m };
-            }
+            // a new array each step keeps the lanes in a register (updated in place, they
+            // went through memory with a masked store)
+            lanes = std::array::from_fn(|k| {
+                let s = self.of(chunk[k]);
+                if s > lanes[k] {
+                    s
+                } else {
+                    lanes[k]
+                }
+            });
         }
         lanes.into_iter().fold(tail, f32::max)
     }
@@ -399,8 +440,24 @@ fn surface_confidence(
 }
 
 /// Root mean square of the surface outside the box of rows `row_near` × columns `col_near`
-/// (0 if the box covers it all).
+/// (0 if the box covers it all); compiled for AVX2 when the CPU has it.
 fn rms_outside_box(surface: &[f32], cols: usize, row_near: &[bool], col_near: &[bool]) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernel::use_avx2() {
+        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+        return unsafe { rms_outside_box_avx2(surface, cols, row_near, col_near) };
+    }
+    rms_outside_box_impl(surface, cols, row_near, col_near)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn rms_outside_box_avx2(surface: &[f32], cols: usize, row_near: &[bool], col_near: &[bool]) -> f64 {
+    rms_outside_box_impl(surface, cols, row_near, col_near)
+}
+
+#[inline(always)]
+fn rms_outside_box_impl(surface: &[f32], cols: usize, row_near: &[bool], col_near: &[bool]) -> f64 {
     let square = |v: &f32| (*v as f64) * (*v as f64);
     let sum_sq = |line: &[f32]| {
         let mut lanes = [0.0f64; 8];

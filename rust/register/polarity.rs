@@ -68,87 +68,87 @@ fn credible(c: &[[f64; 3]; 3], peak: (isize, isize), sign: f64) -> Vec<(isize, i
     out
 }
 
-/// `c(peak + (dy, dx))` for dy, dx in −1..=1 (up to a common positive factor). Per column of
-/// the half spectrum, `y = x·e^{iθ·peak.0}` (θ = 2π·ky/rows) summed plainly and weighted by
-/// `cos θ` and `sin θ` gives the three row sums `Σ y·e^{iθ·dy}`; each is then turned by the
-/// column's phase. The column sums run in float32 lanes (a screen needs no more), folded
-/// into float64 per column.
+/// `c(peak + (dy, dx))` for dy, dx in −1..=1 (up to a common positive factor). With
+/// `e^{iθx·(peak.1 + dx)}` (θx = 2π·kx/cols) one complex number per column, the row sums
+/// `t_dx(ky) = Σ_kx x(kx, ky)·e^{iθx·(peak.1 + dx)}` accumulate column by column, element by
+/// element (three complex rows, vectorised, in float32: a screen needs no more); then
+/// `c = Σ_ky Re(t_dx(ky)·e^{iθy·(peak.0 + dy)})` in float64 (θy = 2π·ky/rows). In a copy
+/// compiled for AVX2 when the CPU has it (same code, same results).
 fn neighbourhood(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize, isize)) -> [[f64; 3]; 3] {
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernel::use_avx2() {
+        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+        return unsafe { neighbourhood_avx2(spec, cross, peak) };
+    }
+    neighbourhood_impl(spec, cross, peak)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn neighbourhood_avx2(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize, isize)) -> [[f64; 3]; 3] {
+    neighbourhood_impl(spec, cross, peak)
+}
+
+#[inline(always)]
+fn neighbourhood_impl(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize, isize)) -> [[f64; 3]; 3] {
     let (rows, cols) = (spec.rows, spec.cols);
     let tau = 2.0 * std::f64::consts::PI;
-    // at integer shifts every row (the Nyquist row too) counts once, whatever the sign of
-    // its frequency
-    let phasor = |ky: usize, shift: isize| {
-        let turns = (ky as isize * shift).rem_euclid(rows as isize) as f64 / rows as f64;
-        let (sin, cos) = (tau * turns).sin_cos();
-        (cos as f32, sin as f32)
-    };
-    let (at_re, at_im): (Vec<f32>, Vec<f32>) = (0..rows).map(|ky| phasor(ky, peak.0)).unzip();
-    let (step_cos, step_sin): (Vec<f32>, Vec<f32>) = (0..rows).map(|ky| phasor(ky, 1)).unzip();
-    let (mut x_re, mut x_im) = (vec![0.0f32; rows], vec![0.0f32; rows]);
-    let mut out = [[0.0f64; 3]; 3];
+    // e^{2πi·m/n} for m in 0..n; e^{2πi·k·shift/n} is the entry k·shift modulo n (exact
+    // for any shift)
+    let unit = |n: usize| -> Vec<C64> { (0..n).map(|m| C64::from_polar(1.0, tau * (m as f64 / n as f64))).collect() };
+    let (by_row, by_col) = (unit(rows), unit(cols));
+    let phasor =
+        |k: usize, shift: isize, table: &[C64]| table[(k as isize * shift).rem_euclid(table.len() as isize) as usize];
+    let mut t_re: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0f32; rows]);
+    let mut t_im: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0f32; rows]);
     for kx in 0..spec.width() {
-        // the column as separate real and imaginary parts: the sums below then vectorise
-        let column = &spec.data[kx * rows..(kx + 1) * rows];
-        for ((re, im), &h) in x_re.iter_mut().zip(x_im.iter_mut()).zip(column) {
-            let x = cross(h);
-            (*re, *im) = (x.re, x.im);
-        }
-        let [yr, yi, yr_cos, yi_cos, yr_sin, yi_sin] =
-            column_moments([&x_re, &x_im, &at_re, &at_im, &step_cos, &step_sin]);
-        // Σ y·e^{iθ·dy} for dy = −1, 0, +1
-        let sums =
-            [C64::new(yr_cos + yi_sin, yi_cos - yr_sin), C64::new(yr, yi), C64::new(yr_cos - yi_sin, yi_cos + yr_sin)];
         // the rest of the spectrum is the conjugate mirror: weight 2, except the columns
         // that are their own mirror (DC, and Nyquist for even widths)
         let weight = if kx == 0 || (cols % 2 == 0 && kx == cols / 2) { 1.0 } else { 2.0 };
-        for (dx, slot) in (-1isize..=1).zip(0..3) {
-            let turns = (kx as isize * (peak.1 + dx)).rem_euclid(cols as isize) as f64 / cols as f64;
-            let rot = C64::from_polar(weight, tau * turns);
-            for (row, s) in out.iter_mut().zip(&sums) {
-                row[slot] += (s * rot).re;
+        let turn = |dx: isize| {
+            let b = weight * phasor(kx, peak.1 + dx, &by_col);
+            (b.re as f32, b.im as f32)
+        };
+        let column = &spec.data[kx * rows..(kx + 1) * rows];
+        accumulate_column(column, &cross, [turn(-1), turn(0), turn(1)], &mut t_re, &mut t_im);
+    }
+    let mut out = [[0.0f64; 3]; 3];
+    for ky in 0..rows {
+        for (dy, row) in (-1isize..=1).zip(out.iter_mut()) {
+            // at integer shifts every row (the Nyquist row too) counts once, whatever the
+            // sign of its frequency
+            let a = phasor(ky, peak.0 + dy, &by_row);
+            for (slot, (re, im)) in row.iter_mut().zip(t_re.iter().zip(&t_im)) {
+                *slot += f64::from(re[ky]) * a.re - f64::from(im[ky]) * a.im;
             }
         }
     }
     out
 }
 
-/// Lanes of the column sums (six accumulators of four lanes fit the vector registers).
-const LANES: usize = 4;
-
-/// For one column `x = (re, im)` and per-row `at = (re, im)`, `step = (cos, sin)`: with
-/// `y = x·at`, the sums `Σ Re y, Σ Im y, Σ Re y·cos, Σ Im y·cos, Σ Re y·sin, Σ Im y·sin`.
-fn column_moments([x_re, x_im, at_re, at_im, cos, sin]: [&[f32]; 6]) -> [f64; 6] {
-    let n = x_re.len();
-    let whole = n - n % LANES;
-    let lanes = |s| whole_lanes(s, whole);
-    let (mut s_re, mut s_im, mut c_re, mut c_im, mut n_re, mut n_im) =
-        ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
-    for (((((xr, xi), ar), ai), c), s) in
-        lanes(x_re).zip(lanes(x_im)).zip(lanes(at_re)).zip(lanes(at_im)).zip(lanes(cos)).zip(lanes(sin))
-    {
-        for k in 0..LANES {
-            let (yr, yi) = (xr[k] * ar[k] - xi[k] * ai[k], xr[k] * ai[k] + xi[k] * ar[k]);
-            s_re[k] += yr;
-            s_im[k] += yi;
-            c_re[k] += yr * c[k];
-            c_im[k] += yi * c[k];
-            n_re[k] += yr * s[k];
-            n_im[k] += yi * s[k];
-        }
+/// `t_d += cross(h)·b_d` element by element over one column `h`, for the three column
+/// phasors `b` (as `(re, im)`).
+#[inline(always)]
+fn accumulate_column(
+    column: &[C32],
+    cross: &impl Fn(C32) -> C32,
+    b: [(f32, f32); 3],
+    t_re: &mut [Vec<f32>; 3],
+    t_im: &mut [Vec<f32>; 3],
+) {
+    let [r0, r1, r2] = t_re;
+    let [i0, i1, i2] = t_im;
+    let n = column.len();
+    let (r0, r1, r2, i0, i1, i2) = (&mut r0[..n], &mut r1[..n], &mut r2[..n], &mut i0[..n], &mut i1[..n], &mut i2[..n]);
+    for (i, &h) in column.iter().enumerate() {
+        let x = cross(h);
+        r0[i] += x.re * b[0].0 - x.im * b[0].1;
+        i0[i] += x.re * b[0].1 + x.im * b[0].0;
+        r1[i] += x.re * b[1].0 - x.im * b[1].1;
+        i1[i] += x.re * b[1].1 + x.im * b[1].0;
+        r2[i] += x.re * b[2].0 - x.im * b[2].1;
+        i2[i] += x.re * b[2].1 + x.im * b[2].0;
     }
-    let mut out = [s_re, s_im, c_re, c_im, n_re, n_im].map(|acc| acc.iter().map(|&v| f64::from(v)).sum::<f64>());
-    for i in whole..n {
-        let (yr, yi) = (x_re[i] * at_re[i] - x_im[i] * at_im[i], x_re[i] * at_im[i] + x_im[i] * at_re[i]);
-        let terms = [yr, yi, yr * cos[i], yi * cos[i], yr * sin[i], yi * sin[i]];
-        out.iter_mut().zip(terms).for_each(|(o, t)| *o += f64::from(t));
-    }
-    out
-}
-
-/// The first `whole` values of `s` as arrays of [`LANES`].
-fn whole_lanes(s: &[f32], whole: usize) -> impl Iterator<Item = [f32; LANES]> + '_ {
-    s[..whole].chunks_exact(LANES).map(|c| <[f32; LANES]>::try_from(c).expect("a whole lane"))
 }
 
 /// The lowest confidence `1 − r_rival/r_peak` over `candidates` judged on the pixels: `r` the

@@ -46,7 +46,24 @@ impl<'a> Interpolant<'a> {
         Interpolant { spec, freq_y, freq_y32, freq_y_sq, weight_y }
     }
 
+    /// In a copy compiled for AVX2 when the CPU has it (same code, same results).
     fn eval(&self, py: f64, px: f64) -> Local {
+        #[cfg(target_arch = "x86_64")]
+        if crate::kernel::use_avx2() {
+            // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+            return unsafe { self.eval_avx2(py, px) };
+        }
+        self.eval_impl(py, px)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn eval_avx2(&self, py: f64, px: f64) -> Local {
+        self.eval_impl(py, px)
+    }
+
+    #[inline(always)]
+    fn eval_impl(&self, py: f64, px: f64) -> Local {
         let (rows, cols) = (self.spec.rows, self.spec.cols);
         let tau = 2.0 * std::f64::consts::PI;
         // the rows' phasors p = w·e^{i·ay·py}, parts apart
@@ -104,6 +121,7 @@ impl<'a> Interpolant<'a> {
 const LANES: usize = 16;
 
 /// `Σ x`, in [`LANES`] partial sums.
+#[inline(always)]
 fn sum(x: &[f32]) -> f64 {
     let chunks = x.chunks_exact(LANES);
     let tail = chunks.remainder();
@@ -117,6 +135,7 @@ fn sum(x: &[f32]) -> f64 {
 }
 
 /// `Σ x·y`, in [`LANES`] partial sums.
+#[inline(always)]
 fn dot(x: &[f32], y: &[f32]) -> f64 {
     let (xs, ys) = (x.chunks_exact(LANES), y[..x.len()].chunks_exact(LANES));
     let (x_tail, y_tail) = (xs.remainder(), ys.remainder());
