@@ -256,21 +256,13 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     Acta Photonica Sinica 41(5):547 (2012), doi:10.3788/gzxb20124105.0547.
     """
     cfg = scoring_config(ScoringConfig.resolve(config, **options))
-    if (real is None) != (sim is None):
-        given, absent = ("real", "sim") if sim is None else ("sim", "real")
-        raise FidelityError(f"{given} was given without {absent}: give both frames or neither", option=absent)
+    _check_frames_given(real, sim, real_ref, ceiling)
     camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
     given = camera.given()
     weights, image_plan, skipped = plan_components(cfg.weights, cfg.missing, have_images=real is not None,
                                                    have_mtf=given["mtf"], have_sitf=given["sitf"],
                                                    have_noise=given["noise"], have_unit=cfg.unit is not None,
                                                    have_mrtd=given["mrtd"])
-    if real_ref is not None and ceiling is not None:
-        raise FidelityError("give real_ref (a second real frame) or ceiling (values measured before), not both",
-                            option="ceiling")
-    if real_ref is not None and real is None:
-        raise FidelityError("real_ref was given without real and sim: it is a second real frame of their scene",
-                            option="real_ref")
     in_unit = cfg.unit is not None and real is not None
     regions = _region_input(regions, real, bool(image_plan) or in_unit)
     span = defect = None
@@ -284,11 +276,9 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
             image, image_metrics = image_components(st, image_plan, cfg)
             components.update(image)
             metrics.update(image_metrics)
-            if real_ref is not None and image_plan:
-                ceiling, ceiling_source = _ceiling(real_ref, image_plan, cfg, st, sources, inputs), "real_ref"
-            elif ceiling is None and real_noise is not None and image_plan:
-                ceiling = _noise_ceiling(real_noise, image_plan, cfg, st, sources, inputs, max_bytes)
-                ceiling_source = None if ceiling is None else "noise3d"
+            if ceiling is None and image_plan:
+                ceiling, ceiling_source = _measured_ceiling(real_ref, real_noise, image_plan, cfg, st, sources,
+                                                            inputs, max_bytes)
             defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"))
         if in_unit:
             errors = TemperatureErrors.of_frames(sources["real"], sources["sim"], mask=sources["mask"],
@@ -311,6 +301,32 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
                           registration=None if registration is None else registration.to_dict(),
                           verdict={**score.verdict.to_dict(), "defect": defect}, ceiling=ceiling,
                           relative=relative_to(ceiling, score.components), regions=by_region)
+
+
+def _check_frames_given(real: Any, sim: Any, real_ref: Any, ceiling: Any) -> None:
+    """Both frames or neither; a second real frame only with them, and not beside given values."""
+    if (real is None) != (sim is None):
+        given, absent = ("real", "sim") if sim is None else ("sim", "real")
+        raise FidelityError(f"{given} was given without {absent}: give both frames or neither", option=absent)
+    if real_ref is not None and ceiling is not None:
+        raise FidelityError("give real_ref (a second real frame) or ceiling (values measured before), not both",
+                            option="ceiling")
+    if real_ref is not None and real is None:
+        raise FidelityError("real_ref was given without real and sim: it is a second real frame of their scene",
+                            option="real_ref")
+
+
+def _measured_ceiling(real_ref: Any, real_noise: Any, components: tuple, config: ScoringConfig,
+                      stats: _stats.PairStats, sources: dict, inputs: dict,
+                      max_bytes: int | None) -> tuple[dict | None, str | None]:
+    """The ceiling and its source when no values were given: from ``real_ref``, else from the real
+    camera's noise, else none."""
+    if real_ref is not None:
+        return _ceiling(real_ref, components, config, stats, sources, inputs), "real_ref"
+    if real_noise is not None:
+        ceiling = _noise_ceiling(real_noise, components, config, stats, sources, inputs, max_bytes)
+        return ceiling, None if ceiling is None else "noise3d"
+    return None, None
 
 
 def _region_input(regions: Any, real: Any, scores_images: bool) -> Any:
