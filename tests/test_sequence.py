@@ -409,6 +409,13 @@ _SIGINT_SCRIPT = textwrap.dedent(
     import sys
     import time
     from irfidelity.sequence import score_sequence
+    # Ctrl-C as a terminal delivers it, whatever the test process left behind (an ignored or
+    # blocked SIGINT is inherited by a child): said on stderr when it had to be restored
+    inherited = (signal.getsignal(signal.SIGINT), signal.pthread_sigmask(signal.SIG_BLOCK, []))
+    if inherited != (signal.default_int_handler, set()):
+        print(f"inherited SIGINT handler and blocked signals: {inherited}", file=sys.stderr)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     real = [sys.argv[1]] * 10  # 1000 frame pairs
     sim = [sys.argv[2]] * 10
     sent = []
