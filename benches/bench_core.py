@@ -126,10 +126,16 @@ def time_pair(r, s, kw, peak):
 
 def time_evaluate(r, s, kw):
     """Best times of the whole :func:`irfidelity.evaluate` on the pair: unregistered, and
-    registered by phase correlation with the simulated frame shifted."""
+    registered by phase correlation with the simulated frame shifted; and of the verdict's
+    defects check alone (None for a build without it)."""
     import warnings
 
     import scipy.ndimage as ndi
+
+    try:
+        from irfidelity.defects import concentrated_error
+    except ImportError:
+        concentrated_error = None
 
     shifted = ndi.shift(s.astype(np.float64), (1.4, -2.6), order=3, mode="nearest").round().astype(s.dtype)
 
@@ -142,7 +148,8 @@ def time_evaluate(r, s, kw):
 
     plain = quiet(lambda: irf.evaluate(r, s, **kw))
     registered = quiet(lambda: irf.evaluate(r, shifted, register="translation", register_method="phase", **kw))
-    return best(plain, args.repeat, CLOCK), best(registered, args.repeat, CLOCK)
+    defects = None if concentrated_error is None else best(lambda: concentrated_error(r, s), args.repeat, CLOCK)
+    return best(plain, args.repeat, CLOCK), best(registered, args.repeat, CLOCK), defects
 
 
 def main():
@@ -156,8 +163,9 @@ def main():
         per_px[name] = t_ours / r.size
         print(f"{name:<40}{t_ours * 1e3:>15.2f}{t_peer * 1e3:>12.1f}{t_peer / t_ours:>8.1f}x{t_ours / r.size * 1e9:>11.2f}")
     for name, r, s, kw, _ in pairs("real") if args.pairs in ("real", "all") else []:
-        t_plain, t_registered = time_evaluate(r, s, kw)
-        print(f"evaluate {name}: unregistered {t_plain * 1e3:.2f} ms, registered (translation, phase) "
+        t_plain, t_registered, t_defects = time_evaluate(r, s, kw)
+        defects = "" if t_defects is None else f" (of which the defects check {t_defects * 1e3:.2f} ms)"
+        print(f"evaluate {name}: unregistered {t_plain * 1e3:.2f} ms{defects}, registered (translation, phase) "
               f"{t_registered * 1e3:.2f} ms")
     for dtype in ("uint16", "float32"):
         small, large = (per_px.get(f"synthetic {dtype} {size}") for size in ("640x512", "2048x2048"))

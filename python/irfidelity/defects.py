@@ -167,6 +167,15 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None) -> dict | None:
     return None
 
 
+def _squares(real: np.ndarray, sim: np.ndarray, mask: Any, held: np.ndarray | None):
+    """``(start row, squared differences)`` of each band, again (``held``: a one-band frame's)."""
+    if held is not None:
+        yield 0, held
+        return
+    for start, stop in _bands(*real.shape):
+        yield start, _band(real, sim, mask, start, stop)[0]
+
+
 def _may_dominate(real: np.ndarray, sim: np.ndarray, mask: Any, top: int, limit: float, largest: float,
                   held: np.ndarray | None) -> bool:
     """Whether the ``top`` largest squared differences can sum to more than ``limit``, by two
@@ -175,10 +184,7 @@ def _may_dominate(real: np.ndarray, sim: np.ndarray, mask: Any, top: int, limit:
     if top * largest <= limit:
         return False
     tau = limit / (2 * top)
-    above = 0.0
-    for start, stop in [(0, real.shape[0])] if held is not None else _bands(*real.shape):
-        squared = held if held is not None else _band(real, sim, mask, start, stop)[0]
-        above += float(squared[squared > tau].sum())
+    above = math.fsum(float(squared[squared > tau].sum()) for _, squared in _squares(real, sim, mask, held))
     return above + top * tau > limit
 
 
@@ -187,8 +193,7 @@ def _largest(real: np.ndarray, sim: np.ndarray, mask: Any, top: int,
     """The ``top`` largest squared differences, largest first, and their flat indices (ties
     broken by the smaller index), kept band by band (``held``: a one-band frame's squares)."""
     best_values, best_flat = np.empty(0), np.empty(0, dtype=np.int64)
-    for start, stop in _bands(*real.shape):
-        squared = held if held is not None else _band(real, sim, mask, start, stop)[0]
+    for start, squared in _squares(real, sim, mask, held):
         flat_band = squared.ravel()
         keep = min(top, flat_band.size)
         index = np.argpartition(flat_band, -keep)[-keep:]
