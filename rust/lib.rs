@@ -3,6 +3,7 @@
 //! `cargo test` needs no Python.
 
 pub mod budget;
+pub mod defects;
 pub mod dtype;
 pub mod error;
 pub mod fingerprint;

@@ -344,24 +344,27 @@ def test_grades_never_improve_down_a_camera_ladder(ladder):
     assert by_step[expected_not[0]] not in expected_not[1]
 
 
-def test_defects_are_found_band_by_band_as_over_the_whole_frame():
-    # a frame of several bands, the cluster across a band boundary: the same pixels as a
-    # direct computation over the whole frame
+def test_defects_are_found_across_chunks_as_over_the_whole_frame():
+    # a frame of several of the Rust pass's chunks (2^16 pixels), the cluster across a chunk
+    # boundary: the same pixels as a direct computation over the whole frame
     from irfidelity import defects
 
     rng = np.random.default_rng(5)
-    rows = 2 * (defects.BAND_PIXELS // 1000) + 40
-    real = 3000.0 + rng.normal(0, 2, (rows, 1000))
+    real = 3000.0 + rng.normal(0, 2, (200, 1000))
     sim = real + rng.normal(0, 2, real.shape)
-    edge = defects.BAND_PIXELS // 1000
-    sim[edge - 20:edge + 20, 300:400] = 0.0
+    edge = (1 << 16) // 1000  # the first chunk ends in row 65
+    sim[edge - 5:edge + 5, 300:350] = 0.0  # 500 pixels: half the top 0.5 %
     found = defects.concentrated_error(real, sim)
     squared = ((sim - real) ** 2).ravel()
     top = int(np.ceil(defects.TOP_SHARE * squared.size))
     largest = np.sort(squared)[::-1][:top]
     assert found is not None and found["pixels"] == top
     assert found["share"] == pytest.approx(largest.sum() / squared.sum(), rel=1e-12)
-    assert found["rows"] == [edge - 20, edge + 19] and found["cols"] == [300, 399]
+    assert found["rows"] == [edge - 5, edge + 4] and found["cols"] == [300, 349]
+    as_uint16 = defects.concentrated_error(real.astype(np.uint16), sim.astype(np.uint16))  # the AVX2 path
+    want = ((sim.astype(np.uint16).astype(float) - real.astype(np.uint16)) ** 2).ravel()
+    assert as_uint16["share"] == pytest.approx(np.sort(want)[::-1][:top].sum() / want.sum(), rel=1e-12)
+    assert as_uint16["rows"] == [edge - 5, edge + 4] and as_uint16["cols"] == [300, 349]
 
 
 def _whole_frame_defect(real, sim, mask):
@@ -387,10 +390,9 @@ def _whole_frame_defect(real, sim, mask):
 
 @pytest.mark.parametrize("case", ["hot border", "cold border masked", "nan and mask", "spread", "int cluster",
                                   "three rows"])
-def test_defects_equal_a_whole_frame_reference(case, monkeypatch):
-    from irfidelity import defects
+def test_defects_equal_a_whole_frame_reference(case):
+    from irfidelity import _core, defects
 
-    monkeypatch.setattr(defects, "BAND_PIXELS", 40 * 97)  # several bands of 40 rows
     rng = np.random.default_rng(len(case))
     real = 3000.0 + rng.normal(0, 3, (203, 97))
     sim = real + rng.normal(0, 3, real.shape)
@@ -425,6 +427,7 @@ def test_defects_equal_a_whole_frame_reference(case, monkeypatch):
         assert found["rows"] == want[2] and found["cols"] == want[3] and found["pixels"] == want[4]
     assert (want is None) == (case in ("spread", "three rows"))
     if case == "three rows":  # every pixel is on the border, counted once
-        squared, scored = defects._band(real, sim, None, 0, 3)
-        total, count, _ = defects._ring_sums(squared, scored, 0, 3)
-        assert count == real.size and total == pytest.approx(squared.sum(), rel=1e-12)
+        total, count, (ring_total, ring_count, box), _ = _core.error_profile(real, sim, top_share=defects.TOP_SHARE,
+                                                                             most=defects.MOST, border=2)
+        assert ring_count == count == real.size and ring_total == pytest.approx(total, rel=1e-12)
+        assert tuple(box) == (0, 2, 0, real.shape[1] - 1)

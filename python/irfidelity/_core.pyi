@@ -25,6 +25,7 @@ __all__ = [
     "applied_matrix",
     "check_budget",
     "default_max_bytes",
+    "error_profile",
     "default_max_pixels",
     "file_digests",
     "list_channels",
@@ -309,4 +310,20 @@ def score_registered(
     tuple[float, float] | None,
     npt.NDArray[np.float64],
     npt.NDArray[np.bool_],
+]: ...
+
+# ---- where a pair's squared error sits (rust/binding/defects.rs) --------------------------------
+def error_profile(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    mask: npt.NDArray[np.bool_] | None = None,
+    *,
+    top_share: float,
+    most: float,
+    border: int,
+) -> tuple[
+    float,
+    int,
+    tuple[float, int, list[int] | None],
+    tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]] | None,
 ]: ...

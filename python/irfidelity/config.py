@@ -31,6 +31,14 @@ from .tolerances import Tolerances
 
 __all__ = ["ScoringConfig", "MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "PAIRING_RULES"]
 
+def _shared(kind: type) -> Any:
+    """A default built once and shared by every configuration: weights, grade scales and
+    tolerances are immutable, and building them (with their checks) on every call would cost
+    each evaluation more than scoring a small frame."""
+    default = kind()
+    return lambda: default
+
+
 @dataclass(frozen=True)
 class ScoringConfig:
     """What decides a fidelity score: weights, PSNR peak, binning, anchors, exponents, ...
@@ -153,7 +161,7 @@ class ScoringConfig:
     True
     """
 
-    weights: Weights = field(default_factory=Weights)
+    weights: Weights = field(default_factory=_shared(Weights))
     bits: int | None = None
     peak: float | str | None = None
     bins: int | str = 256
@@ -174,8 +182,8 @@ class ScoringConfig:
     mtf_options: Mapping = field(default_factory=dict)
     sitf_options: Mapping = field(default_factory=dict)
     mrtd_options: Mapping = field(default_factory=dict)
-    grades: GradeScale = field(default_factory=GradeScale)
-    tolerances: Tolerances = field(default_factory=Tolerances)
+    grades: GradeScale = field(default_factory=_shared(GradeScale))
+    tolerances: Tolerances = field(default_factory=_shared(Tolerances))
     register: str | None = None
     register_method: str = DEFAULT_METHOD
     register_each: bool = False

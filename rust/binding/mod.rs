@@ -9,6 +9,7 @@ use pyo3::prelude::*;
 mod dtypes;
 mod args;
 mod budget;
+mod defects;
 mod fingerprint;
 mod io;
 mod maps;
@@ -50,5 +51,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     register::register(m)?;
     pair::register(m)?;
     radiometry::register(m)?;
+    defects::register(m)?;
     Ok(())
 }

@@ -191,7 +191,9 @@ fn dtype_mismatch(real: &Bound<'_, PyUntypedArray>, sim: &Bound<'_, PyUntypedArr
     ))
 }
 
-fn readonly<'py, T: numpy::Element>(a: &Bound<'py, PyArrayDyn<T>>) -> crate::Result<PyReadonlyArrayDyn<'py, T>> {
+pub(crate) fn readonly<'py, T: numpy::Element>(
+    a: &Bound<'py, PyArrayDyn<T>>,
+) -> crate::Result<PyReadonlyArrayDyn<'py, T>> {
     a.try_readonly().map_err(|e| crate::Error::Value(format!("a frame is being written elsewhere: {e}")))
 }
 

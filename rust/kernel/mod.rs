@@ -25,6 +25,7 @@ mod sample;
 
 pub(crate) use dispatch::use_avx2;
 pub use driver::pair_stats;
+pub(crate) use parallel::{fold_chunks, map_chunks};
 pub use parallel::{map_units, pool_busy, with_pool_busy};
 pub use request::{HistRequest, Request};
 pub use sample::Sample;

@@ -1,0 +1,525 @@
+//! Where a frame pair's squared error sits: its total, the share its largest values carry and
+//! the share on the frame's border — the numbers `irfidelity.defects.concentrated_error`
+//! judges (a dead cluster, stuck pixels, a hot border decide global SSIM and MSE).
+//!
+//! One pass gives the total, the scored pixels, the largest square, the sum of the squares'
+//! squares and the border's sums. The `top` largest squares are searched for only when three
+//! bounds cannot rule out that they carry more than `limit` (see [`may_dominate`]). Squares
+//! are float64 (exact for frames of
+//! ≤ 16-bit integers), summed in eight lanes per chunk and the chunks in order, so a result does
+//! not depend on the threads that computed it.
+
+use std::cmp::Ordering;
+
+use crate::kernel::{fold_chunks, map_chunks, Sample};
+
+/// What is asked: the share of the scored pixels whose largest squares are examined, the share
+/// of the total they must carry to dominate, and the border's width in pixels.
+#[derive(Clone, Copy, Debug)]
+pub struct Question {
+    pub top_share: f64,
+    pub most: f64,
+    pub border: usize,
+}
+
+/// The border's squared error, scored pixels and their bounding box (row0, row1, col0, col1,
+/// inclusive; None when no border pixel is scored).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Border {
+    pub total: f64,
+    pub count: u64,
+    pub bounds: Option<[usize; 4]>,
+}
+
+/// The answer: totals over the scored pixels, the border's, and the `top` largest squares
+/// (largest first, ties by the smaller flat index) when the bounds could not rule them out.
+#[derive(Clone, Debug)]
+pub struct Profile {
+    pub total: f64,
+    pub count: u64,
+    pub border: Border,
+    pub top: Option<Vec<(f64, usize)>>,
+}
+
+/// Two frames of `rows × cols` samples (row-major) and the scored pixels (`mask`).
+struct Pair<'a, A, B> {
+    real: &'a [A],
+    sim: &'a [B],
+    mask: Option<&'a [bool]>,
+}
+
+/// One chunk's (or the frame's) sums: the squares, their squares (Σ v², for the
+/// Cauchy–Schwarz bound), the scored pixels and the largest square.
+#[derive(Clone, Copy, Debug, Default)]
+struct Sums {
+    total: f64,
+    squares: f64,
+    count: u64,
+    largest: f64,
+}
+
+/// Chunk passes cost about this many ns per pixel (decides threading).
+const NS_PER_PX: f64 = 0.5;
+const LANES: usize = 8;
+
+/// The squared difference of `x` and `y`, 0 where the pixel is not scored (`keep` false, or
+/// either value not finite), and whether it is scored.
+#[inline(always)]
+fn square<A: Sample, B: Sample>(x: A, y: B, keep: bool) -> (f64, bool) {
+    let (x, y) = (x.to_f64(), y.to_f64());
+    let kept = keep && (A::IS_INT || x.is_finite()) && (B::IS_INT || y.is_finite());
+    let d = y - x;
+    (if kept { d * d } else { 0.0 }, kept)
+}
+
+impl<A: Sample, B: Sample> Pair<'_, A, B> {
+    /// The square at flat index `i` (see [`square`]).
+    #[inline(always)]
+    fn square(&self, i: usize) -> (f64, bool) {
+        square(self.real[i], self.sim[i], self.mask.is_none_or(|m| m[i]))
+    }
+
+    /// `step(squares, scored)` over `[a, b)` in blocks of eight (the last padded with unscored
+    /// zeros): fixed-size blocks the compiler keeps in vector registers.
+    #[inline(always)]
+    fn each(&self, (a, b): (usize, usize), mut step: impl FnMut(&[f64; LANES], &[bool; LANES])) {
+        let (real, sim) = (&self.real[a..b], &self.sim[a..b]);
+        let mask = self.mask.map(|m| &m[a..b]);
+        let blocks = (b - a) / LANES;
+        for block in 0..blocks {
+            let at = block * LANES;
+            let x: &[A; LANES] = real[at..at + LANES].try_into().expect("a block of eight");
+            let y: &[B; LANES] = sim[at..at + LANES].try_into().expect("a block of eight");
+            let (mut v, mut k) = ([0.0; LANES], [false; LANES]);
+            match mask {
+                None => (0..LANES).for_each(|l| (v[l], k[l]) = square(x[l], y[l], true)),
+                Some(m) => {
+                    let m: &[bool; LANES] = m[at..at + LANES].try_into().expect("a block of eight");
+                    (0..LANES).for_each(|l| (v[l], k[l]) = square(x[l], y[l], m[l]));
+                }
+            }
+            step(&v, &k);
+        }
+        let (mut v, mut k) = ([0.0; LANES], [false; LANES]);
+        for (l, i) in (a + blocks * LANES..b).enumerate() {
+            (v[l], k[l]) = self.square(i);
+        }
+        step(&v, &k);
+    }
+
+    /// [`Pair::sums`], through explicit AVX2 for two unmasked uint16 frames (the common case).
+    #[inline(always)]
+    fn chunk_sums(&self, (a, b): (usize, usize)) -> Sums {
+        #[cfg(target_arch = "x86_64")]
+        if self.mask.is_none() && crate::kernel::use_avx2() {
+            if let (Some(real), Some(sim)) = (A::as_u16(&self.real[a..b]), B::as_u16(&self.sim[a..b])) {
+                // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+                return unsafe { avx2::sums_u16(real, sim) };
+            }
+        }
+        self.sums((a, b))
+    }
+
+    /// Total, sum of squares, scored pixels and largest square of `[a, b)`.
+    #[inline(always)]
+    fn sums(&self, range: (usize, usize)) -> Sums {
+        let (mut total, mut squares, mut largest) = ([0.0; LANES], [0.0; LANES], [0.0f64; LANES]);
+        let mut count = [0u64; LANES];
+        self.each(range, |v, kept| {
+            for l in 0..LANES {
+                total[l] += v[l];
+                squares[l] += v[l] * v[l];
+                count[l] += kept[l] as u64;
+                largest[l] = if v[l] > largest[l] { v[l] } else { largest[l] };
+            }
+        });
+        Sums {
+            total: total.iter().sum(),
+            squares: squares.iter().sum(),
+            count: count.iter().sum(),
+            largest: largest.iter().fold(0.0, |m, &v| if v > m { v } else { m }),
+        }
+    }
+
+    /// Sum and number of the squares above `tau` in `[a, b)`.
+    #[inline(always)]
+    fn above(&self, range: (usize, usize), tau: f64) -> (f64, u64) {
+        let (mut total, mut count) = ([0.0; LANES], [0u64; LANES]);
+        self.each(range, |v, _| {
+            for l in 0..LANES {
+                let over = v[l] > tau;
+                total[l] += if over { v[l] } else { 0.0 };
+                count[l] += over as u64;
+            }
+        });
+        (total.iter().sum(), count.iter().sum())
+    }
+
+    /// Adds the squares of `[a, b)` that rank among the `top` largest so far to `found`.
+    fn largest(&self, found: &mut Candidates, (a, b): (usize, usize), top: usize) -> crate::Result<()> {
+        for i in a..b {
+            let (v, _) = self.square(i);
+            if v > found.threshold {
+                found.push((v, i), top)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What one worker keeps of the largest squares: at most `2·top` (cut back to the `top`
+/// first when full) and the value a square must exceed to enter (later equal values rank
+/// lower: their indices are larger).
+#[derive(Default)]
+struct Candidates {
+    kept: Vec<(f64, usize)>,
+    threshold: f64,
+}
+
+impl Candidates {
+    fn push(&mut self, candidate: (f64, usize), top: usize) -> crate::Result<()> {
+        if self.kept.capacity() == 0 {
+            self.kept.try_reserve_exact(2 * top + 1).map_err(|_| {
+                crate::Error::Value(format!(
+                    "not enough memory to search the {top} largest squared differences ({} bytes)",
+                    (2 * top + 1) * std::mem::size_of::<(f64, usize)>()
+                ))
+            })?;
+        }
+        self.kept.push(candidate);
+        if self.kept.len() > 2 * top {
+            keep_largest(&mut self.kept, top);
+            self.threshold = self.kept[top - 1].0;
+        }
+        Ok(())
+    }
+
+    /// Both workers' candidates, cut to the `top` first.
+    fn merge(mut self, mut other: Candidates, top: usize) -> Candidates {
+        keep_largest(&mut self.kept, top);
+        keep_largest(&mut other.kept, top);
+        if self.kept.capacity() < other.kept.capacity() {
+            std::mem::swap(&mut self, &mut other);
+        }
+        self.kept.append(&mut other.kept); // within the 2·top + 1 reserved
+        keep_largest(&mut self.kept, top);
+        self
+    }
+}
+
+/// Largest first, ties by the smaller index.
+fn rank(a: &(f64, usize), b: &(f64, usize)) -> Ordering {
+    b.0.total_cmp(&a.0).then(a.1.cmp(&b.1))
+}
+
+/// Cut `values` to its `top` first by [`rank`] (unordered but for the last, the `top`-th).
+fn keep_largest(values: &mut Vec<(f64, usize)>, top: usize) {
+    if values.len() > top {
+        values.select_nth_unstable_by(top - 1, rank);
+        values.truncate(top);
+    }
+}
+
+/// A chunk's [`Pair::chunk_sums`], compiled on its own (the loops optimise there as they do
+/// not inlined into the chunk scheduler's closure).
+#[inline(never)]
+fn chunk_sums<A: Sample, B: Sample>(pair: &Pair<'_, A, B>, range: (usize, usize)) -> Sums {
+    pair.chunk_sums(range)
+}
+
+/// A chunk's [`Pair::above`], like [`chunk_sums`].
+#[inline(never)]
+fn chunk_above<A: Sample, B: Sample>(pair: &Pair<'_, A, B>, range: (usize, usize), tau: f64) -> (f64, u64) {
+    pair.above(range, tau)
+}
+
+/// [`Pair::sums`] of two uint16 frames with explicit AVX2, sixteen pixels per step: |x − y| by
+/// two saturating subtractions; its square summed exactly as bytes (as `kernel::int`'s
+/// squared-error loop does), its largest by lane maxima, its fourth power in float64 lanes.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::Sums;
+    use std::arch::x86_64::*;
+
+    /// Steps (of sixteen pixels) per block: each adds < 2^17 to every i32 lane of the square
+    /// sums, so 2^14 steps stay below 2^31.
+    const STEPS: usize = 1 << 14;
+
+    /// The eight u32 lanes of `v`, summed.
+    ///
+    /// # Safety
+    /// The CPU supports AVX2.
+    #[target_feature(enable = "avx2")]
+    unsafe fn lanes_sum(v: __m256i) -> u128 {
+        let mut lanes = [0u32; 8];
+        // SAFETY: `lanes` is 32 bytes, the size of one unaligned 256-bit store.
+        _mm256_storeu_si256(lanes.as_mut_ptr() as *mut __m256i, v);
+        lanes.iter().map(|&x| x as u128).sum()
+    }
+
+    /// Adds the fourth powers of the sixteen u16 lanes of `d` to `fourth`, four per vector.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn add_fourth(d: __m256i, fourth: &mut [__m256d; 4]) {
+        let halves = [_mm256_castsi256_si128(d), _mm256_extracti128_si256::<1>(d)];
+        for (h, half) in halves.into_iter().enumerate() {
+            let wide = _mm256_cvtepu16_epi32(half);
+            let quarters = [_mm256_castsi256_si128(wide), _mm256_extracti128_si256::<1>(wide)];
+            for (q, quarter) in quarters.into_iter().enumerate() {
+                let f = _mm256_cvtepi32_pd(quarter);
+                let f2 = _mm256_mul_pd(f, f);
+                fourth[2 * h + q] = _mm256_add_pd(fourth[2 * h + q], _mm256_mul_pd(f2, f2));
+            }
+        }
+    }
+
+    /// Total, sum of squares, count and largest square of `(r − s)²` over the common length.
+    ///
+    /// # Safety
+    /// The CPU supports AVX2 (the loads stay within both slices for any lengths).
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn sums_u16(r: &[u16], s: &[u16]) -> Sums {
+        let n = r.len().min(s.len());
+        let full = n / 16 * 16;
+        let low = _mm256_set1_epi16(0xff);
+        let (mut total, mut largest, mut fourth) = (0u128, _mm256_setzero_si256(), [_mm256_setzero_pd(); 4]);
+        let mut start = 0;
+        while start < full {
+            let end = (start + 16 * STEPS).min(full);
+            let (mut hh, mut hl, mut ll) = (_mm256_setzero_si256(), _mm256_setzero_si256(), _mm256_setzero_si256());
+            let mut i = start;
+            while i < end {
+                // SAFETY: unaligned 16 x u16 loads at i with i + 16 <= full <= the length of both
+                // slices (i steps by 16 from 0 up to end <= full, a multiple of 16)
+                let x = _mm256_loadu_si256(r.as_ptr().add(i) as *const __m256i);
+                let y = _mm256_loadu_si256(s.as_ptr().add(i) as *const __m256i);
+                let d = _mm256_or_si256(_mm256_subs_epu16(x, y), _mm256_subs_epu16(y, x));
+                largest = _mm256_max_epu16(largest, d);
+                let (h, l) = (_mm256_srli_epi16::<8>(d), _mm256_and_si256(d, low));
+                hh = _mm256_add_epi32(hh, _mm256_madd_epi16(h, h));
+                hl = _mm256_add_epi32(hl, _mm256_madd_epi16(h, l));
+                ll = _mm256_add_epi32(ll, _mm256_madd_epi16(l, l));
+                add_fourth(d, &mut fourth);
+                i += 16;
+            }
+            total += (lanes_sum(hh) << 16) + (lanes_sum(hl) << 9) + lanes_sum(ll);
+            start = end;
+        }
+        let mut lanes = [0u16; 16];
+        // SAFETY: `lanes` is 32 bytes, the size of one unaligned 256-bit store.
+        _mm256_storeu_si256(lanes.as_mut_ptr() as *mut __m256i, largest);
+        let mut squares = [0.0f64; 4];
+        let mut sums = Sums { count: n as u64, ..Sums::default() };
+        for part in fourth {
+            // SAFETY: `squares` is four f64, the size of one unaligned 256-bit store.
+            _mm256_storeu_pd(squares.as_mut_ptr(), part);
+            sums.squares += squares.iter().sum::<f64>();
+        }
+        let mut top = lanes.iter().copied().max().unwrap_or(0);
+        for (&x, &y) in r[full..n].iter().zip(&s[full..n]) {
+            let d = x.abs_diff(y);
+            total += (d as u128).pow(2);
+            sums.squares += (d as f64).powi(4);
+            top = top.max(d);
+        }
+        sums.total = total as f64;
+        sums.largest = (top as f64).powi(2);
+        sums
+    }
+}
+
+/// Whether `y` is within `width` of the first or last of `n` rows (or columns).
+fn near_edge(y: usize, n: usize, width: usize) -> bool {
+    y < width || y + width >= n
+}
+
+/// The border's sums: the rows near the top and bottom edges, and in the other rows the
+/// columns near the left and right edges (each pixel once).
+fn border_sums<A: Sample, B: Sample>(pair: &Pair<'_, A, B>, (rows, cols): (usize, usize), width: usize) -> Border {
+    let mut border = Border::default();
+    let mut add = |y: usize, x: usize| {
+        let (v, kept) = pair.square(y * cols + x);
+        if kept {
+            border.total += v;
+            border.count += 1;
+            let b = border.bounds.get_or_insert([y, y, x, x]);
+            *b = [b[0].min(y), b[1].max(y), b[2].min(x), b[3].max(x)];
+        }
+    };
+    let sides = (0..width.min(cols)).chain(width.max(cols.saturating_sub(width))..cols);
+    for y in 0..rows {
+        if near_edge(y, rows, width) {
+            (0..cols).for_each(|x| add(y, x));
+        } else {
+            sides.clone().for_each(|x| add(y, x));
+        }
+    }
+    border
+}
+
+/// The squared error of `real` against `sim` (`rows × cols`, row-major, over `mask`), and where
+/// it sits (see the module's text).
+pub fn profile<A: Sample, B: Sample>(
+    real: &[A],
+    sim: &[B],
+    mask: Option<&[bool]>,
+    shape: (usize, usize),
+    question: Question,
+) -> crate::Result<Profile> {
+    let n = shape.0 * shape.1;
+    if real.len() != n || sim.len() != n || mask.is_some_and(|m| m.len() != n) {
+        return Err(crate::Error::Shape(format!("the frames and mask must have {n} samples ({shape:?})")));
+    }
+    let pair = Pair { real, sim, mask };
+    let Ok(parts) = map_chunks::<_, std::convert::Infallible>(n, NS_PER_PX, |range| Ok(chunk_sums(&pair, range)));
+    let sums = parts.iter().fold(Sums::default(), |all, p| Sums {
+        total: all.total + p.total,
+        squares: all.squares + p.squares,
+        count: all.count + p.count,
+        largest: if p.largest > all.largest { p.largest } else { all.largest },
+    });
+    let border = border_sums(&pair, shape, question.border);
+    let (total, count) = (sums.total, sums.count);
+    let top = if count == 0 || total.is_nan() || total <= 0.0 {
+        None
+    } else {
+        let top = ((question.top_share * count as f64).ceil() as usize).max(1);
+        may_dominate(&pair, n, top, question.most * total, &sums).then(|| top_squares(&pair, n, top)).transpose()?
+    };
+    Ok(Profile { total, count, border, top })
+}
+
+/// Whether the `top` largest squares can sum to more than `limit`, by three bounds that need no
+/// search (a relative margin of 1e-9 covers their own rounding): `top × largest`;
+/// Cauchy–Schwarz, √(top · Σ v²); and, with τ = limit / (2·top), the sum of the squares above τ
+/// plus τ for each of the `top` not above it (a second pass).
+fn may_dominate<A: Sample, B: Sample>(pair: &Pair<'_, A, B>, n: usize, top: usize, limit: f64, sums: &Sums) -> bool {
+    let margin = 1.0 + 1e-9;
+    let top_f = top as f64;
+    if (top_f * sums.largest).min((top_f * sums.squares).sqrt()) * margin <= limit {
+        return false;
+    }
+    let tau = limit / (2.0 * top_f);
+    let Ok(parts) = map_chunks::<_, std::convert::Infallible>(n, NS_PER_PX, |range| Ok(chunk_above(pair, range, tau)));
+    let above: f64 = parts.iter().map(|p| p.0).sum();
+    let over: u64 = parts.iter().map(|p| p.1).sum();
+    let bound = above + (top as u64).saturating_sub(over) as f64 * tau;
+    bound * margin > limit
+}
+
+/// The `top` largest squares, largest first (ties: smaller index first); fewer when fewer
+/// are positive. Each worker holds at most `2·top + 1` candidates (16 bytes each).
+fn top_squares<A: Sample, B: Sample>(pair: &Pair<'_, A, B>, n: usize, top: usize) -> crate::Result<Vec<(f64, usize)>> {
+    let found = fold_chunks(
+        n,
+        NS_PER_PX,
+        Candidates::default,
+        |mut found, range| pair.largest(&mut found, range, top).map(|()| found),
+        |a, b| a.merge(b, top),
+    )?;
+    let mut all = found.kept;
+    keep_largest(&mut all, top);
+    all.sort_unstable_by(rank);
+    Ok(all)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ASKED: Question = Question { top_share: 0.005, most: 0.5, border: 2 };
+
+    fn noise(n: usize, seed: u64) -> Vec<f64> {
+        let mut state = seed;
+        (0..n)
+            .map(|_| {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 4.0
+            })
+            .collect()
+    }
+
+    /// A whole-frame reference: every square, sorted.
+    fn reference(real: &[f64], sim: &[f64], mask: Option<&[bool]>) -> (f64, u64, Vec<(f64, usize)>) {
+        let mut squares: Vec<(f64, usize)> = (0..real.len())
+            .filter(|&i| real[i].is_finite() && sim[i].is_finite() && mask.is_none_or(|m| m[i]))
+            .map(|i| ((sim[i] - real[i]).powi(2), i))
+            .collect();
+        let total = squares.iter().map(|s| s.0).sum();
+        let count = squares.len() as u64;
+        squares.sort_by(rank);
+        (total, count, squares)
+    }
+
+    #[test]
+    fn a_dead_cluster_across_chunks_is_the_top() {
+        let (rows, cols) = (300, 500); // 150 000 pixels: three chunks
+        let real: Vec<f64> = noise(rows * cols, 1).iter().map(|v| 3000.0 + v).collect();
+        let mut sim: Vec<f64> = real.iter().zip(noise(rows * cols, 2)).map(|(r, e)| r + e).collect();
+        for y in 120..140 {
+            for x in 200..240 {
+                sim[y * cols + x] = 0.0; // spans the first chunk boundary (row 131)
+            }
+        }
+        let got = profile(&real, &sim, None, (rows, cols), ASKED).unwrap();
+        let (total, count, squares) = reference(&real, &sim, None);
+        assert_eq!(got.count, count);
+        assert!((got.total - total).abs() <= 1e-12 * total);
+        let top = got.top.expect("a dominating cluster is searched");
+        assert_eq!(top.len(), 750);
+        assert_eq!(top, squares[..750].to_vec());
+    }
+
+    #[test]
+    fn spread_error_skips_the_search() {
+        let (rows, cols) = (200, 300);
+        let real = noise(rows * cols, 3);
+        let sim = noise(rows * cols, 4);
+        let got = profile(&real, &sim, None, (rows, cols), ASKED).unwrap();
+        assert!(got.top.is_none());
+    }
+
+    #[test]
+    fn border_counts_each_pixel_once_with_mask_and_nan() {
+        let (rows, cols) = (7, 4);
+        let real = vec![1.0; rows * cols];
+        let mut sim = vec![3.0; rows * cols];
+        sim[0] = f64::NAN;
+        let mut mask = vec![true; rows * cols];
+        mask[cols * 6 + 3] = false; // bottom-right corner
+        let got = profile(&real, &sim, Some(&mask), (rows, cols), ASKED).unwrap();
+        // every pixel of a 4-wide frame is within 2 of a side: all scored pixels are border
+        assert_eq!(got.count, 26);
+        assert_eq!(got.border.count, 26);
+        assert_eq!(got.border.total, 26.0 * 4.0);
+        assert_eq!(got.border.bounds, Some([0, 6, 0, 3]));
+        let wide = profile(&vec![0u16; 6 * 9], &vec![1u16; 6 * 9], None, (6, 9), ASKED).unwrap();
+        assert_eq!(wide.border.count, 6 * 9 - 2 * 5); // the 2 × 5 interior is not
+    }
+
+    #[test]
+    fn ties_rank_by_index_and_threads_do_not_matter() {
+        let (rows, cols) = (256, 1024);
+        let real = vec![10u16; rows * cols];
+        let mut sim = real.clone();
+        for i in (0..rows * cols).step_by(150) {
+            sim[i] = 1000; // equal squares everywhere: the first ones by index are the top
+        }
+        let got = profile(&real, &sim, None, (rows, cols), ASKED).unwrap();
+        let top = got.top.unwrap();
+        let want: Vec<usize> = (0..rows * cols).step_by(150).take(top.len()).collect();
+        assert_eq!(top.iter().map(|t| t.1).collect::<Vec<_>>(), want);
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let alone = pool.install(|| profile(&real, &sim, None, (rows, cols), ASKED).unwrap());
+        assert_eq!((alone.total, alone.top), (got.total, Some(top)));
+    }
+
+    #[test]
+    fn nothing_scored_or_no_error() {
+        let got = profile(&[1u8, 2], &[1u8, 2], None, (1, 2), ASKED).unwrap();
+        assert_eq!((got.total, got.count, got.top.is_none()), (0.0, 2, true));
+        let got = profile(&[1u8, 2], &[5u8, 6], Some(&[false, false]), (1, 2), ASKED).unwrap();
+        assert_eq!((got.count, got.border.bounds), (0, None));
+        assert!(profile(&[1u8, 2], &[1u8], None, (1, 2), ASKED).is_err());
+    }
+}
