@@ -207,15 +207,15 @@ impl Joint {
         match self {
             Joint::Dense { bins, counts, .. } => {
                 let b = *bins;
-                let mut row = vec![0u64; b];
+                // each row summed on its own, the columns by adding rows: two loops that vectorise
                 let mut col = vec![0u64; b];
-                for r in 0..b {
-                    let line = &counts[r * b..(r + 1) * b];
-                    for (s, &c) in line.iter().enumerate() {
-                        row[r] += c;
-                        col[s] += c;
-                    }
-                }
+                let row: Vec<u64> = counts
+                    .chunks_exact(b.max(1))
+                    .map(|line| {
+                        col.iter_mut().zip(line).for_each(|(total, &c)| *total += c);
+                        line.iter().sum()
+                    })
+                    .collect();
                 Entropies {
                     h_real: entropy(row, n),
                     h_sim: entropy(col, n),

@@ -89,14 +89,15 @@ def _core_calls(fn) -> list[str]:
     return calls
 
 
-def test_a_registered_evaluate_makes_at_most_two_core_calls():
+def test_a_registered_evaluate_makes_one_scoring_call():
+    # the pair's one path and its summary, then the defects check on the frames as scored
     real, sim = _pair(FRAMES[1])
     kw = dict(bits=16, peak="range", register="translation", register_method="phase")
     calls = _core_calls(lambda: irf.evaluate(real, sim, **kw))
-    assert calls == ["score_registered", "PairStats.summary"], calls
+    assert calls == ["score_registered", "PairStats.summary", "error_profile"], calls
     # unregistered: the memory plan is checked (no data crosses), then one pass and its summary
     calls = _core_calls(lambda: irf.evaluate(real, sim, bits=16, peak="range"))
-    assert calls == ["check_budget", "pair_stats", "PairStats.summary"], calls
+    assert calls == ["check_budget", "pair_stats", "PairStats.summary", "error_profile"], calls
 
 
 def test_the_array_loop_scores_as_the_engine(tmp_path):
