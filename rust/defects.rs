@@ -345,11 +345,12 @@ mod avx2 {
         for (&x, &y) in r[full..n].iter().zip(&s[full..n]) {
             let d = x.abs_diff(y);
             total += (d as u128).pow(2);
-            sums.squares += (d as f64).powi(4);
+            let square = (d as f64) * (d as f64);
+            sums.squares += square * square;
             top = top.max(d);
         }
         sums.total = total as f64;
-        sums.largest = (top as f64).powi(2);
+        sums.largest = top as f64 * top as f64; // exact (powi need not be)
         sums
     }
 
@@ -526,7 +527,7 @@ mod tests {
     fn reference(real: &[f64], sim: &[f64], mask: Option<&[bool]>) -> (f64, u64, Vec<(f64, usize)>) {
         let mut squares: Vec<(f64, usize)> = (0..real.len())
             .filter(|&i| real[i].is_finite() && sim[i].is_finite() && mask.is_none_or(|m| m[i]))
-            .map(|i| ((sim[i] - real[i]).powi(2), i))
+            .map(|i| ((sim[i] - real[i]) * (sim[i] - real[i]), i))
             .collect();
         let total = squares.iter().map(|s| s.0).sum();
         let count = squares.len() as u64;
