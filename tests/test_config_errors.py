@@ -309,3 +309,12 @@ def test_a_lone_surrogate_is_a_clear_error_in_toml_and_saved_in_json(tmp_path):
 def test_cli_reports_config_file_errors_in_one_line(tmp_path, capsys, text, needle):
     line = cli_error(capsys, "score", REAL, SIM, "--config", write(tmp_path, "c.toml", text))
     assert needle in line and "c.toml" in line
+
+
+def test_curve_parameters_are_remembered_only_for_what_they_are():
+    """The parameters of hashable anchors are remembered; lists give the same numbers, and a
+    refused pair is refused every time (errors are not remembered)."""
+    assert psnr_curve_params([[30, 0.9], [45, 0.99]]) == psnr_curve_params(((30.0, 0.9), (45.0, 0.99)))
+    for _ in range(2):
+        with pytest.raises(FidelityError, match="anchor values"):
+            psnr_curve_params(((30.0, 0.9), (45.0, 1.5)))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 from .errors import FidelityError
@@ -50,6 +51,16 @@ def psnr_curve_params(anchors=DEFAULT_PSNR_ANCHORS) -> tuple[float, float]:
     >>> round(a, 4), round(k, 5)
     (18.4178, 1.70951)
     """
+    try:
+        return _curve_params(anchors)
+    except TypeError:  # unhashable anchors (lists): computed, not remembered
+        return _curve_params.__wrapped__(anchors)
+
+
+@functools.lru_cache(maxsize=32)
+def _curve_params(anchors) -> tuple[float, float]:
+    """:func:`psnr_curve_params` of hashable anchors, remembered: every normalised PSNR and
+    every grade cut needs them, and configurations share a handful of anchor pairs."""
     x1, y1, x2, y2 = _anchor_points(anchors)
     l1, l2 = -math.log1p(-y1), -math.log1p(-y2)
     log_x_ratio, log_l_ratio = math.log(x2) - math.log(x1), math.log(l2) - math.log(l1)
