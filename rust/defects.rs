@@ -251,23 +251,8 @@ fn chunk_above<A: Sample, B: Sample>(pair: &Pair<'_, A, B>, range: (usize, usize
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::Sums;
+    use crate::kernel::int_avx2::{abs_diff, SquareSums, STEPS};
     use std::arch::x86_64::*;
-
-    /// Steps (of sixteen pixels) per block: each adds < 2^17 to every i32 lane of the square
-    /// sums, so 2^14 steps stay below 2^31.
-    const STEPS: usize = 1 << 14;
-
-    /// The eight u32 lanes of `v`, summed.
-    ///
-    /// # Safety
-    /// The CPU supports AVX2.
-    #[target_feature(enable = "avx2")]
-    unsafe fn lanes_sum(v: __m256i) -> u128 {
-        let mut lanes = [0u32; 8];
-        // SAFETY: `lanes` is 32 bytes, the size of one unaligned 256-bit store.
-        _mm256_storeu_si256(lanes.as_mut_ptr() as *mut __m256i, v);
-        lanes.iter().map(|&x| x as u128).sum()
-    }
 
     /// Steps per float32 partial sum of the fourth powers: each term is rounded once or twice
     /// (relative 2^-23 each) and 2^8 of them summed in float32 before joining the float64
@@ -308,12 +293,11 @@ mod avx2 {
     pub(super) unsafe fn sums_u16(r: &[u16], s: &[u16]) -> Sums {
         let n = r.len().min(s.len());
         let full = n / 16 * 16;
-        let low = _mm256_set1_epi16(0xff);
         let (mut total, mut largest, mut squares) = (0u128, _mm256_setzero_si256(), 0.0f64);
         let mut start = 0;
         while start < full {
             let end = (start + 16 * STEPS).min(full);
-            let (mut hh, mut hl, mut ll) = (_mm256_setzero_si256(), _mm256_setzero_si256(), _mm256_setzero_si256());
+            let mut exact = SquareSums::new();
             let mut i = start;
             while i < end {
                 let stop = (i + 16 * FOURTH_STEPS).min(end);
@@ -323,18 +307,15 @@ mod avx2 {
                     // both slices (i steps by 16 from 0 up to stop <= full, a multiple of 16)
                     let x = _mm256_loadu_si256(r.as_ptr().add(i) as *const __m256i);
                     let y = _mm256_loadu_si256(s.as_ptr().add(i) as *const __m256i);
-                    let d = _mm256_or_si256(_mm256_subs_epu16(x, y), _mm256_subs_epu16(y, x));
+                    let d = abs_diff(x, y);
                     largest = _mm256_max_epu16(largest, d);
-                    let (h, l) = (_mm256_srli_epi16::<8>(d), _mm256_and_si256(d, low));
-                    hh = _mm256_add_epi32(hh, _mm256_madd_epi16(h, h));
-                    hl = _mm256_add_epi32(hl, _mm256_madd_epi16(h, l));
-                    ll = _mm256_add_epi32(ll, _mm256_madd_epi16(l, l));
+                    exact.add(d);
                     add_fourth(d, &mut fourth);
                     i += 16;
                 }
                 squares += lanes_sum_f32(fourth);
             }
-            total += (lanes_sum(hh) << 16) + (lanes_sum(hl) << 9) + lanes_sum(ll);
+            total += exact.total();
             start = end;
         }
         let mut lanes = [0u16; 16];

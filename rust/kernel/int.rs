@@ -179,12 +179,12 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
 /// h², h·l and l² in i32 lanes, d² = 2^16·h² + 2^9·h·l + l² summed exactly. The generic loop
 /// widens every value to 64 bits (four per vector); this keeps sixteen per vector.
 #[cfg(target_arch = "x86_64")]
-mod avx2 {
+pub(crate) mod avx2 {
     use std::arch::x86_64::*;
 
-    /// Steps (of sixteen pixels) per block: each adds < 2^17 to every i32 lane, so 2^14
-    /// steps stay below 2^31.
-    const STEPS: usize = 1 << 14;
+    /// Steps (of sixteen pixels) per block of [`SquareSums`]: each adds < 2^17 to every i32
+    /// lane, so 2^14 steps stay below 2^31.
+    pub(crate) const STEPS: usize = 1 << 14;
 
     /// The eight u32 lanes of `v`, summed.
     ///
@@ -198,6 +198,47 @@ mod avx2 {
         lanes.iter().map(|&x| x as u128).sum()
     }
 
+    /// |x − y| of sixteen u16 lanes (two saturating subtractions).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn abs_diff(x: __m256i, y: __m256i) -> __m256i {
+        _mm256_or_si256(_mm256_subs_epu16(x, y), _mm256_subs_epu16(y, x))
+    }
+
+    /// Σ d² of u16 lanes over at most [`STEPS`] steps, exactly: the pair sums of h², h·l and l²
+    /// of d's bytes in i32 lanes.
+    #[derive(Clone, Copy)]
+    pub(crate) struct SquareSums {
+        hh: __m256i,
+        hl: __m256i,
+        ll: __m256i,
+    }
+
+    impl SquareSums {
+        #[inline]
+        #[target_feature(enable = "avx2")]
+        pub(crate) fn new() -> SquareSums {
+            SquareSums { hh: _mm256_setzero_si256(), hl: _mm256_setzero_si256(), ll: _mm256_setzero_si256() }
+        }
+
+        /// Adds the squares of the sixteen lanes of `d`.
+        #[inline]
+        #[target_feature(enable = "avx2")]
+        pub(crate) fn add(&mut self, d: __m256i) {
+            let (h, l) = (_mm256_srli_epi16::<8>(d), _mm256_and_si256(d, _mm256_set1_epi16(0xff)));
+            self.hh = _mm256_add_epi32(self.hh, _mm256_madd_epi16(h, h));
+            self.hl = _mm256_add_epi32(self.hl, _mm256_madd_epi16(h, l));
+            self.ll = _mm256_add_epi32(self.ll, _mm256_madd_epi16(l, l));
+        }
+
+        /// Σ d² = 2^16·Σh² + 2^9·Σh·l + Σl².
+        #[target_feature(enable = "avx2")]
+        pub(crate) fn total(self) -> u128 {
+            // SAFETY: this function's own target feature (AVX2) is what `lanes_sum` needs.
+            unsafe { (lanes_sum(self.hh) << 16) + (lanes_sum(self.hl) << 9) + lanes_sum(self.ll) }
+        }
+    }
+
     /// Σ(r − s)² over the common length, exactly.
     ///
     /// # Safety
@@ -206,26 +247,21 @@ mod avx2 {
     pub(super) unsafe fn sse_u16(r: &[u16], s: &[u16]) -> u128 {
         let n = r.len().min(s.len());
         let full = n / 16 * 16;
-        let low = _mm256_set1_epi16(0xff);
         let mut total: u128 = 0;
         let mut start = 0;
         while start < full {
             let end = (start + 16 * STEPS).min(full);
-            let (mut hh, mut hl, mut ll) = (_mm256_setzero_si256(), _mm256_setzero_si256(), _mm256_setzero_si256());
+            let mut sums = SquareSums::new();
             let mut i = start;
             while i < end {
                 // SAFETY: unaligned 16 x u16 loads at i with i + 16 <= full <= the length of both
                 // slices (i steps by 16 from 0 up to end <= full, a multiple of 16)
                 let x = _mm256_loadu_si256(r.as_ptr().add(i) as *const __m256i);
                 let y = _mm256_loadu_si256(s.as_ptr().add(i) as *const __m256i);
-                let d = _mm256_or_si256(_mm256_subs_epu16(x, y), _mm256_subs_epu16(y, x));
-                let (h, l) = (_mm256_srli_epi16::<8>(d), _mm256_and_si256(d, low));
-                hh = _mm256_add_epi32(hh, _mm256_madd_epi16(h, h));
-                hl = _mm256_add_epi32(hl, _mm256_madd_epi16(h, l));
-                ll = _mm256_add_epi32(ll, _mm256_madd_epi16(l, l));
+                sums.add(abs_diff(x, y));
                 i += 16;
             }
-            total += (lanes_sum(hh) << 16) + (lanes_sum(hl) << 9) + lanes_sum(ll);
+            total += sums.total();
             start = end;
         }
         total + r[full..n].iter().zip(&s[full..n]).map(|(&x, &y)| (x.abs_diff(y) as u64).pow(2) as u128).sum::<u128>()

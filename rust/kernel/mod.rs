@@ -25,6 +25,8 @@ mod sample;
 
 pub(crate) use dispatch::use_avx2;
 pub use driver::pair_stats;
+#[cfg(target_arch = "x86_64")]
+pub(crate) use int::avx2 as int_avx2;
 pub(crate) use parallel::{fold_chunks, map_chunks};
 pub use parallel::{map_units, pool_busy, with_pool_busy};
 pub use request::{HistRequest, Request};
