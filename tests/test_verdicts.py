@@ -431,3 +431,22 @@ def test_defects_equal_a_whole_frame_reference(case):
                                                                              most=defects.MOST, border=2)
         assert ring_count == count == real.size and ring_total == pytest.approx(total, rel=1e-12)
         assert tuple(box) == (0, 2, 0, real.shape[1] - 1)
+
+
+def test_a_defect_counts_the_pixels_that_carry_it(tmp_path, capsys):
+    # identical frames but for a 5×5 cluster: 25 pixels carry the error, not the 0.5 % examined
+    from irfidelity import defects
+
+    real = np.full((120, 160), 3000, dtype=np.uint16)
+    sim = real.copy()
+    sim[30:35, 40:45] = 0
+    found = defects.concentrated_error(real, sim)
+    assert found["pixels"] == 25 and found["rows"] == [30, 34] and "from 25 pixels" in found["text"]
+    # the command line gives its own flag for the statistics' advice on non-finite values
+    bad = sim.astype(np.float32)
+    bad[0, 0] = np.nan
+    np.save(tmp_path / "real.npy", real.astype(np.float32))
+    np.save(tmp_path / "sim.npy", bad)
+    assert main(["score", str(tmp_path / "real.npy"), str(tmp_path / "sim.npy"), "--peak", "range"]) == 2
+    err = capsys.readouterr().err
+    assert "pass --nonfinite mask" in err and "nonfinite='mask'" not in err

@@ -68,7 +68,8 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None) -> dict | None:
     -------
     dict or None
         None when neither dominates (or there is no error). Otherwise ``pixels`` (how many
-        carry it), ``share`` (of the summed squared difference), ``rows``, ``cols`` (their
+        carry it: the largest :data:`TOP_SHARE` of the squared differences, those not zero; the
+        border's scored pixels), ``share`` (of the summed squared difference), ``rows``, ``cols`` (their
         bounding box, inclusive: of the fewest largest ones that carry 90 % of the share) and
         ``text`` (one sentence).
 
@@ -95,7 +96,7 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None) -> dict | None:
         if share > MOST:
             carrying = int(np.searchsorted(np.cumsum(values), 0.9 * values.sum())) + 1
             rows, cols = np.unravel_index(flat[:carrying], real.shape)
-            return _finding(max(1, math.ceil(TOP_SHARE * count)), count, share, rows, cols, _where(rows, cols))
+            return _finding(len(values), count, share, rows, cols, _where(rows, cols))
     share = ring_total / total
     if share > MOST and ring_count < 0.1 * count:
         rows, cols = np.array(ring_box[:2]), np.array(ring_box[2:])

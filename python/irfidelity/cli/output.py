@@ -57,8 +57,9 @@ _DTYPE_ADVICE = {
 }
 
 
-#: The noise analysis's advice, as the command line gives it.
+#: The noise analysis's and the statistics' advice, as the command line gives it.
 _NOISE_ADVICE = {
+    "pass nonfinite='mask'": "pass --nonfinite mask",
     "pass detrend='plane'": "pass --noise-detrend plane",
     "with roi=(r0, r1, c0, c1)": "with --noise-roi Y0:Y1,X0:X1",
 }
