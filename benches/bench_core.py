@@ -167,6 +167,13 @@ def main():
         defects = "" if t_defects is None else f" (of which the defects check {t_defects * 1e3:.2f} ms)"
         print(f"evaluate {name}: unregistered {t_plain * 1e3:.2f} ms{defects}, registered (translation, phase) "
               f"{t_registered * 1e3:.2f} ms")
+    for name, r, s, kw, _ in (pairs("real") if args.pairs in ("real", "all") else [])[:1]:
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            tiny = best(lambda: irf.evaluate(r[:8, :8].copy(), s[:8, :8].copy(), **kw), args.repeat, CLOCK)
+        print(f"evaluate an 8x8 crop of {name} (the fixed cost of a call): {tiny * 1e3:.2f} ms")
     for dtype in ("uint16", "float32"):
         small, large = (per_px.get(f"synthetic {dtype} {size}") for size in ("640x512", "2048x2048"))
         if small and large:

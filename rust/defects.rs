@@ -2,12 +2,11 @@
 //! the share on the frame's border — the numbers `irfidelity.defects.concentrated_error`
 //! judges (a dead cluster, stuck pixels, a hot border decide global SSIM and MSE).
 //!
-//! One pass gives the total, the scored pixels, the largest square, the sum of the squares'
-//! squares and the border's sums. The `top` largest squares are searched for only when three
-//! bounds cannot rule out that they carry more than `limit` (see [`may_dominate`]). Squares
-//! are float64 (exact for frames of
-//! ≤ 16-bit integers), summed in eight lanes per chunk and the chunks in order, so a result does
-//! not depend on the threads that computed it.
+//! One pass gives the total, the scored pixels, the largest square, Σ v² (the squares'
+//! squares) and the border's sums. The `top` largest squares are searched for only when three
+//! bounds cannot rule out that they carry more than `limit` (see [`may_dominate`]). Squares are
+//! float64 (exact for frames of ≤ 16-bit integers); each chunk's sums are combined in chunk
+//! order, so a result does not depend on the threads that computed it.
 
 use std::cmp::Ordering;
 

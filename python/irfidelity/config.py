@@ -31,6 +31,7 @@ from .tolerances import Tolerances
 
 __all__ = ["ScoringConfig", "MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "PAIRING_RULES"]
 
+
 def _shared(kind: type) -> Any:
     """A default built once and shared by every configuration: weights, grade scales and
     tolerances are immutable, and building them (with their checks) on every call would cost

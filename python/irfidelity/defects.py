@@ -53,7 +53,7 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None) -> dict | None:
     or cold border); they dominate when they carry more than :data:`MOST` of the sum.
 
     One Rust pass over the frames (GIL released, no copy of them) gives the total, the border's
-    sums and the largest square; the largest squares are searched for only when two bounds
+    sums and the largest square; the largest squares are searched for only when three bounds
     cannot rule out that they dominate (``_core.error_profile``). Squared differences are
     float64, exact for frames of 16-bit integers or narrower.
 
