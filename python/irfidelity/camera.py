@@ -24,6 +24,7 @@ import numpy as np
 from .config import ScoringConfig
 from .curves import Curve
 from .errors import FidelityError
+from .frames import dtype_name
 from .fuzzy import Weights
 
 __all__ = ["CameraInputs", "camera_components", "describe_input"]
@@ -68,7 +69,7 @@ def describe_input(x: Any) -> Any:
     if isinstance(x, Curve):
         return f"Curve({len(x)} points{', ' + repr(x.name) if x.name else ''})"
     if isinstance(x, np.ndarray):
-        return f"array {x.shape} {x.dtype}"
+        return f"array {x.shape} {dtype_name(x.dtype)}"
     return type(x).__name__
 
 

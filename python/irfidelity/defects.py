@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
+from .frames import FRAME_DTYPES
 
 __all__ = ["TOP_SHARE", "MOST", "concentrated_error"]
 
@@ -108,6 +109,6 @@ def _frames(real: Any, sim: Any) -> tuple[np.ndarray, np.ndarray]:
     """The frames as the Rust pass takes them: C-contiguous, the simulated one of the real one's
     dtype or float64 (a registered pair's resampled frame); other pairs as float64."""
     real, sim = np.ascontiguousarray(real), np.ascontiguousarray(sim)
-    if real.dtype.name not in _core.SUPPORTED_DTYPES or sim.dtype not in (real.dtype, np.float64):
+    if real.dtype not in FRAME_DTYPES or sim.dtype not in (real.dtype, np.float64):
         real, sim = real.astype(np.float64), sim.astype(np.float64)
     return real, sim

@@ -27,6 +27,7 @@ from .camera import CameraInputs, camera_components, describe_input
 from .alignment import score_registered
 from .config import ScoringConfig
 from .errors import FidelityError, NoiseWarning, RangeError, ShapeError
+from .frames import dtype_name
 from .regions import as_regions, masked_stats, registered_union, score_regions, scored_mask, with_psnr_peak
 from .results import FidelityReport, recorded_warnings
 from .scoring import image_components, plan_components, score_components
@@ -101,7 +102,7 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
     scored = scored_mask(mask, regions, np.shape(r))
     sources.update(real=r, sim=s, mask=scored)
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
-                  dtype=np.asarray(r).dtype.name)
+                  dtype=dtype_name(np.asarray(r).dtype))
     if config.register is None and np.ndim(r) == 2:
         _check_scoring(r, s, scored, max_bytes)
     try:

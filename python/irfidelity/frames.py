@@ -12,6 +12,7 @@ Decoded frames keep the file's own sample type: ``uint8``/``uint16`` PNG, ``uint
 
 from __future__ import annotations
 
+import functools
 import glob as _glob
 import os
 import re
@@ -37,6 +38,13 @@ MULTIPAGE_EXTENSIONS = (".tif", ".tiff", ".seq")
 
 #: dtypes a frame may have (the dtypes the metrics accept).
 FRAME_DTYPES = tuple(np.dtype(t) for t in _core.SUPPORTED_DTYPES)
+
+
+@functools.lru_cache(maxsize=64)
+def dtype_name(dtype: np.dtype) -> str:
+    """``dtype.name``, remembered: numpy works it out in Python on every access (5 µs, several
+    times per scored pair)."""
+    return dtype.name
 
 _GLOB_CHARS = re.compile(r"[*?\[]")
 

@@ -55,12 +55,11 @@ fn typed<T: numpy::Element + Sample>(
     shape: (usize, usize),
     question: Question,
 ) -> crate::Result<Profile> {
-    let dtypes = format!("dtype {} with a {} real frame", sim.dtype(), real.dtype());
-    let Ok(real) = real.cast::<PyArrayDyn<T>>() else {
+    let Ok(real_array) = real.cast::<PyArrayDyn<T>>() else {
         return Err(crate::Error::Value("internal: real frame dtype".into()));
     };
-    let real = readonly(real)?;
-    let r = contiguous(&real, "the real frame")?;
+    let real_view = readonly(real_array)?;
+    let r = contiguous(&real_view, "the real frame")?;
     if let Ok(sim) = sim.cast::<PyArrayDyn<T>>() {
         let sim = readonly(sim)?;
         let s = contiguous(&sim, "the simulated frame")?;
@@ -71,7 +70,11 @@ fn typed<T: numpy::Element + Sample>(
         let s = contiguous(&sim, "the simulated frame")?;
         return py.detach(|| profile(r, s, mask, shape, question));
     }
-    Err(crate::Error::Shape(format!("sim: {dtypes}: expected the real frame's dtype or float64")))
+    Err(crate::Error::Shape(format!(
+        "sim: dtype {} with a {} real frame: expected the real frame's dtype or float64",
+        sim.dtype(),
+        real.dtype()
+    )))
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -245,31 +245,23 @@ fn rows_with<T: Sample, K: Kernel<N>, const N: usize>(
     let m = &to_source.0;
     let shift_only = m[0][0] == 1.0 && m[0][1] == 0.0 && m[1][0] == 0.0 && m[1][1] == 1.0;
     let all_clean = clean.iter().all(|&span| span == (0, src.cols));
+    let mut lines = shift_only.then(|| Lines::<N>::new::<K>(m[0][2], src.cols, out_cols));
     for (k, (out, ok)) in values.chunks_mut(out_cols.max(1)).zip(valid.chunks_mut(out_cols.max(1))).enumerate() {
         let r = first + k;
         let (x0, y0) = (m[0][1] * r as f64 + m[0][2], m[1][1] * r as f64 + m[1][2]);
-        let interior = if shift_only {
-            shifted_row::<T, K, N>(src, x0, y0, clean, out, ok)
+        let interior = if let Some(lines) = lines.as_mut() {
+            shifted_row::<T, K, N>(src, lines, y0, clean, out, ok)
         } else if all_clean {
             inside_row::<T, K, N>(src, (x0, y0), (m[0][0], m[1][0]), out, ok)
         } else {
             (0, 0)
         };
-        for (c, (v, f)) in out.iter_mut().zip(ok.iter_mut()).enumerate() {
-            if (interior.0..interior.1).contains(&c) {
-                continue;
-            }
+        for c in (0..interior.0).chain(interior.1.max(interior.0)..out.len()) {
             let (x, y) = (x0 + m[0][0] * c as f64, y0 + m[1][0] * c as f64);
-            match sample::<T, K, N>(src, x, y, clean) {
-                Some(s) => {
-                    *v = s;
-                    *f = true;
-                }
-                None => {
-                    *v = fill;
-                    *f = false;
-                }
-            }
+            (out[c], ok[c]) = match sample::<T, K, N>(src, x, y, clean) {
+                Some(s) => (s, true),
+                None => (fill, false),
+            };
         }
     }
 }
@@ -308,50 +300,153 @@ fn inside_row<T: Sample, K: Kernel<N>, const N: usize>(
     (lo, hi)
 }
 
-/// A row of a pure translation `out(c) = src(x0 + c, y0)` whose source rows are clean: the
-/// weights are the same for every pixel, so the columns whose taps all lie inside are
-/// summed as `N²` scaled copies of source rows (vectorised). Returns that column range; the
-/// caller does the others.
+/// The source rows of a pure translation filtered along x: `line(y)[c] = Σ_i wx[i]·src(y,
+/// first_x + c + i)` for the columns `c` whose taps all lie inside the frame. A translation
+/// has the same x weights on every row, so each source row is filtered once and shared by
+/// the `N` output rows that read it (kept in a ring of `N` rows), and an output row is `N`
+/// scaled filtered rows: `2N` multiply-adds per pixel instead of `N²`. The sums run in the
+/// order of [`block_sum`], so a pixel has the same value on either path.
+struct Lines<const N: usize> {
+    first_x: isize,
+    wx: [f64; N],
+    /// Columns `[lo, hi)` with every tap inside the frame.
+    cols: (usize, usize),
+    /// Which source row each ring slot holds.
+    held: [Option<usize>; N],
+    data: Vec<f64>,
+    width: usize,
+}
+
+impl<const N: usize> Lines<N> {
+    fn new<K: Kernel<N>>(x0: f64, src_cols: usize, width: usize) -> Self {
+        let (ix, tx) = split(x0);
+        let first_x = ix + K::FIRST;
+        let lo = (-first_x).clamp(0, width as isize) as usize;
+        let hi = (src_cols as isize - N as isize + 1 - first_x).clamp(lo as isize, width as isize) as usize;
+        let data = budget::filled(N * width, 0.0);
+        Lines { first_x, wx: K::weights(tx), cols: (lo, hi), held: [None; N], data, width }
+    }
+
+    /// Filter source row `y` into its slot unless the slot holds it already.
+    fn load<T: Sample>(&mut self, src: &Source<'_, T>, y: usize) {
+        let slot = y % N;
+        if self.held[slot] != Some(y) {
+            let (lo, hi) = self.cols;
+            let start = y * src.cols + (self.first_x + lo as isize) as usize;
+            let taps = &src.data[start..start + (hi - lo) + N - 1];
+            let wx = self.wx;
+            filter_line(&mut self.line_mut(slot)[lo..hi], taps, &wx);
+            self.held[slot] = Some(y);
+        }
+    }
+
+    fn line_mut(&mut self, slot: usize) -> &mut [f64] {
+        &mut self.data[slot * self.width..(slot + 1) * self.width]
+    }
+
+    /// Columns `[lo, hi)` of the filtered source row `y` (loaded before).
+    fn line(&self, y: usize, (lo, hi): (usize, usize)) -> &[f64] {
+        let slot = y % N;
+        debug_assert_eq!(self.held[slot], Some(y));
+        &self.data[slot * self.width + lo..slot * self.width + hi]
+    }
+}
+
+/// `line[c] = Σ_i w[i]·taps[c + i]` (zero weights skipped).
+fn filter_line<T: Sample, const N: usize>(line: &mut [f64], taps: &[T], w: &[f64; N]) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernel::use_avx2() {
+        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+        return unsafe { filter_line_avx2(line, taps, w) };
+    }
+    filter_line_impl(line, taps, w)
+}
+
+/// [`filter_line`] compiled for AVX2 (same code, same results: no fused multiply-add).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn filter_line_avx2<T: Sample, const N: usize>(line: &mut [f64], taps: &[T], w: &[f64; N]) {
+    filter_line_impl(line, taps, w)
+}
+
+#[inline(always)]
+fn filter_line_impl<T: Sample, const N: usize>(line: &mut [f64], taps: &[T], w: &[f64; N]) {
+    line.iter_mut().for_each(|v| *v = 0.0);
+    for (i, &wi) in w.iter().enumerate() {
+        if wi != 0.0 {
+            for (o, s) in line.iter_mut().zip(&taps[i..]) {
+                *o += wi * s.to_f64();
+            }
+        }
+    }
+}
+
+/// `out[c] = Σ_j w[j]·lines[j][c]` (zero weights skipped).
+fn combine_lines<const N: usize>(out: &mut [f64], lines: [&[f64]; N], w: &[f64; N]) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernel::use_avx2() {
+        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+        return unsafe { combine_lines_avx2(out, lines, w) };
+    }
+    combine_lines_impl(out, lines, w)
+}
+
+/// [`combine_lines`] compiled for AVX2 (same code, same results: no fused multiply-add).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn combine_lines_avx2<const N: usize>(out: &mut [f64], lines: [&[f64]; N], w: &[f64; N]) {
+    combine_lines_impl(out, lines, w)
+}
+
+#[inline(always)]
+fn combine_lines_impl<const N: usize>(out: &mut [f64], lines: [&[f64]; N], w: &[f64; N]) {
+    out.iter_mut().for_each(|v| *v = 0.0);
+    for (line, &wj) in lines.iter().zip(w) {
+        if wj != 0.0 {
+            for (o, &v) in out.iter_mut().zip(*line) {
+                *o += wj * v;
+            }
+        }
+    }
+}
+
+/// A row of a pure translation `out(c) = src(x0 + c, y0)`: the columns whose taps all lie
+/// in the clean spans of their source rows are combined from the filtered rows of `lines`
+/// (vectorised). Returns that column range; the caller does the others.
 fn shifted_row<T: Sample, K: Kernel<N>, const N: usize>(
     src: &Source<'_, T>,
-    x0: f64,
+    lines: &mut Lines<N>,
     y0: f64,
     clean: &[(usize, usize)],
     out: &mut [f64],
     ok: &mut [bool],
 ) -> (usize, usize) {
-    let ((ix, tx), (iy, ty)) = (split(x0), split(y0));
-    let (wx, wy) = (K::weights(tx), K::weights(ty));
-    let (first_x, first_y) = (ix + K::FIRST, iy + K::FIRST);
+    let (iy, ty) = split(y0);
+    let first_y = iy + K::FIRST;
     if first_y < 0 || first_y + N as isize > src.rows as isize {
         return (0, 0);
     }
+    let first_y = first_y as usize;
     // columns c whose taps first_x + c .. first_x + c + N lie in every source row's clean span
-    let (mut lo, mut hi) = (0isize, out.len() as isize);
-    for &(span_lo, span_hi) in &clean[first_y as usize..first_y as usize + N] {
-        lo = lo.max(span_lo as isize - first_x);
-        hi = hi.min(span_hi as isize - N as isize - first_x + 1);
+    let (mut lo, mut hi) = (lines.cols.0 as isize, lines.cols.1 as isize);
+    for &(span_lo, span_hi) in &clean[first_y..first_y + N] {
+        lo = lo.max(span_lo as isize - lines.first_x);
+        hi = hi.min(span_hi as isize - N as isize - lines.first_x + 1);
     }
     if lo >= hi {
         return (0, 0);
     }
     let (lo, hi) = (lo as usize, hi as usize);
-    let len = hi - lo;
-    let span = &mut out[lo..hi];
-    span.iter_mut().for_each(|v| *v = 0.0);
-    for (j, &w_row) in wy.iter().enumerate() {
-        let row = &src.data[(first_y as usize + j) * src.cols..(first_y as usize + j + 1) * src.cols];
-        for (i, &w_col) in wx.iter().enumerate() {
-            let w = w_row * w_col;
-            if w == 0.0 {
-                continue;
-            }
-            let start = (first_x + lo as isize + i as isize) as usize;
-            for (o, s) in span.iter_mut().zip(&row[start..start + len]) {
-                *o += w * s.to_f64();
-            }
-        }
+    let wy = K::weights(ty);
+    // rows of zero weight are skipped by the sum; any loaded row stands in for them
+    let weighted = |j: usize| if wy.iter().any(|&w| w != 0.0) { wy[j] != 0.0 } else { j == 0 };
+    let first_weighted = (0..N).find(|&j| weighted(j)).unwrap_or(0);
+    for j in (0..N).filter(|&j| weighted(j)) {
+        lines.load(src, first_y + j);
     }
+    let rows: [&[f64]; N] =
+        std::array::from_fn(|j| lines.line(first_y + if weighted(j) { j } else { first_weighted }, (lo, hi)));
+    combine_lines(&mut out[lo..hi], rows, &wy);
     ok[lo..hi].iter_mut().for_each(|f| *f = true);
     (lo, hi)
 }
@@ -542,6 +637,59 @@ mod tests {
             }
             let extra = (0..rows * cols).filter(|&i| fast.1[i] && !checked.1[i]).count();
             assert!(extra <= 16, "{interp:?}: only pixels reading the masked corner differ");
+        }
+    }
+
+    /// What a translation's output pixel `(r, c)` must hold: the direct `N × N` sum with the
+    /// row's weights where every tap is clean, `sample` elsewhere.
+    fn direct<T: Sample, K: Kernel<N>, const N: usize>(
+        src: &Source<'_, T>,
+        m: &Affine,
+        r: usize,
+        c: usize,
+    ) -> Option<f64> {
+        let clean = src.clean_spans();
+        let (x0, y0) = (m.0[0][2], r as f64 + m.0[1][2]);
+        let ((ix, tx), (iy, ty)) = (split(x0), split(y0));
+        let (first_x, first_y) = (ix + K::FIRST + c as isize, iy + K::FIRST);
+        if block_clean(&clean, first_x, first_y, N) {
+            let start = first_y as usize * src.cols + first_x as usize;
+            return Some(block_sum(src, start, &K::weights(tx), &K::weights(ty)));
+        }
+        sample::<T, K, N>(src, x0 + c as f64, y0, &clean)
+    }
+
+    #[test]
+    fn translation_rows_match_the_direct_sum() {
+        // the filtered-row path of a translation gives every pixel the value (bit for bit)
+        // and validity of the direct sum: integer and float sources, NaN and masked taps
+        let (rows, cols) = (70, 45); // more than one band of rows
+        let ints: Vec<u16> = (0..rows * cols).map(|i| ((i * 7919 + 13) % 4093) as u16).collect();
+        let mut floats: Vec<f64> = ints.iter().map(|&v| v as f64 * 0.37 - 50.0).collect();
+        floats[10 * cols + 20] = f64::NAN;
+        floats[40 * cols] = f64::INFINITY;
+        let mut mask = vec![true; rows * cols];
+        mask[33 * cols + 7] = false;
+        let shifts = [(0.3, -1.7), (-2.0, 3.0), (12.6, 0.45), (-0.5, -0.5), (1e-10, 2.0 - 1e-10), (44.2, 3.1)];
+        fn compare<T: Sample>(src: &Source<'_, T>, m: &Affine, interp: Interp) {
+            let (values, valid) = warp(src, m, interp, src.rows, src.cols, -1.0);
+            for r in 0..src.rows {
+                for c in 0..src.cols {
+                    let want = match interp {
+                        Interp::Bilinear => direct::<T, Linear, 2>(src, m, r, c),
+                        Interp::Bicubic => direct::<T, Cubic, 4>(src, m, r, c),
+                    };
+                    let got = valid[r * src.cols + c].then_some(values[r * src.cols + c]);
+                    assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{interp:?} {m:?} at ({r}, {c})");
+                }
+            }
+        }
+        for (dx, dy) in shifts {
+            for interp in [Interp::Bilinear, Interp::Bicubic] {
+                let m = Affine::translation(dx, dy);
+                compare(&Source { data: &ints[..], rows, cols, valid: Some(&mask) }, &m, interp);
+                compare(&Source { data: &floats[..], rows, cols, valid: None }, &m, interp);
+            }
         }
     }
 
