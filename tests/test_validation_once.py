@@ -219,3 +219,28 @@ def test_evaluate_resolves_the_peak_once(monkeypatch, register):
 ])
 def test_the_full_histogram_range_without_resolving_the_peak_again(dtype, bits, peak, want):
     assert full_range(np.dtype(dtype), bits, peak) == want
+
+
+def test_plain_keyword_options_are_validated_once_per_set(monkeypatch):
+    """A loop scoring pair after pair with the same keywords validates them once: resolving
+    the same plain options again gives the same (frozen) object without validating, while a
+    different type (``True`` is no ``1``), a container or a calibration is resolved anew."""
+    from irfidelity import config as config_module
+    from irfidelity.config import ScoringConfig
+
+    monkeypatch.setattr(config_module, "_RESOLVED", {})  # none remembered by earlier tests
+    first = ScoringConfig.resolve(None, bits=14, register="translation", nonfinite="mask")
+    calls = []
+    original = ScoringConfig._validated
+    monkeypatch.setattr(ScoringConfig, "_validated", lambda self: calls.append(1) or original(self))
+    assert ScoringConfig.resolve(None, nonfinite="mask", register="translation", bits=14) is first
+    assert calls == []
+    ScoringConfig.resolve(None, bits=1)
+    with pytest.raises(ConfigError, match="bits: expected an integer 1..32; got True"):
+        ScoringConfig.resolve(None, bits=True)
+    weights = {"psnr": 1.0}
+    assert ScoringConfig.resolve(None, weights=weights) is not ScoringConfig.resolve(None, weights=weights)
+    real, sim = frames()
+    for _ in range(3):
+        irf.evaluate(real, sim, bits=14)
+    assert len(calls) == 5  # bits=1, bits=True (refused), weights twice, evaluate's bits=14 once

@@ -40,6 +40,22 @@ def _shared(kind: type) -> Any:
     return lambda: default
 
 
+#: Configurations resolved from plain keyword options (numbers, names, flags), remembered: a
+#: loop scoring pair after pair with the same options validates them once. The objects are
+#: frozen, so sharing one is safe; options that name files or take containers are not kept.
+_RESOLVED: dict[tuple, ScoringConfig] = {}
+_RESOLVED_MAX = 64
+_MEMO_TYPES = (bool, int, float, str)
+
+
+def _memo_key(overrides: Mapping[str, Any]) -> tuple | None:
+    """A key for ``overrides`` (types included: ``True`` is no ``1``), or None when an option
+    may not be remembered (a container, a file)."""
+    if "calibration" in overrides or any(type(v) not in _MEMO_TYPES for v in overrides.values()):
+        return None
+    return tuple(sorted((k, type(v).__name__, v) for k, v in overrides.items()))
+
+
 @dataclass(frozen=True)
 class ScoringConfig:
     """What decides a fidelity score: weights, PSNR peak, binning, anchors, exponents, ...
@@ -286,7 +302,13 @@ class ScoringConfig:
         are None are ignored, so keyword arguments left at their default change nothing."""
         overrides = {k: v for k, v in overrides.items() if v is not None}
         if config is None:
-            return cls(**cls._known(overrides))  # validated once
+            key = _memo_key(overrides)
+            resolved = _RESOLVED.get(key) if key is not None else None
+            if resolved is None:
+                resolved = cls(**cls._known(overrides))  # validated once
+                if key is not None and len(_RESOLVED) < _RESOLVED_MAX:
+                    _RESOLVED[key] = resolved
+            return resolved
         if isinstance(config, ScoringConfig):
             base = config
         elif isinstance(config, Mapping):
