@@ -10,6 +10,7 @@
 
 use super::affine::Affine;
 use super::bands;
+use super::image::lane_sum_range;
 use crate::budget;
 use crate::kernel::Sample;
 
@@ -69,6 +70,12 @@ impl<T: Sample> Source<'_, T> {
         }
         (0..self.rows)
             .map(|r| {
+                // a row of finite values, unmasked (the common case), in one vectorised pass: the
+                // sum of finite values is finite (rows near ±1e308 take the loop below)
+                if self.valid.is_none() && lane_sum_range(&self.data[r * self.cols..(r + 1) * self.cols]).0.is_finite()
+                {
+                    return (0, self.cols);
+                }
                 let usable = |c: usize| {
                     let i = r * self.cols + c;
                     self.valid.is_none_or(|m| m[i]) && (T::IS_INT || self.data[i].to_f64().is_finite())
