@@ -2,6 +2,9 @@
 //! slices. The PyO3 binding (`irfidelity._core`) is behind the `python` feature, so
 //! `cargo test` needs no Python.
 
+#[macro_use]
+mod avx2_copy;
+
 pub mod budget;
 pub mod defects;
 pub mod dtype;

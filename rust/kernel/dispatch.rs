@@ -23,20 +23,16 @@ pub(crate) struct Pass<'a, T> {
     pub(crate) centre: Option<(f64, f64)>,
 }
 
-/// One chunk, dispatched once per call to a copy of the loops compiled for AVX2 when the
-/// CPU has it (the baseline x86-64 build only assumes SSE2). Same code, same results.
-pub(super) fn run_chunk<T: Sample>(
-    pass: &Pass<'_, T>,
-    range: (usize, usize),
-    acc: &mut Acc,
-    nf: &mut u64,
-) -> std::result::Result<(), Bad> {
-    #[cfg(target_arch = "x86_64")]
-    if use_avx2() {
-        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
-        return unsafe { run_chunk_avx2(pass, range, acc, nf) };
-    }
-    run_chunk_impl(pass, range, acc, nf)
+avx2_copy! {
+    /// One chunk, dispatched once per call to a copy of the loops compiled for AVX2 when the
+    /// CPU has it (the baseline x86-64 build only assumes SSE2). Same code, same results.
+    pub(super) fn run_chunk[T: Sample](
+        pass: &Pass<'_, T>,
+        range: (usize, usize),
+        acc: &mut Acc,
+        nf: &mut u64,
+    ) -> std::result::Result<(), Bad>
+    => run_chunk_avx2, run_chunk_impl
 }
 
 /// AVX2 when the CPU has it, unless `IRFIDELITY_NO_SIMD` is set (to compare both copies).
@@ -49,17 +45,6 @@ pub(crate) fn use_avx2() -> bool {
     }
     static USE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *USE.get_or_init(|| std::arch::is_x86_feature_detected!("avx2") && std::env::var_os("IRFIDELITY_NO_SIMD").is_none())
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn run_chunk_avx2<T: Sample>(
-    pass: &Pass<'_, T>,
-    range: (usize, usize),
-    acc: &mut Acc,
-    nf: &mut u64,
-) -> std::result::Result<(), Bad> {
-    run_chunk_impl(pass, range, acc, nf)
 }
 
 #[inline(always)]

@@ -250,20 +250,10 @@ fn convert<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync + Copy) -> Conv
     Converted { values, outside, nonfinite }
 }
 
-/// `out[i] = f(inp[i])`, in AVX2 code when the CPU has it.
-fn apply<T: Sample>(inp: &[T], out: &mut [f64], f: impl Fn(f64) -> f64 + Copy) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { apply_avx2(inp, out, f) };
-    }
-    apply_portable(inp, out, f)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn apply_avx2<T: Sample>(inp: &[T], out: &mut [f64], f: impl Fn(f64) -> f64 + Copy) {
-    apply_portable(inp, out, f)
+avx2_copy! {
+    /// `out[i] = f(inp[i])`, in AVX2 code when the CPU has it.
+    fn apply[T: Sample](inp: &[T], out: &mut [f64], f: impl Fn(f64) -> f64 + Copy)
+    => apply_avx2, apply_portable
 }
 
 #[inline(always)]

@@ -64,23 +64,13 @@ pub fn forward(values: &[f32], rows: usize, cols: usize) -> Spectrum {
     forward_rows(rows, cols, |r, line| line.copy_from_slice(&values[r * cols..(r + 1) * cols]))
 }
 
-/// Forward transform of a `rows × cols` real image whose row `r` `fill_row(r, line)` writes
-/// into `line` (so an image computed row by row, such as a tapered frame, is never stored).
-/// The packing and scattering around the transforms run in a copy compiled for AVX2 when the
-/// CPU has it (same code, same results).
-pub fn forward_rows(rows: usize, cols: usize, fill_row: impl FnMut(usize, &mut [f32])) -> Spectrum {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernel::use_avx2() {
-        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
-        return unsafe { forward_rows_avx2(rows, cols, fill_row) };
-    }
-    forward_rows_impl(rows, cols, fill_row)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn forward_rows_avx2(rows: usize, cols: usize, fill_row: impl FnMut(usize, &mut [f32])) -> Spectrum {
-    forward_rows_impl(rows, cols, fill_row)
+avx2_copy! {
+    /// Forward transform of a `rows × cols` real image whose row `r` `fill_row(r, line)` writes
+    /// into `line` (so an image computed row by row, such as a tapered frame, is never stored).
+    /// The packing and scattering around the transforms run in a copy compiled for AVX2 when the
+    /// CPU has it (same code, same results).
+    pub fn forward_rows(rows: usize, cols: usize, fill_row: impl FnMut(usize, &mut [f32])) -> Spectrum
+    => forward_rows_avx2, forward_rows_impl
 }
 
 #[inline(always)]
@@ -148,22 +138,12 @@ fn pack_rows(a: &[C32], b: &[C32], z: &mut [C32]) {
     }
 }
 
-/// Inverse transform, normalised (`inverse(forward(x)) == x` up to rounding), in float32:
-/// the precision the transforms carry. `spec` is consumed as scratch space. Compiled for
-/// AVX2 when the CPU has it, as [`forward_rows`].
-pub fn inverse(spec: Spectrum) -> Buffer<f32> {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernel::use_avx2() {
-        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
-        return unsafe { inverse_avx2(spec) };
-    }
-    inverse_impl(spec)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn inverse_avx2(spec: Spectrum) -> Buffer<f32> {
-    inverse_impl(spec)
+avx2_copy! {
+    /// Inverse transform, normalised (`inverse(forward(x)) == x` up to rounding), in float32:
+    /// the precision the transforms carry. `spec` is consumed as scratch space. Compiled for
+    /// AVX2 when the CPU has it, as [`forward_rows`].
+    pub fn inverse(spec: Spectrum) -> Buffer<f32>
+    => inverse_avx2, inverse_impl
 }
 
 #[inline(always)]

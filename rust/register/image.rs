@@ -243,23 +243,12 @@ pub fn lane_sum<T: Sample>(values: &[T]) -> f64 {
     lanes.iter().sum::<f64>() + tail
 }
 
-/// Sum, smallest and largest of the values in float64, in eight lanes (vectorised). The sum
-/// is not finite if a value is not (or, for float64 values beyond about 1e303, if it
-/// overflows); the extremes skip NaN.
-pub fn lane_sum_range<T: Sample>(values: &[T]) -> (f64, f64, f64) {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernel::use_avx2() {
-        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
-        return unsafe { lane_sum_range_avx2(values) };
-    }
-    lane_sum_range_impl(values)
-}
-
-/// [`lane_sum_range`] compiled for AVX2 (same code, same results).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn lane_sum_range_avx2<T: Sample>(values: &[T]) -> (f64, f64, f64) {
-    lane_sum_range_impl(values)
+avx2_copy! {
+    /// Sum, smallest and largest of the values in float64, in eight lanes (vectorised). The sum
+    /// is not finite if a value is not (or, for float64 values beyond about 1e303, if it
+    /// overflows); the extremes skip NaN.
+    pub fn lane_sum_range[T: Sample](values: &[T]) -> (f64, f64, f64)
+    => lane_sum_range_avx2, lane_sum_range_impl
 }
 
 #[inline(always)]

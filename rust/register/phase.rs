@@ -202,29 +202,19 @@ fn correlate_spectra(
     (peak, Rivals { far, flipped })
 }
 
-/// The cross-power spectrum `X = a·conj(b)` whitened in place: `a` becomes `X/|X|^½`, `b`
-/// becomes `X/|X|` (both 0 where `|X|` is below 1e-12 of the product of the spectra's
-/// largest parts, which bounds it: numerically zero).
-///
-/// Computed in float32, eight coefficients per vector instruction (in a copy compiled for
-/// AVX2 when the CPU has it: same code, same results), in one pass over the coefficients
-/// after finding each spectrum's largest part (the passes are memory-bound).
-/// Each spectrum is first scaled by a power of two (exact) to a largest part in [0.5, 1),
-/// so `|X|²` can neither overflow nor, above the floor, underflow. The scale changes `X/|X|`
-/// not at all and `X/|X|^½` by a constant factor, which moves no peak.
-fn whiten(a: &mut [C32], b: &mut [C32]) {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernel::use_avx2() {
-        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
-        return unsafe { whiten_avx2(a, b) };
-    }
-    whiten_impl(a, b)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn whiten_avx2(a: &mut [C32], b: &mut [C32]) {
-    whiten_impl(a, b)
+avx2_copy! {
+    /// The cross-power spectrum `X = a·conj(b)` whitened in place: `a` becomes `X/|X|^½`, `b`
+    /// becomes `X/|X|` (both 0 where `|X|` is below 1e-12 of the product of the spectra's
+    /// largest parts, which bounds it: numerically zero).
+    ///
+    /// Computed in float32, eight coefficients per vector instruction (in a copy compiled for
+    /// AVX2 when the CPU has it: same code, same results), in one pass over the coefficients
+    /// after finding each spectrum's largest part (the passes are memory-bound).
+    /// Each spectrum is first scaled by a power of two (exact) to a largest part in [0.5, 1),
+    /// so `|X|²` can neither overflow nor, above the floor, underflow. The scale changes `X/|X|`
+    /// not at all and `X/|X|^½` by a constant factor, which moves no peak.
+    fn whiten(a: &mut [C32], b: &mut [C32])
+    => whiten_avx2, whiten_impl
 }
 
 #[inline(always)]
@@ -439,21 +429,11 @@ fn surface_confidence(
     ((1.0 - rival.max(noise) / height).clamp(0.0, 1.0), at, rivals)
 }
 
-/// Root mean square of the surface outside the box of rows `row_near` × columns `col_near`
-/// (0 if the box covers it all); compiled for AVX2 when the CPU has it.
-fn rms_outside_box(surface: &[f32], cols: usize, row_near: &[bool], col_near: &[bool]) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernel::use_avx2() {
-        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
-        return unsafe { rms_outside_box_avx2(surface, cols, row_near, col_near) };
-    }
-    rms_outside_box_impl(surface, cols, row_near, col_near)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn rms_outside_box_avx2(surface: &[f32], cols: usize, row_near: &[bool], col_near: &[bool]) -> f64 {
-    rms_outside_box_impl(surface, cols, row_near, col_near)
+avx2_copy! {
+    /// Root mean square of the surface outside the box of rows `row_near` × columns `col_near`
+    /// (0 if the box covers it all); compiled for AVX2 when the CPU has it.
+    fn rms_outside_box(surface: &[f32], cols: usize, row_near: &[bool], col_near: &[bool]) -> f64
+    => rms_outside_box_avx2, rms_outside_box_impl
 }
 
 #[inline(always)]

@@ -68,25 +68,15 @@ fn credible(c: &[[f64; 3]; 3], peak: (isize, isize), sign: f64) -> Vec<(isize, i
     out
 }
 
-/// `c(peak + (dy, dx))` for dy, dx in −1..=1 (up to a common positive factor). With
-/// `e^{iθx·(peak.1 + dx)}` (θx = 2π·kx/cols) one complex number per column, the row sums
-/// `t_dx(ky) = Σ_kx x(kx, ky)·e^{iθx·(peak.1 + dx)}` accumulate column by column, element by
-/// element (three complex rows, vectorised, in float32: a screen needs no more); then
-/// `c = Σ_ky Re(t_dx(ky)·e^{iθy·(peak.0 + dy)})` in float64 (θy = 2π·ky/rows). In a copy
-/// compiled for AVX2 when the CPU has it (same code, same results).
-fn neighbourhood(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize, isize)) -> [[f64; 3]; 3] {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernel::use_avx2() {
-        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
-        return unsafe { neighbourhood_avx2(spec, cross, peak) };
-    }
-    neighbourhood_impl(spec, cross, peak)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn neighbourhood_avx2(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize, isize)) -> [[f64; 3]; 3] {
-    neighbourhood_impl(spec, cross, peak)
+avx2_copy! {
+    /// `c(peak + (dy, dx))` for dy, dx in −1..=1 (up to a common positive factor). With
+    /// `e^{iθx·(peak.1 + dx)}` (θx = 2π·kx/cols) one complex number per column, the row sums
+    /// `t_dx(ky) = Σ_kx x(kx, ky)·e^{iθx·(peak.1 + dx)}` accumulate column by column, element by
+    /// element (three complex rows, vectorised, in float32: a screen needs no more); then
+    /// `c = Σ_ky Re(t_dx(ky)·e^{iθy·(peak.0 + dy)})` in float64 (θy = 2π·ky/rows). In a copy
+    /// compiled for AVX2 when the CPU has it (same code, same results).
+    fn neighbourhood(spec: &Spectrum, cross: impl Fn(C32) -> C32, peak: (isize, isize)) -> [[f64; 3]; 3]
+    => neighbourhood_avx2, neighbourhood_impl
 }
 
 #[inline(always)]

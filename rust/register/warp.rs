@@ -359,21 +359,10 @@ impl<const N: usize> Lines<N> {
     }
 }
 
-/// `line[c] = Σ_i w[i]·taps[c + i]` (zero weights skipped).
-fn filter_line<T: Sample, const N: usize>(line: &mut [f64], taps: &[T], w: &[f64; N]) {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernel::use_avx2() {
-        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
-        return unsafe { filter_line_avx2(line, taps, w) };
-    }
-    filter_line_impl(line, taps, w)
-}
-
-/// [`filter_line`] compiled for AVX2 (same code, same results: no fused multiply-add).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn filter_line_avx2<T: Sample, const N: usize>(line: &mut [f64], taps: &[T], w: &[f64; N]) {
-    filter_line_impl(line, taps, w)
+avx2_copy! {
+    /// `line[c] = Σ_i w[i]·taps[c + i]` (zero weights skipped).
+    fn filter_line[T: Sample, const N: usize](line: &mut [f64], taps: &[T], w: &[f64; N])
+    => filter_line_avx2, filter_line_impl
 }
 
 #[inline(always)]
@@ -388,21 +377,10 @@ fn filter_line_impl<T: Sample, const N: usize>(line: &mut [f64], taps: &[T], w: 
     }
 }
 
-/// `out[c] = Σ_j w[j]·lines[j][c]` (zero weights skipped).
-fn combine_lines<const N: usize>(out: &mut [f64], lines: [&[f64]; N], w: &[f64; N]) {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernel::use_avx2() {
-        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
-        return unsafe { combine_lines_avx2(out, lines, w) };
-    }
-    combine_lines_impl(out, lines, w)
-}
-
-/// [`combine_lines`] compiled for AVX2 (same code, same results: no fused multiply-add).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn combine_lines_avx2<const N: usize>(out: &mut [f64], lines: [&[f64]; N], w: &[f64; N]) {
-    combine_lines_impl(out, lines, w)
+avx2_copy! {
+    /// `out[c] = Σ_j w[j]·lines[j][c]` (zero weights skipped).
+    fn combine_lines[const N: usize](out: &mut [f64], lines: [&[f64]; N], w: &[f64; N])
+    => combine_lines_avx2, combine_lines_impl
 }
 
 #[inline(always)]

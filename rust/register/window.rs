@@ -49,36 +49,19 @@ pub fn tapered(plane: &Plane, w_rows: &[f64], w_cols: &[f64]) -> Buffer<f32> {
     out
 }
 
-/// One row of a tapered image: `centring(v)·w_row·w_cols[c]` into `line` (`centring` makes
-/// the values mean-free working values), 0 where `valid` (None: all valid) is false. In a
-/// copy compiled for AVX2 when the CPU has it (same code, same results).
-pub fn taper_row<T: Sample>(
-    values: &[T],
-    valid: Option<&[bool]>,
-    centring: Normalisation,
-    w_row: f64,
-    w_cols: &[f64],
-    line: &mut [f32],
-) {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernel::use_avx2() {
-        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
-        return unsafe { taper_row_avx2(values, valid, centring, w_row, w_cols, line) };
-    }
-    taper_row_impl(values, valid, centring, w_row, w_cols, line)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn taper_row_avx2<T: Sample>(
-    values: &[T],
-    valid: Option<&[bool]>,
-    centring: Normalisation,
-    w_row: f64,
-    w_cols: &[f64],
-    line: &mut [f32],
-) {
-    taper_row_impl(values, valid, centring, w_row, w_cols, line)
+avx2_copy! {
+    /// One row of a tapered image: `centring(v)·w_row·w_cols[c]` into `line` (`centring` makes
+    /// the values mean-free working values), 0 where `valid` (None: all valid) is false. In a
+    /// copy compiled for AVX2 when the CPU has it (same code, same results).
+    pub fn taper_row[T: Sample](
+        values: &[T],
+        valid: Option<&[bool]>,
+        centring: Normalisation,
+        w_row: f64,
+        w_cols: &[f64],
+        line: &mut [f32],
+    )
+    => taper_row_avx2, taper_row_impl
 }
 
 #[inline(always)]
