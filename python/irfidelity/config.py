@@ -299,7 +299,10 @@ class ScoringConfig:
                 **overrides: Any) -> ScoringConfig:
         """The configuration an entry point runs with: ``config`` (an object, a mapping or a
         TOML/JSON path; default: the defaults) with ``overrides`` applied. Overrides that
-        are None are ignored, so keyword arguments left at their default change nothing."""
+        are None are ignored, so keyword arguments left at their default change nothing.
+        Without ``config``, the configuration made from plain options (numbers, names,
+        flags) is remembered: calling again with the same ones returns the same frozen
+        object without validating them again."""
         overrides = {k: v for k, v in overrides.items() if v is not None}
         if config is None:
             key = _memo_key(overrides)
