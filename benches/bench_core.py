@@ -22,7 +22,8 @@ For the real pairs it also times the whole of :func:`irfidelity.evaluate` on the
 (unregistered, and registered with ``register="translation", register_method="phase"``; the
 simulated copy is shifted by (1.4, −2.6) px for the latter): what a user waits for per pair.
 No peer does that work in one call, so these rows give times only (for comparisons between
-builds: run the script once with each on ``PYTHONPATH``).
+builds: run the script once with each on ``PYTHONPATH``). The last real-pair row times the
+resampling alone (``_core.warp_frame`` of the DJI frame by that shift, bicubic and bilinear).
 
 Usage: ``python benches/bench_core.py [--threads N] [--repeat R] [--pairs real|synthetic|all]``.
 By default the Rust pool is limited to one thread (``RAYON_NUM_THREADS=1``) so the ratio is
@@ -60,8 +61,11 @@ from skimage.metrics import mean_squared_error, normalized_mutual_information  #
 
 import irfidelity as irf  # noqa: E402
 from _common import best  # noqa: E402
+from irfidelity import _core  # noqa: E402
 from irfidelity.demo import simulate_camera  # noqa: E402
 
+#: A translation by (1.4, −2.6) px as a 2×3 matrix (the shift the registered rows undo).
+SHIFT = (1.0, 0.0, 1.4, 0.0, 1.0, -2.6)
 THERMAL = pathlib.Path(__file__).resolve().parent.parent / "tests" / "data" / "thermal"
 REAL_FRAMES = {"DJI XT-R": "readthermal_zenmuse_xtr_raw16.png", "FLIR Duo Pro R": "flirpy_frame_000000_raw16.png"}
 
@@ -174,6 +178,10 @@ def main():
             warnings.simplefilter("ignore")
             tiny = best(lambda: irf.evaluate(r[:8, :8].copy(), s[:8, :8].copy(), **kw), args.repeat, CLOCK)
         print(f"evaluate an 8x8 crop of {name} (the fixed cost of a call): {tiny * 1e3:.2f} ms")
+        print(f"resampling {name} by (1.4, -2.6) px (_core.warp_frame):", ", ".join(
+            f"{label} {best(lambda: _core.warp_frame(frame, SHIFT, order, r.shape), args.repeat, CLOCK) * 1e3:.2f} ms"
+            for label, frame, order in (("uint16 bicubic", r, 3), ("uint16 bilinear", r, 1),
+                                        ("float32 bicubic", r.astype(np.float32), 3))))
     for dtype in ("uint16", "float32"):
         small, large = (per_px.get(f"synthetic {dtype} {size}") for size in ("640x512", "2048x2048"))
         if small and large:

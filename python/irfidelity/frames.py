@@ -46,6 +46,7 @@ def dtype_name(dtype: np.dtype) -> str:
     times per scored pair)."""
     return dtype.name
 
+
 _GLOB_CHARS = re.compile(r"[*?\[]")
 
 
