@@ -19,6 +19,7 @@ pub mod radiometry;
 pub mod register;
 pub mod sequence;
 pub mod stats;
+pub mod transfer;
 
 #[cfg(feature = "python")]
 mod binding;

@@ -19,6 +19,7 @@ mod radiometry;
 mod register;
 mod sequence;
 mod stats;
+mod transfer;
 
 pyo3::import_exception!(irfidelity.errors, FidelityError);
 pyo3::import_exception!(irfidelity.errors, FrameError);
@@ -52,5 +53,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     pair::register(m)?;
     radiometry::register(m)?;
     defects::register(m)?;
+    transfer::register(m)?;
     Ok(())
 }

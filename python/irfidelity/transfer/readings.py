@@ -1,0 +1,120 @@
+"""What the radial estimates say: the band where the MTF ratio is trusted, the ratio read as
+an MTF50 mismatch, and the two cameras' noise."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .rings import RingSums, jackknife, ratio
+
+__all__ = ["MAX_RELATIVE_ERROR", "MIN_SNR", "MIN_COHERENCE", "REFERENCE_FREQUENCY", "band", "mtf_reading",
+           "mtf50_mismatch", "noise_variances"]
+
+#: The band ends where the ratio's relative standard error exceeds this ...
+MAX_RELATIVE_ERROR = 0.1
+#: ... or, with the real camera's noise known, where the scene's signal falls below it; without
+#: it, where the pair's coherence falls below this (the ratio then reads low by at most
+#: ``1 − coherence`` at the band's edge).
+MIN_SNR = 1.0
+MIN_COHERENCE = 0.8
+
+#: Where the MTF ratio is read as an MTF50 mismatch when the real camera's MTF50 is not known
+#: (cy/px): a typical MTF50 of a well-sampled thermal imager.
+REFERENCE_FREQUENCY = 0.25
+
+
+def band(frequency: np.ndarray, value: np.ndarray, error: np.ndarray, coherence: np.ndarray,
+         snr: np.ndarray | None) -> np.ndarray:
+    """The rings where the ratio is trusted: from the first trusted ring among the three lowest
+    up to the first that is not (its relative standard error above :data:`MAX_RELATIVE_ERROR`;
+    the scene's SNR below :data:`MIN_SNR` when the real noise is known, else the coherence below
+    :data:`MIN_COHERENCE`), within 0 < f ≤ 0.5 cy/px."""
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(value) & np.isfinite(error) & (value > 0) & (error <= MAX_RELATIVE_ERROR * np.abs(value))
+        ok &= (snr >= MIN_SNR) if snr is not None else (coherence >= MIN_COHERENCE)
+    ok &= (frequency > 0) & (frequency <= 0.5)
+    trusted = np.zeros(ok.shape, dtype=bool)
+    first = next((k for k in range(min(3, len(ok))) if ok[k]), None)
+    if first is None:
+        return trusted
+    last = first
+    while last + 1 < len(ok) and ok[last + 1]:
+        last += 1
+    trusted[first:last + 1] = True
+    return trusted
+
+
+def mtf50_mismatch(ratio_at_mtf50: float) -> float:
+    """The MTF50 mismatch ``1 − smaller/larger`` of two Gaussian MTFs whose ratio (simulated /
+    real) at the real MTF50 is ``ratio_at_mtf50``: ``MTF50_sim/MTF50_real = (1 − log2 r)^(−1/2)``.
+
+    Examples
+    --------
+    >>> round(mtf50_mismatch(1.0), 6), round(mtf50_mismatch(0.7349), 3), mtf50_mismatch(0.0)
+    (0.0, 0.168, 1.0)
+    """
+    if not ratio_at_mtf50 > 0:
+        return 1.0
+    log = math.log2(ratio_at_mtf50)
+    if log >= 1.0:
+        return 1.0
+    scale = (1.0 - log) ** -0.5
+    return 1.0 - min(scale, 1.0 / scale)
+
+
+def _curvature(frequency: np.ndarray, values: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """``a`` of ``ln M = −a·f²`` fitted through the origin, for each row of ``values``."""
+    x = frequency ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        y = np.log(values)
+    return -np.nansum(weight * x * y, axis=-1) / np.sum(weight * x * x)
+
+
+def mtf_reading(frequency: np.ndarray, values: np.ndarray, error: np.ndarray, trusted: np.ndarray,
+                reference: float) -> dict:
+    """The Gaussian fit of the ratio over the band (weights 1/var ln M) read at ``reference``:
+    the ratio there, its MTF50 mismatch and the fit's RMS residual in ``ln M``, with jackknife
+    errors over the replicate rows of ``values`` (row 0 the whole estimate)."""
+    if trusted.sum() < 2:
+        return {"ratio_at_reference": None, "ratio_at_reference_err": None, "mtf50_mismatch": None,
+                "mtf50_mismatch_err": None, "shape_residual": None}
+    f, rows = frequency[trusted], values[:, trusted]
+    weight = (rows[0] / np.maximum(error[trusted], 1e-12)) ** 2
+    at = np.exp(-_curvature(f, rows, weight) * reference ** 2)
+    mismatch = np.array([mtf50_mismatch(v) for v in at])
+    residual = np.log(rows[0]) + _curvature(f, rows[:1], weight)[0] * f ** 2
+    at_err, mismatch_err = (float(jackknife(v[:, None])[0]) for v in (at, mismatch))
+    return {"ratio_at_reference": float(at[0]), "ratio_at_reference_err": at_err,
+            "mtf50_mismatch": float(mismatch[0]), "mtf50_mismatch_err": mismatch_err,
+            "shape_residual": float(np.sqrt(np.mean(residual ** 2)))}
+
+
+def noise_variances(sums: RingSums, window_energy: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The white-equivalent noise variances of the simulated frame and of the real one, for
+    each row of ``sums`` (row 0 the whole estimate, then the jackknife replicates).
+
+    Per ring from 2 up, the simulated frame's noise is what the transfer of the real frame
+    leaves, ``S_ss − G²·S_T`` with ``G = S_rs/S_T`` the ring's transfer (the cross-spectrum's
+    real part, the displacement removed), corrected for the finite average. Where the scene's
+    share of the real power is below 10 %, ``S_T`` is too uncertain to divide by and ``S_rr``
+    stands for it: the residual then reads high by at most ``G²·S_T``, a tenth of the image of
+    the real noise. Both variances are weighted alike by each ring's bins over the square of
+    its mean simulated power, so the rings where the simulated frame is mostly noise decide."""
+    if sums.noise is None:
+        return None
+    tiles = sums.tiles[:, None].astype(np.float64)
+    if np.any(tiles < 2):
+        return None
+    count = sums.count[None, 2:] * tiles
+    real, sim, cross, noise = (ratio(x[:, 2:], count) for x in (sums.real, sums.sim, sums.cross, sums.noise))
+    signal = real - noise
+    divisor = np.where(signal > 0.1 * real, signal, real)
+    residual = (sim - ratio(cross ** 2, divisor)) * tiles / (tiles - 1)
+    keep = np.isfinite(residual) & (sim > 0)
+    weight = np.where(keep, sums.count[None, 2:] / np.where(keep, sim, 1.0) ** 2, 0.0)
+    total = weight.sum(axis=1) * window_energy
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (np.where(keep, weight * residual, 0.0).sum(axis=1) / total,
+                np.where(keep, weight * noise, 0.0).sum(axis=1) / total)

@@ -1,0 +1,191 @@
+"""The estimate of a pair's transfer and what it holds (:class:`Transfer`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import FidelityError
+from .gain import gain as gain_of
+from .readings import MIN_COHERENCE, REFERENCE_FREQUENCY, band, mtf_reading, noise_variances
+from .rings import Geometry, RingSums, displacement, jackknife, ratio, ring_sums, turned
+from .spectra import TransferSpectra
+
+__all__ = ["Transfer", "estimate"]
+
+
+@dataclass(frozen=True)
+class Transfer:
+    """The simulator relative to the real camera, measured from the scene (module notes).
+
+    Attributes
+    ----------
+    frequency : ndarray
+        Ring centres in cycles per pixel, ``k/tile`` for k = 1..tile/2.
+    mtf_ratio, mtf_ratio_err : ndarray
+        Simulated MTF / real MTF, radially averaged, and its standard error (jackknife over
+        groups of tiles, with the gain's error).
+    horizontal, vertical : ndarray
+        The ratio along the frame's rows (horizontal frequencies) and columns.
+    coherence : ndarray
+        Of the pair per ring, in [-1, 1] (signed: negative for inverted grey levels).
+    snr : ndarray or None
+        The real scene's signal-to-noise ratio per ring, when the real camera's noise is known.
+    band : (float, float) or None
+        The frequencies where the ratio is trusted (module notes); None when the scene
+        carries no detail above its noise.
+    gain, gain_err : float or None
+        ``sim ≈ gain·real + offset``: the transfer at zero frequency (the SiTF ratio of the
+        simulator to the real camera on this scene). None when the scene has no contrast.
+    offset, offset_err : float or None
+        In frame units (in a temperature unit: degrees), ``mean(sim) − gain·mean(real)``.
+    bias : float
+        ``mean(sim) − mean(real)`` over the scored pixels.
+    reference_frequency : float
+        Where the ratio is read as an MTF50 mismatch (the real camera's MTF50 when known).
+    ratio_at_reference, ratio_at_reference_err : float or None
+        ``exp(−a·f₀²)`` of the Gaussian fit ``ln M = −a·f²`` over the band.
+    mtf50_mismatch, mtf50_mismatch_err : float or None
+        :func:`mtf50_mismatch` of it: what the mtf tolerance grades.
+    shape_residual : float or None
+        RMS of ``ln M`` about the fit over the band (0 for Gaussian-shaped MTFs).
+    noise_ratio, noise_ratio_err : float or None
+        The simulator's noise over the real camera's (white-equivalent σ), when the real
+        noise is known; ``real_noise`` and ``sim_noise`` are the two σ in frame units.
+    noise_source : str or None
+        Where the real noise came from: "real_ref", "real_noise" or "sequence".
+    shift : (float, float)
+        ``(dy, dx)`` with ``real ≈ scipy.ndimage.shift(sim, shift)`` (:func:`irfidelity.register`'s
+        convention), from the cross-spectrum's phase; removed before the ratio is taken.
+    tile, tiles, skipped : int
+        The tile side, the tiles averaged, and those left out (a pixel masked or not finite).
+    notes : tuple of str
+        What limits this estimate (an extrapolated reading, an unknown real noise).
+    """
+
+    frequency: np.ndarray
+    mtf_ratio: np.ndarray
+    mtf_ratio_err: np.ndarray
+    horizontal: np.ndarray
+    vertical: np.ndarray
+    coherence: np.ndarray
+    snr: np.ndarray | None
+    band: tuple[float, float] | None
+    gain: float | None
+    gain_err: float | None
+    offset: float | None
+    offset_err: float | None
+    bias: float
+    reference_frequency: float
+    ratio_at_reference: float | None
+    ratio_at_reference_err: float | None
+    mtf50_mismatch: float | None
+    mtf50_mismatch_err: float | None
+    shape_residual: float | None
+    noise_ratio: float | None
+    noise_ratio_err: float | None
+    real_noise: float | None
+    sim_noise: float | None
+    noise_source: str | None
+    shift: tuple[float, float]
+    tile: int
+    tiles: int
+    skipped: int
+    notes: tuple = field(default=())
+
+    def ratio_at(self, frequency: float) -> float:
+        """The measured radial ratio at ``frequency`` (cy/px), linearly interpolated."""
+        return float(np.interp(frequency, self.frequency, self.mtf_ratio))
+
+    def to_dict(self) -> dict:
+        """JSON-ready: arrays as lists (NaN as None), every scalar as is."""
+        def plain(v: Any) -> Any:
+            if isinstance(v, np.ndarray):
+                return [None if not np.isfinite(x) else float(x) for x in v]
+            if isinstance(v, tuple):
+                return [plain(x) for x in v]
+            return v
+        return {f: plain(getattr(self, f)) for f in self.__dataclass_fields__}
+
+
+def estimate(spectra: TransferSpectra, *, real_variance: float | None = None, noise_source: str | None = None,
+             reference_frequency: float | None = None) -> Transfer:
+    """The :class:`Transfer` of a pair, or of the pooled frames of a sequence, from its sums.
+
+    The real camera's noise comes from a second real frame in the sums (half their difference
+    spectrum), else from ``real_variance`` (its white temporal variance in frame units, e.g. from
+    its 3-D noise); ``noise_source`` says where it came from (None: unknown)."""
+    geometry = Geometry.of(spectra.tile)
+    if spectra.tiles.sum() == 0:
+        raise FidelityError(f"transfer: no {spectra.tile} x {spectra.tile} tile of the frames is wholly scored and "
+                            f"finite ({spectra.skipped} left out): score a larger region, or give a smaller tile",
+                            option="tile")
+    shift = displacement(spectra.cross.sum(axis=0), geometry)
+    noise = _noise_power(spectra, real_variance)
+    rows = ring_sums(spectra, geometry, turned(spectra.cross, geometry, shift), noise).replicates()
+    variances = noise_variances(rows, spectra.window_energy)
+    white = real_variance if spectra.difference is None else (None if variances is None else float(variances[1][0]))
+    g = gain_of(spectra, shift, white)
+    return _assemble(spectra, geometry, rows, variances, g, shift, noise_source if noise is not None else None,
+                     REFERENCE_FREQUENCY if reference_frequency is None else float(reference_frequency))
+
+
+def _noise_power(spectra: TransferSpectra, real_variance: float | None) -> np.ndarray | None:
+    """The real camera's noise power per group and bin: half the difference spectrum of two real
+    frames, or a white noise of ``real_variance``; None when neither is known."""
+    if spectra.difference is not None:
+        return spectra.difference / 2.0
+    if real_variance is None:
+        return None
+    per_tile = float(real_variance) * spectra.window_energy
+    return np.broadcast_to(spectra.tiles[:, None, None] * per_tile, spectra.real.shape)
+
+
+def _assemble(spectra: TransferSpectra, geometry: Geometry, rows: RingSums,
+              variances: tuple[np.ndarray, np.ndarray] | None, gain: tuple[float, float] | None,
+              shift: tuple[float, float], noise_source: str | None, reference: float) -> Transfer:
+    """The :class:`Transfer` from the ring sums (row 0 whole, then the jackknife replicates),
+    the noise variances and the gain."""
+    k = slice(1, geometry.rings)
+    frequency = geometry.frequency[k]
+    g, g_err = gain if gain is not None else (math.nan, math.nan)
+    scale = abs(g) if gain is not None else 1.0
+    values = ratio(rows.cross, rows.signal)[:, k] / scale
+    error = np.sqrt(jackknife(values) ** 2 + (values[0] * g_err / scale) ** 2)
+    coherence = ratio(rows.cross[0] * np.abs(rows.cross[0]), rows.real[0] * rows.sim[0])[k]
+    snr = None if rows.noise is None else ratio(rows.signal[0], rows.noise[0])[k]
+    trusted = band(frequency, values[0], error, coherence, snr) if gain is not None \
+        else np.zeros(frequency.shape, dtype=bool)
+    notes = [] if noise_source is not None else [
+        "the real camera's noise is unknown (give real_ref, real_noise, or a sequence): the ratio may read low where "
+        f"that noise is comparable to the scene's signal; the band stops where the pair's coherence falls below "
+        f"{MIN_COHERENCE}"]
+    reading = mtf_reading(frequency, values, error, trusted, reference)
+    if trusted.any() and frequency[trusted][-1] < reference and reading["ratio_at_reference"] is not None:
+        notes.append(f"the band ends at {frequency[trusted][-1]:.3g} cy/px, below the reference frequency "
+                     f"{reference:.3g} cy/px: the ratio there is extrapolated by the fit")
+    mean_real, mean_sim = spectra.sum_real / spectra.pixels, spectra.sum_sim / spectra.pixels
+    along = {name: ratio(*getattr(rows, name))[0][k] / scale for name in ("horizontal", "vertical")}
+    return Transfer(frequency=frequency, mtf_ratio=values[0], mtf_ratio_err=error, **along,
+                    coherence=np.clip(coherence, -1.0, 1.0), snr=snr,
+                    band=(float(frequency[trusted][0]), float(frequency[trusted][-1])) if trusted.any() else None,
+                    gain=None if gain is None else g, gain_err=None if gain is None else g_err,
+                    offset=None if gain is None else mean_sim - g * mean_real,
+                    offset_err=None if gain is None else abs(mean_real) * g_err, bias=mean_sim - mean_real,
+                    reference_frequency=reference, **reading, **_noise_reading(variances),
+                    noise_source=noise_source, shift=(-shift[0], -shift[1]), tile=geometry.tile,
+                    tiles=int(spectra.tiles.sum()), skipped=int(spectra.skipped), notes=tuple(notes))
+
+
+def _noise_reading(variances: tuple[np.ndarray, np.ndarray] | None) -> dict:
+    """The noise ratio σ_sim/σ_real with its jackknife error, and the two σ."""
+    if variances is None or not variances[1][0] > 0:
+        return {"noise_ratio": None, "noise_ratio_err": None, "real_noise": None, "sim_noise": None}
+    sim, real = np.maximum(variances[0], 0.0), variances[1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratios = np.sqrt(sim / real)
+    return {"noise_ratio": float(ratios[0]), "noise_ratio_err": float(jackknife(ratios[:, None])[0]),
+            "real_noise": math.sqrt(real[0]), "sim_noise": math.sqrt(sim[0])}

@@ -1,0 +1,150 @@
+"""From a tile's half spectra to radial estimates: the frequency geometry, the pair's
+displacement from the cross-spectrum's phase, and the ring sums of every group of tiles, from
+which the whole estimate and its leave-one-group-out replicates (the jackknife) follow by
+subtraction."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .spectra import TransferSpectra
+
+__all__ = ["Geometry", "RingSums", "displacement", "turned", "ring_sums", "ratio", "jackknife"]
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """The frequencies of a tile's half spectrum: ``fy``, ``fx`` (cy/px), the ring
+    ``k = round(f·tile)`` of each bin, the weight of each stored bin (2 for columns whose
+    mirror is not stored), and the bins of the two axes (``horizontal``: frequencies along the
+    rows, ``ky = 0``; ``vertical``: ``kx = 0``)."""
+
+    tile: int
+    fy: np.ndarray
+    fx: np.ndarray
+    ring: np.ndarray
+    weight: np.ndarray
+    horizontal: np.ndarray
+    vertical: np.ndarray
+
+    @classmethod
+    def of(cls, tile: int) -> Geometry:
+        fy = np.fft.fftfreq(tile)[:, None]
+        fx = np.fft.rfftfreq(tile)[None, :]
+        weight = np.full((tile, tile // 2 + 1), 2.0)
+        weight[:, 0] = weight[:, -1] = 1.0
+        ring = np.rint(np.hypot(fy, fx) * tile).astype(np.int64)
+        ky = np.broadcast_to(np.rint(fy * tile), ring.shape)
+        kx = np.broadcast_to(np.rint(fx * tile), ring.shape)
+        return cls(tile, fy, fx, ring, weight, (ky == 0) & (kx > 0), (kx == 0) & (ky > 0))
+
+    @property
+    def rings(self) -> int:
+        """Rings up to the Nyquist frequency, 0..tile/2."""
+        return self.tile // 2 + 1
+
+    @property
+    def frequency(self) -> np.ndarray:
+        """The centre of each ring, cy/px."""
+        return np.arange(self.rings) / self.tile
+
+
+def displacement(cross: np.ndarray, geometry: Geometry) -> tuple[float, float]:
+    """The displacement ``d`` of the simulated frame (``sim(x) ≈ real(x − d)``) from the phase
+    of the cross-spectrum: the whole-pixel peak of the phase correlation, then a weighted
+    least-squares fit of the remaining phase ramp over 0 < f < 0.25 cy/px."""
+    tile = geometry.tile
+    size = np.abs(cross)
+    surface = np.fft.irfft2(np.where(size > 0, cross / np.where(size > 0, size, 1.0), 0), s=(tile, tile))
+    iy, ix = np.unravel_index(int(np.argmax(surface)), surface.shape)
+    dy, dx = (iy if iy < tile // 2 else iy - tile), (ix if ix < tile // 2 else ix - tile)
+    rest = turned(cross, geometry, (dy, dx))
+    f = np.hypot(geometry.fy, geometry.fx)
+    use = (f > 0) & (f < 0.25) & (np.abs(rest) > 0)
+    if use.sum() < 3:
+        return float(dy), float(dx)
+    weight = np.sqrt((np.abs(rest) * geometry.weight)[use])
+    design = -2 * np.pi * np.stack([np.broadcast_to(geometry.fy, f.shape)[use],
+                                    np.broadcast_to(geometry.fx, f.shape)[use]], axis=1)
+    solution, *_ = np.linalg.lstsq(design * weight[:, None], np.angle(rest[use]) * weight, rcond=None)
+    return float(dy + solution[0]), float(dx + solution[1])
+
+
+def turned(cross: np.ndarray, geometry: Geometry, d: tuple[float, float]) -> np.ndarray:
+    """The cross-spectrum with the phase ramp of the displacement ``d`` removed."""
+    return cross * np.exp(2j * np.pi * (geometry.fy * d[0] + geometry.fx * d[1]))
+
+
+@dataclass(frozen=True)
+class RingSums:
+    """Σ weight·value over each ring, one row per group of tiles (``groups × rings``): the
+    two power spectra, the cross-spectrum's real part (the displacement removed), the real
+    camera's noise power (None when unknown), and the axis sums of the cross-spectrum and of
+    the real signal (``S_rr`` less the noise); ``count`` is the bins of each ring."""
+
+    real: np.ndarray
+    sim: np.ndarray
+    cross: np.ndarray
+    noise: np.ndarray | None
+    horizontal: tuple[np.ndarray, np.ndarray]
+    vertical: tuple[np.ndarray, np.ndarray]
+    count: np.ndarray
+    tiles: np.ndarray
+
+    @property
+    def signal(self) -> np.ndarray:
+        return self.real if self.noise is None else self.real - self.noise
+
+    def replicates(self) -> RingSums:
+        """Row 0 the sums of every group; then, for each group with tiles, the sums without it."""
+        used = np.flatnonzero(self.tiles > 0)
+
+        def rows(x: np.ndarray | None) -> np.ndarray | None:
+            if x is None:
+                return None
+            total = x.sum(axis=0, keepdims=True)
+            return np.concatenate([total, total - x[used]]) if len(used) > 1 else total
+
+        return RingSums(rows(self.real), rows(self.sim), rows(self.cross), rows(self.noise),
+                        (rows(self.horizontal[0]), rows(self.horizontal[1])),
+                        (rows(self.vertical[0]), rows(self.vertical[1])), self.count,
+                        rows(self.tiles[:, None])[:, 0])
+
+
+def ring_sums(spectra: TransferSpectra, geometry: Geometry, cross: np.ndarray,
+              noise: np.ndarray | None) -> RingSums:
+    """The per-group ring sums of the spectra (``cross`` the turned cross-spectrum, ``noise``
+    the real camera's noise power per group and bin, or None)."""
+    groups, rings = len(spectra.tiles), geometry.rings
+    index = (geometry.ring[None, :, :] + geometry.tile * np.arange(groups)[:, None, None]).ravel()
+
+    def sums(values: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
+        weight = geometry.weight if where is None else geometry.weight * where
+        total = np.bincount(index, (weight * values).ravel(), minlength=groups * geometry.tile)
+        return total.reshape(groups, geometry.tile)[:, :rings]
+
+    signal = spectra.real if noise is None else spectra.real - noise
+    count = np.bincount(geometry.ring.ravel(), geometry.weight.ravel(), minlength=geometry.tile)[:rings]
+    return RingSums(sums(spectra.real), sums(spectra.sim), sums(cross.real), None if noise is None else sums(noise),
+                    (sums(cross.real, geometry.horizontal), sums(signal, geometry.horizontal)),
+                    (sums(cross.real, geometry.vertical), sums(signal, geometry.vertical)), count,
+                    np.asarray(spectra.tiles))
+
+
+def ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
+    """``num/den`` where ``den > 0``, NaN elsewhere."""
+    good = den > 0
+    return np.where(good, num / np.where(good, den, 1.0), np.nan)
+
+
+def jackknife(values: np.ndarray) -> np.ndarray:
+    """The jackknife standard error of row 0 from the replicate rows 1.. (NaN without them)."""
+    values = np.asarray(values, dtype=np.float64)
+    m = values.shape[0] - 1
+    if m < 2:
+        return np.full(values.shape[1:], np.nan)
+    rest = values[1:]
+    with np.errstate(invalid="ignore"):
+        return np.sqrt((m - 1) / m * np.nansum((rest - np.nanmean(rest, axis=0)) ** 2, axis=0))

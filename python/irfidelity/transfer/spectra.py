@@ -1,0 +1,115 @@
+"""The sums a transfer estimate starts from, computed in Rust: Welch sums over windowed tiles
+(``_core.cross_spectra``) and the whole-frame spectrum of block means (``_core.low_spectrum``).
+Mergeable, so the frames of a sequence pool into one estimate."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import _core
+from ..errors import ShapeError
+from ..frames import FRAME_DTYPES
+
+__all__ = ["GROUPS", "TransferSpectra", "tile_size", "tiling", "transfer_spectra"]
+
+#: Runs of neighbouring tiles kept apart for the jackknife standard errors.
+GROUPS = 8
+
+#: Tiles overlap by half unless the frame holds at least this many without overlap: the
+#: overlap doubles the statistical information of the Hann-windowed tiles and quadruples their
+#: cost, which only small frames need.
+DISJOINT_TILES = 64
+
+
+def tile_size(shape: tuple[int, int]) -> int:
+    """The default tile side for frames of ``shape``: 64 px on frames of at least 120 px a side
+    (a fine frequency resolution matters more than many tiles: a steep ratio is smeared over
+    ±2/tile cy/px), 32 px down to 64 px, else 16 px."""
+    side = min(shape)
+    return 64 if side >= 120 else 32 if side >= 64 else 16
+
+
+def tiling(shape: tuple[int, int], tile: int) -> int:
+    """The step between tiles: the tile itself when at least :data:`DISJOINT_TILES` disjoint
+    tiles fit the frame, else half of it."""
+    disjoint = (shape[0] // tile) * (shape[1] // tile)
+    return tile if disjoint >= DISJOINT_TILES else tile // 2
+
+
+@dataclass
+class TransferSpectra:
+    """The sums a :class:`~irfidelity.transfer.Transfer` is estimated from, mergeable over the
+    frames of a sequence.
+
+    ``tiles`` per group; ``real``, ``sim``, ``cross`` (complex), ``difference`` (None without a
+    second real frame) of shape ``(groups, tile, tile//2 + 1)``: Σ|R|², Σ|S|², Σ conj(R)·S and
+    Σ|R − R′|² over each group's tiles; ``window_energy`` (Σ w² over a tile); the whole-frame
+    spectrum of the ``low_shape`` block-mean frames (blocks of ``factor`` px): ``low_real``,
+    ``low_cross`` (complex); the frames' sums ``sum_real``, ``sum_sim`` over ``pixels`` scored
+    pixels; ``skipped`` tiles (a pixel not scored or not finite).
+    """
+
+    tile: int
+    step: int
+    tiles: np.ndarray
+    real: np.ndarray
+    sim: np.ndarray
+    cross: np.ndarray
+    difference: np.ndarray | None
+    window_energy: float
+    low_real: np.ndarray
+    low_cross: np.ndarray
+    low_shape: tuple[int, int]
+    factor: int
+    sum_real: float
+    sum_sim: float
+    pixels: int
+    skipped: int = 0
+
+    def merge(self, other: TransferSpectra) -> TransferSpectra:
+        """The sums of both (frames of one sequence: the same tiling and frame size)."""
+        if (self.tile, self.step, self.factor, self.low_shape) != (other.tile, other.step, other.factor,
+                                                                    other.low_shape):
+            raise ShapeError("transfer spectra of different tilings or frame sizes cannot be merged")
+        difference = (None if self.difference is None or other.difference is None
+                      else self.difference + other.difference)
+        return TransferSpectra(self.tile, self.step, self.tiles + other.tiles, self.real + other.real,
+                               self.sim + other.sim, self.cross + other.cross, difference, self.window_energy,
+                               self.low_real + other.low_real, self.low_cross + other.low_cross, self.low_shape,
+                               self.factor, self.sum_real + other.sum_real, self.sum_sim + other.sum_sim,
+                               self.pixels + other.pixels, self.skipped + other.skipped)
+
+
+def _kernel_frames(real: np.ndarray, sim: np.ndarray, ref: np.ndarray | None) -> tuple:
+    """The frames as the Rust passes take them: C-contiguous, ``sim`` of ``real``'s dtype or
+    float64, ``ref`` of ``real``'s dtype; other combinations as float64."""
+    real, sim = np.ascontiguousarray(real), np.ascontiguousarray(sim)
+    same = real.dtype in FRAME_DTYPES and sim.dtype in (real.dtype, np.float64)
+    if ref is not None:
+        ref = np.ascontiguousarray(ref)
+        same = same and ref.dtype == real.dtype
+    if not same:
+        real, sim = real.astype(np.float64), sim.astype(np.float64)
+        ref = None if ref is None else ref.astype(np.float64)
+    return real, sim, ref
+
+
+def transfer_spectra(real: np.ndarray, sim: np.ndarray, *, mask: np.ndarray | None = None,
+                     real_ref: np.ndarray | None = None, tile: int | None = None) -> TransferSpectra:
+    """The Welch and low-frequency sums of one frame pair (2-D frames of one shape, as scored;
+    ``mask`` the scored pixels; ``real_ref`` a second real frame of the scene)."""
+    real, sim, ref = _kernel_frames(real, sim, real_ref)
+    tile = tile_size(real.shape) if tile is None else int(tile)
+    step = tiling(real.shape, tile)
+    mask = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
+    welch = _core.cross_spectra(real, sim, ref, mask, tile=tile, step=step, groups=GROUPS)
+    low = _core.low_spectrum(real, sim, mask, factor=max(1, min(real.shape) // 64))
+    return TransferSpectra(tile=tile, step=step, tiles=np.asarray(welch["tiles"], dtype=np.int64),
+                           real=welch["real"], sim=welch["sim"], cross=welch["cross_re"] + 1j * welch["cross_im"],
+                           difference=welch.get("difference"), window_energy=float(welch["window_energy"]),
+                           low_real=low["real"], low_cross=low["cross_re"] + 1j * low["cross_im"],
+                           low_shape=(int(low["rows"]), int(low["cols"])), factor=int(low["factor"]),
+                           sum_real=float(low["sum_real"]), sum_sim=float(low["sum_sim"]), pixels=int(low["pixels"]),
+                           skipped=int(welch["skipped"]))

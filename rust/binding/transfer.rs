@@ -1,0 +1,175 @@
+//! `cross_spectra` and `low_spectrum` (`crate::transfer`) for `irfidelity.transfer`: the
+//! frames arrive 2-D and C-contiguous, the simulated one of the real one's dtype or float64
+//! (a registered pair's resampled frame), a second real frame of the real one's dtype; the
+//! passes run with the GIL released.
+
+use numpy::ndarray::{Array2, Array3};
+use numpy::{
+    PyArray2, PyArray3, PyArrayDescrMethods, PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods,
+};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use super::dtypes::{contiguous, mask_samples, pair_shape, unsupported_dtype};
+use super::stats::readonly;
+use crate::kernel::Sample;
+use crate::transfer::{self, Frames, LowSpectrum, TileSpectra, Tiling};
+use crate::Error;
+
+/// What a pass computes from the frames, whatever their sample types.
+enum Pass {
+    Tiles(Tiling),
+    Low { factor: usize },
+}
+
+enum Output {
+    Tiles(TileSpectra),
+    Low(LowSpectrum),
+}
+
+/// Runs `pass` on the frames as `R` (real, reference) and `R` or float64 (sim).
+fn typed<R: numpy::Element + Sample>(
+    py: Python<'_>,
+    (real, sim, reference): (&Bound<'_, PyUntypedArray>, &Bound<'_, PyUntypedArray>, Option<&Bound<'_, PyUntypedArray>>),
+    mask: Option<&[bool]>,
+    shape: (usize, usize),
+    pass: &Pass,
+) -> crate::Result<Output> {
+    let Ok(real) = real.cast::<PyArrayDyn<R>>() else {
+        return Err(Error::Value("internal: real frame dtype".into()));
+    };
+    let real_view = readonly(real)?;
+    let real = contiguous(&real_view, "the real frame")?;
+    let reference_view = match reference {
+        None => None,
+        Some(r) => Some(readonly(r.cast::<PyArrayDyn<R>>().map_err(|_| {
+            Error::Shape(format!("real_ref: dtype {} with a {} real frame: expected the same dtype", r.dtype(), real_view.dtype()))
+        })?)?),
+    };
+    let reference = match reference_view.as_ref() {
+        None => None,
+        Some(view) => Some(contiguous(view, "the second real frame")?),
+    };
+    fn run<R: Sample, S: Sample>(frames: Frames<'_, R, S>, pass: &Pass) -> crate::Result<Output> {
+        match *pass {
+            Pass::Tiles(tiling) => transfer::tile_spectra(&frames, tiling).map(Output::Tiles),
+            Pass::Low { factor } => transfer::low_spectrum(&frames, factor).map(Output::Low),
+        }
+    }
+    if let Ok(sim) = sim.cast::<PyArrayDyn<R>>() {
+        let view = readonly(sim)?;
+        let sim = contiguous(&view, "the simulated frame")?;
+        return py.detach(|| run(Frames { real, sim, reference, mask, shape }, pass));
+    }
+    if let Ok(sim) = sim.cast::<PyArrayDyn<f64>>() {
+        let view = readonly(sim)?;
+        let sim = contiguous(&view, "the simulated frame")?;
+        return py.detach(|| run(Frames { real, sim, reference, mask, shape }, pass));
+    }
+    Err(Error::Shape(format!(
+        "sim: dtype {} with a {} real frame: expected the real frame's dtype or float64",
+        sim.dtype(),
+        real_view.dtype()
+    )))
+}
+
+fn dispatch(
+    py: Python<'_>,
+    frames: (&Bound<'_, PyUntypedArray>, &Bound<'_, PyUntypedArray>, Option<&Bound<'_, PyUntypedArray>>),
+    mask: Option<PyReadonlyArrayDyn<'_, bool>>,
+    pass: Pass,
+) -> PyResult<Output> {
+    let shape = pair_shape(frames.0, frames.1)?;
+    if let Some(reference) = frames.2 {
+        if reference.shape() != frames.0.shape() {
+            return Err(Error::Shape("real_ref: expected the real frame's shape".into()).into());
+        }
+    }
+    let mask = mask_samples(mask.as_ref(), shape)?;
+    let dtype = frames.0.dtype();
+    Ok(with_frame_dtype!(py, &dtype, |T| typed::<T>(py, frames, mask, shape, &pass))
+        .unwrap_or_else(|| Err(unsupported_dtype("real", &dtype)))?)
+}
+
+fn cube<'py>(py: Python<'py>, values: Vec<f64>, shape: (usize, usize, usize)) -> PyResult<Bound<'py, PyArray3<f64>>> {
+    let array = Array3::from_shape_vec(shape, values).map_err(|e| Error::Value(format!("internal: spectra shape: {e}")))?;
+    Ok(PyArray3::from_owned_array(py, array))
+}
+
+fn plane<'py>(py: Python<'py>, values: Vec<f64>, shape: (usize, usize)) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let array = Array2::from_shape_vec(shape, values).map_err(|e| Error::Value(format!("internal: spectrum shape: {e}")))?;
+    Ok(PyArray2::from_owned_array(py, array))
+}
+
+/// `cross_spectra(real, sim, reference=None, mask=None, *, tile, step, groups)` -> dict: the Welch
+/// sums of `crate::transfer::tile_spectra` (`real`, `sim`, `cross_re`, `cross_im` and, with a
+/// reference, `difference`: arrays `groups × tile × (tile/2 + 1)`; `tiles` per group,
+/// `window_energy`, `skipped`).
+#[pyfunction]
+#[pyo3(signature = (real, sim, reference=None, mask=None, *, tile, step, groups))]
+fn cross_spectra<'py>(
+    py: Python<'py>,
+    real: &Bound<'py, PyUntypedArray>,
+    sim: &Bound<'py, PyUntypedArray>,
+    reference: Option<&Bound<'py, PyUntypedArray>>,
+    mask: Option<PyReadonlyArrayDyn<'py, bool>>,
+    tile: usize,
+    step: usize,
+    groups: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let Output::Tiles(s) = dispatch(py, (real, sim, reference), mask, Pass::Tiles(Tiling { tile, step, groups }))? else {
+        return Err(Error::Value("internal: pass".into()).into());
+    };
+    let shape = (s.groups, s.tile, s.tile / 2 + 1);
+    let out = PyDict::new(py);
+    out.set_item("tile", s.tile)?;
+    out.set_item("step", step)?;
+    out.set_item("tiles", s.tiles)?;
+    out.set_item("window_energy", s.window_energy)?;
+    out.set_item("skipped", s.skipped)?;
+    out.set_item("real", cube(py, s.real, shape)?)?;
+    out.set_item("sim", cube(py, s.sim, shape)?)?;
+    out.set_item("cross_re", cube(py, s.cross_re, shape)?)?;
+    out.set_item("cross_im", cube(py, s.cross_im, shape)?)?;
+    if let Some(difference) = s.difference {
+        out.set_item("difference", cube(py, difference, shape)?)?;
+    }
+    Ok(out)
+}
+
+/// `low_spectrum(real, sim, mask=None, *, factor)` -> dict: the whole-frame cross-spectrum of
+/// the `factor × factor` block means (`crate::transfer::low_spectrum`): `real`, `sim`,
+/// `cross_re`, `cross_im` (arrays `rows × (cols/2 + 1)`), `rows`, `cols`, `factor`, `empty`, and `sum_real`, `sum_sim`, `pixels` (the frames' sums over
+/// the pixels scored and finite in both).
+#[pyfunction]
+#[pyo3(signature = (real, sim, mask=None, *, factor))]
+fn low_spectrum<'py>(
+    py: Python<'py>,
+    real: &Bound<'py, PyUntypedArray>,
+    sim: &Bound<'py, PyUntypedArray>,
+    mask: Option<PyReadonlyArrayDyn<'py, bool>>,
+    factor: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let Output::Low(s) = dispatch(py, (real, sim, None), mask, Pass::Low { factor })? else {
+        return Err(Error::Value("internal: pass".into()).into());
+    };
+    let shape = (s.rows, s.cols / 2 + 1);
+    let out = PyDict::new(py);
+    out.set_item("factor", s.factor)?;
+    out.set_item("rows", s.rows)?;
+    out.set_item("cols", s.cols)?;
+    out.set_item("empty", s.empty)?;
+    out.set_item("sum_real", s.sum_real)?;
+    out.set_item("sum_sim", s.sum_sim)?;
+    out.set_item("pixels", s.pixels)?;
+    out.set_item("real", plane(py, s.real, shape)?)?;
+    out.set_item("sim", plane(py, s.sim, shape)?)?;
+    out.set_item("cross_re", plane(py, s.cross_re, shape)?)?;
+    out.set_item("cross_im", plane(py, s.cross_im, shape)?)?;
+    Ok(out)
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(cross_spectra, m)?)?;
+    m.add_function(wrap_pyfunction!(low_spectrum, m)?)
+}
