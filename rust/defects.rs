@@ -36,6 +36,8 @@ pub struct Border {
 pub struct Profile {
     pub total: f64,
     pub count: u64,
+    /// The largest square.
+    pub largest: f64,
     pub border: Border,
     pub top: Option<Vec<(f64, usize)>>,
 }
@@ -449,7 +451,7 @@ pub fn profile<A: Sample, B: Sample>(
         let top = ((question.top_share * count as f64).ceil() as usize).max(1);
         may_dominate(&pair, n, top, question.most * total, &sums).then(|| top_squares(&pair, n, top)).transpose()?
     };
-    Ok(Profile { total, count, border, top })
+    Ok(Profile { total, count, largest: sums.largest, border, top })
 }
 
 /// Whether the `top` largest squares can sum to more than `limit`, by three bounds that need no

@@ -324,6 +324,26 @@ def error_profile(
 ) -> tuple[
     float,
     int,
+    float,
     tuple[float, int, list[int] | None],
     tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]] | None,
 ]: ...
+
+# ---- cross-spectra of a pair, for its transfer (rust/binding/transfer.rs) -----------------------
+def cross_spectra(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    reference: npt.NDArray[Any] | None = None,
+    mask: npt.NDArray[np.bool_] | None = None,
+    *,
+    tile: int,
+    step: int,
+    groups: int,
+) -> dict[str, Any]: ...
+def low_spectrum(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    mask: npt.NDArray[np.bool_] | None = None,
+    *,
+    factor: int,
+) -> dict[str, Any]: ...

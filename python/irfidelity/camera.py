@@ -27,7 +27,7 @@ from .errors import FidelityError
 from .frames import dtype_name
 from .fuzzy import Weights
 
-__all__ = ["CameraInputs", "camera_components", "describe_input"]
+__all__ = ["CameraInputs", "camera_components", "camera_source", "describe_input"]
 
 _CURVE_EXTENSIONS = (".csv", ".txt", ".tsv", ".dat")
 
@@ -218,9 +218,10 @@ def _compare(kind: str, inputs: CameraInputs, config: ScoringConfig) -> tuple[fl
     return float(s.value), metrics, described, {f"real_{kind}": real, f"sim_{kind}": sim}
 
 
-def camera_components(inputs: CameraInputs, weights: Weights, config: ScoringConfig
+def camera_components(inputs: CameraInputs, weights: Weights, config: ScoringConfig, *, scene: tuple = ()
                      ) -> tuple[dict, dict, dict, dict]:
-    """Components f1 (MTF, eqs. 1–4), f2 (SiTF), ``noise`` and ``mrtd`` whose weight is positive.
+    """Components f1 (MTF, eqs. 1–4), f2 (SiTF), ``noise`` and ``mrtd`` whose weight is positive,
+    but those the frame pair's scene stands in for (``scene``, :mod:`irfidelity.transfer.scene`).
 
     Inputs with weight 0 are not read at all. Curves in different units are converted with
     the configuration's camera geometry, or refused (:mod:`irfidelity.curves.units`).
@@ -238,9 +239,29 @@ def camera_components(inputs: CameraInputs, weights: Weights, config: ScoringCon
     described: dict[str, Any] = {}
     curves: dict[str, Any] = {}
     for kind in KINDS:
-        if weights[kind] > 0:
+        if weights[kind] > 0 and kind not in scene:
             components[kind], kind_metrics, kind_inputs, kind_curves = _compare(kind, inputs, config)
             metrics.update(kind_metrics)
             described.update(kind_inputs)
             curves.update(kind_curves)
     return components, metrics, described, curves
+
+
+def camera_source(kind: str, inputs: CameraInputs) -> str:
+    """Where a camera component's input came from: "curves", "edge images", "bar frames",
+    "CTF curves" (MTF), "noise recordings" (noise) — the scene's is "scene"
+    (:mod:`irfidelity.transfer.scene`)."""
+    from .bar_frames import as_bar_frames
+
+    x = getattr(inputs, f"real_{kind}")
+    if kind == "noise":
+        return "noise recordings"
+    if isinstance(x, Curve):
+        return "CTF curves" if x.meta.get("quantity") == "ctf" else "curves"
+    if kind == "mtf" and as_bar_frames(x) is not None:
+        return "bar frames"
+    if isinstance(x, (str, os.PathLike)):
+        return "curves" if os.fsdecode(os.fspath(x)).lower().endswith(_CURVE_EXTENSIONS) else "edge images"
+    if isinstance(x, np.ndarray) and x.ndim == 2 and min(x.shape) > 2:
+        return "edge images" if kind == "mtf" else "curves"
+    return "curves"

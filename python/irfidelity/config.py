@@ -123,6 +123,13 @@ class ScoringConfig:
         ``alpha``, ``beta``) and the MRTD measured on bar frames
         (:func:`irfidelity.curves.measured_mrtd`: ``snr_threshold``, ``eye_time``,
         ``frame_rate``), e.g. ``{"tolerance": 10}``.
+    transfer_options : mapping
+        The scene's transfer (:func:`irfidelity.transfer.transfer`, docs/interpretation.md "The
+        pair as a system"): ``scene`` (default true: without camera curves, ``mtf``, ``sitf``
+        and ``noise`` are graded from the frame pair; false leaves them to curves only),
+        ``reference_frequency`` (the real camera's MTF50 in cy/px, where the MTF ratio is read
+        as an MTF50 mismatch; default the real MTF curve's MTF50 when one is given in cy/px,
+        else 0.25), ``tile`` (the tile side in pixels).
     grades : GradeScale
         The grade names (four: the tolerances separate excellent, good, fair and poor); its
         boundaries and widths are those of :meth:`GradeScale.evaluate` called directly.
@@ -199,6 +206,7 @@ class ScoringConfig:
     mtf_options: Mapping = field(default_factory=dict)
     sitf_options: Mapping = field(default_factory=dict)
     mrtd_options: Mapping = field(default_factory=dict)
+    transfer_options: Mapping = field(default_factory=dict)
     grades: GradeScale = field(default_factory=_shared(GradeScale))
     tolerances: Tolerances = field(default_factory=_shared(Tolerances))
     register: str | None = None
@@ -241,7 +249,7 @@ class ScoringConfig:
         out["edge_fit_order"] = optional_int("edge_fit_order", self.edge_fit_order, 1, 5)
         for name in ("ifov_mrad", "pixel_pitch_um", "focal_length_mm"):
             out[name] = optional_positive(name, getattr(self, name))
-        for name in ("mtf_options", "sitf_options", "mrtd_options"):
+        for name in ("mtf_options", "sitf_options", "mrtd_options", "transfer_options"):
             out[name] = curve_options(name, getattr(self, name))
         if not isinstance(self.grades, GradeScale):
             out["grades"] = grade_scale(self.grades)
@@ -376,7 +384,8 @@ class ScoringConfig:
     def to_toml(self) -> str:
         """The configuration as TOML. TOML has no null: a field that is None is written as a
         commented-out example. Keys that are not bare TOML keys are quoted."""
-        tables = ("weights", "mtf_options", "sitf_options", "mrtd_options", "grades", "tolerances", "calibration")
+        tables = ("weights", "mtf_options", "sitf_options", "mrtd_options", "transfer_options", "grades", "tolerances",
+                  "calibration")
         return toml_document(self.to_dict(), tables, _UNSET_EXAMPLES,
                              "irfidelity scoring configuration (irfidelity score --config FILE)")
 

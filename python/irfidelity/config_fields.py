@@ -180,7 +180,23 @@ CURVE_OPTIONS: dict[str, dict[str, Any]] = {
                      "points": _points, "alpha": _exponent, "beta": _exponent},
     "mrtd_options": {"tolerance": _exponent, "points": _points, "alpha": _exponent, "beta": _exponent,
                      "snr_threshold": _positive, "eye_time": _positive, "frame_rate": _positive},
+    "transfer_options": {"scene": _flag, "reference_frequency": lambda name, value: _frequency(name, value),
+                         "tile": lambda name, value: _tile(name, value)},
 }
+
+
+def _frequency(name: str, value: Any) -> float:
+    number = _real(value)
+    if number is None or not 0 < number <= 0.5:
+        raise ConfigError(name, f"expected a frequency in cycles per pixel in (0, 0.5]; got {_short(value)}")
+    return number
+
+
+def _tile(name: str, value: Any) -> int:
+    tile = optional_int(name, value, 8, 256)
+    if tile is None or tile % 2:
+        raise ConfigError(name, f"expected an even number of pixels in 8..256; got {_short(value)}")
+    return tile
 
 
 def curve_options(name: str, value: Any) -> dict:

@@ -10,6 +10,7 @@ and the user can leave them out (``mask=``, ``--mask``, ``--roi``).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -17,7 +18,7 @@ import numpy as np
 from . import _core
 from .frames import FRAME_DTYPES
 
-__all__ = ["TOP_SHARE", "MOST", "concentrated_error"]
+__all__ = ["TOP_SHARE", "MOST", "concentrated_error", "Defects", "find_defects"]
 
 #: The share of the scored pixels whose squared differences are examined (the largest ones).
 TOP_SHARE = 0.005
@@ -87,7 +88,7 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None) -> dict | None:
     """
     real, sim = _frames(real, sim)
     mask = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
-    total, count, (ring_total, ring_count, ring_box), top = _core.error_profile(
+    total, count, _, (ring_total, ring_count, ring_box), top = _core.error_profile(
         real, sim, mask, top_share=TOP_SHARE, most=MOST, border=_BORDER)
     if count == 0 or not total > 0:
         return None
@@ -112,3 +113,192 @@ def _frames(real: Any, sim: Any) -> tuple[np.ndarray, np.ndarray]:
     if real.dtype not in FRAME_DTYPES or sim.dtype not in (real.dtype, np.float64):
         real, sim = real.astype(np.float64), sim.astype(np.float64)
     return real, sim
+
+
+# --------------------------------------------------------------------------- defect clusters
+#: A pixel is a defect candidate when its difference lies this many robust standard deviations
+#: (1.4826 × the median absolute deviation) from the median difference.
+OUTLIER = 10.0
+
+#: A cluster of at most this many pixels (a 5×5 block) can be a defect (dead, hot or stuck
+#: pixels); larger regions of error are the simulation's, not a pixel defect's.
+MAX_CLUSTER = 25
+
+#: More candidates than this share of the scored pixels: the error is widespread, not defects.
+MAX_CANDIDATES = 0.005
+
+#: A cluster is a defect when the median error around it is below this share of its own, and
+#: the other frame departs from its own surroundings there by less than this share of the
+#: defective frame's departure: a dead pixel sits in a scene the other frame shows smooth, a
+#: small hot target blurred by the simulator still stands out in both.
+ISOLATED = 0.2
+
+#: Differences drawn for the robust scale (a regular subsample of the frame).
+_SCALE_SAMPLES = 16384
+
+
+@dataclass(frozen=True)
+class Defects:
+    """Clusters of defective pixels in either frame, found before the image components.
+
+    Attributes
+    ----------
+    mask : bool ndarray
+        True at the defective pixels: left out of the image components and of the transfer.
+    clusters : tuple of dict
+        Each: ``frame`` ("simulated" or "real": the frame whose pixels depart from their
+        surroundings), ``kind`` ("dark": dead or stuck low; "bright": hot or stuck high),
+        ``pixels``, ``rows``, ``cols`` (bounding box, inclusive), ``share`` (of the pair's
+        summed squared difference).
+    share : float
+        The share of the summed squared difference the clusters carry.
+    """
+
+    mask: np.ndarray
+    clusters: tuple
+    share: float
+
+    @property
+    def pixels(self) -> int:
+        return int(sum(c["pixels"] for c in self.clusters))
+
+    def text(self) -> str:
+        """One sentence naming the clusters (the largest first, at most three)."""
+        parts = [f"{c['pixels']} {c['kind']} pixel{'s' if c['pixels'] > 1 else ''} in the {c['frame']} frame at rows "
+                 f"{c['rows'][0]}–{c['rows'][1]}, columns {c['cols'][0]}–{c['cols'][1]}" for c in self.clusters[:3]]
+        more = f" and {len(self.clusters) - 3} more clusters" if len(self.clusters) > 3 else ""
+        return (f"defective pixels left out of the image components and the transfer: {'; '.join(parts)}{more} "
+                f"({100 * self.share:.3g} % of the squared error)")
+
+    def finding(self) -> dict:
+        """JSON-ready: ``pixels``, ``share``, ``clusters``, ``text``."""
+        return {"pixels": self.pixels, "share": self.share, "clusters": [dict(c) for c in self.clusters],
+                "text": self.text()}
+
+
+def _robust_scale(real: np.ndarray, sim: np.ndarray, mask: np.ndarray | None) -> tuple[float, float]:
+    """The median and the robust standard deviation of ``sim − real`` over a regular subsample;
+    the deviation at least the frames' resolution (half a count for integer frames)."""
+    step = max(1, int(math.sqrt(real.size / _SCALE_SAMPLES)))
+    d = sim[::step, ::step].astype(np.float64) - real[::step, ::step]
+    keep = np.isfinite(d) if mask is None else np.isfinite(d) & mask[::step, ::step]
+    d = d[keep]
+    if d.size == 0:
+        return 0.0, math.inf
+    median = float(np.median(d))
+    sigma = 1.4826 * float(np.median(np.abs(d - median)))
+    floor = 0.5 if real.dtype.kind in "iu" and sim.dtype.kind in "iu" else 1e-9 * (abs(median) + float(np.std(d)) + 1e-300)
+    return median, max(sigma, floor)
+
+
+def _clusters(rows: np.ndarray, cols: np.ndarray) -> list[np.ndarray]:
+    """The 8-connected clusters of the given pixels, as arrays of their positions."""
+    where = {(int(r), int(c)): i for i, (r, c) in enumerate(zip(rows, cols))}
+    seen = np.zeros(len(rows), dtype=bool)
+    out = []
+    for start in range(len(rows)):
+        if seen[start]:
+            continue
+        seen[start] = True
+        members, stack = [], [start]
+        while stack:
+            i = stack.pop()
+            members.append(i)
+            r, c = int(rows[i]), int(cols[i])
+            for dr in (-1, 0, 1):
+                for dc in (-1, 0, 1):
+                    j = where.get((r + dr, c + dc))
+                    if j is not None and not seen[j]:
+                        seen[j] = True
+                        stack.append(j)
+        out.append(np.array(members))
+    return out
+
+
+def _cluster(real: np.ndarray, sim: np.ndarray, scored: np.ndarray, members: tuple, median: float) -> dict | None:
+    """A cluster's description when it is a defect: small, and isolated (the error around it a
+    small share of its own); None otherwise."""
+    rows, cols = members
+    if rows.size > MAX_CLUSTER:
+        return None
+    y0, y1 = max(int(rows.min()) - 2, 0), int(rows.max()) + 3
+    x0, x1 = max(int(cols.min()) - 2, 0), int(cols.max()) + 3
+    around = scored[y0:y1, x0:x1].copy()
+    around[rows - y0, cols - x0] = False
+    if not around.any():
+        return None
+    box_real, box_sim = real[y0:y1, x0:x1].astype(np.float64), sim[y0:y1, x0:x1].astype(np.float64)
+    inside = np.abs(sim[rows, cols].astype(np.float64) - real[rows, cols] - median)
+    outside = np.abs(box_sim[around] - box_real[around] - median)
+    if not np.median(outside) <= ISOLATED * np.median(inside):
+        return None
+    departs = {name: float(np.median(frame[rows, cols].astype(np.float64)) - np.median(box[around]))
+               for name, frame, box in (("simulated", sim, box_sim), ("real", real, box_real))}
+    frame = max(departs, key=lambda k: abs(departs[k]))
+    other = "real" if frame == "simulated" else "simulated"
+    if abs(departs[other]) > ISOLATED * abs(departs[frame]):
+        return None
+    return {"frame": frame, "kind": "bright" if departs[frame] > 0 else "dark", "pixels": int(rows.size),
+            "rows": [int(rows.min()), int(rows.max())], "cols": [int(cols.min()), int(cols.max())]}
+
+
+def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
+    """Clusters of dead, hot or stuck pixels in either frame, before the image components.
+
+    A pixel is a candidate when ``sim − real`` lies more than :data:`OUTLIER` robust standard
+    deviations from its median; candidates join into 8-connected clusters, and a cluster is a
+    defect when it has at most :data:`MAX_CLUSTER` pixels, is isolated (the median error around
+    it, within 2 px, under :data:`ISOLATED` of its own) and departs from its surroundings in one
+    frame only (the other's departure under :data:`ISOLATED` of it): a blurred edge or a
+    misplaced target leaves error around it, a blurred small target still stands out in both
+    frames, and both are the simulation's, not a defect. More candidates than
+    :data:`MAX_CANDIDATES` of the scored pixels is widespread error: no defects are reported.
+    The frame whose cluster departs from its own surroundings is the defective one.
+
+    One Rust pass (``_core.error_profile``) gives the largest difference; the frame is searched
+    only when it exceeds the candidates' threshold.
+
+    Returns
+    -------
+    Defects or None
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from irfidelity.defects import find_defects
+    >>> rng = np.random.default_rng(0)
+    >>> real = (3000 + 40 * np.sin(np.arange(64 * 80) / 50)).reshape(64, 80) + rng.normal(0, 2, (64, 80))
+    >>> sim = real + rng.normal(0, 2, real.shape)
+    >>> sim[20:23, 30:33] = 0                                   # a dead 3×3 cluster
+    >>> found = find_defects(real, sim)
+    >>> found.clusters[0]["frame"], found.clusters[0]["kind"], found.clusters[0]["rows"], found.pixels
+    ('simulated', 'dark', [20, 22], 9)
+    """
+    real, sim = _frames(real, sim)
+    scored = np.ones(real.shape, dtype=bool) if mask is None else np.ascontiguousarray(mask, dtype=bool)
+    median, sigma = _robust_scale(real, sim, None if mask is None else scored)
+    total, count, largest, _, _ = _core.error_profile(real, sim, None if mask is None else scored, top_share=TOP_SHARE,
+                                                      most=2.0, border=_BORDER)
+    threshold = OUTLIER * sigma
+    if count == 0 or not math.sqrt(largest) > threshold - abs(median):
+        return None
+    with np.errstate(invalid="ignore"):
+        far = np.abs(sim.astype(np.float64) - real - median) > threshold
+    far &= scored
+    rows, cols = np.nonzero(far)
+    if rows.size == 0 or rows.size > MAX_CANDIDATES * count:
+        return None
+    found = [c for members in _clusters(rows, cols)
+             if (c := _cluster(real, sim, scored, (rows[members], cols[members]), median)) is not None]
+    if not found:
+        return None
+    defect = np.zeros(real.shape, dtype=bool)
+    for c in found:
+        box = far[c["rows"][0]:c["rows"][1] + 1, c["cols"][0]:c["cols"][1] + 1]
+        defect[c["rows"][0]:c["rows"][1] + 1, c["cols"][0]:c["cols"][1] + 1] |= box
+    squares = lambda where: float(np.sum((sim[where].astype(np.float64) - real[where]) ** 2))  # noqa: E731
+    for c in found:
+        box = (slice(c["rows"][0], c["rows"][1] + 1), slice(c["cols"][0], c["cols"][1] + 1))
+        c["share"] = squares(tuple(np.add(np.nonzero(far[box]), [[box[0].start], [box[1].start]]))) / total
+    found.sort(key=lambda c: -c["share"])
+    return Defects(defect, tuple(found), squares(defect) / total)

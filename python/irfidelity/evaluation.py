@@ -22,8 +22,8 @@ import numpy as np
 from . import budget
 from . import stats as _stats
 from .ceiling import relative_to
-from .defects import concentrated_error
-from .camera import CameraInputs, camera_components, describe_input
+from .defects import concentrated_error, find_defects
+from .camera import CameraInputs, camera_components, camera_source, describe_input
 from .alignment import score_registered
 from .config import ScoringConfig
 from .errors import FidelityError, NoiseWarning, RangeError, ShapeError
@@ -32,6 +32,7 @@ from .regions import as_regions, masked_stats, registered_union, score_regions, 
 from .results import FidelityReport, recorded_warnings
 from .scoring import image_components, plan_components, score_components
 from .temperature import TemperatureErrors, scoring_config, temperature_scores, to_temperature, tolerance_for
+from .transfer.scene import SceneEstimate, scene_estimate, scene_kinds, unassessed
 
 __all__ = ["evaluate", "SCORING_BYTES"]
 
@@ -83,6 +84,21 @@ def _registered(r: Any, s: Any, mask: Any, components: tuple, config: ScoringCon
     return _stats.PairStats(pair.stats, peak=peak, bins=bins), span
 
 
+def _left_out_defects(sources: dict) -> bool:
+    """Finds clusters of defective pixels in the pair as scored (:func:`irfidelity.defects.find_defects`)
+    and leaves them out of ``sources["mask"]``; whether there were any."""
+    real, sim = np.asarray(sources["real"]), np.asarray(sources["sim"])
+    if real.ndim != 2 or real.shape != sim.shape:
+        return False
+    found = find_defects(real, sim, sources.get("mask"))
+    sources["defects"] = found
+    if found is None:
+        return False
+    mask = sources.get("mask")
+    sources["mask"] = ~found.mask if mask is None else np.asarray(mask, dtype=bool) & ~found.mask
+    return True
+
+
 def _check_scoring(r: Any, s: Any, mask: Any, max_bytes: int | None) -> None:
     """The plan of scoring an unregistered pair: its frames and mask, and what scoring adds."""
     r, s = np.asarray(r), np.asarray(s)
@@ -108,11 +124,16 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
     try:
         if config.register is not None:
             st, span = _registered(r, s, mask, components, config, sources, max_bytes)
+            if _left_out_defects(sources) and regions is None:
+                st, span = masked_stats(sources["real"], sources["sim"], components, config, sources["mask"],
+                                        bits=None, peak=float(st.peak) if "psnr" in components else None)
             if regions is None:
                 st = with_psnr_peak(st, span, components, config, "real frame")
             else:
                 st, span = registered_union(regions, sources, components, config, max_bytes)
         else:
+            if _left_out_defects(sources):
+                scored = sources["mask"]
             st, span = masked_stats(r, s, components, config, scored, bits=config.bits, peak=config.numeric_peak)
     except (ShapeError, RangeError) as exc:
         paths = [f"{which} {inputs[which]}" for which, x in (("real", real), ("sim", sim))
@@ -157,6 +178,50 @@ def _noise_ceiling(real_noise: Any, components: tuple, config: ScoringConfig, st
     peak = float(stats.peak) if "psnr" in components else None
     return noise_ceiling(sources["real"], noise, components, config, mask=sources.get("mask"), peak=peak,
                          max_bytes=max_bytes)
+
+
+class _Plan:
+    """What to compute (:func:`irfidelity.scoring.plan_components`), made once from the inputs
+    given and the components the scene stands in for, and made again without the scene
+    components the pair could not give (their reasons replace the plan's)."""
+
+    def __init__(self, config: ScoringConfig, given: dict, scene: tuple, *, have_images: bool):
+        self.config, self.given, self.scene, self.have_images = config, given, scene, have_images
+
+    def make(self, absent: dict | None = None) -> tuple:
+        absent = absent or {}
+        have = {k: (self.given[k] or k in self.scene) and k not in absent for k in ("mtf", "sitf", "noise")}
+        try:
+            weights, image_plan, skipped = plan_components(
+                self.config.weights, self.config.missing, have_images=self.have_images, have_mtf=have["mtf"],
+                have_sitf=have["sitf"], have_noise=have["noise"], have_unit=self.config.unit is not None,
+                have_mrtd=self.given["mrtd"])
+        except FidelityError as exc:
+            why = "; ".join(f"{k}: {reason}" for k, reason in absent.items())
+            raise type(exc)(f"{exc}" + (f" (from the frames: {why})" if why else ""), option=exc.option) from None
+        for k, reason in absent.items():
+            if k in skipped:
+                skipped[k] = f"not assessed: {reason}; weight {self.config.weights[k]:g} dropped and the rest renormalised"
+        return weights, image_plan, skipped
+
+    def without(self, absent: dict) -> tuple:
+        return self.make({k: v for k, v in absent.items() if self.config.weights[k] > 0})
+
+
+def _scene(sources: dict, config: ScoringConfig, real_ref: Any, real_noise: Any, scene: tuple, components: dict,
+           metrics: dict, max_bytes: int | None) -> SceneEstimate:
+    """The pair's transfer (:mod:`irfidelity.transfer`): the components the scene stands in for,
+    its estimate among the metrics (beside curves, a cross-check), and what it could not give."""
+    ref = sources.get("real_ref")
+    if ref is None and real_ref is not None:
+        ref = _load(real_ref, "real_ref", config.real_channel, None)
+        if config.unit is not None:
+            ref = to_temperature(ref, real_ref, "real_ref", config)
+    noise = sources["curves"].get("real_noise", real_noise) if ref is None else None
+    found = scene_estimate(sources, config, scene, real_ref=ref, real_noise=noise, max_bytes=max_bytes)
+    components.update(found.components)
+    metrics.update(found.metrics)
+    return found
 
 
 def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
@@ -260,19 +325,20 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     _check_frames_given(real, sim, real_ref, ceiling)
     camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
     given = camera.given()
-    weights, image_plan, skipped = plan_components(cfg.weights, cfg.missing, have_images=real is not None,
-                                                   have_mtf=given["mtf"], have_sitf=given["sitf"],
-                                                   have_noise=given["noise"], have_unit=cfg.unit is not None,
-                                                   have_mrtd=given["mrtd"])
+    scene = scene_kinds(cfg, given, frames=real is not None, real_noise_known=real_ref is not None or real_noise is not None)
+    plan = _Plan(cfg, given, scene, have_images=real is not None)
+    weights, image_plan, skipped = plan.make()
     in_unit = cfg.unit is not None and real is not None
+    transfer_wanted = real is not None and any(weights[k] > 0 for k in ("mtf", "sitf")) or bool(scene)
     regions = _region_input(regions, real, bool(image_plan) or in_unit)
-    span = defect = None
+    span = defect = measured = None
     ceiling = None if ceiling is None else {str(k): float(v) for k, v in dict(ceiling).items()}
     ceiling_source = None if ceiling is None else "given"
     with recorded_warnings() as notes:
-        components, metrics, inputs, compared = camera_components(camera, weights, cfg)
+        components, metrics, inputs, compared = camera_components(camera, weights, cfg, scene=scene)
+        metrics.update({f"{k}_source": camera_source(k, camera) for k in ("mtf", "sitf", "noise") if k in components})
         sources: dict[str, Any] = {"curves": compared}
-        if image_plan or in_unit:
+        if image_plan or in_unit or transfer_wanted:
             st, span = _image_stats(real, sim, image_plan, cfg, mask, regions, inputs, sources, max_bytes)
             image, image_metrics = image_components(st, image_plan, cfg)
             components.update(image)
@@ -281,6 +347,9 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
                 ceiling, ceiling_source = _measured_ceiling(real_ref, real_noise, image_plan, cfg, st, sources,
                                                             inputs, max_bytes)
             defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"))
+        if transfer_wanted:
+            measured = _scene(sources, cfg, real_ref, real_noise, scene, components, metrics, max_bytes)
+            weights, image_plan, skipped = plan.without(measured.missing)
         if in_unit:
             errors = TemperatureErrors.of_frames(sources["real"], sources["sim"], mask=sources["mask"],
                                                  tolerance=tolerance_for(cfg, metrics), unit=str(cfg.unit))
@@ -292,7 +361,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
                                                              metrics, ceiling=ceiling, real_ref=ref,
                                                              ceiling_source=ceiling_source, max_bytes=max_bytes)
     score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling,
-                             ceiling_source=ceiling_source)
+                             ceiling_source=ceiling_source, unassessed=unassessed(skipped, metrics))
     registration = sources.get("registration")
     return FidelityReport(fidelity=score.fidelity, grade=score.grade, components=score.components,
                           weights=weights, metrics=score.metrics,
@@ -300,8 +369,19 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
                           membership=dict(score.grading.membership), skipped=skipped, config=cfg,
                           matrix=score.grading.matrix, notes=notes, inputs=inputs, sources=sources,
                           registration=None if registration is None else registration.to_dict(),
-                          verdict={**score.verdict.to_dict(), "defect": defect}, ceiling=ceiling,
-                          relative=relative_to(ceiling, score.components), regions=by_region)
+                          verdict=_named_defects(score.verdict.to_dict(), defect, sources.get("defects")),
+                          ceiling=ceiling,
+                          relative=relative_to(ceiling, score.components), regions=by_region,
+                          transfer=None if measured is None else measured.transfer.to_dict())
+
+
+def _named_defects(verdict: dict, defect: dict | None, found: Any) -> dict:
+    """The verdict with the concentrated-error finding and the defective pixels left out, named
+    in its reason."""
+    out = {**verdict, "defect": defect, "defects": None if found is None else found.finding()}
+    if found is not None:
+        out["reason"] = f"{verdict['reason']}; {found.text()}"
+    return out
 
 
 def _check_frames_given(real: Any, sim: Any, real_ref: Any, ceiling: Any) -> None:

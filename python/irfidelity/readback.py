@@ -321,4 +321,5 @@ def _verdict_fields(fields: Fields) -> dict[str, Any]:
     """``verdict``, ``ceiling`` and ``relative`` of a report read back (absent in older ones)."""
     numbers = optional(mapping_of(number))
     return {"verdict": fields.get("verdict", mapping_of(anything), {}),
-            "ceiling": fields.get("ceiling", numbers), "relative": fields.get("relative", numbers)}
+            "ceiling": fields.get("ceiling", numbers), "relative": fields.get("relative", numbers),
+            "transfer": fields.get("transfer", optional(mapping_of(anything)))}

@@ -160,6 +160,11 @@ class ReportBase:
         real frames).
     relative : dict or None
         Each image component divided by its ceiling.
+    transfer : dict or None
+        The frame pair's transfer relative to the real camera
+        (:meth:`irfidelity.transfer.Transfer.to_dict`: the MTF ratio against frequency, its band,
+        gain, offset, noise ratio), when it was measured: the input of ``mtf``, ``sitf`` and
+        ``noise`` without camera curves, and a cross-check beside them.
     sources : dict
         What the report was computed from, for :meth:`to_html` (frames, curves); not part of
         the JSON form, not compared. Picklable, as the whole report is.
@@ -181,6 +186,7 @@ class ReportBase:
     verdict: dict = field(default_factory=dict)
     ceiling: dict | None = None
     relative: dict | None = None
+    transfer: dict | None = None
     sources: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -215,6 +221,7 @@ class ReportBase:
             "verdict": dict(self.verdict),
             "ceiling": self.ceiling,
             "relative": self.relative,
+            **({"transfer": self.transfer} if self.transfer is not None else {}),
             **self._own_dict(),
         })
 

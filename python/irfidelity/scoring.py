@@ -152,13 +152,15 @@ class Score:
 
 def score_components(components: Mapping[str, float], metrics: Mapping[str, Any], weights: Weights,
                      config: ScoringConfig, *, scene_range: float | None = None,
-                     ceiling: Mapping[str, float] | None = None, ceiling_source: str | None = None) -> Score:
+                     ceiling: Mapping[str, float] | None = None, ceiling_source: str | None = None,
+                     unassessed: Mapping[str, str] | None = None) -> Score:
     """Eq. (15) and the grade of a set of components, judged by the configured tolerances
     (``scene_range``: the real frame's max − min; ``ceiling``: NMI and SSIM of two real
-    frames, and ``ceiling_source`` where they came from; :func:`irfidelity.verdict.judge`)."""
+    frames, and ``ceiling_source`` where they came from; ``unassessed``: what could not be
+    assessed and why, said in the verdict; :func:`irfidelity.verdict.judge`)."""
     comps = ordered_components(components)
     verdict = judge(comps, metrics, weights, config, scene_range=scene_range, ceiling=ceiling,
-                    ceiling_source=ceiling_source)
+                    ceiling_source=ceiling_source, unassessed=unassessed)
     return Score(fidelity=fidelity_sum(weights, comps), components=comps, metrics=dict(metrics),
                  grading=verdict.grading(weights), verdict=verdict)
 

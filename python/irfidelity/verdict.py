@@ -15,13 +15,13 @@ grade is the worst grade with a share — printed beside the grade, it cannot co
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from typing import Any, Mapping
 
 from .ceiling import CEILING_SOURCES
 from .errors import FidelityError
 from .fuzzy import COMPONENTS, Grading, Weights
-from .tolerances import COMPONENT_OF, KINDS, Tolerances, component_cuts
+from .tolerances import COMPONENT_OF, KINDS, component_cuts, mu_of_ratio
 
 __all__ = ["ComponentVerdict", "Verdict", "judge", "mu_ratio"]
 
@@ -60,6 +60,13 @@ class ComponentVerdict:
         The tolerance's limits in that unit.
     text : str
         The measure in words ("MTF50 18 % below the real camera's").
+    source : str or None
+        Where a camera component's input came from: "curves", "edge images", "bar frames",
+        "CTF curves", "noise recordings", or "scene" (the frame pair's transfer,
+        :mod:`irfidelity.transfer`); None for the image components.
+    weighted : bool
+        False for a component measured and graded as a check but not weighted (the scene's
+        noise when ``noise`` has weight 0): it does not set the grade.
     """
 
     component: str
@@ -70,6 +77,8 @@ class ComponentVerdict:
     measure: float
     limits: tuple
     text: str
+    source: str | None = None
+    weighted: bool = True
 
     @property
     def at_most(self) -> bool:
@@ -100,7 +109,8 @@ class ComponentVerdict:
 
     def to_dict(self) -> dict:
         return {"value": self.value, "grade": self.grade, "cuts": list(self.cuts), "basis": self.basis,
-                "measure": self.measure, "limits": list(self.limits), "text": self.text}
+                "measure": self.measure, "limits": list(self.limits), "text": self.text, "source": self.source,
+                "weighted": self.weighted}
 
 
 def _percent(x: float) -> str:
@@ -160,8 +170,40 @@ def _radiometry_measure(value: float, metrics: Mapping[str, Any]) -> tuple[float
                     f"(of {tol:.3g} K)")
 
 
+def _plus_minus(value: Any, error: Any, percent: bool = False) -> str:
+    """``value ± error`` in words (the error left out when unknown)."""
+    text = _percent(value) if percent else f"{value:.4g}"
+    if isinstance(error, (int, float)) and math.isfinite(error):
+        text += f" ± {_percent(error) if percent else f'{error:.2g}'}"
+    return text
+
+
+def _scene_measure(component: str, value: float, metrics: Mapping[str, Any], alpha: float) -> tuple[float, str]:
+    """The measure of a camera component graded from the scene's transfer, and its words."""
+    m = metrics
+    if component == "noise":
+        ratio = 1.0 / max(mu_ratio(value), 1e-300)
+        return ratio, (f"noise {_plus_minus(m.get('scene_noise_ratio'), m.get('scene_noise_ratio_err'))}× the real "
+                       f"camera's (from the scene)")
+    effective = 1.0 - mu_ratio(value ** (1.0 / alpha) if alpha > 0 else 1.0)
+    if component == "mtf":
+        low, high = m.get("scene_band_low"), m.get("scene_band_high")
+        return effective, (f"simulated MTF {_plus_minus(m.get('scene_mtf_ratio'), m.get('scene_mtf_ratio_err'))}× the "
+                           f"real camera's at {m.get('scene_reference_frequency', 0):.3g} cy/px (from the scene, "
+                           f"trusted over {low:.3g}–{high:.3g} cy/px): an MTF50 mismatch of "
+                           f"{_plus_minus(m.get('scene_mtf50_mismatch'), m.get('scene_mtf50_mismatch_err'), True)}")
+    gain = m.get("scene_gain")
+    if not isinstance(gain, (int, float)) or gain <= 0:
+        return effective, "inverted grey levels: the simulated frame falls where the real one rises (gain ≤ 0)"
+    return effective, (f"gain {_plus_minus(gain, m.get('scene_gain_err'))} on the scene (" +
+                       _ratio_text("SiTF slope", 1.0, float(gain)) + ")")
+
+
 def _measure(component: str, value: float, basis: str, metrics: Mapping[str, Any], config: Any,
              span: float | None, ceiling: float | None, source: str | None) -> tuple[float, str]:
+    if component in ("mtf", "sitf", "noise") and metrics.get(f"{component}_source") == "scene":
+        options = {"mtf": config.mtf_options, "sitf": config.sitf_options}.get(component, {})
+        return _scene_measure(component, value, metrics, float(options.get("alpha", 1.0)))
     if component in ("mtf", "sitf"):
         options = config.mtf_options if component == "mtf" else config.sitf_options
         return _curve_measure(component, value, metrics, float(options.get("alpha", 1.0)))
@@ -207,6 +249,10 @@ class Verdict:
     ceiling_source : str or None
         Where the ceiling NMI and SSIM were graded against came from: a key of
         :data:`irfidelity.ceiling.CEILING_SOURCES` ("given", "real_ref", "sequence", "noise3d").
+    checks : dict
+        ``{component: ComponentVerdict}`` graded but not weighted (they do not set the grade).
+    unassessed : dict
+        ``{component: why}``: what could not be assessed.
     """
 
     grades: tuple
@@ -215,6 +261,8 @@ class Verdict:
     reason: str
     components: dict
     ceiling_source: str | None = None
+    checks: dict = field(default_factory=dict)
+    unassessed: dict = field(default_factory=dict)
 
     def grading(self, weights: Weights) -> Grading:
         """The fuzzy evaluation these grades give: ``R`` one-hot, ``B`` the weight per grade."""
@@ -228,7 +276,8 @@ class Verdict:
         return {"grade": self.grade, "decided_by": self.decided_by, "reason": self.reason,
                 "rule": "the worst grade of the weighted components, each graded by its tolerance",
                 "components": {k: c.to_dict() for k, c in self.components.items()},
-                "ceiling_source": self.ceiling_source}
+                "ceiling_source": self.ceiling_source, "checks": {k: c.to_dict() for k, c in self.checks.items()},
+                "unassessed": dict(self.unassessed)}
 
 
 def _grade_names(config: Any) -> tuple:
@@ -251,7 +300,7 @@ def _reason(names: tuple, grade: str, decider: ComponentVerdict) -> str:
 
 def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: Weights, config: Any, *,
           scene_range: float | None = None, ceiling: Mapping[str, float] | None = None,
-          ceiling_source: str | None = None) -> Verdict:
+          ceiling_source: str | None = None, unassessed: Mapping[str, str] | None = None) -> Verdict:
     """Grade every weighted component by its tolerance, and the whole by the weakest one.
 
     Parameters
@@ -269,6 +318,11 @@ def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: 
         graded by the calibrated absolute boundaries.
     ceiling_source : str, optional
         Where the ceiling came from (:data:`irfidelity.ceiling.CEILING_SOURCES`), said in the reason.
+    unassessed : mapping, optional
+        ``{component: why}`` for what could not be assessed; said at the end of the reason.
+
+    The scene's noise ratio (``metrics["scene_noise_ratio"]``) is graded as a check when the
+    ``noise`` component has weight 0: named in the reason, it does not set the grade.
 
     Examples
     --------
@@ -283,30 +337,60 @@ def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: 
     "poor: mtf set the grade — MTF50 33.3 % below the real camera's; the tolerance for fair is a mismatch of 20 %"
     """
     names = _grade_names(config)
-    tolerances: Tolerances = config.tolerances
-    judged: dict[str, ComponentVerdict] = {}
-    for k in COMPONENTS:
-        if k not in components or weights[k] <= 0:
-            continue
-        value = float(components[k])
-        options = {"mtf": config.mtf_options, "sitf": config.sitf_options, "mrtd": config.mrtd_options}.get(k, {})
-        peak = metrics.get("psnr_peak")
-        roof = None if ceiling is None else ceiling.get(k)
-        cuts, basis = component_cuts(k, tolerances, alpha=float(options.get("alpha", 1.0)),
-                                     peak=None if peak is None else float(peak), scene_range=scene_range,
-                                     anchors=config.psnr_anchors, ceiling=roof)
-        met = [i for i, cut in enumerate(cuts) if value >= cut - _ROUNDING]
-        grade = names[met[0] if met else 3]
-        span = scene_range if basis == "range" else (None if peak is None else float(peak))
-        measure, text = _measure(k, value, basis, metrics, config, span, roof, ceiling_source)
-        limits = cuts if basis == "absolute" else tolerances.limits(_TOLERANCE_OF[k])
-        judged[k] = ComponentVerdict(k, value, grade, tuple(cuts), basis, measure, tuple(limits), text)
+    context = _Context(names, config, metrics, scene_range, ceiling, ceiling_source)
+    judged = {k: context.judge(k, float(components[k])) for k in COMPONENTS if k in components and weights[k] > 0}
     if not judged:
         raise FidelityError("no component with a positive weight to grade")
+    checks = {}
+    if weights["noise"] <= 0 and isinstance(metrics.get("scene_noise_ratio"), (int, float)):
+        ratio = float(metrics["scene_noise_ratio"])
+        checks["noise"] = replace(context.judge("noise", mu_of_ratio(ratio) if ratio > 0 else 0.0, "scene"),
+                                  weighted=False)
     worst = max(names.index(c.grade) for c in judged.values())
     level = max(worst - 1, 0)
     candidates = [c for c in judged.values() if names.index(c.grade) == worst]
     decider = max(candidates, key=lambda c: c.excess(level))
-    return Verdict(grades=names, grade=names[worst], decided_by=decider.component,
-                   reason=_reason(names, names[worst], decider), components=judged,
-                   ceiling_source=ceiling_source if ceiling else None)
+    reason = _reason(names, names[worst], decider) + _aside(checks, dict(unassessed or {}))
+    return Verdict(grades=names, grade=names[worst], decided_by=decider.component, reason=reason, components=judged,
+                   ceiling_source=ceiling_source if ceiling else None, checks=checks,
+                   unassessed=dict(unassessed or {}))
+
+
+@dataclass(frozen=True)
+class _Context:
+    """What grading a component needs besides its value."""
+
+    names: tuple
+    config: Any
+    metrics: Mapping[str, Any]
+    scene_range: float | None
+    ceiling: Mapping[str, float] | None
+    ceiling_source: str | None
+
+    def judge(self, k: str, value: float, source: str | None = None) -> ComponentVerdict:
+        """``k`` at ``value`` against its tolerance (:func:`judge`)."""
+        config, metrics = self.config, self.metrics
+        options = {"mtf": config.mtf_options, "sitf": config.sitf_options, "mrtd": config.mrtd_options}.get(k, {})
+        peak = metrics.get("psnr_peak")
+        roof = None if self.ceiling is None else self.ceiling.get(k)
+        cuts, basis = component_cuts(k, config.tolerances, alpha=float(options.get("alpha", 1.0)),
+                                     peak=None if peak is None else float(peak), scene_range=self.scene_range,
+                                     anchors=config.psnr_anchors, ceiling=roof)
+        met = [i for i, cut in enumerate(cuts) if value >= cut - _ROUNDING]
+        grade = self.names[met[0] if met else 3]
+        span = self.scene_range if basis == "range" else (None if peak is None else float(peak))
+        measured = {**metrics, "noise_source": "scene"} if source == "scene" else metrics
+        measure, text = _measure(k, value, basis, measured, config, span, roof, self.ceiling_source)
+        limits = cuts if basis == "absolute" else config.tolerances.limits(_TOLERANCE_OF[k])
+        origin = source or metrics.get(f"{k}_source")
+        return ComponentVerdict(k, value, grade, tuple(cuts), basis, measure, tuple(limits), text,
+                                source=origin if isinstance(origin, str) else None)
+
+
+def _aside(checks: Mapping[str, ComponentVerdict], unassessed: Mapping[str, str]) -> str:
+    """What the verdict adds after its reason: checks graded but not weighted, and what could
+    not be assessed and why."""
+    text = "".join(f"; checked but not weighted: {c.component} {c.grade} ({c.text})" for c in checks.values())
+    if unassessed:
+        text += "; not assessed: " + "; ".join(f"{k} — {why}" for k, why in unassessed.items())
+    return text

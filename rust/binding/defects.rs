@@ -14,12 +14,12 @@ use crate::kernel::Sample;
 /// The `top` largest squares (largest first) and their flat indices.
 type Top<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>);
 
-/// `(total, count, (border total, border count, border box), top)`.
-type ProfileTuple<'py> = (f64, u64, (f64, u64, Option<[usize; 4]>), Option<Top<'py>>);
+/// `(total, count, largest, (border total, border count, border box), top)`.
+type ProfileTuple<'py> = (f64, u64, f64, (f64, u64, Option<[usize; 4]>), Option<Top<'py>>);
 
 /// `error_profile(real, sim, mask=None, *, top_share, most, border)`: the squared error of a
 /// pair (2-D, C-contiguous, one shape; `sim` of `real`'s dtype or float64), its border's
-/// share, and its `top_share` largest squares when two bounds cannot rule out that they carry
+/// share, its largest square, and its `top_share` largest squares when two bounds cannot rule out that they carry
 /// more than `most` of the total (see `crate::defects`).
 #[pyfunction]
 #[pyo3(signature = (real, sim, mask=None, *, top_share, most, border))]
@@ -36,14 +36,14 @@ fn error_profile<'py>(
     let mask = mask_samples(mask.as_ref(), shape)?;
     let question = Question { top_share, most, border };
     let dtype = real.dtype();
-    let Profile { total, count, border, top } =
+    let Profile { total, count, largest, border, top } =
         with_frame_dtype!(py, &dtype, |T| typed::<T>(py, (real, sim), mask, shape, question))
             .unwrap_or_else(|| Err(unsupported_dtype("real", &dtype)))?;
     let top = top.map(|squares| {
         let (values, index): (Vec<f64>, Vec<i64>) = squares.into_iter().map(|(v, i)| (v, i as i64)).unzip();
         (values.into_pyarray(py), index.into_pyarray(py))
     });
-    Ok((total, count, (border.total, border.count, border.bounds), top))
+    Ok((total, count, largest, (border.total, border.count, border.bounds), top))
 }
 
 /// [`profile`] of a `T` frame against a `T` or float64 one (a registered pair's resampled

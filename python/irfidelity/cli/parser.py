@@ -12,15 +12,20 @@ from ..errors import ConfigError, FidelityError
 from ..registration import DEFAULT_METHOD, METHODS
 from ..stats import bins_value
 
-__all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "flag_for", "CALIBRATION_FLAGS"]
+__all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "EXIT_NOT_ACCEPTED", "flag_for",
+           "CALIBRATION_FLAGS"]
 
-EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES = 0, 2, 3
+#: Exit statuses: 0 scored (and accepted, with ``--spec``); 2 bad usage or input (1 is Python's
+#: own for an uncaught error, 130 an interrupt); 3 a sequence finished but some frames failed;
+#: 4 scored, but not accepted by the ``--spec`` acceptance specification.
+EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES, EXIT_NOT_ACCEPTED = 0, 2, 3, 4
 
 #: Options whose command-line name is not ``--`` + the option name with dashes.
 _FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "sim_mtf": "--sim-mtf/--sim-edge",
           "real_mrtd": "--real-bars", "sim_mrtd": "--sim-bars",
           "psnr_anchors": "--config", "ssim_exponents": "--config", "grades": "--config",
-          "mtf_options": "--config", "sitf_options": "--config", "mrtd_options": "--config", "tolerances": "--tolerance",
+          "mtf_options": "--config", "sitf_options": "--config", "mrtd_options": "--config",
+          "transfer_options": "--config", "tolerances": "--tolerance",
           "register": "--register", "client": "--workers", "chunk_size": "--workers", "relative_humidity": "--humidity",
           "max_bytes": "--max-memory"}
 
@@ -140,10 +145,15 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                     "(eq. 15) and grade. REAL and SIM are two frame files (PNG, TIFF, EXR, .npy), or two "
                     "sequences: directories, glob patterns or multi-page TIFFs (scored pair by pair and pooled).",
         epilog="Options left out keep the value of --config, or the default. "
-               "Exit status: 0 scored, 2 bad usage or input, 3 some frames of a sequence failed.")
+               "Exit status: 0 scored (and accepted, with --spec), 2 bad usage or input (a bad --spec included), "
+               "3 some frames of a sequence failed, 4 scored but not accepted by --spec.")
     s.add_argument("real", metavar="REAL", help="real camera frame, or a directory / glob / multi-page TIFF")
     s.add_argument("sim", metavar="SIM", help="simulated frame, or a directory / glob / multi-page TIFF")
     s.add_argument("--config", metavar="FILE", help="scoring configuration (TOML or JSON; see 'irfidelity config')")
+    s.add_argument("--spec", metavar="FILE",
+                   help="acceptance specification (TOML: the required components, the least grade of each and "
+                        "optionally their tolerances, docs/interpretation.md): its tolerances are applied, each "
+                        "requirement is checked and printed PASS/FAIL; exit status 4 when not accepted")
     g = s.add_argument_group("what decides the score")
     g.add_argument("--bits", type=_positive_int, metavar="N",
                    help="bit depth of integer frames: values must be <= 2^N-1; default PSNR peak 2^N-1 "

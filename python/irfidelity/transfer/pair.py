@@ -48,7 +48,7 @@ def _frame(x: Any, which: str, channel: str | None, max_bytes: int | None) -> np
     return frame
 
 
-def _aligned(real: np.ndarray, sim: np.ndarray, register: Any, mask: np.ndarray | None,
+def aligned(real: np.ndarray, sim: np.ndarray, register: Any, mask: np.ndarray | None,
              max_bytes: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, Any]:
     """The frames registered: a translation as the whole-pixel overlap (the sub-pixel rest is
     taken out of the phase, no resampling); rotation and scale by resampling (Keys bicubic,
@@ -152,7 +152,7 @@ def transfer(real: Any, sim: Any, *, mask: Any = None, roi: Any = None, real_ref
     scored = scoring_mask(mask, roi, frames[0].shape)
     keep = None if scored is None else scored.values
     if register is not None:
-        r, s, keep, reg = _aligned(frames[0], frames[1], register, keep, max_bytes)
+        r, s, keep, reg = aligned(frames[0], frames[1], register, keep, max_bytes)
         if ref is not None:
             ref = ref[tuple(slice(0, n) for n in r.shape)] if reg.model == "translation" and r.shape != ref.shape \
                 else ref

@@ -9,31 +9,36 @@ import numpy as np
 
 from .rings import RingSums, jackknife, ratio
 
-__all__ = ["MAX_RELATIVE_ERROR", "MIN_SNR", "MIN_COHERENCE", "REFERENCE_FREQUENCY", "band", "mtf_reading",
+__all__ = ["MAX_RELATIVE_ERROR", "MIN_SNR", "MIN_SNR_UNKNOWN", "FIT_FLOOR", "REFERENCE_FREQUENCY", "band", "mtf_reading",
            "mtf50_mismatch", "noise_variances"]
 
-#: The band ends where the ratio's relative standard error exceeds this ...
+#: The band ends where the ratio's standard error exceeds this share of it (of 0.1 for smaller
+#: ratios) ...
 MAX_RELATIVE_ERROR = 0.1
-#: ... or, with the real camera's noise known, where the scene's signal falls below it; without
-#: it, where the pair's coherence falls below this (the ratio then reads low by at most
-#: ``1 − coherence`` at the band's edge).
+#: ... or where the real scene's signal-to-noise ratio falls below this, with the real camera's
+#: noise known (the ratio is corrected for it) ...
 MIN_SNR = 1.0
-MIN_COHERENCE = 0.8
+#: ... or, with it unknown, below this against the real spectrum's floor (its least ring
+#: mean, an upper bound of the noise): the uncorrected ratio then reads low by at most 1/11.
+MIN_SNR_UNKNOWN = 10.0
+
+#: Rings whose ratio is below this are left out of the fit (their logarithm is mostly noise).
+FIT_FLOOR = 0.02
 
 #: Where the MTF ratio is read as an MTF50 mismatch when the real camera's MTF50 is not known
 #: (cy/px): a typical MTF50 of a well-sampled thermal imager.
 REFERENCE_FREQUENCY = 0.25
 
 
-def band(frequency: np.ndarray, value: np.ndarray, error: np.ndarray, coherence: np.ndarray,
-         snr: np.ndarray | None) -> np.ndarray:
+def band(frequency: np.ndarray, value: np.ndarray, error: np.ndarray, snr: np.ndarray, known: bool) -> np.ndarray:
     """The rings where the ratio is trusted: from the first trusted ring among the three lowest
-    up to the first that is not (its relative standard error above :data:`MAX_RELATIVE_ERROR`;
-    the scene's SNR below :data:`MIN_SNR` when the real noise is known, else the coherence below
-    :data:`MIN_COHERENCE`), within 0 < f ≤ 0.5 cy/px."""
+    up to the first that is not (its standard error above :data:`MAX_RELATIVE_ERROR` of the
+    ratio, or of 0.1 for smaller ratios; the real scene's SNR below :data:`MIN_SNR`, or
+    :data:`MIN_SNR_UNKNOWN` when the real noise is not ``known``), within 0 < f ≤ 0.5 cy/px."""
     with np.errstate(invalid="ignore"):
-        ok = np.isfinite(value) & np.isfinite(error) & (value > 0) & (error <= MAX_RELATIVE_ERROR * np.abs(value))
-        ok &= (snr >= MIN_SNR) if snr is not None else (coherence >= MIN_COHERENCE)
+        ok = np.isfinite(value) & np.isfinite(error) & (value > 0)
+        ok &= error <= MAX_RELATIVE_ERROR * np.maximum(np.abs(value), 0.1)
+        ok &= snr >= (MIN_SNR if known else MIN_SNR_UNKNOWN)
     ok &= (frequency > 0) & (frequency <= 0.5)
     trusted = np.zeros(ok.shape, dtype=bool)
     first = next((k for k in range(min(3, len(ok))) if ok[k]), None)
@@ -77,7 +82,8 @@ def mtf_reading(frequency: np.ndarray, values: np.ndarray, error: np.ndarray, tr
     """The Gaussian fit of the ratio over the band (weights 1/var ln M) read at ``reference``:
     the ratio there, its MTF50 mismatch and the fit's RMS residual in ``ln M``, with jackknife
     errors over the replicate rows of ``values`` (row 0 the whole estimate)."""
-    if trusted.sum() < 2:
+    trusted = trusted & (values[0] >= FIT_FLOOR)
+    if not trusted.any():
         return {"ratio_at_reference": None, "ratio_at_reference_err": None, "mtf50_mismatch": None,
                 "mtf50_mismatch_err": None, "shape_residual": None}
     f, rows = frequency[trusted], values[:, trusted]

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import FidelityError
 from .gain import gain as gain_of
-from .readings import MIN_COHERENCE, REFERENCE_FREQUENCY, band, mtf_reading, noise_variances
+from .readings import MIN_SNR_UNKNOWN, REFERENCE_FREQUENCY, band, mtf_reading, noise_variances
 from .rings import Geometry, RingSums, displacement, jackknife, ratio, ring_sums, turned
 from .spectra import TransferSpectra
 
@@ -64,6 +64,9 @@ class Transfer:
         The tile side, the tiles averaged, and those left out (a pixel masked or not finite).
     notes : tuple of str
         What limits this estimate (an extrapolated reading, an unknown real noise).
+    unread : str or None
+        Why the ratio could not be read at the reference frequency (then the MTF50 mismatch
+        is None), or None.
     """
 
     frequency: np.ndarray
@@ -95,6 +98,7 @@ class Transfer:
     tiles: int
     skipped: int
     notes: tuple = field(default=())
+    unread: str | None = None
 
     def ratio_at(self, frequency: float) -> float:
         """The measured radial ratio at ``frequency`` (cy/px), linearly interpolated."""
@@ -157,14 +161,16 @@ def _assemble(spectra: TransferSpectra, geometry: Geometry, rows: RingSums,
     error = np.sqrt(jackknife(values) ** 2 + (values[0] * g_err / scale) ** 2)
     coherence = ratio(rows.cross[0] * np.abs(rows.cross[0]), rows.real[0] * rows.sim[0])[k]
     snr = None if rows.noise is None else ratio(rows.signal[0], rows.noise[0])[k]
-    trusted = band(frequency, values[0], error, coherence, snr) if gain is not None \
-        else np.zeros(frequency.shape, dtype=bool)
+    trusted = band(frequency, values[0], error, _floor_snr(rows)[k] if snr is None else snr, snr is not None) \
+        if gain is not None else np.zeros(frequency.shape, dtype=bool)
     notes = [] if noise_source is not None else [
-        "the real camera's noise is unknown (give real_ref, real_noise, or a sequence): the ratio may read low where "
-        f"that noise is comparable to the scene's signal; the band stops where the pair's coherence falls below "
-        f"{MIN_COHERENCE}"]
+        "the real camera's noise is unknown (give real_ref, real_noise, or a sequence): the ratio is not corrected "
+        f"for it, and the band stops where the real spectrum falls below {MIN_SNR_UNKNOWN:g}× its floor"]
     reading = mtf_reading(frequency, values, error, trusted, reference)
-    if trusted.any() and frequency[trusted][-1] < reference and reading["ratio_at_reference"] is not None:
+    unread = _unread(frequency, values[0], trusted, reference, gain is not None)
+    if unread is not None:
+        reading = {key: None for key in reading}
+    elif trusted.any() and frequency[trusted][-1] < reference:
         notes.append(f"the band ends at {frequency[trusted][-1]:.3g} cy/px, below the reference frequency "
                      f"{reference:.3g} cy/px: the ratio there is extrapolated by the fit")
     mean_real, mean_sim = spectra.sum_real / spectra.pixels, spectra.sum_sim / spectra.pixels
@@ -177,7 +183,33 @@ def _assemble(spectra: TransferSpectra, geometry: Geometry, rows: RingSums,
                     offset_err=None if gain is None else abs(mean_real) * g_err, bias=mean_sim - mean_real,
                     reference_frequency=reference, **reading, **_noise_reading(variances),
                     noise_source=noise_source, shift=(-shift[0], -shift[1]), tile=geometry.tile,
-                    tiles=int(spectra.tiles.sum()), skipped=int(spectra.skipped), notes=tuple(notes))
+                    tiles=int(spectra.tiles.sum()), skipped=int(spectra.skipped), notes=tuple(notes), unread=unread)
+
+
+def _unread(frequency: np.ndarray, value: np.ndarray, trusted: np.ndarray, reference: float,
+            has_gain: bool) -> str | None:
+    """Why the ratio cannot be read at the reference frequency, or None: no gain, no band, or a
+    band that ends below half the reference frequency while the ratio is still above 0.5 there
+    (the scene's detail, not the simulator, ended it: the fit would extrapolate blindly; where
+    the ratio has fallen below 0.5, the mismatch is large either way and is read)."""
+    if not has_gain:
+        return "the scene has no contrast at low frequencies to measure the gain on (a flat or unrelated pair)"
+    if not trusted.any() or not (value[trusted] >= 0.02).any():
+        return "the scene carries no detail above its noise to measure the MTF ratio on (no band of trusted frequencies)"
+    top = float(frequency[trusted][-1])
+    if reference > 2 * top and value[trusted][-1] > 0.5:
+        return (f"the scene's detail is trusted only up to {top:.3g} cy/px, below half the real MTF50 "
+                f"({reference:.3g} cy/px) where the ratio is read; a second real frame (real_ref) lets the band go "
+                f"further, or choose a scene with more detail")
+    return None
+
+
+def _floor_snr(rows: RingSums) -> np.ndarray:
+    """The real spectrum's level over its floor, less one, per ring: the floor is the least ring
+    mean from ring 2 up, an upper bound of a white noise's level."""
+    mean = ratio(rows.real[0], rows.count * rows.tiles[0])
+    floor = np.nanmin(mean[2:]) if np.isfinite(mean[2:]).any() else np.nan
+    return ratio(mean - floor, np.full(mean.shape, floor))
 
 
 def _noise_reading(variances: tuple[np.ndarray, np.ndarray] | None) -> dict:

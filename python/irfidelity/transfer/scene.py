@@ -1,0 +1,176 @@
+"""The camera components from the scene: ``mtf``, ``sitf`` and ``noise`` graded from the pair's
+:class:`~irfidelity.transfer.Transfer` when no camera curves or noise recordings are given, and
+the scene's estimate beside the curves when they are (a cross-check).
+
+Each component has the value its tolerance's cut is defined on (:mod:`irfidelity.tolerances`),
+so the grade reads the estimate exactly: ``mtf = μ(1 − e)^α`` with ``e`` the MTF50 mismatch the
+ratio implies at the real camera's MTF50; ``sitf = μ(gain)^α`` (the SiTF-slope ratio of the
+simulator on this scene; 0 for inverted grey levels); ``noise = μ(noise ratio)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+from ..tolerances import mu_of_ratio
+from .pair import aligned, real_noise_variance
+from .readings import REFERENCE_FREQUENCY
+from .result import Transfer, estimate
+from .spectra import transfer_spectra
+
+__all__ = ["SCENE_KINDS", "SceneEstimate", "scene_estimate", "scene_kinds", "scene_transfer", "scene_components",
+           "scene_metrics", "reference_frequency", "unassessed"]
+
+#: The components the scene can stand in for.
+SCENE_KINDS = ("mtf", "sitf", "noise")
+
+#: Why the scene gave no input, by component (the skip reasons and the verdict's "not assessed").
+_UNKNOWN_NOISE = ("the real camera's noise is unknown: give a second real frame (real_ref=, --real-ref), its 3-D "
+                  "noise (real_noise=, --real-noise) or score a sequence")
+
+
+def reference_frequency(config: Any, curves: Mapping[str, Any]) -> float:
+    """Where the MTF ratio is read: ``transfer_options.reference_frequency``, else the MTF50 of
+    a real MTF curve in cycles per pixel, else :data:`~irfidelity.transfer.REFERENCE_FREQUENCY`."""
+    given = config.transfer_options.get("reference_frequency")
+    if given is not None:
+        return float(given)
+    curve = curves.get("real_mtf")
+    if curve is not None and getattr(curve, "x_unit", None) == "cy/px":
+        from ..curves import mtf50
+
+        try:
+            value = float(mtf50(curve))
+        except ValueError:
+            return REFERENCE_FREQUENCY
+        if 0 < value <= 0.5:
+            return value
+    return REFERENCE_FREQUENCY
+
+
+def scene_transfer(sources: Mapping[str, Any], config: Any, *, real_ref: np.ndarray | None = None,
+                   real_noise: Any = None, max_bytes: int | None = None) -> Transfer:
+    """The transfer of the pair as scored (``sources``: ``real``, ``sim``, ``mask``, and with a
+    registration ``sim_unregistered`` and ``registration``): a translation is taken as the
+    whole-pixel overlap of the unregistered frames (no resampling), other registrations as
+    resampled; the real camera's noise from ``real_ref`` or its 3-D noise ``real_noise``."""
+    real, sim, mask = sources["real"], sources["sim"], sources.get("mask")
+    registration = sources.get("registration")
+    if registration is not None and registration.model == "translation":
+        real, sim, mask, _ = aligned(real, sources["sim_unregistered"], registration, mask, max_bytes)
+        real_ref = None if real_ref is None else real_ref[_overlap(sources["real"].shape, registration)]
+    variance, source = None, None
+    if real_ref is not None:
+        source = "real_ref"
+    elif real_noise is not None:
+        variance, source = real_noise_variance(real_noise), "real_noise"
+    spectra = transfer_spectra(real, sim, mask=mask, real_ref=real_ref, tile=config.transfer_options.get("tile"))
+    return estimate(spectra, real_variance=variance, noise_source=source,
+                    reference_frequency=reference_frequency(config, sources.get("curves", {})))
+
+
+def _overlap(shape: tuple[int, int], registration: Any) -> tuple[slice, slice]:
+    """The real frame's part that :func:`~irfidelity.transfer.pair.aligned` keeps."""
+    dy, dx = (int(round(v)) for v in registration.shift)
+    return (slice(max(dy, 0), shape[0] + min(dy, 0)), slice(max(dx, 0), shape[1] + min(dx, 0)))
+
+
+def scene_components(t: Transfer, kinds: tuple[str, ...], config: Any) -> tuple[dict, dict]:
+    """``({component: value}, {component: why it could not be assessed})`` for ``kinds``."""
+    values: dict[str, float] = {}
+    missing: dict[str, str] = {}
+    for kind in kinds:
+        value, reason = _component(kind, t, config)
+        if value is None:
+            missing[kind] = reason
+        else:
+            values[kind] = value
+    return values, missing
+
+
+def _component(kind: str, t: Transfer, config: Any) -> tuple[float | None, str]:
+    if kind == "mtf":
+        if t.mtf50_mismatch is None:
+            return None, t.unread or _NO_CONTRAST
+        alpha = float(config.mtf_options.get("alpha", 1.0))
+        return mu_of_ratio(1.0 - t.mtf50_mismatch) ** alpha, ""
+    if kind == "sitf":
+        if t.gain is None:
+            return None, _NO_CONTRAST
+        alpha = float(config.sitf_options.get("alpha", 1.0))
+        return (mu_of_ratio(t.gain) ** alpha if t.gain > 0 else 0.0), ""
+    if t.noise_ratio is None:
+        return None, _UNKNOWN_NOISE
+    return (mu_of_ratio(t.noise_ratio) if t.noise_ratio > 0 else 0.0), ""
+
+
+_NO_CONTRAST = "the scene has no contrast at low frequencies to measure the gain on (a flat or unrelated pair)"
+
+
+def scene_metrics(t: Transfer) -> dict:
+    """The scene's estimate as raw metrics (:data:`irfidelity.schema.METRICS`, ``scene_*``)."""
+    def number(v: Any) -> float | None:
+        return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else float(v)
+
+    band = t.band or (None, None)
+    return {"scene_mtf50_mismatch": number(t.mtf50_mismatch), "scene_mtf50_mismatch_err": number(t.mtf50_mismatch_err),
+            "scene_mtf_ratio": number(t.ratio_at_reference), "scene_mtf_ratio_err": number(t.ratio_at_reference_err),
+            "scene_reference_frequency": t.reference_frequency, "scene_band_low": number(band[0]),
+            "scene_band_high": number(band[1]), "scene_gain": number(t.gain), "scene_gain_err": number(t.gain_err),
+            "scene_offset": number(t.offset), "scene_bias": number(t.bias),
+            "scene_noise_ratio": number(t.noise_ratio), "scene_noise_ratio_err": number(t.noise_ratio_err),
+            "scene_shift_y": t.shift[0], "scene_shift_x": t.shift[1]}
+
+
+def scene_kinds(config: Any, given: Mapping[str, bool], *, frames: bool, real_noise_known: bool) -> tuple[str, ...]:
+    """The weighted camera components the frame pair stands in for: ``mtf`` and ``sitf`` without
+    their curves, ``noise`` without noise recordings when the real camera's noise is known
+    (``transfer_options.scene = false``: none)."""
+    if not frames or not config.transfer_options.get("scene", True):
+        return ()
+    weights = config.weights
+    kinds = [k for k in ("mtf", "sitf") if weights[k] > 0 and not given[k]]
+    if weights["noise"] > 0 and not given["noise"] and real_noise_known:
+        kinds.append("noise")
+    return tuple(kinds)
+
+
+@dataclass(frozen=True)
+class SceneEstimate:
+    """The pair's :class:`~irfidelity.transfer.Transfer`, the components it stands in for, its
+    ``scene_*`` metrics (with ``<component>_source`` = "scene"), and the components it could not
+    give with why."""
+
+    transfer: Transfer
+    components: dict
+    metrics: dict
+    missing: dict
+
+
+def scene_estimate(sources: Mapping[str, Any], config: Any, kinds: tuple[str, ...], *,
+                   real_ref: np.ndarray | None = None, real_noise: Any = None,
+                   max_bytes: int | None = None) -> SceneEstimate:
+    """The transfer of the pair as scored and what it gives (:class:`SceneEstimate`)."""
+    if real_noise is not None and not isinstance(real_noise, (Mapping, int, float)) and not hasattr(real_noise, "sigma"):
+        from ..camera import as_noise
+
+        real_noise = as_noise(real_noise, "real", config)
+    t = scene_transfer(sources, config, real_ref=real_ref, real_noise=real_noise, max_bytes=max_bytes)
+    values, missing = scene_components(t, kinds, config)
+    metrics = {**scene_metrics(t), **{f"{k}_source": "scene" for k in values}}
+    return SceneEstimate(t, values, metrics, missing)
+
+
+def unassessed(skipped: Mapping[str, str], metrics: Mapping[str, Any]) -> dict:
+    """``{component: why}`` for what the verdict could not assess: weighted components without
+    input, and — when the pair's transfer was measured — the noise when the real camera's noise
+    was unknown."""
+    out = {k: reason for k, reason in skipped.items() if reason != "weight 0"}
+    if "scene_gain" in metrics and metrics.get("scene_noise_ratio") is None and "noise" not in out \
+            and metrics.get("noise_source") is None:
+        out["noise"] = _UNKNOWN_NOISE
+    return out
