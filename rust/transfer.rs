@@ -53,13 +53,26 @@ pub struct Frames<'a, R, S> {
 }
 
 /// How a frame is cut into tiles: `tile × tile` squares every `step` pixels, in `groups` runs
-/// of neighbouring tiles (raster order).
+/// of neighbouring tiles (raster order); `shift` is the pair's displacement `(dy, dx)`
+/// (`sim(x) ≈ real(x − d)`), around which each tile's own is measured (see [`align`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tiling {
     pub tile: usize,
     pub step: usize,
     pub groups: usize,
+    pub shift: (f64, f64),
 }
+
+/// A tile's own displacement is looked for within this many pixels of the pair's; beyond, the
+/// tile keeps the pair's (its own cannot be told from noise).
+pub const MAX_LOCAL_SHIFT: f64 = 1.5;
+
+/// ... and only when its standard error (px) is below this: at 0.25 cy/px an alignment off by
+/// this much lowers the ratio by 1 − cos(2π·0.25·0.05) ≈ 0.3 %.
+pub const MAX_LOCAL_ERROR: f64 = 0.05;
+
+/// ... and when it departs from the pair's by more than this many of its standard errors.
+pub const SIGNIFICANT: f64 = 3.0;
 
 /// Sums of periodograms over the tiles of each group, each `groups × tile × (tile/2 + 1)`
 /// values (group, row frequency `ky` in FFT order, column frequency `kx` = 0..=tile/2).
@@ -82,6 +95,12 @@ pub struct TileSpectra {
     pub window_energy: f64,
     /// Tiles of the frame that could not be used (a pixel not scored or not finite).
     pub skipped: u64,
+    /// Per group, over its tiles' own displacements weighted by their low-frequency cross
+    /// power `w`: `[Σw, Σw·dy, Σw·dx, Σw·dy², Σw·dx²]`.
+    pub shifts: Vec<[f64; 5]>,
+    /// Per group, the box its tiles cover: `[row0, row1, col0, col1]` (end excluded; empty
+    /// when the group has no tile).
+    pub boxes: Vec<[usize; 4]>,
 }
 
 /// The cross-spectrum of the block-mean frames (`factor × factor` blocks), one periodogram
@@ -208,6 +227,9 @@ struct GroupSums {
     difference: Option<Vec<f64>>,
     pending: [Vec<f32>; 4],
     pending_tiles: u64,
+    /// The tile's cross-spectrum, before it is aligned and summed.
+    cross: Vec<C32>,
+    shifts: [f64; 5],
 }
 
 impl GroupSums {
@@ -221,6 +243,8 @@ impl GroupSums {
             difference: with_difference.then(|| budget::filled(bins, 0.0)),
             pending: std::array::from_fn(|_| budget::filled(bins, 0.0f32)),
             pending_tiles: 0,
+            cross: budget::filled(bins, C32::default()),
+            shifts: [0.0; 5],
         }
     }
 
@@ -255,16 +279,16 @@ avx2_copy! {
     /// Adds the periodograms of a transform `z` of `a + i·b` (two real `n × n` tiles) to
     /// `sums`: |A|², |B|² and conj(A)·B over the half plane `kx = 0..=n/2`, with
     /// `A(k) = (Z(k) + conj Z(−k))/2` and `B(k) = (Z(k) − conj Z(−k))/(2i)`, in float32 (see
-    /// [`FLUSH`]). In a copy
-    /// compiled for AVX2 when the CPU has it (same code, same results).
-    fn add_pair(sums: &mut GroupSums, z: &[C32], n: usize) => add_pair_avx2, add_pair_impl
+    /// [`FLUSH`]); the cross-spectrum with the tile's own displacement taken out of its phase
+    /// ([`align`]). In a copy compiled for AVX2 when the CPU has it (same code, same results).
+    fn add_pair(sums: &mut GroupSums, z: &[C32], n: usize, shift: (f64, f64)) => add_pair_avx2, add_pair_impl
 }
 
 #[inline(always)]
-fn add_pair_impl(sums: &mut GroupSums, z: &[C32], n: usize) {
+fn add_pair_impl(sums: &mut GroupSums, z: &[C32], n: usize, shift: (f64, f64)) {
     let mut opposite = [C32::default(); MAX_TILE];
     let opposite = &mut opposite[..n];
-    let [real, sim, cross_re, cross_im] = &mut sums.pending;
+    let [real, sim, _, _] = &mut sums.pending;
     for kx in 0..n / 2 + 1 {
         let column = &z[kx * n..(kx + 1) * n];
         let mirror = &z[((n - kx) % n) * n..((n - kx) % n + 1) * n];
@@ -272,21 +296,120 @@ fn add_pair_impl(sums: &mut GroupSums, z: &[C32], n: usize) {
         opposite[0] = mirror[0];
         opposite[1..].iter_mut().zip(mirror[1..].iter().rev()).for_each(|(o, m)| *o = *m);
         let span = kx * n..(kx + 1) * n;
-        let (real, sim) = (&mut real[span.clone()], &mut sim[span.clone()]);
-        let (cross_re, cross_im) = (&mut cross_re[span.clone()], &mut cross_im[span]);
-        let sums = real.iter_mut().zip(sim.iter_mut()).zip(cross_re.iter_mut().zip(cross_im.iter_mut()));
-        for (((real, sim), (cross_re, cross_im)), (p, q)) in sums.zip(column.iter().zip(opposite.iter())) {
+        let (real, sim, cross) = (&mut real[span.clone()], &mut sim[span.clone()], &mut sums.cross[span]);
+        for (((real, sim), cross), (p, q)) in real.iter_mut().zip(sim.iter_mut()).zip(cross.iter_mut()).zip(column.iter().zip(opposite.iter())) {
             let (a_re, a_im) = (0.5 * (p.re + q.re), 0.5 * (p.im - q.im));
             let (b_re, b_im) = (0.5 * (p.im + q.im), -0.5 * (p.re - q.re));
             *real += a_re * a_re + a_im * a_im;
             *sim += b_re * b_re + b_im * b_im;
-            *cross_re += a_re * b_re + a_im * b_im;
-            *cross_im += a_re * b_im - a_im * b_re;
+            *cross = C32::new(a_re * b_re + a_im * b_im, a_re * b_im - a_im * b_re);
         }
     }
+    let (own, weight) = align(&sums.cross, n, shift);
+    sums.shifts[0] += weight;
+    sums.shifts[1] += weight * own.0;
+    sums.shifts[2] += weight * own.1;
+    sums.shifts[3] += weight * own.0 * own.0;
+    sums.shifts[4] += weight * own.1 * own.1;
+    add_turned(sums, n, own);
     sums.pending_tiles += 1;
     if sums.pending_tiles == FLUSH {
         sums.flush();
+    }
+}
+
+/// The bins a tile's displacement is read from: rings 3..=min(8, n/4) of the half plane (2..=4
+/// in tiles under 32 px), `(ky, kx)` with ky signed. The lowest rings are left out: the window
+/// mixes them with the mean's neighbourhood, whose phase does not turn with the displacement.
+/// Within [`MAX_LOCAL_SHIFT`] of the pair's displacement, their phases do not wrap.
+fn shift_bins(n: usize) -> impl Iterator<Item = (i64, usize)> {
+    let (low, top) = if n >= 32 { (3.0, (n / 4).min(8) as f64) } else { (2.0, (n / 4) as f64) };
+    let reach = top as i64;
+    (-reach..=reach).flat_map(move |ky| (0..=reach as usize).map(move |kx| (ky, kx))).filter(move |&(ky, kx)| {
+        let r = ((ky * ky) as f64 + (kx * kx) as f64).sqrt();
+        (low..=top).contains(&r) && (kx > 0 || ky > 0)
+    })
+}
+
+/// A tile's own displacement `(dy, dx)` and its weight (the cross power of the bins used): the
+/// phases of the cross-spectrum at [`shift_bins`], the pair's `shift` taken out first, fitted
+/// by weighted least squares (`arg c(k) = −2π·k·d/n`); kept within [`MAX_LOCAL_SHIFT`] of the
+/// pair's (else the pair's, with weight 0). Distortion and moving objects displace tiles apart:
+/// aligning each tile keeps them out of the MTF ratio, which then measures resolution, not
+/// geometry.
+fn align(cross: &[C32], n: usize, shift: (f64, f64)) -> ((f64, f64), f64) {
+    let tau = 2.0 * std::f64::consts::PI / n as f64;
+    let (mut syy, mut syx, mut sxx, mut by, mut bx, mut total) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for (ky, kx) in shift_bins(n) {
+        let row = ky.rem_euclid(n as i64) as usize;
+        let c = cross[kx * n + row];
+        let c = C64::new(c.re as f64, c.im as f64) * C64::from_polar(1.0, tau * (ky as f64 * shift.0 + kx as f64 * shift.1));
+        let w = c.norm();
+        if !(w > 0.0) {
+            continue;
+        }
+        // residual phase = −τ·(ky·ry + kx·rx)
+        let (gy, gx, phase) = (-tau * ky as f64, -tau * kx as f64, c.arg());
+        syy += w * gy * gy;
+        syx += w * gy * gx;
+        sxx += w * gx * gx;
+        by += w * gy * phase;
+        bx += w * gx * phase;
+        total += w;
+    }
+    let det = syy * sxx - syx * syx;
+    if !(det > 0.0) || !(total > 0.0) {
+        return (shift, 0.0);
+    }
+    let (ry, rx) = ((by * sxx - bx * syx) / det, (bx * syy - by * syx) / det);
+    if !(ry.abs() <= MAX_LOCAL_SHIFT && rx.abs() <= MAX_LOCAL_SHIFT) {
+        return (shift, 0.0);
+    }
+    // the fit's standard error from its residual phases: a tile whose own displacement is
+    // uncertain keeps the pair's (a jittered alignment would lower the ratio like a blur)
+    let (mut residual, mut count) = (0.0f64, 0.0f64);
+    for (ky, kx) in shift_bins(n) {
+        let c = cross[kx * n + ky.rem_euclid(n as i64) as usize];
+        let c = C64::new(c.re as f64, c.im as f64) * C64::from_polar(1.0, tau * (ky as f64 * shift.0 + kx as f64 * shift.1));
+        let predicted = -tau * (ky as f64 * ry + kx as f64 * rx);
+        let miss = (c * C64::from_polar(1.0, -predicted)).arg();
+        residual += c.norm() * miss * miss;
+        count += 1.0;
+    }
+    let scale = residual / (count - 2.0).max(1.0);
+    let variance = scale * (syy + sxx) / det;
+    if !(variance.sqrt() <= MAX_LOCAL_ERROR) {
+        return (shift, 0.0);
+    }
+    // a departure within the noise of its own estimate is not applied (it would only add jitter)
+    let significant = (ry * ry + rx * rx) > SIGNIFICANT * SIGNIFICANT * variance;
+    let own = (shift.0 + ry, shift.1 + rx);
+    (if significant { own } else { shift }, total)
+}
+
+/// Adds the tile's cross-spectrum (`sums.cross`) with the displacement `d` taken out of its
+/// phase, `c(k)·e^{2πi·k·d/n}`, to the pending sums.
+#[inline(always)]
+fn add_turned(sums: &mut GroupSums, n: usize, d: (f64, f64)) {
+    let tau = 2.0 * std::f64::consts::PI / n as f64;
+    let mut turn_y = [C32::default(); MAX_TILE];
+    for (ky, t) in turn_y[..n].iter_mut().enumerate() {
+        let signed = if ky <= n / 2 { ky as f64 } else { ky as f64 - n as f64 };
+        let c = C64::from_polar(1.0, tau * signed * d.0);
+        *t = C32::new(c.re as f32, c.im as f32);
+    }
+    let [_, _, cross_re, cross_im] = &mut sums.pending;
+    for kx in 0..n / 2 + 1 {
+        let turn_x = C64::from_polar(1.0, tau * kx as f64 * d.1);
+        let turn_x = C32::new(turn_x.re as f32, turn_x.im as f32);
+        let span = kx * n..(kx + 1) * n;
+        let (re, im, cross) = (&mut cross_re[span.clone()], &mut cross_im[span.clone()], &sums.cross[span]);
+        for (((re, im), c), t) in re.iter_mut().zip(im.iter_mut()).zip(cross).zip(&turn_y[..n]) {
+            let t = t * turn_x;
+            let v = c * t;
+            *re += v.re;
+            *im += v.im;
+        }
     }
 }
 
@@ -350,7 +473,7 @@ fn fill_difference<A: Sample>(real: &[A], reference: &[A], cols: usize, (y0, x0)
 /// Welch sums of a frame pair over the tiles of `tiling`, computed in parallel, one group per
 /// task.
 pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Tiling) -> Result<TileSpectra> {
-    let Tiling { tile, step, groups } = tiling;
+    let Tiling { tile, step, groups, shift } = tiling;
     check_frames(frames, "cross-spectra")?;
     if !(MIN_TILE..=MAX_TILE).contains(&tile) || tile % 2 != 0 {
         return Err(Error::Value(format!("tile: expected an even number of pixels in {MIN_TILE}..={MAX_TILE}, got {tile}")));
@@ -387,7 +510,7 @@ pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Til
                     }
                     fill_pair(frames.real, frames.sim, cols, (y0, x0), &window, &mut z);
                     square.forward(&mut z);
-                    add_pair(&mut sums, &z, tile);
+                    add_pair(&mut sums, &z, tile, shift);
                     if let Some(reference) = frames.reference {
                         fill_difference(frames.real, reference, cols, (y0, x0), &window, &mut z);
                         square.forward(&mut z);
@@ -411,9 +534,20 @@ pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Til
         difference: if with_difference { Some(budget::try_with_capacity(groups * bins)?) } else { None },
         window_energy: window.iter().map(|w| w * w).sum::<f64>(),
         skipped: 0,
+        shifts: Vec::with_capacity(groups),
+        boxes: (0..groups)
+            .map(|g| {
+                let mine = &corners[g * total / groups..(g + 1) * total / groups];
+                mine.iter().fold([usize::MAX, 0, usize::MAX, 0], |[r0, r1, c0, c1], &(y, x)| {
+                    [r0.min(y), r1.max(y + tile), c0.min(x), c1.max(x + tile)]
+                })
+            })
+            .map(|b| if b[0] == usize::MAX { [0, 0, 0, 0] } else { b })
+            .collect(),
     };
     for (group, skipped) in sums {
         out.tiles.push(group.tiles);
+        out.shifts.push(group.shifts);
         out.skipped += skipped;
         GroupSums::append_rows(&group.real, tile, &mut out.real);
         GroupSums::append_rows(&group.sim, tile, &mut out.sim);
@@ -639,7 +773,7 @@ mod tests {
         let sim: Vec<f64> = normal(rows * cols, 2).iter().zip(&real).map(|(n, r)| 0.5 * r + n).collect();
         let reference = normal(rows * cols, 3);
         let frames = Frames { real: &real, sim: &sim, reference: Some(&reference), mask: None, shape: (rows, cols) };
-        let spectra = tile_spectra(&frames, Tiling { tile, step: tile / 2, groups: 1 }).unwrap();
+        let spectra = tile_spectra(&frames, Tiling { tile, step: tile / 2, groups: 1, shift: (0.0, 0.0) }).unwrap();
         assert_eq!(spectra.tiles, vec![1]);
         let width = tile / 2 + 1;
         let difference: Vec<f64> = real.iter().zip(&reference).map(|(a, b)| a - b).collect();
@@ -650,9 +784,34 @@ mod tests {
             let close = |got: f64, want: f64| (got - want).abs() <= 1e-4 * (1.0 + want.abs());
             assert!(close(spectra.real[i], a.norm_sqr()), "{ky},{kx}: {} vs {}", spectra.real[i], a.norm_sqr());
             assert!(close(spectra.sim[i], b.norm_sqr()));
-            assert!(close(spectra.cross_re[i], (a.conj() * b).re));
-            assert!(close(spectra.cross_im[i], (a.conj() * b).im));
+            // the cross-spectrum is turned by the tile's own displacement: its size is kept
+            let turned = C64::new(spectra.cross_re[i], spectra.cross_im[i]);
+            assert!(close(turned.norm(), (a.conj() * b).norm()));
             assert!(close(spectra.difference.as_ref().unwrap()[i], d.norm_sqr()));
+        }
+    }
+
+    #[test]
+    fn each_tile_is_aligned_on_its_own_displacement() {
+        // a smooth random scene, the simulated frame displaced by (0.7, −1.3) px: aligned, the
+        // cross-spectrum is real and positive at low frequencies, and the shifts say where it was
+        let (rows, cols, tile) = (128, 128, 32);
+        let noise = normal(rows * cols, 11);
+        let smooth = |y: f64, x: f64| -> f64 {
+            (0..60).map(|i| noise[i] * (1.2 * (y * noise[60 + i] + x * noise[120 + i]) + noise[180 + i]).sin()).sum()
+        };
+        let real: Vec<f64> = (0..rows * cols).map(|i| smooth((i / cols) as f64, (i % cols) as f64)).collect();
+        let sim: Vec<f64> = (0..rows * cols).map(|i| smooth((i / cols) as f64 - 0.7, (i % cols) as f64 + 1.3)).collect();
+        let frames = Frames::<f64, f64> { real: &real, sim: &sim, reference: None, mask: None, shape: (rows, cols) };
+        // the pair's displacement known to 0.3 px: each tile finds the rest
+        let spectra = tile_spectra(&frames, Tiling { tile, step: tile / 2, groups: 1, shift: (0.5, -1.0) }).unwrap();
+        let [w, wy, wx, _, _] = spectra.shifts[0];
+        assert!((wy / w - 0.7).abs() < 0.03 && (wx / w + 1.3).abs() < 0.03, "{} {}", wy / w, wx / w);
+        let width = tile / 2 + 1;
+        for (ky, kx) in [(3, 0), (0, 3), (2, 3), (4, 4)] {
+            let i = ky * width + kx;
+            let (re, im) = (spectra.cross_re[i], spectra.cross_im[i]);
+            assert!(re > 0.0 && im.abs() < 0.3 * re, "{ky},{kx}: {re} {im}");
         }
     }
 
@@ -662,7 +821,7 @@ mod tests {
         let real = normal(rows * cols, 7);
         let sim: Vec<f64> = real.iter().map(|v| 2.0 * v).collect();
         let frames = Frames::<f64, f64> { real: &real, sim: &sim, reference: None, mask: None, shape: (rows, cols) };
-        let spectra = tile_spectra(&frames, Tiling { tile, step: tile / 2, groups: 4 }).unwrap();
+        let spectra = tile_spectra(&frames, Tiling { tile, step: tile / 2, groups: 4, shift: (0.0, 0.0) }).unwrap();
         let per_axis = |len: usize| (len - tile) / (tile / 2) + 1;
         assert_eq!(spectra.tiles.iter().sum::<u64>() as usize, per_axis(rows) * per_axis(cols));
         let bins = tile * (tile / 2 + 1);
@@ -690,15 +849,15 @@ mod tests {
         let mut mask = vec![true; rows * cols];
         mask[rows * cols - 1] = false; // in the last tile only
         let frames = Frames { real: &real, sim: &sim, reference: None, mask: Some(&mask), shape: (rows, cols) };
-        let spectra = tile_spectra(&frames, Tiling { tile, step: tile / 2, groups: 3 }).unwrap();
+        let spectra = tile_spectra(&frames, Tiling { tile, step: tile / 2, groups: 3, shift: (0.0, 0.0) }).unwrap();
         assert_eq!(spectra.skipped, 2);
         assert_eq!(spectra.tiles.iter().sum::<u64>(), 7 * 7 - 2);
         assert!(spectra.real.iter().chain(&spectra.cross_re).all(|v| v.is_finite()));
         let small = Frames::<u16, f32> { real: &real[..64], sim: &sim[..64], reference: None, mask: None, shape: (8, 8) };
-        assert_eq!(tile_spectra(&small, Tiling { tile: 16, step: 8, groups: 2 }).unwrap().tiles, vec![0, 0]);
-        assert!(tile_spectra(&frames, Tiling { tile: 7, step: 3, groups: 2 }).is_err());
+        assert_eq!(tile_spectra(&small, Tiling { tile: 16, step: 8, groups: 2, shift: (0.0, 0.0) }).unwrap().tiles, vec![0, 0]);
+        assert!(tile_spectra(&frames, Tiling { tile: 7, step: 3, groups: 2, shift: (0.0, 0.0) }).is_err());
         let wrong = Frames::<u16, f32> { real: &real, sim: &sim[..10], reference: None, mask: None, shape: (rows, cols) };
-        assert!(matches!(tile_spectra(&wrong, Tiling { tile: 16, step: 8, groups: 2 }), Err(Error::Shape(_))));
+        assert!(matches!(tile_spectra(&wrong, Tiling { tile: 16, step: 8, groups: 2, shift: (0.0, 0.0) }), Err(Error::Shape(_))));
     }
 
     #[test]

@@ -219,9 +219,10 @@ def test_no_curve_work_without_curve_weight(frames, monkeypatch):
 # --------------------------------------------------------------------------- missing inputs
 def test_missing_inputs(frames):
     r, s = frames
+    only_curves = {"transfer_options": {"scene": False}}  # mtf and sitf from camera curves only
     with pytest.raises(FidelityError, match="real_mtf/sim_mtf and real_sitf/sim_sitf"):
-        evaluate(r, s, bits=14, missing="raise")
-    rep = evaluate(r, s, bits=14)  # missing components are dropped by default, everywhere
+        evaluate(r, s, bits=14, missing="raise", **only_curves)
+    rep = evaluate(r, s, bits=14, **only_curves)  # missing components are dropped by default, everywhere
     assert rep.config.missing == "renormalize" and ScoringConfig().missing == "renormalize"
     assert set(rep.components) == {"psnr", "nmi", "ssim"}
     assert rep.weights.psnr == pytest.approx(1 / 3) and rep.config.weights == Weights()
@@ -229,6 +230,23 @@ def test_missing_inputs(frames):
     assert rep.fidelity == math.fsum(rep.weights[k] * rep.components[k] for k in rep.components)
     with pytest.raises(FidelityError, match="sim_mtf was given without real_mtf"):
         evaluate(r, s, sim_mtf="x.csv", missing="renormalize")
+
+
+def test_the_scene_stands_in_for_missing_curves(frames):
+    """Without curves, mtf and sitf come from the pair's transfer; a region that holds no whole
+    tile cannot give them, and the report says why."""
+    r, s = frames
+    rep = evaluate(r, s, bits=14)
+    for k in ("mtf", "sitf"):
+        assert rep.metrics[f"{k}_source"] == "scene" and rep.verdict["components"][k]["source"] == "scene"
+    assert rep.transfer["gain"] == rep.metrics["scene_gain"] and "not assessed: noise" in rep.verdict["reason"]
+    small = evaluate(r[:40, :40], s[:40, :40], bits=14, transfer_options={"tile": 64})
+    assert "mtf" not in small.components and "no whole tile" in small.skipped["mtf"]
+    assert "not assessed: mtf" in small.verdict["reason"]
+    with pytest.raises(FidelityError, match="from the frames: mtf: the scored region holds no whole tile"):
+        evaluate(r[:40, :40], s[:40, :40], bits=14, missing="raise", transfer_options={"tile": 64})
+    curves_only = evaluate(r, s, bits=14, transfer_options={"scene": False})
+    assert "mtf" not in curves_only.components and "scene_gain" not in curves_only.metrics
 
 
 def test_errors_name_the_problem(frames, tmp_path):
@@ -264,8 +282,10 @@ def test_json_round_trip(frames, sitf_curves):
 
 def test_summary_text(frames):
     r, s = frames
-    t = evaluate(r, s, bits=14, missing="renormalize").summary_text()
+    t = evaluate(r, s, bits=14, missing="renormalize", transfer_options={"scene": False}).summary_text()
     assert "fidelity" in t and "skipped" in t and "grade" in t and "PSNR" in t
+    t = evaluate(r, s, bits=14).summary_text()
+    assert "scene: MTF ratio" in t and "scene: gain" in t
 
 
 # --------------------------------------------------------------------------- the paper's Table 1
@@ -319,4 +339,4 @@ def test_sequence_style_use(frames):
     w, image, _ = plan_components(cfg.weights, cfg.missing, have_images=True, have_mtf=False, have_sitf=False)
     comps, _ = image_components(pair_stats(r, s, bits=14, need=image), image, cfg)
     rep = evaluate(r, s, config=cfg)
-    assert comps == rep.components
+    assert comps == {k: v for k, v in rep.components.items() if k in image}

@@ -6,7 +6,8 @@ normalised PSNR, NMI, global SSIM) and their weighted sum, with an exact Rust co
 
 The top level holds what a scoring session needs; the tools of each stage live in their
 module: :mod:`irfidelity.curves` (MTF, slanted edge, SiTF, curve similarity),
-:mod:`irfidelity.fuzzy` (grades, AHP weights, comparing simulators), :mod:`irfidelity.frames`
+:mod:`irfidelity.fuzzy` (grades, AHP weights, comparing simulators), :mod:`irfidelity.system`
+(the pair's transfer: MTF ratio, gain, noise from the scene), :mod:`irfidelity.frames`
 (channels, pages), :mod:`irfidelity.schema` (the names and units of every output).
 """
 
@@ -28,6 +29,7 @@ from .regions import Regions
 from .sequence import SequenceReport, score_sequence
 from .simulators import SimulatorComparison, score_simulators
 from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
+from .system import Transfer, transfer
 
 __version__ = "0.2.0"
 
@@ -66,6 +68,9 @@ __all__ = [
     "Noise3D",
     "noise_similarity",
     "NoiseWarning",
+    # the pair as a system: the simulator's MTF, gain and noise relative to the camera's
+    "transfer",
+    "Transfer",
     # registration (docs/registration.md)
     "register",
     "Registration",

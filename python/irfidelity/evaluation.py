@@ -32,7 +32,7 @@ from .regions import as_regions, masked_stats, registered_union, score_regions, 
 from .results import FidelityReport, recorded_warnings
 from .scoring import image_components, plan_components, score_components
 from .temperature import TemperatureErrors, scoring_config, temperature_scores, to_temperature, tolerance_for
-from .transfer.scene import SceneEstimate, scene_estimate, scene_kinds, unassessed
+from .system.scene import SceneEstimate, scene_estimate, scene_kinds, unassessed
 
 __all__ = ["evaluate", "SCORING_BYTES"]
 
@@ -132,9 +132,11 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
             else:
                 st, span = registered_union(regions, sources, components, config, max_bytes)
         else:
-            if _left_out_defects(sources):
-                scored = sources["mask"]
+            # checked against bits first: a defect is left out, a value out of range is an error
             st, span = masked_stats(r, s, components, config, scored, bits=config.bits, peak=config.numeric_peak)
+            if _left_out_defects(sources):
+                st, span = masked_stats(r, s, components, config, sources["mask"], bits=config.bits,
+                                        peak=config.numeric_peak)
     except (ShapeError, RangeError) as exc:
         paths = [f"{which} {inputs[which]}" for which, x in (("real", real), ("sim", sim))
                  if isinstance(x, (str, os.PathLike))]
@@ -210,7 +212,7 @@ class _Plan:
 
 def _scene(sources: dict, config: ScoringConfig, real_ref: Any, real_noise: Any, scene: tuple, components: dict,
            metrics: dict, max_bytes: int | None) -> SceneEstimate:
-    """The pair's transfer (:mod:`irfidelity.transfer`): the components the scene stands in for,
+    """The pair's transfer (:mod:`irfidelity.system`): the components the scene stands in for,
     its estimate among the metrics (beside curves, a cross-check), and what it could not give."""
     ref = sources.get("real_ref")
     if ref is None and real_ref is not None:
@@ -329,7 +331,9 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     plan = _Plan(cfg, given, scene, have_images=real is not None)
     weights, image_plan, skipped = plan.make()
     in_unit = cfg.unit is not None and real is not None
-    transfer_wanted = real is not None and any(weights[k] > 0 for k in ("mtf", "sitf")) or bool(scene)
+    # the scene's transfer: for the components it stands in for, and as a cross-check beside
+    # camera curves when the frames are read anyway
+    transfer_wanted = bool(scene) or (bool(image_plan) or in_unit) and any(weights[k] > 0 for k in ("mtf", "sitf"))
     regions = _region_input(regions, real, bool(image_plan) or in_unit)
     span = defect = measured = None
     ceiling = None if ceiling is None else {str(k): float(v) for k, v in dict(ceiling).items()}
@@ -372,7 +376,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
                           verdict=_named_defects(score.verdict.to_dict(), defect, sources.get("defects")),
                           ceiling=ceiling,
                           relative=relative_to(ceiling, score.components), regions=by_region,
-                          transfer=None if measured is None else measured.transfer.to_dict())
+                          transfer=None if measured is None or measured.transfer is None else measured.transfer.to_dict())
 
 
 def _named_defects(verdict: dict, defect: dict | None, found: Any) -> dict:

@@ -81,6 +81,34 @@ _RAW = {
 }
 
 
+#: The raw text of a camera component graded from the scene's transfer (irfidelity.system).
+_SCENE_RAW = {
+    "mtf": lambda m: f"scene: MTF ratio {m['scene_mtf_ratio']:.3g} at {m['scene_reference_frequency']:.3g} cy/px, "
+                     f"MTF50 mismatch {100 * m['scene_mtf50_mismatch']:.3g} %, band {m['scene_band_low']:.3g}–"
+                     f"{m['scene_band_high']:.3g} cy/px",
+    "sitf": lambda m: f"scene: gain {m['scene_gain']:.4g} ± {m['scene_gain_err']:.1g}, offset {m['scene_offset']:.4g}",
+    "noise": lambda m: f"scene: noise ratio {m['scene_noise_ratio']:.3g} ± {m['scene_noise_ratio_err']:.1g}",
+}
+
+
+def _raw(k: str, metrics: Mapping[str, Any]) -> str:
+    """The raw metrics of a component in words ('' when they are missing)."""
+    table = _SCENE_RAW if metrics.get(f"{k}_source") == "scene" else _RAW
+    try:
+        return table[k](metrics)
+    except (KeyError, TypeError, ValueError):
+        return ""
+
+
+def scene_line(metrics: Mapping[str, Any]) -> str | None:
+    """One line: the scene's transfer beside camera curves (a cross-check), or None."""
+    if metrics.get("scene_gain") is None or all(metrics.get(f"{k}_source") == "scene" for k in ("mtf", "sitf")):
+        return None
+    mismatch = metrics.get("scene_mtf50_mismatch")
+    mtf = "not read" if mismatch is None else f"MTF50 mismatch {100 * mismatch:.3g} %"
+    return f"scene (cross-check of the curves): {mtf}, gain {metrics['scene_gain']:.4g}"
+
+
 def component_lines(components: Mapping[str, float], component_grades: Mapping[str, str],
                     metrics: Mapping[str, Any], weights: Weights, skipped: Mapping[str, str]) -> list[str]:
     """The component table of a text summary: weight, value, own grade, raw metrics."""
@@ -89,15 +117,15 @@ def component_lines(components: Mapping[str, float], component_grades: Mapping[s
         if k not in components and k not in skipped and k not in PAPER_COMPONENTS:
             continue  # an opt-in component nobody asked for
         if k in components:
-            try:
-                raw = _RAW[k](metrics)
-            except (KeyError, TypeError, ValueError):
-                raw = ""
+            raw = _raw(k, metrics)
             lines.append(f"{k:<10} {weights[k]:>7.4f} {components[k]:>8.4f}  {component_grades.get(k, ''):<9} {raw}")
         else:
             lines.append(f"{k:<10} {'-':>7} {'-':>8}  {'':<9} skipped: {skipped.get(k, '')}")
     if "temperature_bias" in metrics:
         lines.append(temperature_line(metrics))
+    cross_check = scene_line(metrics)
+    if cross_check:
+        lines.append(cross_check)
     return lines
 
 
@@ -162,7 +190,7 @@ class ReportBase:
         Each image component divided by its ceiling.
     transfer : dict or None
         The frame pair's transfer relative to the real camera
-        (:meth:`irfidelity.transfer.Transfer.to_dict`: the MTF ratio against frequency, its band,
+        (:meth:`irfidelity.Transfer.to_dict`: the MTF ratio against frequency, its band,
         gain, offset, noise ratio), when it was measured: the input of ``mtf``, ``sitf`` and
         ``noise`` without camera curves, and a cross-check beside them.
     sources : dict

@@ -63,7 +63,7 @@ class ComponentVerdict:
     source : str or None
         Where a camera component's input came from: "curves", "edge images", "bar frames",
         "CTF curves", "noise recordings", or "scene" (the frame pair's transfer,
-        :mod:`irfidelity.transfer`); None for the image components.
+        :mod:`irfidelity.system`); None for the image components.
     weighted : bool
         False for a component measured and graded as a check but not weighted (the scene's
         noise when ``noise`` has weight 0): it does not set the grade.
@@ -174,8 +174,15 @@ def _plus_minus(value: Any, error: Any, percent: bool = False) -> str:
     """``value ± error`` in words (the error left out when unknown)."""
     text = _percent(value) if percent else f"{value:.4g}"
     if isinstance(error, (int, float)) and math.isfinite(error):
-        text += f" ± {_percent(error) if percent else f'{error:.2g}'}"
+        text += f" ± {_percent(error) if percent else f'{error:.1g}'}"
     return text
+
+
+def _graded_at(estimate: Any, graded: float, words: str) -> str:
+    """", graded at X" when the graded measure differs from the estimate (doubt taken off)."""
+    if not isinstance(estimate, (int, float)) or abs(graded - estimate) <= 1e-3 * max(abs(estimate), 1e-12):
+        return ""
+    return f", graded at {words} (the least the scene shows, 2 standard errors toward a match)"
 
 
 def _scene_measure(component: str, value: float, metrics: Mapping[str, Any], alpha: float) -> tuple[float, str]:
@@ -183,20 +190,38 @@ def _scene_measure(component: str, value: float, metrics: Mapping[str, Any], alp
     m = metrics
     if component == "noise":
         ratio = 1.0 / max(mu_ratio(value), 1e-300)
-        return ratio, (f"noise {_plus_minus(m.get('scene_noise_ratio'), m.get('scene_noise_ratio_err'))}× the real "
-                       f"camera's (from the scene)")
+        estimate = m.get("scene_noise_ratio")
+        graded = ratio if not isinstance(estimate, (int, float)) or estimate >= 1 else 1.0 / ratio
+        return ratio, (f"noise {_plus_minus(estimate, m.get('scene_noise_ratio_err'))}× the real camera's (from the "
+                       f"scene)" + _graded_at(estimate, graded, f"{graded:.3g}×"))
     effective = 1.0 - mu_ratio(value ** (1.0 / alpha) if alpha > 0 else 1.0)
     if component == "mtf":
         low, high = m.get("scene_band_low"), m.get("scene_band_high")
-        return effective, (f"simulated MTF {_plus_minus(m.get('scene_mtf_ratio'), m.get('scene_mtf_ratio_err'))}× the "
-                           f"real camera's at {m.get('scene_reference_frequency', 0):.3g} cy/px (from the scene, "
+        estimate = m.get("scene_mtf50_mismatch")
+        return effective, (f"simulated MTF {_ratio_words(m.get('scene_mtf_ratio'), m.get('scene_mtf_ratio_err'))} "
+                           f"the real camera's at {m.get('scene_reference_frequency', 0):.3g} cy/px (from the scene, "
                            f"trusted over {low:.3g}–{high:.3g} cy/px): an MTF50 mismatch of "
-                           f"{_plus_minus(m.get('scene_mtf50_mismatch'), m.get('scene_mtf50_mismatch_err'), True)}")
+                           f"{_plus_minus(estimate, m.get('scene_mtf50_mismatch_err'), True)}"
+                           + _graded_at(estimate, effective, _percent(effective)))
     gain = m.get("scene_gain")
     if not isinstance(gain, (int, float)) or gain <= 0:
         return effective, "inverted grey levels: the simulated frame falls where the real one rises (gain ≤ 0)"
-    return effective, (f"gain {_plus_minus(gain, m.get('scene_gain_err'))} on the scene (" +
-                       _ratio_text("SiTF slope", 1.0, float(gain)) + ")")
+    estimate = 1.0 - min(gain, 1.0 / gain)
+    return effective, (f"gain {_plus_minus(gain, m.get('scene_gain_err'))} on the scene ("
+                       + _ratio_text("SiTF slope", 1.0, float(gain)) + ")"
+                       + _graded_at(estimate, effective, f"a mismatch of {_percent(effective)}"))
+
+
+def _ratio_words(ratio: Any, error: Any) -> str:
+    """A ratio and its error in words: "0.812 ± 0.004×", or "below 0.001×" when it is lost."""
+    if not isinstance(ratio, (int, float)):
+        return "?×"
+    if ratio < 1e-3:
+        return "below 0.001×"
+    text = f"{ratio:.3g}"
+    if isinstance(error, (int, float)) and math.isfinite(error):
+        text += f" ± {error:.1g}"
+    return text + "×"
 
 
 def _measure(component: str, value: float, basis: str, metrics: Mapping[str, Any], config: Any,

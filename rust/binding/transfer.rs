@@ -101,12 +101,13 @@ fn plane<'py>(py: Python<'py>, values: Vec<f64>, shape: (usize, usize)) -> PyRes
     Ok(PyArray2::from_owned_array(py, array))
 }
 
-/// `cross_spectra(real, sim, reference=None, mask=None, *, tile, step, groups)` -> dict: the Welch
-/// sums of `crate::transfer::tile_spectra` (`real`, `sim`, `cross_re`, `cross_im` and, with a
-/// reference, `difference`: arrays `groups × tile × (tile/2 + 1)`; `tiles` per group,
+/// `cross_spectra(real, sim, reference=None, mask=None, *, tile, step, groups, shift=(0, 0))` -> dict: the Welch
+/// sums of `crate::transfer::tile_spectra` (`real`, `sim`, `cross_re`, `cross_im` — each tile
+/// aligned on its own displacement, looked for around `shift` — and, with a reference,
+/// `difference`: arrays `groups × tile × (tile/2 + 1)`; `tiles`, `shifts` and `boxes` per group,
 /// `window_energy`, `skipped`).
 #[pyfunction]
-#[pyo3(signature = (real, sim, reference=None, mask=None, *, tile, step, groups))]
+#[pyo3(signature = (real, sim, reference=None, mask=None, *, tile, step, groups, shift=(0.0, 0.0)))]
 fn cross_spectra<'py>(
     py: Python<'py>,
     real: &Bound<'py, PyUntypedArray>,
@@ -116,8 +117,10 @@ fn cross_spectra<'py>(
     tile: usize,
     step: usize,
     groups: usize,
+    shift: (f64, f64),
 ) -> PyResult<Bound<'py, PyDict>> {
-    let Output::Tiles(s) = dispatch(py, (real, sim, reference), mask, Pass::Tiles(Tiling { tile, step, groups }))? else {
+    let tiling = Tiling { tile, step, groups, shift };
+    let Output::Tiles(s) = dispatch(py, (real, sim, reference), mask, Pass::Tiles(tiling))? else {
         return Err(Error::Value("internal: pass".into()).into());
     };
     let shape = (s.groups, s.tile, s.tile / 2 + 1);
@@ -127,6 +130,8 @@ fn cross_spectra<'py>(
     out.set_item("tiles", s.tiles)?;
     out.set_item("window_energy", s.window_energy)?;
     out.set_item("skipped", s.skipped)?;
+    out.set_item("shifts", s.shifts)?;
+    out.set_item("boxes", s.boxes)?;
     out.set_item("real", cube(py, s.real, shape)?)?;
     out.set_item("sim", cube(py, s.sim, shape)?)?;
     out.set_item("cross_re", cube(py, s.cross_re, shape)?)?;

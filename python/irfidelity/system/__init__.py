@@ -1,6 +1,6 @@
 """The pair as a system: the simulator's resolution, response and noise relative to the real
-camera's, measured from the scene both frames show (docs/interpretation.md, "The pair as a
-system").
+camera's, measured from the scene both frames show (:func:`transfer`, also
+``irfidelity.transfer``; docs/interpretation.md, "The pair as a system").
 
 A simulated frame ``S`` of the scene a real camera recorded as ``R`` is, to first order, the
 real frame through a relative transfer function plus noise of its own::

@@ -12,7 +12,7 @@ from ..errors import FidelityError, ShapeError
 from .result import Transfer, estimate
 from .spectra import transfer_spectra
 
-__all__ = ["transfer", "real_noise_variance"]
+__all__ = ["transfer", "real_noise_variance", "aligned", "cropped"]
 
 
 def real_noise_variance(real_noise: Any) -> float:
@@ -67,7 +67,7 @@ def aligned(real: np.ndarray, sim: np.ndarray, register: Any, mask: np.ndarray |
     return real[ry, rx], sim[sy, sx], None if mask is None else mask[ry, rx], reg
 
 
-def _cropped(frames: list, mask: np.ndarray | None) -> tuple[list, np.ndarray | None]:
+def cropped(frames: list, mask: np.ndarray | None) -> tuple[list, np.ndarray | None]:
     """The frames and mask cut to the mask's bounding box (tiles then fit the scored region)."""
     if mask is None:
         return frames, None
@@ -157,7 +157,7 @@ def transfer(real: Any, sim: Any, *, mask: Any = None, roi: Any = None, real_ref
             ref = ref[tuple(slice(0, n) for n in r.shape)] if reg.model == "translation" and r.shape != ref.shape \
                 else ref
         frames = [r, s]
-    (r, s, ref), keep = _cropped([frames[0], frames[1], ref], keep)
+    (r, s, ref), keep = cropped([frames[0], frames[1], ref], keep)
     variance, source = (None, None)
     if ref is not None:
         source = "real_ref"

@@ -10,8 +10,8 @@ import numpy as np
 
 from ..errors import FidelityError
 from .gain import gain as gain_of
-from .readings import MIN_SNR_UNKNOWN, REFERENCE_FREQUENCY, band, mtf_reading, noise_variances
-from .rings import Geometry, RingSums, displacement, jackknife, ratio, ring_sums, turned
+from .readings import MIN_COHERENCE, MIN_SNR_UNKNOWN, REFERENCE_FREQUENCY, band, fit_rings, mtf_reading, noise_variances
+from .rings import Geometry, RingSums, jackknife, ratio, ring_sums
 from .spectra import TransferSpectra
 
 __all__ = ["Transfer", "estimate"]
@@ -59,9 +59,17 @@ class Transfer:
         Where the real noise came from: "real_ref", "real_noise" or "sequence".
     shift : (float, float)
         ``(dy, dx)`` with ``real ≈ scipy.ndimage.shift(sim, shift)`` (:func:`irfidelity.register`'s
-        convention), from the cross-spectrum's phase; removed before the ratio is taken.
+        convention), from the cross-spectrum's phase: the tiles' own displacements, weighted
+        by their power. Each tile's is removed before the ratio is taken, so the ratio measures
+        resolution, not geometry.
+    local_shift : float or None
+        The RMS spread of the tiles' displacements about ``shift`` (px): lens distortion the
+        simulator lacks, or objects that moved; 0 for a rigid translation.
     tile, tiles, skipped : int
         The tile side, the tiles averaged, and those left out (a pixel masked or not finite).
+    changed : int
+        Groups of tiles (and their pixels, from the gain) left out because they saw a different
+        scene in the two frames (:func:`~irfidelity.system.rings.unchanged`).
     notes : tuple of str
         What limits this estimate (an extrapolated reading, an unknown real noise).
     unread : str or None
@@ -94,9 +102,11 @@ class Transfer:
     sim_noise: float | None
     noise_source: str | None
     shift: tuple[float, float]
+    local_shift: float | None
     tile: int
     tiles: int
     skipped: int
+    changed: int = 0
     notes: tuple = field(default=())
     unread: str | None = None
 
@@ -127,14 +137,26 @@ def estimate(spectra: TransferSpectra, *, real_variance: float | None = None, no
         raise FidelityError(f"transfer: no {spectra.tile} x {spectra.tile} tile of the frames is wholly scored and "
                             f"finite ({spectra.skipped} left out): score a larger region, or give a smaller tile",
                             option="tile")
-    shift = displacement(spectra.cross.sum(axis=0), geometry)
     noise = _noise_power(spectra, real_variance)
-    rows = ring_sums(spectra, geometry, turned(spectra.cross, geometry, shift), noise).replicates()
+    rows = ring_sums(spectra, geometry, noise).replicates()
     variances = noise_variances(rows, spectra.window_energy)
     white = real_variance if spectra.difference is None else (None if variances is None else float(variances[1][0]))
-    g = gain_of(spectra, shift, white)
-    return _assemble(spectra, geometry, rows, variances, g, shift, noise_source if noise is not None else None,
-                     REFERENCE_FREQUENCY if reference_frequency is None else float(reference_frequency))
+    g = gain_of(spectra, spectra.shift, white)
+    changed = spectra.changed
+    return _assemble(spectra, geometry, rows, variances, g, noise_source if noise is not None else None,
+                     REFERENCE_FREQUENCY if reference_frequency is None else float(reference_frequency), changed)
+
+
+def _displacements(spectra: TransferSpectra) -> tuple[tuple[float, float], float | None]:
+    """The pair's displacement (the tiles' own, weighted by their cross power; the block-mean
+    spectrum's when no tile had one) and the tiles' RMS spread about it (None without tiles)."""
+    if spectra.shifts is None:
+        return spectra.shift, None
+    w, wy, wx, wyy, wxx = spectra.shifts.sum(axis=0)
+    if not w > 0:
+        return spectra.shift, None
+    dy, dx = wy / w, wx / w
+    return (float(dy), float(dx)), float(np.sqrt(max(wyy / w - dy * dy, 0.0) + max(wxx / w - dx * dx, 0.0)))
 
 
 def _noise_power(spectra: TransferSpectra, real_variance: float | None) -> np.ndarray | None:
@@ -150,7 +172,7 @@ def _noise_power(spectra: TransferSpectra, real_variance: float | None) -> np.nd
 
 def _assemble(spectra: TransferSpectra, geometry: Geometry, rows: RingSums,
               variances: tuple[np.ndarray, np.ndarray] | None, gain: tuple[float, float] | None,
-              shift: tuple[float, float], noise_source: str | None, reference: float) -> Transfer:
+              noise_source: str | None, reference: float, changed: int) -> Transfer:
     """The :class:`Transfer` from the ring sums (row 0 whole, then the jackknife replicates),
     the noise variances and the gain."""
     k = slice(1, geometry.rings)
@@ -161,20 +183,26 @@ def _assemble(spectra: TransferSpectra, geometry: Geometry, rows: RingSums,
     error = np.sqrt(jackknife(values) ** 2 + (values[0] * g_err / scale) ** 2)
     coherence = ratio(rows.cross[0] * np.abs(rows.cross[0]), rows.real[0] * rows.sim[0])[k]
     snr = None if rows.noise is None else ratio(rows.signal[0], rows.noise[0])[k]
-    trusted = band(frequency, values[0], error, _floor_snr(rows)[k] if snr is None else snr, snr is not None) \
+    trusted = band(frequency, _floor_snr(rows)[k] if snr is None else snr, snr is not None, coherence) \
         if gain is not None else np.zeros(frequency.shape, dtype=bool)
+    fitted = fit_rings(values[0], error, trusted)
     notes = [] if noise_source is not None else [
         "the real camera's noise is unknown (give real_ref, real_noise, or a sequence): the ratio is not corrected "
-        f"for it, and the band stops where the real spectrum falls below {MIN_SNR_UNKNOWN:g}× its floor"]
-    reading = mtf_reading(frequency, values, error, trusted, reference)
-    unread = _unread(frequency, values[0], trusted, reference, gain is not None)
+        f"for it, and the band stops where the real spectrum falls below {MIN_SNR_UNKNOWN:g}× its floor and the "
+        f"pair's coherence below {MIN_COHERENCE:g}"]
+    reading = mtf_reading(frequency, values, error, fitted, reference)
+    unread = _unread(frequency, values[0], fitted, reference, gain is not None)
     if unread is not None:
         reading = {key: None for key in reading}
-    elif trusted.any() and frequency[trusted][-1] < reference:
-        notes.append(f"the band ends at {frequency[trusted][-1]:.3g} cy/px, below the reference frequency "
+    elif fitted.any() and frequency[fitted][-1] < reference:
+        notes.append(f"the fit ends at {frequency[fitted][-1]:.3g} cy/px, below the reference frequency "
                      f"{reference:.3g} cy/px: the ratio there is extrapolated by the fit")
+    if changed:
+        notes.append(f"{changed} parts of the frame saw a different scene in the two frames (their lowest frequencies "
+                     f"disagree with the rest: an object moved or changed) and are left out")
     mean_real, mean_sim = spectra.sum_real / spectra.pixels, spectra.sum_sim / spectra.pixels
     along = {name: ratio(*getattr(rows, name))[0][k] / scale for name in ("horizontal", "vertical")}
+    shift, spread = _displacements(spectra)
     return Transfer(frequency=frequency, mtf_ratio=values[0], mtf_ratio_err=error, **along,
                     coherence=np.clip(coherence, -1.0, 1.0), snr=snr,
                     band=(float(frequency[trusted][0]), float(frequency[trusted][-1])) if trusted.any() else None,
@@ -182,22 +210,23 @@ def _assemble(spectra: TransferSpectra, geometry: Geometry, rows: RingSums,
                     offset=None if gain is None else mean_sim - g * mean_real,
                     offset_err=None if gain is None else abs(mean_real) * g_err, bias=mean_sim - mean_real,
                     reference_frequency=reference, **reading, **_noise_reading(variances),
-                    noise_source=noise_source, shift=(-shift[0], -shift[1]), tile=geometry.tile,
-                    tiles=int(spectra.tiles.sum()), skipped=int(spectra.skipped), notes=tuple(notes), unread=unread)
+                    noise_source=noise_source, shift=(-shift[0], -shift[1]), local_shift=spread, tile=geometry.tile,
+                    tiles=int(rows.tiles[0]), skipped=int(spectra.skipped), changed=changed, notes=tuple(notes),
+                    unread=unread)
 
 
-def _unread(frequency: np.ndarray, value: np.ndarray, trusted: np.ndarray, reference: float,
+def _unread(frequency: np.ndarray, value: np.ndarray, fitted: np.ndarray, reference: float,
             has_gain: bool) -> str | None:
-    """Why the ratio cannot be read at the reference frequency, or None: no gain, no band, or a
-    band that ends below half the reference frequency while the ratio is still above 0.5 there
-    (the scene's detail, not the simulator, ended it: the fit would extrapolate blindly; where
-    the ratio has fallen below 0.5, the mismatch is large either way and is read)."""
+    """Why the ratio cannot be read at the reference frequency, or None: no gain, no ring to fit,
+    or fitted rings that end below half the reference frequency while the ratio is still above
+    0.5 there (the scene's detail, not the simulator, ended them: the fit would extrapolate
+    blindly; where the ratio has fallen below 0.5 the mismatch is large either way, and read)."""
     if not has_gain:
         return "the scene has no contrast at low frequencies to measure the gain on (a flat or unrelated pair)"
-    if not trusted.any() or not (value[trusted] >= 0.02).any():
+    if not fitted.any():
         return "the scene carries no detail above its noise to measure the MTF ratio on (no band of trusted frequencies)"
-    top = float(frequency[trusted][-1])
-    if reference > 2 * top and value[trusted][-1] > 0.5:
+    top = float(frequency[fitted][-1])
+    if reference > 2 * top and value[fitted][-1] > 0.5:
         return (f"the scene's detail is trusted only up to {top:.3g} cy/px, below half the real MTF50 "
                 f"({reference:.3g} cy/px) where the ratio is read; a second real frame (real_ref) lets the band go "
                 f"further, or choose a scene with more detail")

@@ -6,12 +6,14 @@ subtraction."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .spectra import TransferSpectra
+if TYPE_CHECKING:
+    from .spectra import TransferSpectra
 
-__all__ = ["Geometry", "RingSums", "displacement", "turned", "ring_sums", "ratio", "jackknife"]
+__all__ = ["Geometry", "RingSums", "displacement", "ring_sums", "unchanged", "ratio", "jackknife"]
 
 
 @dataclass(frozen=True)
@@ -51,30 +53,26 @@ class Geometry:
         return np.arange(self.rings) / self.tile
 
 
-def displacement(cross: np.ndarray, geometry: Geometry) -> tuple[float, float]:
-    """The displacement ``d`` of the simulated frame (``sim(x) ≈ real(x − d)``) from the phase
-    of the cross-spectrum: the whole-pixel peak of the phase correlation, then a weighted
-    least-squares fit of the remaining phase ramp over 0 < f < 0.25 cy/px."""
-    tile = geometry.tile
+def displacement(cross: np.ndarray, shape: tuple[int, int], block: int = 1) -> tuple[float, float]:
+    """The displacement ``d`` in pixels of the simulated frame (``sim(x) ≈ real(x − d)``) from
+    the phase of a half cross-spectrum of ``shape`` frames of ``block``-pixel blocks (a tile's,
+    or the block-mean frames'): the whole-block peak of the phase correlation, then a weighted
+    least-squares fit of the remaining phase ramp over the lower half of the frequencies."""
+    rows, cols = shape
     size = np.abs(cross)
-    surface = np.fft.irfft2(np.where(size > 0, cross / np.where(size > 0, size, 1.0), 0), s=(tile, tile))
+    surface = np.fft.irfft2(np.where(size > 0, cross / np.where(size > 0, size, 1.0), 0), s=(rows, cols))
     iy, ix = np.unravel_index(int(np.argmax(surface)), surface.shape)
-    dy, dx = (iy if iy < tile // 2 else iy - tile), (ix if ix < tile // 2 else ix - tile)
-    rest = turned(cross, geometry, (dy, dx))
-    f = np.hypot(geometry.fy, geometry.fx)
-    use = (f > 0) & (f < 0.25) & (np.abs(rest) > 0)
+    whole = (block * (iy if iy < rows // 2 else iy - rows), block * (ix if ix < cols // 2 else ix - cols))
+    fy, fx = np.fft.fftfreq(rows)[:, None] / block, np.fft.rfftfreq(cols)[None, :] / block
+    rest = cross * np.exp(2j * np.pi * (fy * whole[0] + fx * whole[1]))
+    f = np.hypot(fy, fx)
+    use = (f > 0) & (f < 0.25 / block) & (np.abs(rest) > 0)
     if use.sum() < 3:
-        return float(dy), float(dx)
-    weight = np.sqrt((np.abs(rest) * geometry.weight)[use])
-    design = -2 * np.pi * np.stack([np.broadcast_to(geometry.fy, f.shape)[use],
-                                    np.broadcast_to(geometry.fx, f.shape)[use]], axis=1)
+        return float(whole[0]), float(whole[1])
+    weight = np.sqrt(np.abs(rest)[use])
+    design = -2 * np.pi * np.stack([np.broadcast_to(fy, f.shape)[use], np.broadcast_to(fx, f.shape)[use]], axis=1)
     solution, *_ = np.linalg.lstsq(design * weight[:, None], np.angle(rest[use]) * weight, rcond=None)
-    return float(dy + solution[0]), float(dx + solution[1])
-
-
-def turned(cross: np.ndarray, geometry: Geometry, d: tuple[float, float]) -> np.ndarray:
-    """The cross-spectrum with the phase ramp of the displacement ``d`` removed."""
-    return cross * np.exp(2j * np.pi * (geometry.fy * d[0] + geometry.fx * d[1]))
+    return float(whole[0] + solution[0]), float(whole[1] + solution[1])
 
 
 @dataclass(frozen=True)
@@ -97,6 +95,13 @@ class RingSums:
     def signal(self) -> np.ndarray:
         return self.real if self.noise is None else self.real - self.noise
 
+    def only(self, keep: np.ndarray) -> RingSums:
+        """The sums of the groups ``keep`` marks."""
+        pick = lambda x: None if x is None else x[keep]  # noqa: E731
+        return RingSums(pick(self.real), pick(self.sim), pick(self.cross), pick(self.noise),
+                        (pick(self.horizontal[0]), pick(self.horizontal[1])),
+                        (pick(self.vertical[0]), pick(self.vertical[1])), self.count, self.tiles[keep])
+
     def replicates(self) -> RingSums:
         """Row 0 the sums of every group; then, for each group with tiles, the sums without it."""
         used = np.flatnonzero(self.tiles > 0)
@@ -113,10 +118,10 @@ class RingSums:
                         rows(self.tiles[:, None])[:, 0])
 
 
-def ring_sums(spectra: TransferSpectra, geometry: Geometry, cross: np.ndarray,
-              noise: np.ndarray | None) -> RingSums:
-    """The per-group ring sums of the spectra (``cross`` the turned cross-spectrum, ``noise``
-    the real camera's noise power per group and bin, or None)."""
+def ring_sums(spectra: TransferSpectra, geometry: Geometry, noise: np.ndarray | None) -> RingSums:
+    """The per-group ring sums of the spectra (their cross-spectrum aligned tile by tile in
+    Rust; ``noise`` the real camera's noise power per group and bin, or None)."""
+    cross = spectra.cross
     groups, rings = len(spectra.tiles), geometry.rings
     index = (geometry.ring[None, :, :] + geometry.tile * np.arange(groups)[:, None, None]).ravel()
 
@@ -131,6 +136,26 @@ def ring_sums(spectra: TransferSpectra, geometry: Geometry, cross: np.ndarray,
                     (sums(cross.real, geometry.horizontal), sums(signal, geometry.horizontal)),
                     (sums(cross.real, geometry.vertical), sums(signal, geometry.vertical)), count,
                     np.asarray(spectra.tiles))
+
+
+#: A group whose transfer over rings 1..3 departs from the groups' median by more than this
+#: share (and four robust deviations) saw a different scene: an object that moved or changed.
+CHANGED = 0.1
+
+
+def unchanged(sums: RingSums) -> np.ndarray:
+    """The groups that saw the same scene in both frames: their transfer at the lowest rings
+    (1..3, where a blur barely acts) agrees with the other groups'. At most a third are left out
+    (a change everywhere is the pair's, not a part's)."""
+    used = sums.tiles > 0
+    low = ratio(sums.cross[:, 1:4].sum(axis=1), sums.signal[:, 1:4].sum(axis=1))
+    good = used & np.isfinite(low)
+    if good.sum() < 3:
+        return used
+    median = float(np.median(low[good]))
+    spread = 4 * 1.4826 * float(np.median(np.abs(low[good] - median)))
+    same = good & (np.abs(low - median) <= max(CHANGED * abs(median), spread))
+    return same if (used & ~same).sum() <= used.sum() / 3 else used
 
 
 def ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:

@@ -9,18 +9,17 @@ import numpy as np
 
 from .rings import RingSums, jackknife, ratio
 
-__all__ = ["MAX_RELATIVE_ERROR", "MIN_SNR", "MIN_SNR_UNKNOWN", "FIT_FLOOR", "REFERENCE_FREQUENCY", "band", "mtf_reading",
+__all__ = ["MIN_SNR", "MIN_SNR_UNKNOWN", "MIN_COHERENCE", "FIT_FLOOR", "fit_rings", "REFERENCE_FREQUENCY", "band", "mtf_reading",
            "mtf50_mismatch", "noise_variances"]
 
-#: The band ends where the ratio's standard error exceeds this share of it (of 0.1 for smaller
-#: ratios) ...
-MAX_RELATIVE_ERROR = 0.1
-#: ... or where the real scene's signal-to-noise ratio falls below this, with the real camera's
-#: noise known (the ratio is corrected for it) ...
+#: The band ends where the real scene's signal-to-noise ratio falls below this, with the real
+#: camera's noise known (the ratio is corrected for it) ...
 MIN_SNR = 1.0
-#: ... or, with it unknown, below this against the real spectrum's floor (its least ring
-#: mean, an upper bound of the noise): the uncorrected ratio then reads low by at most 1/11.
+#: ... or, with it unknown, where neither the real spectrum stands this far above its floor (its
+#: least ring mean, an upper bound of the noise) nor the pair's coherence reaches
+#: :data:`MIN_COHERENCE`: either bounds how low the uncorrected ratio can read (1/11, 10 %).
 MIN_SNR_UNKNOWN = 10.0
+MIN_COHERENCE = 0.9
 
 #: Rings whose ratio is below this are left out of the fit (their logarithm is mostly noise).
 FIT_FLOOR = 0.02
@@ -30,15 +29,15 @@ FIT_FLOOR = 0.02
 REFERENCE_FREQUENCY = 0.25
 
 
-def band(frequency: np.ndarray, value: np.ndarray, error: np.ndarray, snr: np.ndarray, known: bool) -> np.ndarray:
-    """The rings where the ratio is trusted: from the first trusted ring among the three lowest
-    up to the first that is not (its standard error above :data:`MAX_RELATIVE_ERROR` of the
-    ratio, or of 0.1 for smaller ratios; the real scene's SNR below :data:`MIN_SNR`, or
-    :data:`MIN_SNR_UNKNOWN` when the real noise is not ``known``), within 0 < f ≤ 0.5 cy/px."""
+def band(frequency: np.ndarray, snr: np.ndarray, known: bool, coherence: np.ndarray) -> np.ndarray:
+    """The rings where the scene carries signal above the real camera's noise: from the first
+    such ring among the three lowest up to the first that is not (SNR below :data:`MIN_SNR`; when
+    the noise is not ``known``, neither the SNR against the spectrum's floor at least
+    :data:`MIN_SNR_UNKNOWN` nor the coherence at least :data:`MIN_COHERENCE`), within
+    0 < f ≤ 0.5 cy/px. The simulated frame's own noise does not end it where the noise is known:
+    it widens the ratio's errors instead."""
     with np.errstate(invalid="ignore"):
-        ok = np.isfinite(value) & np.isfinite(error) & (value > 0)
-        ok &= error <= MAX_RELATIVE_ERROR * np.maximum(np.abs(value), 0.1)
-        ok &= snr >= (MIN_SNR if known else MIN_SNR_UNKNOWN)
+        ok = snr >= MIN_SNR if known else (snr >= MIN_SNR_UNKNOWN) | (coherence >= MIN_COHERENCE)
     ok &= (frequency > 0) & (frequency <= 0.5)
     trusted = np.zeros(ok.shape, dtype=bool)
     first = next((k for k in range(min(3, len(ok))) if ok[k]), None)
@@ -49,6 +48,13 @@ def band(frequency: np.ndarray, value: np.ndarray, error: np.ndarray, snr: np.nd
         last += 1
     trusted[first:last + 1] = True
     return trusted
+
+
+def fit_rings(value: np.ndarray, error: np.ndarray, trusted: np.ndarray) -> np.ndarray:
+    """The rings of the band the fit uses: a ratio above :data:`FIT_FLOOR` and twice its error
+    (below, it cannot be told from a lost one, and its logarithm is noise)."""
+    with np.errstate(invalid="ignore"):
+        return trusted & np.isfinite(value) & np.isfinite(error) & (value >= np.maximum(FIT_FLOOR, 2 * error))
 
 
 def mtf50_mismatch(ratio_at_mtf50: float) -> float:
@@ -70,27 +76,35 @@ def mtf50_mismatch(ratio_at_mtf50: float) -> float:
 
 
 def _curvature(frequency: np.ndarray, values: np.ndarray, weight: np.ndarray) -> np.ndarray:
-    """``a`` of ``ln M = −a·f²`` fitted through the origin, for each row of ``values``."""
+    """``a`` of ``ln M = c − a·f²`` (weighted least squares) for each row of ``values``: with its
+    own intercept ``c`` on three rings or more, so a gain read slightly off at zero frequency
+    does not bend the shape; through the origin on fewer."""
     x = frequency ** 2
     with np.errstate(invalid="ignore", divide="ignore"):
         y = np.log(values)
-    return -np.nansum(weight * x * y, axis=-1) / np.sum(weight * x * x)
+    if len(x) < 3:
+        return -np.sum(weight * x * y, axis=-1) / np.sum(weight * x * x)
+    w = weight / weight.sum()
+    xm, ym = float(np.sum(w * x)), np.sum(w * y, axis=-1, keepdims=True)
+    return -np.sum(w * (x - xm) * (y - ym), axis=-1) / float(np.sum(w * (x - xm) ** 2))
 
 
-def mtf_reading(frequency: np.ndarray, values: np.ndarray, error: np.ndarray, trusted: np.ndarray,
+def mtf_reading(frequency: np.ndarray, values: np.ndarray, error: np.ndarray, rings: np.ndarray,
                 reference: float) -> dict:
-    """The Gaussian fit of the ratio over the band (weights 1/var ln M) read at ``reference``:
-    the ratio there, its MTF50 mismatch and the fit's RMS residual in ``ln M``, with jackknife
-    errors over the replicate rows of ``values`` (row 0 the whole estimate)."""
-    trusted = trusted & (values[0] >= FIT_FLOOR)
-    if not trusted.any():
+    """The Gaussian fit of the ratio over ``rings`` (:func:`fit_rings`; weights 1/var ln M) read
+    at ``reference``: the ratio there, its MTF50 mismatch and the fit's RMS residual in ``ln M``,
+    with jackknife errors over the replicate rows of ``values`` (row 0 the whole estimate)."""
+    if not rings.any():
         return {"ratio_at_reference": None, "ratio_at_reference_err": None, "mtf50_mismatch": None,
                 "mtf50_mismatch_err": None, "shape_residual": None}
-    f, rows = frequency[trusted], values[:, trusted]
-    weight = (rows[0] / np.maximum(error[trusted], 1e-12)) ** 2
-    at = np.exp(-_curvature(f, rows, weight) * reference ** 2)
+    f, rows = frequency[rings], values[:, rings]
+    weight = (rows[0] / np.maximum(error[rings], 1e-12)) ** 2
+    slopes = _curvature(f, rows, weight)
+    at = np.exp(-slopes * reference ** 2)
     mismatch = np.array([mtf50_mismatch(v) for v in at])
-    residual = np.log(rows[0]) + _curvature(f, rows[:1], weight)[0] * f ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        log = np.log(rows[0]) + slopes[0] * f ** 2
+    residual = log - np.sum(weight * log) / np.sum(weight)
     at_err, mismatch_err = (float(jackknife(v[:, None])[0]) for v in (at, mismatch))
     return {"ratio_at_reference": float(at[0]), "ratio_at_reference_err": at_err,
             "mtf50_mismatch": float(mismatch[0]), "mtf50_mismatch_err": mismatch_err,

@@ -11,6 +11,7 @@ import numpy as np
 from .. import _core
 from ..errors import ShapeError
 from ..frames import FRAME_DTYPES
+from .rings import displacement, unchanged
 
 __all__ = ["GROUPS", "TransferSpectra", "tile_size", "tiling", "transfer_spectra"]
 
@@ -40,7 +41,7 @@ def tiling(shape: tuple[int, int], tile: int) -> int:
 
 @dataclass
 class TransferSpectra:
-    """The sums a :class:`~irfidelity.transfer.Transfer` is estimated from, mergeable over the
+    """The sums a :class:`~irfidelity.Transfer` is estimated from, mergeable over the
     frames of a sequence.
 
     ``tiles`` per group; ``real``, ``sim``, ``cross`` (complex), ``difference`` (None without a
@@ -48,7 +49,11 @@ class TransferSpectra:
     Σ|R − R′|² over each group's tiles; ``window_energy`` (Σ w² over a tile); the whole-frame
     spectrum of the ``low_shape`` block-mean frames (blocks of ``factor`` px): ``low_real``,
     ``low_cross`` (complex); the frames' sums ``sum_real``, ``sum_sim`` over ``pixels`` scored
-    pixels; ``skipped`` tiles (a pixel not scored or not finite).
+    pixels; ``skipped`` tiles (a pixel not scored or not finite); ``shift``, the pair's
+    displacement from the block-mean spectrum (``sim(x) ≈ real(x − d)``; the cross-spectra are
+    aligned around it, each tile on its own), and ``shifts`` per group, ``[Σw, Σw·dy, Σw·dx,
+    Σw·dy², Σw·dx²]`` over the tiles' own displacements (``w`` their cross power); ``changed``,
+    the groups of tiles left out because they saw a different scene (:func:`transfer_spectra`).
     """
 
     tile: int
@@ -67,6 +72,9 @@ class TransferSpectra:
     sum_sim: float
     pixels: int
     skipped: int = 0
+    shift: tuple[float, float] = (0.0, 0.0)
+    shifts: np.ndarray | None = None
+    changed: int = 0
 
     def merge(self, other: TransferSpectra) -> TransferSpectra:
         """The sums of both (frames of one sequence: the same tiling and frame size)."""
@@ -79,7 +87,9 @@ class TransferSpectra:
                                self.sim + other.sim, self.cross + other.cross, difference, self.window_energy,
                                self.low_real + other.low_real, self.low_cross + other.low_cross, self.low_shape,
                                self.factor, self.sum_real + other.sum_real, self.sum_sim + other.sum_sim,
-                               self.pixels + other.pixels, self.skipped + other.skipped)
+                               self.pixels + other.pixels, self.skipped + other.skipped, self.shift,
+                               None if self.shifts is None or other.shifts is None else self.shifts + other.shifts,
+                               self.changed + other.changed)
 
 
 def _kernel_frames(real: np.ndarray, sim: np.ndarray, ref: np.ndarray | None) -> tuple:
@@ -104,12 +114,56 @@ def transfer_spectra(real: np.ndarray, sim: np.ndarray, *, mask: np.ndarray | No
     tile = tile_size(real.shape) if tile is None else int(tile)
     step = tiling(real.shape, tile)
     mask = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
-    welch = _core.cross_spectra(real, sim, ref, mask, tile=tile, step=step, groups=GROUPS)
-    low = _core.low_spectrum(real, sim, mask, factor=max(1, min(real.shape) // 64))
+    factor = max(1, min(real.shape) // 64)
+    low = _core.low_spectrum(real, sim, mask, factor=factor)
+    low_cross = low["cross_re"] + 1j * low["cross_im"]
+    shift = displacement(low_cross, (int(low["rows"]), int(low["cols"])), int(low["factor"]))
+    welch = _core.cross_spectra(real, sim, ref, mask, tile=tile, step=step, groups=GROUPS, shift=shift)
+    welch["cross"] = welch["cross_re"] + 1j * welch["cross_im"]
+    changed = ~unchanged(_group_sums(welch, tile)) & (np.asarray(welch["tiles"]) > 0)
+    if changed.any():
+        welch, low = _without(welch, changed), _core.low_spectrum(real, sim, _masked(mask, real.shape, welch, changed),
+                                                                   factor=factor)
+        low_cross = low["cross_re"] + 1j * low["cross_im"]
     return TransferSpectra(tile=tile, step=step, tiles=np.asarray(welch["tiles"], dtype=np.int64),
-                           real=welch["real"], sim=welch["sim"], cross=welch["cross_re"] + 1j * welch["cross_im"],
+                           real=welch["real"], sim=welch["sim"], cross=welch["cross"],
                            difference=welch.get("difference"), window_energy=float(welch["window_energy"]),
-                           low_real=low["real"], low_cross=low["cross_re"] + 1j * low["cross_im"],
+                           low_real=low["real"], low_cross=low_cross,
                            low_shape=(int(low["rows"]), int(low["cols"])), factor=int(low["factor"]),
                            sum_real=float(low["sum_real"]), sum_sim=float(low["sum_sim"]), pixels=int(low["pixels"]),
-                           skipped=int(welch["skipped"]))
+                           skipped=int(welch["skipped"]), shift=shift,
+                           shifts=np.asarray(welch["shifts"], dtype=np.float64), changed=int(changed.sum()))
+
+
+def _group_sums(welch: dict, tile: int):
+    """The per-group ring sums of fresh Welch sums (no noise known yet)."""
+    from .rings import Geometry, RingSums
+
+    geometry = Geometry.of(tile)
+    groups = len(welch["tiles"])
+    index = (geometry.ring[None] + tile * np.arange(groups)[:, None, None]).ravel()
+    sums = lambda v: np.bincount(index, (geometry.weight * v).ravel(),  # noqa: E731
+                                 minlength=groups * tile).reshape(groups, tile)[:, :geometry.rings]
+    real, cross = sums(welch["real"]), sums(welch["cross"].real)
+    return RingSums(real, real, cross, None, (cross, real), (cross, real), geometry.rings,
+                    np.asarray(welch["tiles"]))
+
+
+def _without(welch: dict, changed: np.ndarray) -> dict:
+    """The Welch sums with the ``changed`` groups emptied."""
+    out = dict(welch)
+    for key in ("real", "sim", "cross", "difference"):
+        if out.get(key) is not None:
+            out[key] = np.where(changed[:, None, None], 0, out[key])
+    out["tiles"] = np.where(changed, 0, np.asarray(welch["tiles"]))
+    out["shifts"] = np.where(changed[:, None], 0.0, np.asarray(welch["shifts"], dtype=np.float64))
+    return out
+
+
+def _masked(mask: np.ndarray | None, shape: tuple[int, int], welch: dict, changed: np.ndarray) -> np.ndarray:
+    """``mask`` without the boxes the ``changed`` groups cover."""
+    out = np.ones(shape, dtype=bool) if mask is None else mask.copy()
+    for (r0, r1, c0, c1), gone in zip(welch["boxes"], changed):
+        if gone:
+            out[r0:r1, c0:c1] = False
+    return out

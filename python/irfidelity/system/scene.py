@@ -1,11 +1,14 @@
 """The camera components from the scene: ``mtf``, ``sitf`` and ``noise`` graded from the pair's
-:class:`~irfidelity.transfer.Transfer` when no camera curves or noise recordings are given, and
+:class:`~irfidelity.Transfer` when no camera curves or noise recordings are given, and
 the scene's estimate beside the curves when they are (a cross-check).
 
 Each component has the value its tolerance's cut is defined on (:mod:`irfidelity.tolerances`),
 so the grade reads the estimate exactly: ``mtf = μ(1 − e)^α`` with ``e`` the MTF50 mismatch the
 ratio implies at the real camera's MTF50; ``sitf = μ(gain)^α`` (the SiTF-slope ratio of the
-simulator on this scene; 0 for inverted grey levels); ``noise = μ(noise ratio)``.
+simulator on this scene; 0 for inverted grey levels); ``noise = μ(noise ratio)``. Each is taken
+at the edge of its estimate's interval (:data:`DOUBT` standard errors) nearest to a perfect
+match: the grade counts what the scene shows beyond doubt, and a scene that cannot tell (a short
+or changing one) does not blame the simulator for its own uncertainty.
 """
 
 from __future__ import annotations
@@ -17,7 +20,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..tolerances import mu_of_ratio
-from .pair import aligned, real_noise_variance
+from ..errors import FidelityError
+from .pair import aligned, cropped, real_noise_variance
 from .readings import REFERENCE_FREQUENCY
 from .result import Transfer, estimate
 from .spectra import transfer_spectra
@@ -29,13 +33,12 @@ __all__ = ["SCENE_KINDS", "SceneEstimate", "scene_estimate", "scene_kinds", "sce
 SCENE_KINDS = ("mtf", "sitf", "noise")
 
 #: Why the scene gave no input, by component (the skip reasons and the verdict's "not assessed").
-_UNKNOWN_NOISE = ("the real camera's noise is unknown: give a second real frame (real_ref=, --real-ref), its 3-D "
-                  "noise (real_noise=, --real-noise) or score a sequence")
+_UNKNOWN_NOISE = "the real camera's noise is unknown (give real_ref or real_noise, or score a sequence)"
 
 
 def reference_frequency(config: Any, curves: Mapping[str, Any]) -> float:
     """Where the MTF ratio is read: ``transfer_options.reference_frequency``, else the MTF50 of
-    a real MTF curve in cycles per pixel, else :data:`~irfidelity.transfer.REFERENCE_FREQUENCY`."""
+    a real MTF curve in cycles per pixel, else :data:`~irfidelity.system.REFERENCE_FREQUENCY`."""
     given = config.transfer_options.get("reference_frequency")
     if given is not None:
         return float(given)
@@ -68,13 +71,14 @@ def scene_transfer(sources: Mapping[str, Any], config: Any, *, real_ref: np.ndar
         source = "real_ref"
     elif real_noise is not None:
         variance, source = real_noise_variance(real_noise), "real_noise"
+    (real, sim, real_ref), mask = cropped([real, sim, real_ref], None if mask is None else np.asarray(mask, dtype=bool))
     spectra = transfer_spectra(real, sim, mask=mask, real_ref=real_ref, tile=config.transfer_options.get("tile"))
     return estimate(spectra, real_variance=variance, noise_source=source,
                     reference_frequency=reference_frequency(config, sources.get("curves", {})))
 
 
 def _overlap(shape: tuple[int, int], registration: Any) -> tuple[slice, slice]:
-    """The real frame's part that :func:`~irfidelity.transfer.pair.aligned` keeps."""
+    """The real frame's part that :func:`~irfidelity.system.pair.aligned` keeps."""
     dy, dx = (int(round(v)) for v in registration.shift)
     return (slice(max(dy, 0), shape[0] + min(dy, 0)), slice(max(dx, 0), shape[1] + min(dx, 0)))
 
@@ -92,20 +96,35 @@ def scene_components(t: Transfer, kinds: tuple[str, ...], config: Any) -> tuple[
     return values, missing
 
 
+#: A component is graded at the edge of its estimate's interval nearest to a perfect match,
+#: this many standard errors away: the grade counts what the scene shows beyond doubt.
+DOUBT = 2.0
+
+
+def _toward_one(value: float, error: float | None) -> float:
+    """``value`` moved :data:`DOUBT` standard errors toward 1, not past it."""
+    step = DOUBT * error if error is not None and math.isfinite(error) else 0.0
+    return max(1.0, value - step) if value > 1 else min(1.0, value + step)
+
+
 def _component(kind: str, t: Transfer, config: Any) -> tuple[float | None, str]:
+    """The component's value from the transfer, graded at :data:`DOUBT` standard errors toward a
+    perfect match (or why there is none)."""
     if kind == "mtf":
         if t.mtf50_mismatch is None:
             return None, t.unread or _NO_CONTRAST
-        alpha = float(config.mtf_options.get("alpha", 1.0))
-        return mu_of_ratio(1.0 - t.mtf50_mismatch) ** alpha, ""
+        err = t.mtf50_mismatch_err
+        mismatch = max(0.0, t.mtf50_mismatch - DOUBT * (err if err is not None and math.isfinite(err) else 0.0))
+        return mu_of_ratio(1.0 - mismatch) ** float(config.mtf_options.get("alpha", 1.0)), ""
     if kind == "sitf":
         if t.gain is None:
             return None, _NO_CONTRAST
-        alpha = float(config.sitf_options.get("alpha", 1.0))
-        return (mu_of_ratio(t.gain) ** alpha if t.gain > 0 else 0.0), ""
+        gain = _toward_one(t.gain, t.gain_err) if t.gain > 0 else 0.0
+        return (mu_of_ratio(gain) ** float(config.sitf_options.get("alpha", 1.0)) if gain > 0 else 0.0), ""
     if t.noise_ratio is None:
         return None, _UNKNOWN_NOISE
-    return (mu_of_ratio(t.noise_ratio) if t.noise_ratio > 0 else 0.0), ""
+    ratio = _toward_one(t.noise_ratio, t.noise_ratio_err)
+    return (mu_of_ratio(ratio) if ratio > 0 else 0.0), ""
 
 
 _NO_CONTRAST = "the scene has no contrast at low frequencies to measure the gain on (a flat or unrelated pair)"
@@ -141,11 +160,11 @@ def scene_kinds(config: Any, given: Mapping[str, bool], *, frames: bool, real_no
 
 @dataclass(frozen=True)
 class SceneEstimate:
-    """The pair's :class:`~irfidelity.transfer.Transfer`, the components it stands in for, its
+    """The pair's :class:`~irfidelity.Transfer`, the components it stands in for, its
     ``scene_*`` metrics (with ``<component>_source`` = "scene"), and the components it could not
     give with why."""
 
-    transfer: Transfer
+    transfer: Transfer | None
     components: dict
     metrics: dict
     missing: dict
@@ -159,7 +178,13 @@ def scene_estimate(sources: Mapping[str, Any], config: Any, kinds: tuple[str, ..
         from ..camera import as_noise
 
         real_noise = as_noise(real_noise, "real", config)
-    t = scene_transfer(sources, config, real_ref=real_ref, real_noise=real_noise, max_bytes=max_bytes)
+    try:
+        t = scene_transfer(sources, config, real_ref=real_ref, real_noise=real_noise, max_bytes=max_bytes)
+    except FidelityError as exc:
+        if exc.option != "tile":
+            raise
+        why = f"the scored region holds no whole tile to measure the pair's transfer on ({exc})"
+        return SceneEstimate(None, {}, {}, {k: why for k in kinds})
     values, missing = scene_components(t, kinds, config)
     metrics = {**scene_metrics(t), **{f"{k}_source": "scene" for k in values}}
     return SceneEstimate(t, values, metrics, missing)
