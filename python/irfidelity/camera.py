@@ -221,7 +221,7 @@ def _compare(kind: str, inputs: CameraInputs, config: ScoringConfig) -> tuple[fl
 def camera_components(inputs: CameraInputs, weights: Weights, config: ScoringConfig, *, scene: tuple = ()
                      ) -> tuple[dict, dict, dict, dict]:
     """Components f1 (MTF, eqs. 1–4), f2 (SiTF), ``noise`` and ``mrtd`` whose weight is positive,
-    but those the frame pair's scene stands in for (``scene``, :mod:`irfidelity.transfer.scene`).
+    but those the frame pair's scene stands in for (``scene``, :mod:`irfidelity.system.scene`).
 
     Inputs with weight 0 are not read at all. Curves in different units are converted with
     the configuration's camera geometry, or refused (:mod:`irfidelity.curves.units`).
@@ -250,7 +250,7 @@ def camera_components(inputs: CameraInputs, weights: Weights, config: ScoringCon
 def camera_source(kind: str, inputs: CameraInputs) -> str:
     """Where a camera component's input came from: "curves", "edge images", "bar frames",
     "CTF curves" (MTF), "noise recordings" (noise) — the scene's is "scene"
-    (:mod:`irfidelity.transfer.scene`)."""
+    (:mod:`irfidelity.system.scene`)."""
     from .bar_frames import as_bar_frames
 
     x = getattr(inputs, f"real_{kind}")

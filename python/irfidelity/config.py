@@ -124,7 +124,7 @@ class ScoringConfig:
         (:func:`irfidelity.curves.measured_mrtd`: ``snr_threshold``, ``eye_time``,
         ``frame_rate``), e.g. ``{"tolerance": 10}``.
     transfer_options : mapping
-        The scene's transfer (:func:`irfidelity.transfer.transfer`, docs/interpretation.md "The
+        The scene's transfer (:func:`irfidelity.transfer`, docs/interpretation.md "The
         pair as a system"): ``scene`` (default true: without camera curves, ``mtf``, ``sitf``
         and ``noise`` are graded from the frame pair; false leaves them to curves only),
         ``reference_frequency`` (the real camera's MTF50 in cy/px, where the MTF ratio is read

@@ -1,8 +1,10 @@
 """Command line: ``irfidelity score REAL SIM ...``, ``irfidelity rank REAL SIM...``, ``irfidelity
 weights fit FILE``, ``irfidelity demo``, ``irfidelity config``, ``irfidelity targets OUT``.
 
-Exit status: 0 everything scored; 2 bad usage or input (one line on stderr naming the file
-or flag, no traceback); 3 a sequence finished but some frames failed.
+Exit status: 0 everything scored (and accepted, with ``score --spec``); 2 bad usage or input
+(one line on stderr naming the file or flag, no traceback; a bad acceptance specification
+too); 3 a sequence finished but some frames failed (before 4: the acceptance then covers only
+the frames scored); 4 scored, but not accepted by the ``--spec`` acceptance specification.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from collections.abc import Sequence
 
 from ..errors import FidelityError
 from .output import UsageError, message, warning_lines, write_outputs
-from .parser import EXIT_FAILED_FRAMES, EXIT_OK, EXIT_USAGE, build_parser
+from .parser import EXIT_FAILED_FRAMES, EXIT_NOT_ACCEPTED, EXIT_OK, EXIT_USAGE, build_parser
 
 __all__ = ["main"]
 
@@ -46,8 +48,10 @@ def _run(a) -> int:
     if a.command == "score":
         from .score import score_command
 
-        report, sequence = score_command(a)
-        return EXIT_FAILED_FRAMES if sequence and report.failed else EXIT_OK
+        report, sequence, acceptance = score_command(a)
+        if sequence and report.failed:
+            return EXIT_FAILED_FRAMES
+        return EXIT_NOT_ACCEPTED if acceptance is not None and not acceptance.passed else EXIT_OK
     if a.command in ("rank", "weights"):
         from .rank import rank_command, weights_command
 
@@ -65,7 +69,7 @@ def _run(a) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the exit status (0, 2 or 3)."""
+    """Run the command line; returns the exit status (0, 2, 3 or 4: the module notes)."""
     parser = build_parser()
     try:
         a = parser.parse_args(argv)

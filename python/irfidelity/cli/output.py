@@ -143,10 +143,15 @@ def _html_budget(a: argparse.Namespace, sequence: bool) -> int | None:
     return per_pair(None, max_memory, getattr(a, "workers", None)) if sequence else max_memory
 
 
-def write_outputs(report: Any, a: argparse.Namespace, *, sequence: bool) -> None:
-    """Every output the arguments ask for; the summary unless JSON goes to stdout."""
+def write_outputs(report: Any, a: argparse.Namespace, *, sequence: bool, acceptance: Any = None) -> None:
+    """Every output the arguments ask for; the summary unless JSON goes to stdout. With an
+    ``acceptance`` result (``--spec``), the JSON gains an ``"acceptance"`` block and the summary
+    ends with one line per requirement and ACCEPTED / NOT ACCEPTED."""
     if getattr(a, "json", None) is not None:
-        write_json(report.to_dict(), a.json)
+        data = report.to_dict()
+        if acceptance is not None:
+            data["acceptance"] = acceptance.to_dict()
+        write_json(data, a.json)
     if getattr(a, "csv", None) is not None and not sequence:
         _write_csv(report, a.csv)
     if getattr(a, "report", None) is not None:
@@ -157,4 +162,6 @@ def write_outputs(report: Any, a: argparse.Namespace, *, sequence: bool) -> None
         if not sequence and hasattr(a, "real"):
             print(f"real: {a.real}\nsim:  {a.sim}\n")
         print(cli_wording(report.summary_text(), a))
+        if acceptance is not None:
+            print("\n" + cli_wording("\n".join(acceptance.summary_lines()), a))
         a.shown_notes = set(getattr(report, "notes", ()))

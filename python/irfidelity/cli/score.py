@@ -12,6 +12,7 @@ from ..config import ScoringConfig
 from ..errors import FidelityError
 from ..frames import MULTIPAGE_EXTENSIONS, FrameSequence, page_chain
 from ..fuzzy import Weights
+from ..tolerances import parse_tolerance
 from .output import UsageError, write_outputs
 from .parser import CALIBRATION_FLAGS
 from .regions import pair_flags, region_flags, tolerance_flags
@@ -41,6 +42,24 @@ def scoring_config(a: argparse.Namespace, flags: tuple = _CONFIG_FLAGS) -> Scori
         config = config.replace(calibration={**config.calibration, **calibration})
     tolerance = getattr(a, "tolerance", None)
     return config.replace(tolerances=tolerance_flags(tolerance, config.tolerances)) if tolerance else config
+
+
+def acceptance_spec(a: argparse.Namespace, config: ScoringConfig) -> tuple[Any, ScoringConfig]:
+    """The ``--spec`` acceptance specification (None without one) and ``config`` with its
+    tolerances. Read before anything is scored, so that a bad spec costs nothing; a
+    ``--tolerance`` that sets other limits than the spec for the same tolerance is refused (the
+    spec is the contract: one place says what is accepted)."""
+    if getattr(a, "spec", None) is None:
+        return None, config
+    from ..acceptance import Acceptance
+
+    spec = Acceptance.from_toml(a.spec)
+    for text in getattr(a, "tolerance", None) or ():
+        name, limits = parse_tolerance(text)  # already checked by scoring_config
+        if name in spec.tolerances and limits != spec.tolerances[name]:
+            raise UsageError(f"--tolerance {text}: the acceptance specification {a.spec} sets {name} = "
+                             f"{list(spec.tolerances[name])}; give the limits in one place")
+    return spec, spec.apply(config)
 
 
 def _is_sequence(path: str) -> bool:
@@ -151,9 +170,10 @@ def _curves(a: argparse.Namespace, config: ScoringConfig) -> dict:
     return curves
 
 
-def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
-    """Score as the arguments say; returns the report and whether it is a sequence's."""
-    config = scoring_config(a)
+def score_command(a: argparse.Namespace) -> tuple[Any, bool, Any]:
+    """Score as the arguments say; returns the report, whether it is a sequence's, and its
+    :class:`~irfidelity.acceptance.AcceptanceResult` against ``--spec`` (None without one)."""
+    spec, config = acceptance_spec(a, scoring_config(a))
     curves = _curves(a, config)
     seq_real, seq_sim = _is_sequence(a.real), _is_sequence(a.sim)
     if seq_real != seq_sim:
@@ -178,5 +198,10 @@ def score_command(a: argparse.Namespace) -> tuple[Any, bool]:
         from ..evaluation import evaluate
 
         report = evaluate(a.real, a.sim, config=config, max_bytes=a.max_memory, **curves, **pair_options)
-    write_outputs(report, a, sequence=seq_real)
-    return report, seq_real
+    acceptance = None
+    if spec is not None:
+        from ..acceptance import check
+
+        acceptance = check(report, spec)
+    write_outputs(report, a, sequence=seq_real, acceptance=acceptance)
+    return report, seq_real, acceptance
