@@ -79,6 +79,8 @@ def test_order_of_degraded_simulators_is_recovered_and_significant(compared):
         assert compared.significant[(better, worse)], (better, worse)
     twins = ("fine", "twin") if ("fine", "twin") in compared.significant else ("twin", "fine")
     assert not compared.significant[twins]
+    # nor does P(first) crown one of them (it resamples the frames with the weights)
+    assert all(0.02 < compared.stability.p_first[name] < 0.98 for name in twins), compared.stability.p_first
     # the ranking's estimates are the reports' pooled results (the frames every simulator scored)
     for name, rep in compared.reports.items():
         assert compared.ranking.estimate[name]["fidelity"] == pytest.approx(rep.fidelity, abs=1e-12)
@@ -203,13 +205,17 @@ def test_a_failed_frame_is_left_out_of_the_ranking_with_a_note(tmp_path):
 def test_comparison_html_csv_and_json(compared, tmp_path):
     html = compared.to_html(tmp_path / "rank.html")
     assert (tmp_path / "rank.html").read_text(encoding="utf-8") == html
-    for needle in ("What decided the order", "Fidelity frame by frame", "Stability under weight changes",
+    for needle in ("What decided the order", "Fidelity frame by frame",
+                   "Stability under the frames&#x27; sampling and weight changes",
                    "mid is closer than coarse: significant", "not significant", "data:image/png;base64"):
         assert needle in html, needle
+    for name, rep in compared.reports.items():  # the grade column: each simulator's own grade
+        assert f"<td>{name}</td><td>{rep.grade}</td>" in html, name
     compared.to_csv(tmp_path / "rank.csv")
     with open(tmp_path / "rank.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert [r["simulator"] for r in rows] == compared.order
+    assert [r["grade"] for r in rows] == [compared.reports[n].grade for n in compared.order]
     assert all(float(r["fidelity_lo"]) <= float(r["fidelity"]) <= float(r["fidelity_hi"]) for r in rows)
     data = json.loads(json.dumps(compared.to_dict()))
     assert data["order"] == compared.order and set(data["reports"]) == set(compared.reports)

@@ -23,11 +23,16 @@ give the standard error ``se`` of θ and, on each resample, ``se*``. Resamples j
 ``a = (1 − level) / 2`` (the bootstrap-t of Götze & Künsch 1996; quantiles are order
 statistics, numpy's ``inverted_cdf``). Studentizing corrects much of the too-narrow intervals
 the plain percentile method gives on correlated frames (docs/ranking.md has the figures).
+The block length ``b`` (:func:`block_length`) follows the frames' correlation but leaves at
+least :data:`MIN_BLOCKS` (5) blocks; when the frames are too few for blocks of the length their
+correlation asks for, the results carry a ``note`` and a :class:`ShortRecordingWarning` is
+issued (:func:`short_recording_note`).
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from numbers import Real
 from statistics import NormalDist
@@ -36,13 +41,14 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from .config import ScoringConfig
-from .errors import FidelityError
+from .errors import FidelityError, ShortRecordingWarning
 from .fuzzy import COMPONENTS, Weights, fidelity_sum
 from .metrics import psnr_from_mse
 from .normalize import DEFAULT_PSNR_ANCHORS, normalize_psnr
 from .temperature import frame_exponent, radiometry_of_exponent
 
-__all__ = ["block_length", "bootstrap_ci", "paired_bootstrap", "Intervals", "PairedTest", "sequence_pool",
+__all__ = ["block_length", "wanted_block_length", "short_recording_note", "MIN_BLOCKS", "ShortRecordingWarning",
+           "bootstrap_ci", "paired_bootstrap", "Intervals", "PairedTest", "sequence_pool",
            "pool_numbers", "POOL_INPUTS", "psnr_noise_interval", "noise_interval", "DEFAULT_RESAMPLES"]
 
 #: Resamples drawn when none is given.
@@ -53,6 +59,9 @@ DEFAULT_RESAMPLES = 2000
 Pool = Callable[[Mapping[str, float], int], Mapping[str, float]]
 
 _MAX_RHO = 0.99  # lag-1 autocorrelations are clipped here before the block-length rule
+
+#: Fewest blocks :func:`block_length` leaves a resample (its notes say why).
+MIN_BLOCKS = 5
 
 
 # --------------------------------------------------------------------------- inputs
@@ -176,53 +185,117 @@ def _lag1(series: np.ndarray) -> float:
     return 0.0 if energy == 0 else float(centred[1:] @ centred[:-1]) / energy
 
 
-def block_length(*series: Any) -> int:
-    """Block length (frames) for resampling ``n`` frames: twice the AR(1) plug-in of the
-    Politis–White length.
-
-    With ``ρ`` the largest absolute lag-1 autocorrelation of the given series (clipped at
-    0.99), the length is ``⌈2·(6ρ² / (1 − ρ²)²)^(1/3)·n^(1/3)⌉``, kept within
-    ``[1, max(1, n // 3)]`` (at least three blocks). ``(6ρ²/(1−ρ²)²)^(1/3)·n^(1/3)`` is
-    Politis & White's (2004, with Patton et al. 2009) MSE-optimal circular-block length
-    for an AR(1) series; doubling it trades a little interval variance for less bias of the
-    standard error, which is what decides coverage (docs/ranking.md has the figures).
-    A series without lag-1 correlation gets 1 (the ordinary bootstrap); white noise's sampling
-    correlation of about ±0.1 gives a few frames.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from irfidelity.bootstrap import block_length
-    >>> block_length(np.tile([0.0, 1.0], 50))           # lag-1 correlation −0.98: n // 3
-    33
-    >>> block_length(np.sin(np.arange(100) / 20.0))      # slowly varying: long blocks
-    33
-    >>> block_length(np.random.default_rng(0).normal(size=100))   # white noise: short blocks
-    4
-    """
+def _series_arrays(series: tuple) -> list[np.ndarray]:
+    """The series as 1-D float arrays of one length >= 2, else FidelityError."""
     if not series:
         raise FidelityError("block_length needs at least one series")
     arrays = [np.asarray(s, dtype=np.float64) for s in series]
     n = arrays[0].size
     if n < 2 or any(a.ndim != 1 or a.size != n for a in arrays):
         raise FidelityError("block_length needs 1-D series of equal length >= 2")
+    return arrays
+
+
+def wanted_block_length(*series: Any) -> int:
+    """The block length (frames) the series' correlation asks for, before the cap of
+    :func:`block_length`: ``⌈2·(6ρ² / (1 − ρ²)²)^(1/3)·n^(1/3)⌉``, at least 1 (its notes).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from irfidelity.bootstrap import block_length, wanted_block_length
+    >>> slow = np.sin(np.arange(100) / 20.0)
+    >>> wanted_block_length(slow), block_length(slow)     # 100 frames allow blocks of 20
+    (183, 20)
+    """
+    arrays = _series_arrays(series)
+    n = arrays[0].size
     rho = min(max(abs(_lag1(a)) for a in arrays), _MAX_RHO)
     length = math.ceil(2.0 * (6.0 * rho * rho / (1.0 - rho * rho) ** 2) ** (1 / 3) * n ** (1 / 3) - 1e-9)
-    return int(min(max(length, 1), max(1, n // 3)))
+    return int(max(length, 1))
+
+
+def longest_block(frames: int) -> int:
+    """The longest block :func:`block_length` gives ``frames`` frames: ``frames // MIN_BLOCKS``, at least 1."""
+    return max(1, frames // MIN_BLOCKS)
+
+
+def block_length(*series: Any) -> int:
+    """Block length (frames) for resampling ``n`` frames: twice the AR(1) plug-in of the
+    Politis–White length, capped so that a resample has at least :data:`MIN_BLOCKS` blocks.
+
+    With ``ρ`` the largest absolute lag-1 autocorrelation of the given series (clipped at
+    0.99), the length is ``⌈2·(6ρ² / (1 − ρ²)²)^(1/3)·n^(1/3)⌉`` (:func:`wanted_block_length`),
+    kept within ``[1, max(1, n // 5)]``. ``(6ρ²/(1−ρ²)²)^(1/3)·n^(1/3)`` is Politis & White's
+    (2004, with Patton et al. 2009) MSE-optimal circular-block length for an AR(1) series;
+    doubling it trades a little interval variance for less bias of the standard error, which
+    is what decides coverage (docs/ranking.md has the figures). A series without lag-1
+    correlation gets 1 (the ordinary bootstrap); white noise's sampling correlation of about
+    ±0.1 gives a few frames.
+
+    The cap keeps at least five blocks per resample: the standard error that studentizes every
+    interval and test is the spread of the linearisation's block means, and with three or four
+    of them (12 frames in blocks of 4) it is so erratic that intervals swing from far too narrow
+    to absurdly wide. When the cap binds, the blocks are shorter than the frames' correlation asks
+    for and the intervals are likely too narrow: :func:`short_recording_note` says so, and the
+    bootstrap functions warn (:class:`ShortRecordingWarning`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from irfidelity.bootstrap import block_length
+    >>> block_length(np.tile([0.0, 1.0], 50))           # lag-1 correlation −0.98: n // 5
+    20
+    >>> block_length(np.sin(np.arange(100) / 20.0))      # slowly varying: long blocks
+    20
+    >>> block_length(np.random.default_rng(0).normal(size=100))   # white noise: short blocks
+    4
+    >>> block_length(np.sin(np.arange(12) / 3.0))        # 12 frames: blocks of 2, six of them
+    2
+    """
+    frames = _series_arrays(series)[0].size
+    return min(wanted_block_length(*series), longest_block(frames))
+
+
+def short_recording_note(frames: int, block: int, wanted: int) -> str | None:
+    """Why ``frames`` frames resampled in blocks of ``block`` are too few for honest intervals, or None.
+
+    They are when they make fewer than :data:`MIN_BLOCKS` blocks of the ``wanted`` length
+    (:func:`wanted_block_length`): the resamples then cut the frames into blocks shorter than
+    their correlation asks for (or into fewer than five), so the intervals are likely too narrow
+    and the tests too ready to call a difference significant (docs/ranking.md has the figures).
+
+    Examples
+    --------
+    >>> from irfidelity.bootstrap import short_recording_note
+    >>> short_recording_note(100, 20, 12) is None
+    True
+    >>> short_recording_note(12, 2, 4)[:52]
+    '12 frames are too few for honest intervals: their co'
+    """
+    if wanted <= frames // MIN_BLOCKS:
+        return None
+    return (f"{frames} frames are too few for honest intervals: their correlation asks for blocks of {wanted} "
+            f"frame(s) and at least {MIN_BLOCKS} blocks ({MIN_BLOCKS * wanted} frames); resampled in blocks of "
+            f"{block}, the intervals are likely too narrow and the tests and P(first) too sure. Record more "
+            f"frames, or frames further apart")
 
 
 @dataclass(frozen=True)
 class Resampling:
-    """Circular block resamples of ``frames`` frames: ``starts[r]`` are resample ``r``'s block starts."""
+    """Circular block resamples of ``frames`` frames: ``starts[r]`` are resample ``r``'s block starts;
+    ``note`` says why the frames are too few for honest intervals (:func:`short_recording_note`), or None."""
 
     frames: int
     block: int
     starts: np.ndarray
+    note: str | None = None
 
     @classmethod
-    def draw(cls, frames: int, block: int, resamples: int, rng: np.random.Generator) -> Resampling:
+    def draw(cls, frames: int, block: int, resamples: int, rng: np.random.Generator,
+             note: str | None = None) -> Resampling:
         blocks = -(-frames // block)
-        return cls(frames, block, rng.integers(0, frames, size=(resamples, blocks)))
+        return cls(frames, block, rng.integers(0, frames, size=(resamples, blocks)), note)
 
     @property
     def resamples(self) -> int:
@@ -311,6 +384,9 @@ class Intervals:
     block, resamples, frames : int
         Block length, resamples (draws) and frames behind the intervals (block 0 when no
         frames were resampled).
+    note : str or None
+        Why the frames are too few for honest intervals (:func:`short_recording_note`: the
+        intervals are then likely too narrow), or None.
     """
 
     estimate: dict
@@ -320,11 +396,12 @@ class Intervals:
     block: int
     resamples: int
     frames: int
+    note: str | None = None
 
     def to_dict(self) -> dict:
         return {"estimate": dict(self.estimate), "ci": {q: list(v) for q, v in self.ci.items()},
                 "level": self.level, "method": self.method, "block": self.block, "resamples": self.resamples,
-                "frames": self.frames}
+                "frames": self.frames, "note": self.note}
 
 
 @dataclass(frozen=True)
@@ -344,6 +421,8 @@ class PairedTest:
         :func:`irfidelity.ranking.rank`).
     level : float
     block, resamples, frames : int
+    note : str or None
+        As :attr:`Intervals.note`: why the frames are too few for an honest test, or None.
     """
 
     difference: dict
@@ -354,11 +433,12 @@ class PairedTest:
     block: int
     resamples: int
     frames: int
+    note: str | None = None
 
     def to_dict(self) -> dict:
         return {"difference": dict(self.difference), "ci": {q: list(v) for q, v in self.ci.items()},
                 "p_value": dict(self.p_value), "significant": dict(self.significant), "level": self.level,
-                "block": self.block, "resamples": self.resamples, "frames": self.frames}
+                "block": self.block, "resamples": self.resamples, "frames": self.frames, "note": self.note}
 
 
 _METHOD = "studentized circular block bootstrap over frames"
@@ -366,14 +446,19 @@ _METHOD = "studentized circular block bootstrap over frames"
 
 def plan_resampling(influences: list[np.ndarray], frames: int, block: int | None, resamples: int,
                     rng: Any) -> Resampling:
-    """Resamples for ``frames`` frames, with the given block length or :func:`block_length`'s."""
-    if block is None:
-        length = block_length(*influences)
-    elif isinstance(block, bool) or not isinstance(block, (int, np.integer)) or not 1 <= block <= frames:
+    """Resamples for ``frames`` frames, with the given block length or :func:`block_length`'s;
+    a :class:`ShortRecordingWarning` (and the resampling's ``note``) when the frames are too few
+    for honest intervals (:func:`short_recording_note`)."""
+    if block is not None and (isinstance(block, bool) or not isinstance(block, (int, np.integer))
+                              or not 1 <= block <= frames):
         raise FidelityError(f"block must be an integer in [1, {frames}] (frames), got {block!r}", option="block")
-    else:
-        length = int(block)
-    return Resampling.draw(frames, length, check_resamples(resamples), as_generator(rng))
+    count, generator = check_resamples(resamples), as_generator(rng)  # bad arguments fail before any warning
+    wanted = wanted_block_length(*influences)
+    length = min(wanted, longest_block(frames)) if block is None else int(block)
+    note = short_recording_note(frames, length, wanted)
+    if note is not None:
+        warnings.warn(note, ShortRecordingWarning, stacklevel=3)
+    return Resampling.draw(frames, length, count, generator, note)
 
 
 def bootstrap_ci(per_frame: Mapping[str, Any], *, pool: Pool | None = None, level: float = 0.95,
@@ -403,7 +488,8 @@ def bootstrap_ci(per_frame: Mapping[str, Any], *, pool: Pool | None = None, leve
     -------
     Intervals
         ``.estimate`` and ``.ci`` ``{quantity: (lo, hi)}`` by the studentized circular block
-        bootstrap of the module notes.
+        bootstrap of the module notes; ``.note`` (and a :class:`ShortRecordingWarning`) when
+        the frames are too few for honest intervals (:func:`short_recording_note`).
 
     Examples
     --------
@@ -412,11 +498,11 @@ def bootstrap_ci(per_frame: Mapping[str, Any], *, pool: Pool | None = None, leve
     >>> import math, numpy as np
     >>> from irfidelity.bootstrap import bootstrap_ci
     >>> rng = np.random.default_rng(1)
-    >>> fidelity = 0.9 + 0.01 * np.convolve(rng.normal(size=104), np.ones(5) / 5, "valid")
+    >>> fidelity = 0.9 + 0.01 * np.convolve(rng.normal(size=102), np.ones(3) / 3, "valid")
     >>> ci = bootstrap_ci({"fidelity": fidelity}, level=0.9)
     >>> lo, hi = ci.ci["fidelity"]
-    >>> bool(lo < fidelity.mean() < hi), ci.block
-    (True, 23)
+    >>> bool(lo < fidelity.mean() < hi), ci.block, ci.note
+    (True, 17, None)
     >>> frames = {"sse": rng.uniform(90, 110, 100) * 1000, "n": np.full(100, 1000.0)}
     >>> psnr = lambda sums, k: {"psnr_db": 10 * math.log10(255.0 ** 2 * sums["n"] / sums["sse"])}
     >>> ci = bootstrap_ci(frames, pool=psnr, level=0.9)
@@ -431,7 +517,7 @@ def bootstrap_ci(per_frame: Mapping[str, Any], *, pool: Pool | None = None, leve
     ci = {q: studentized_interval(lin.estimate[q], draws[q], lin.influence[q], resampling, level)
           for q in lin.estimate}
     return Intervals(estimate=lin.estimate, ci=ci, level=level, method=_METHOD, block=resampling.block,
-                     resamples=resampling.resamples, frames=series.frames)
+                     resamples=resampling.resamples, frames=series.frames, note=resampling.note)
 
 
 def compare_replicates(a: tuple[Linearized, dict], b: tuple[Linearized, dict], resampling: Resampling,
@@ -451,7 +537,7 @@ def compare_replicates(a: tuple[Linearized, dict], b: tuple[Linearized, dict], r
         p[q] = studentized_p_value(est, draws, influence, resampling)
     return PairedTest(difference=difference, ci=ci, p_value=p, significant={q: v < 1 - level for q, v in p.items()},
                       level=level, block=resampling.block, resamples=resampling.resamples,
-                      frames=resampling.frames)
+                      frames=resampling.frames, note=resampling.note)
 
 
 def difference_influences(linearized: list[Linearized]) -> list[np.ndarray]:
@@ -478,7 +564,7 @@ def paired_bootstrap(per_frame_a: Mapping[str, Any], per_frame_b: Mapping[str, A
     PairedTest
         Per quantity: the difference A − B, its interval at ``level``, the two-sided p-value
         of "no difference" (the bootstrap-t, equal-tailed like the interval) and
-        ``significant`` (``p < 1 − level``).
+        ``significant`` (``p < 1 − level``); ``.note`` as in :func:`bootstrap_ci`.
 
     Examples
     --------
@@ -487,12 +573,12 @@ def paired_bootstrap(per_frame_a: Mapping[str, Any], per_frame_b: Mapping[str, A
     >>> import numpy as np
     >>> from irfidelity.bootstrap import paired_bootstrap
     >>> rng = np.random.default_rng(2)
-    >>> scene = 0.05 * np.sin(np.arange(100) / 8.0)
+    >>> scene = 0.05 * np.convolve(rng.normal(size=102), np.ones(3) / 3, "valid")
     >>> a = 0.90 + scene + rng.normal(0, 0.004, 100)
     >>> b = 0.89 + scene + rng.normal(0, 0.004, 100)
     >>> test = paired_bootstrap({"fidelity": a}, {"fidelity": b})
     >>> round(test.difference["fidelity"], 3), test.significant["fidelity"]
-    (0.01, True)
+    (0.011, True)
     """
     level = check_level(level)
     sides = [frame_series(per_frame_a, "per_frame_a"), frame_series(per_frame_b, "per_frame_b")]

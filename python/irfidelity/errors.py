@@ -14,7 +14,7 @@ from __future__ import annotations
 __all__ = ["FidelityError", "ConfigError", "FrameError", "ShapeError", "RangeError", "RegistrationError", "FidelityWarning",
            "PeakWarning", "RegistrationWarning", "EdgeWarning", "CurveUnitsWarning", "NoiseWarning",
            "AHPConsistencyWarning", "BarWarning", "BarClippingWarning", "BarSamplingWarning", "BarPolarityWarning",
-           "ColtmanWarning", "MRTDWarning", "RadiometryWarning"]
+           "ColtmanWarning", "MRTDWarning", "RadiometryWarning", "ShortRecordingWarning", "JudgementWarning"]
 
 
 class FidelityError(ValueError):
@@ -140,3 +140,15 @@ class MRTDWarning(FidelityWarning):
 class RadiometryWarning(FidelityWarning):
     """Some counts (or temperatures) lie outside the radiometric calibration's domain (no finite
     temperature above 0 K) and became NaN; the message counts them."""
+
+
+class ShortRecordingWarning(FidelityWarning):
+    """Too few frames for honest intervals over frames: they make fewer than five blocks of the
+    length their correlation asks for, so the block bootstrap's intervals are likely too narrow
+    and its tests and P(first) too sure (:func:`irfidelity.bootstrap.short_recording_note`)."""
+
+
+class JudgementWarning(FidelityWarning):
+    """Experts' judgements that the fitted weights cannot speak for: an expert whose held-out
+    judgements the negated weights predict better than the weights (they judge by the opposite
+    criterion, :func:`irfidelity.fuzzy.fit_weights`)."""

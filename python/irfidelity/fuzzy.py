@@ -610,7 +610,7 @@ class GradeScale:
 # --------------------------------------------------------------------------- compare
 @dataclass(frozen=True)
 class Comparison:
-    """Result of :func:`compare`.
+    """Result of :func:`compare` (and the stability of :func:`irfidelity.ranking.rank`).
 
     Attributes
     ----------
@@ -619,14 +619,20 @@ class Comparison:
     fidelity : dict
         ``{name: Σ k_i f_i}`` under ``weights``.
     p_first : dict
-        ``{name: probability of ranking first}`` over the weight samples (ties share).
+        ``{name: probability of ranking first}`` over the draws (ties share): weight vectors
+        drawn around ``weights`` and, when ``frames`` > 0, with each weight vector the frames
+        resampled in blocks of ``block``.
     mean_rank : dict
-        ``{name: average rank (1 = best)}`` over the samples.
+        ``{name: average rank (1 = best)}`` over the draws.
     weights : Weights
     samples : int
+        Draws (weight vectors, each with its frame resample when ``frames`` > 0).
     concentration : float
     components : tuple of str
         The components compared (positive weight).
+    frames, block : int
+        The frames resampled with each weight vector and the block length (0 when only the
+        weights vary, as in :func:`compare`).
     """
 
     ranking: list
@@ -637,23 +643,63 @@ class Comparison:
     samples: int
     concentration: float
     components: tuple
+    frames: int = 0
+    block: int = 0
 
     def to_dict(self) -> dict:
         return {"ranking": list(self.ranking), "fidelity": dict(self.fidelity), "p_first": dict(self.p_first),
                 "mean_rank": dict(self.mean_rank), "weights": self.weights.as_dict(), "samples": self.samples,
-                "concentration": self.concentration, "components": list(self.components)}
+                "concentration": self.concentration, "components": list(self.components), "frames": self.frames,
+                "block": self.block}
 
     def summary_text(self) -> str:
         lines = [f"{'simulator':<24} {'fidelity':>9} {'P(first)':>9} {'mean rank':>10}"]
         for n in self.ranking:
             lines.append(f"{n:<24} {self.fidelity[n]:>9.4f} {self.p_first[n]:>9.3f} {self.mean_rank[n]:>10.2f}")
-        lines.append(f"weights: {self.weights}; {self.samples} Dirichlet samples, concentration {self.concentration:g}")
+        frames = (f", each with a block resample of the {self.frames} frames (blocks of {self.block})"
+                  if self.frames else "")
+        lines.append(f"weights: {self.weights}; {self.samples} Dirichlet samples, concentration "
+                     f"{self.concentration:g}{frames}")
         return "\n".join(lines)
+
+
+def check_draws(samples: Any, concentration: Any) -> tuple[int, float]:
+    """``samples`` as a positive int (an integral float is accepted) and ``concentration`` as a
+    finite float > 0, else FidelityError naming the argument."""
+    number = isinstance(samples, (int, float, np.integer, np.floating)) and not isinstance(samples, bool)
+    if not (number and math.isfinite(samples) and float(samples).is_integer() and samples >= 1):
+        raise FidelityError(f"samples must be a positive integer, got {samples!r}", option="samples")
+    conc = float(concentration) if isinstance(concentration, (int, float, np.integer, np.floating)) \
+        and not isinstance(concentration, bool) else math.nan
+    if not (math.isfinite(conc) and conc > 0):
+        raise FidelityError(f"concentration must be finite and > 0, got {concentration!r}", option="concentration")
+    return int(samples), conc
+
+
+def weight_draws(weights: Weights, components: tuple, samples: int, concentration: float,
+                 rng: np.random.Generator) -> np.ndarray:
+    """``samples`` × ``len(components)`` weight vectors from ``Dirichlet(concentration · K)`` over the
+    ``components`` (their mean is ``K``); all ones for a single component."""
+    if len(components) == 1:
+        return np.ones((samples, 1))
+    return rng.dirichlet(concentration * np.array([weights[k] for k in components]), size=samples)
+
+
+def first_and_mean_rank(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """From ``scores`` (draws × simulators): each simulator's share of the draws where it scores
+    highest (ties within 1e-12 share the draw) and its mean rank (1 = best)."""
+    top = scores.max(axis=1, keepdims=True)
+    is_top = np.isclose(scores, top, rtol=0, atol=1e-12)
+    p_first = (is_top / is_top.sum(axis=1, keepdims=True)).mean(axis=0)
+    order = np.argsort(-scores, axis=1, kind="stable")
+    ranks = np.empty_like(order, dtype=np.float64)
+    ranks[np.arange(scores.shape[0])[:, None], order] = np.arange(1, scores.shape[1] + 1)[None, :]
+    return p_first, ranks.mean(axis=0)
 
 
 def compare(reports: Mapping[str, Any], *, weights: Any = None, samples: int = 2000,
             concentration: float = 50.0, seed: int | None = 0) -> Comparison:
-    """Rank simulators scored on the same mission, and test the ranking's stability.
+    """Rank simulators scored on the same mission, and test the ranking's stability under weight changes.
 
     Parameters
     ----------
@@ -673,6 +719,11 @@ def compare(reports: Mapping[str, Any], *, weights: Any = None, samples: int = 2
     Every simulator must have a value for every component with positive weight;
     otherwise FidelityError names the report and the component (scores over different
     component sets are not comparable).
+
+    Only the weights vary here: two simulators that differ by noise get ``p_first`` 1 and 0
+    whenever one is ahead on every component. Simulators scored on the same frames are
+    ranked with the frames' sampling too by :func:`irfidelity.ranking.rank` (and
+    :func:`irfidelity.score_simulators`).
 
     Examples
     --------
@@ -706,31 +757,12 @@ def compare(reports: Mapping[str, Any], *, weights: Any = None, samples: int = 2
         if miss:
             raise FidelityError(f"report {n!r} has no value for component(s) {miss} (positive weight); "
                                 f"compare simulators on the same components")
-    ns = int(samples)
-    if ns != samples or ns < 1:
-        raise FidelityError(f"samples must be a positive integer, got {samples!r}")
-    conc = float(concentration)
-    if not (math.isfinite(conc) and conc > 0):
-        raise FidelityError(f"concentration must be finite and > 0, got {concentration!r}")
+    ns, conc = check_draws(samples, concentration)
     F = np.array([[float(r.components[k]) for k in comps] for r in reports.values()])  # sims × comps
-    K = np.array([w[k] for k in comps])
-    base = {n: math.fsum(float(k) * f for k, f in zip(K, row)) for n, row in zip(names, F)}
+    base = {n: math.fsum(w[k] * f for k, f in zip(comps, row)) for n, row in zip(names, F)}
     ranking = sorted(names, key=lambda n: -base[n])
-    rng = np.random.default_rng(seed)
-    if len(comps) == 1:
-        W = np.ones((ns, 1))
-    else:
-        W = rng.dirichlet(conc * K, size=ns)
-    S = W @ F.T  # samples × sims
-    top = S.max(axis=1, keepdims=True)
-    is_top = np.isclose(S, top, rtol=0, atol=1e-12)
-    p_first = (is_top / is_top.sum(axis=1, keepdims=True)).mean(axis=0)
-    # rank 1 = best; ties get the average rank
-    order = np.argsort(-S, axis=1, kind="stable")
-    ranks = np.empty_like(order, dtype=np.float64)
-    rows = np.arange(ns)[:, None]
-    ranks[rows, order] = np.arange(1, len(names) + 1)[None, :]
-    mean_rank = ranks.mean(axis=0)
+    W = weight_draws(w, comps, ns, conc, np.random.default_rng(seed))
+    p_first, mean_rank = first_and_mean_rank(W @ F.T)  # samples × sims
     return Comparison(ranking=ranking, fidelity=base, p_first={n: float(p) for n, p in zip(names, p_first)},
                       mean_rank={n: float(r) for n, r in zip(names, mean_rank)}, weights=w, samples=ns,
                       concentration=conc, components=comps)

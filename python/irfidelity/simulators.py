@@ -6,7 +6,8 @@ decoded once and every simulator's frame paired with it is scored against it on 
 worker (:mod:`irfidelity.sequence.shared`). The per-simulator reports are then ranked by
 :func:`irfidelity.ranking.rank` on the real frames every simulator scored: the order, which
 differences are significant (paired block bootstrap, Holm-corrected) and how stable the order
-is under weight changes. docs/ranking.md says what the figures mean.
+is under the frames' sampling and weight changes (P(first)). docs/ranking.md says what the
+figures mean.
 """
 
 from __future__ import annotations
@@ -84,7 +85,10 @@ class SimulatorComparison:
 
     @property
     def stability(self) -> Any:
-        """The order's stability under weight changes (``p_first``, ``mean_rank``)."""
+        """The order's stability (``p_first``, ``mean_rank``) over draws that each resample the
+        ranked frames in blocks and draw the weights around K (:attr:`Ranking.stability
+        <irfidelity.ranking.Ranking.stability>`): simulators these frames cannot tell apart share
+        the first place."""
         return self.ranking.stability
 
     def to_dict(self) -> dict:

@@ -11,6 +11,7 @@ from typing import Any
 from ..config import PAIRING_RULES, ScoringConfig
 from ..errors import FidelityError
 from ..fuzzy import Weights
+from ..judgements import DEFAULT_PRIOR_STRENGTH
 from .output import UsageError, write_json
 from .score import scoring_config
 
@@ -36,9 +37,9 @@ def add_rank(sub: argparse._SubParsersAction, types: dict) -> None:
         "rank", help="rank several simulators against one real recording, with significance",
         description="Score every SIM sequence against REAL in one pass (each real frame decoded once), then "
                     "rank the simulators by pooled fidelity: intervals of every component, which differences "
-                    "are significant (paired block bootstrap over frames, Holm-corrected) and how stable the "
-                    "order is under weight changes. REAL and each SIM are directories, glob patterns or "
-                    "multi-page TIFFs.",
+                    "are significant (paired block bootstrap over frames, Holm-corrected) and how sure the "
+                    "order is (P(first): frames and weights resampled together). REAL and each SIM are "
+                    "directories, glob patterns or multi-page TIFFs.",
         epilog="Exit status: 0 ranked, 2 bad usage or input, 3 ranked but some frames failed.")
     r.add_argument("real", metavar="REAL", help="the real recording: a directory, glob or multi-page TIFF")
     r.add_argument("sims", metavar="SIM", nargs="+", help="two or more simulated recordings of the same run")
@@ -81,8 +82,12 @@ def add_weights(sub: argparse._SubParsersAction) -> None:
                     "(docs/ranking.md).")
     f.add_argument("judgements", metavar="JUDGEMENTS", help="the judgement CSV")
     f.add_argument("--prior", metavar="SPEC", help="weights to pull the fit toward (e.g. AHP weights), as --weights")
-    f.add_argument("--prior-strength", type=float, default=50.0, metavar="L",
-                   help="strength of the pull toward --prior (default 50: a standard deviation of 0.1 per weight)")
+    f.add_argument("--prior-strength", type=float, default=DEFAULT_PRIOR_STRENGTH, metavar="L",
+                   help=f"strength of the pull toward --prior (default {DEFAULT_PRIOR_STRENGTH:g}: a standard "
+                        f"deviation of 0.32 per weight; the pull fades as judgements accumulate)")
+    f.add_argument("--exclude", metavar="EXPERT,...",
+                   help="leave these experts' judgements out of the fit (e.g. one flagged as judging by the "
+                        "opposite criterion)")
     f.add_argument("--json", metavar="PATH|-", help="write the fit as JSON to PATH, or to stdout with '-'")
     f.add_argument("--save-config", metavar="PATH", help="write a scoring configuration with the fitted weights")
 
@@ -124,6 +129,8 @@ def rank_command(a: argparse.Namespace) -> Any:
         result.to_html(a.report)
     if a.json != "-":
         print(result.summary_text())
+        if result.ranking.note is not None:  # the summary printed it: no second copy on stderr
+            a.shown_notes = {f"ShortRecordingWarning: {result.ranking.note}"}
     return result
 
 
@@ -138,7 +145,8 @@ def weights_command(a: argparse.Namespace) -> Any:
             prior = Weights.parse(a.prior)
         except FidelityError as exc:
             raise UsageError(f"--prior: {exc}") from None
-    fit = fit_weights(read_judgements(a.judgements), prior=prior, prior_strength=a.prior_strength)
+    exclude = None if a.exclude is None else [name.strip() for name in a.exclude.split(",") if name.strip()]
+    fit = fit_weights(read_judgements(a.judgements), prior=prior, prior_strength=a.prior_strength, exclude=exclude)
     if a.json is not None:
         write_json(fit.to_dict(), a.json)
     if a.save_config is not None:
@@ -156,6 +164,12 @@ def _fit_text(fit: Any) -> str:
     held_out = agreement.get("held_out_accuracy")
     if held_out is not None:
         lines.append(f"leave-one-expert-out accuracy {held_out:.3f} ({agreement['experts']} experts)")
+    if fit.excluded:
+        lines.append(f"left out (--exclude): {', '.join(fit.excluded)}")
     for expert, reasons in fit.flagged.items():
         lines.append(f"flagged expert {expert}: {'; '.join(reasons)}")
+    if fit.opposed:  # their judgements pull the weights the other way: say so, and how to leave them out
+        lines.append(f"OPPOSITE CRITERION: the fitted weights average in the judgements of {', '.join(fit.opposed)}, "
+                     f"whom the negated weights predict better; review them, or refit with --exclude "
+                     f"{','.join(fit.opposed)}")
     return "\n".join(lines)

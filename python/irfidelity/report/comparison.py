@@ -2,10 +2,11 @@
 :func:`render_comparison_html`, and the one-row-per-simulator table of its CSV
 (:func:`comparison_rows`).
 
-The page: one row per simulator (best first) with the fidelity and every component side by
-side with their intervals; the order and what decided it (each pair's difference, its
-interval and Holm-corrected p-value: significant or not at the stated level); the order's
-stability under weight changes; the per-frame fidelity of every simulator on one plot.
+The page: one row per simulator (best first) with its grade, the fidelity and every component
+side by side with their intervals, and P(first); the order and what decided it (each pair's
+difference, its interval and Holm-corrected p-value: significant or not at the stated level);
+the order's stability under the frames' sampling and weight changes; the per-frame fidelity of
+every simulator on one plot.
 """
 
 from __future__ import annotations
@@ -40,14 +41,15 @@ def _with_interval(value: float, interval: tuple[float, float] | None) -> Raw:
 
 
 def comparison_rows(comparison: Any) -> list[dict]:
-    """One dict per simulator, best first: ``rank``, ``simulator``, for the fidelity and each
-    component its value and interval (``<q>``, ``<q>_lo``, ``<q>_hi``) over the ranked
-    frames, ``p_first`` (stability), and the frames scored and failed."""
+    """One dict per simulator, best first: ``rank``, ``simulator``, ``grade`` (the overall grade
+    of its report), for the fidelity and each component its value and interval (``<q>``,
+    ``<q>_lo``, ``<q>_hi``) over the ranked frames, ``p_first`` (stability), and the frames
+    scored and failed."""
     ranking = comparison.ranking
     rows = []
     for position, name in enumerate(ranking.order, start=1):
         rep = comparison.reports[name]
-        row: dict[str, Any] = {"rank": position, "simulator": name}
+        row: dict[str, Any] = {"rank": position, "simulator": name, "grade": rep.grade}
         for q in _quantities(ranking):
             lo, hi = ranking.ci[name][q]
             row.update({q: ranking.estimate[name][q], f"{q}_lo": lo, f"{q}_hi": hi})
@@ -69,17 +71,23 @@ def write_rows(rows: list[dict], path: str | os.PathLike) -> None:
 def _ranking_table(comparison: Any) -> Raw:
     ranking = comparison.ranking
     quantities = _quantities(ranking)
-    header = ["rank", "simulator", *quantities, "P(first)", "failed frames"]
+    header = ["rank", "simulator", "grade", *quantities, "P(first)", "failed frames"]
     rows = []
     for position, name in enumerate(ranking.order, start=1):
+        rep = comparison.reports[name]
         cells = [_with_interval(ranking.estimate[name][q], ranking.ci[name].get(q)) for q in quantities]
         p_first = None if ranking.stability is None else ranking.stability.p_first[name]
-        rows.append([position, name, *cells, p_first, len(comparison.reports[name].failed)])
+        rows.append([position, name, rep.grade, *cells, p_first, len(rep.failed)])
     caption = (f"Pooled over the {ranking.frames} real frames every simulator scored; in brackets the "
                f"{ranking.level:g} interval of each (block bootstrap over frames, blocks of {ranking.block}, "
-               f"{ranking.resamples} resamples). P(first): the share of weight draws around K under which "
-               f"the simulator ranks first.")
-    return section("Ranking", table(header, rows) + paragraph(caption, cls="caption"), anchor="ranking")
+               f"{ranking.resamples} resamples). Grade: the simulator's overall grade, as in its own report "
+               f"(over every frame it scored). P(first): the share of draws, each a block resample of the "
+               f"frames with a weight vector drawn around K, in which the simulator's pooled fidelity is the "
+               f"highest.")
+    body = table(header, rows) + paragraph(caption, cls="caption")
+    if ranking.note is not None:
+        body += paragraph(ranking.note, cls="note")
+    return section("Ranking", body, anchor="ranking")
 
 
 def _verdict(a: str, b: str, p: float, significant: bool, level: float, correction: str) -> str:
@@ -119,8 +127,11 @@ def _stability(comparison: Any) -> Raw:
     if stability is None:
         return Raw("")
     rows = [[name, stability.p_first[name], stability.mean_rank[name]] for name in stability.ranking]
-    caption = "The order under weights drawn around K (Dirichlet): how often each simulator ranks first, its mean rank."
-    return section("Stability under weight changes",
+    caption = (f"The order over {stability.samples} draws, each a block resample of the {stability.frames} frames "
+               f"(blocks of {stability.block}) with weights drawn around K (Dirichlet, concentration "
+               f"{stability.concentration:g}): how often each simulator ranks first, its mean rank. Simulators "
+               f"that these frames cannot tell apart share the first place.")
+    return section("Stability under the frames' sampling and weight changes",
                    table(["simulator", "P(first)", "mean rank"], rows) + paragraph(caption, cls="caption"),
                    anchor="stability")
 
@@ -160,8 +171,10 @@ def intervals_section(d: Mapping) -> Raw:
     rows = [[q, *interval] for q, interval in ci.items()]
     caption = (f"Level {info.get('level', '?')}: {info.get('method', 'block bootstrap over frames')}; blocks of "
                f"{info.get('block', '?')} frames, {info.get('resamples', '?')} resamples.")
-    return section("Intervals", table(["quantity", "low", "high"], rows) + paragraph(caption, cls="caption"),
-                   anchor="intervals")
+    body = table(["quantity", "low", "high"], rows) + paragraph(caption, cls="caption")
+    if info.get("note"):  # too few frames for honest intervals
+        body += paragraph(info["note"], cls="note")
+    return section("Intervals", body, anchor="intervals")
 
 
 def render_comparison_html(comparison: Any, *, title: str | None = None, fragment: bool = False) -> str:
@@ -173,7 +186,7 @@ def render_comparison_html(comparison: Any, *, title: str | None = None, fragmen
     >>> import numpy as np, irfidelity as irf
     >>> from irfidelity.report.comparison import render_comparison_html
     >>> rng = np.random.default_rng(0)
-    >>> real = rng.integers(1000, 3000, (20, 32, 32)).astype(np.uint16)
+    >>> real = rng.integers(1000, 3000, (40, 32, 32)).astype(np.uint16)
     >>> sims = {f"s{k}": (real + rng.integers(0, 10 * k, real.shape)).astype(np.uint16) for k in (1, 4)}
     >>> result = irf.score_simulators(real, sims, peak="range", weights="psnr=0.5,ssim=0.5", progress=False)
     >>> html = render_comparison_html(result)

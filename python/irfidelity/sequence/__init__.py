@@ -143,6 +143,8 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
     plan = make_plan(real_seq, sim_seq, pairing, camera, cfg, MaskSpec(mask, roi))
     return with_intervals(execute(real_seq, sim_seq, pairing, plan, run), ci)
+
+
 def with_intervals(report: SequenceReport, ci: bool | float) -> SequenceReport:
     """``report`` with ``ci`` and ``pooling["ci"]`` when asked for (``ci``: True, or a level)
     and when at least two frames were scored (else a note says why there is none)."""
@@ -157,4 +159,6 @@ def with_intervals(report: SequenceReport, ci: bool | float) -> SequenceReport:
     report.ci = dict(intervals.ci)
     report.pooling["ci"] = {"level": intervals.level, "method": intervals.method, "block": intervals.block,
                             "resamples": intervals.resamples, "frames": intervals.frames}
+    if intervals.note is not None:  # too few frames for honest intervals: the report says so
+        report.pooling["ci"]["note"] = intervals.note
     return report

@@ -140,14 +140,16 @@ def sequence_intervals(report: Any, *, level: float = 0.95, resamples: int = DEF
     Returns
     -------
     Intervals
-        ``.ci`` is what ``report.ci`` holds: ``{"fidelity": (lo, hi), component: (lo, hi)}``.
+        ``.ci`` is what ``report.ci`` holds: ``{"fidelity": (lo, hi), component: (lo, hi)}``;
+        ``.note`` (and a :class:`~irfidelity.errors.ShortRecordingWarning`) when the frames are
+        too few for honest intervals.
 
     Examples
     --------
     >>> import numpy as np, irfidelity as irf
     >>> from irfidelity.sequence.intervals import sequence_intervals
     >>> rng = np.random.default_rng(0)
-    >>> real = rng.integers(1000, 3000, (12, 16, 16)).astype(np.uint16)
+    >>> real = rng.integers(1000, 3000, (40, 16, 16)).astype(np.uint16)
     >>> sim = (real + rng.integers(0, 40, real.shape)).astype(np.uint16)
     >>> rep = irf.score_sequence(real, sim, weights="psnr=0.5,ssim=0.5", peak="range", progress=False)
     >>> ci = sequence_intervals(rep, resamples=199)
