@@ -280,12 +280,13 @@ avx2_copy! {
     /// `sums`: |A|², |B|² and conj(A)·B over the half plane `kx = 0..=n/2`, with
     /// `A(k) = (Z(k) + conj Z(−k))/2` and `B(k) = (Z(k) − conj Z(−k))/(2i)`, in float32 (see
     /// [`FLUSH`]); the cross-spectrum with the tile's own displacement taken out of its phase
-    /// ([`align`]). In a copy compiled for AVX2 when the CPU has it (same code, same results).
-    fn add_pair(sums: &mut GroupSums, z: &[C32], n: usize, shift: (f64, f64)) => add_pair_avx2, add_pair_impl
+    /// ([`Alignment::own`]). In a copy compiled for AVX2 when the CPU has it (same code, same results).
+    fn add_pair(sums: &mut GroupSums, z: &[C32], alignment: &Alignment) => add_pair_avx2, add_pair_impl
 }
 
 #[inline(always)]
-fn add_pair_impl(sums: &mut GroupSums, z: &[C32], n: usize, shift: (f64, f64)) {
+fn add_pair_impl(sums: &mut GroupSums, z: &[C32], alignment: &Alignment) {
+    let n = alignment.n;
     let mut opposite = [C32::default(); MAX_TILE];
     let opposite = &mut opposite[..n];
     let [real, sim, _, _] = &mut sums.pending;
@@ -305,13 +306,17 @@ fn add_pair_impl(sums: &mut GroupSums, z: &[C32], n: usize, shift: (f64, f64)) {
             *cross = C32::new(a_re * b_re + a_im * b_im, a_re * b_im - a_im * b_re);
         }
     }
-    let (own, weight) = align(&sums.cross, n, shift);
+    let (own, weight) = alignment.own(&sums.cross);
     sums.shifts[0] += weight;
     sums.shifts[1] += weight * own.0;
     sums.shifts[2] += weight * own.1;
     sums.shifts[3] += weight * own.0 * own.0;
     sums.shifts[4] += weight * own.1 * own.1;
-    add_turned(sums, n, own);
+    if own == alignment.shift {
+        add_turned(sums, &alignment.pair_turn);
+    } else {
+        add_turned(sums, &turns(n, own));
+    }
     sums.pending_tiles += 1;
     if sums.pending_tiles == FLUSH {
         sums.flush();
@@ -331,85 +336,100 @@ fn shift_bins(n: usize) -> impl Iterator<Item = (i64, usize)> {
     })
 }
 
-/// A tile's own displacement `(dy, dx)` and its weight (the cross power of the bins used): the
-/// phases of the cross-spectrum at [`shift_bins`], the pair's `shift` taken out first, fitted
-/// by weighted least squares (`arg c(k) = −2π·k·d/n`); kept within [`MAX_LOCAL_SHIFT`] of the
-/// pair's (else the pair's, with weight 0). Distortion and moving objects displace tiles apart:
-/// aligning each tile keeps them out of the MTF ratio, which then measures resolution, not
-/// geometry.
-fn align(cross: &[C32], n: usize, shift: (f64, f64)) -> ((f64, f64), f64) {
-    let tau = 2.0 * std::f64::consts::PI / n as f64;
-    let (mut syy, mut syx, mut sxx, mut by, mut bx, mut total) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    for (ky, kx) in shift_bins(n) {
-        let row = ky.rem_euclid(n as i64) as usize;
-        let c = cross[kx * n + row];
-        let c = C64::new(c.re as f64, c.im as f64) * C64::from_polar(1.0, tau * (ky as f64 * shift.0 + kx as f64 * shift.1));
-        let w = c.norm();
-        if !(w > 0.0) {
-            continue;
-        }
-        // residual phase = −τ·(ky·ry + kx·rx)
-        let (gy, gx, phase) = (-tau * ky as f64, -tau * kx as f64, c.arg());
-        syy += w * gy * gy;
-        syx += w * gy * gx;
-        sxx += w * gx * gx;
-        by += w * gy * phase;
-        bx += w * gx * phase;
-        total += w;
-    }
-    let det = syy * sxx - syx * syx;
-    if !(det > 0.0) || !(total > 0.0) {
-        return (shift, 0.0);
-    }
-    let (ry, rx) = ((by * sxx - bx * syx) / det, (bx * syy - by * syx) / det);
-    if !(ry.abs() <= MAX_LOCAL_SHIFT && rx.abs() <= MAX_LOCAL_SHIFT) {
-        return (shift, 0.0);
-    }
-    // the fit's standard error from its residual phases: a tile whose own displacement is
-    // uncertain keeps the pair's (a jittered alignment would lower the ratio like a blur)
-    let (mut residual, mut count) = (0.0f64, 0.0f64);
-    for (ky, kx) in shift_bins(n) {
-        let c = cross[kx * n + ky.rem_euclid(n as i64) as usize];
-        let c = C64::new(c.re as f64, c.im as f64) * C64::from_polar(1.0, tau * (ky as f64 * shift.0 + kx as f64 * shift.1));
-        let predicted = -tau * (ky as f64 * ry + kx as f64 * rx);
-        let miss = (c * C64::from_polar(1.0, -predicted)).arg();
-        residual += c.norm() * miss * miss;
-        count += 1.0;
-    }
-    let scale = residual / (count - 2.0).max(1.0);
-    let variance = scale * (syy + sxx) / det;
-    if !(variance.sqrt() <= MAX_LOCAL_ERROR) {
-        return (shift, 0.0);
-    }
-    // a departure within the noise of its own estimate is not applied (it would only add jitter)
-    let significant = (ry * ry + rx * rx) > SIGNIFICANT * SIGNIFICANT * variance;
-    let own = (shift.0 + ry, shift.1 + rx);
-    (if significant { own } else { shift }, total)
+/// What aligning tiles needs, made once per pass: the bins a displacement is read from (their
+/// flat index, phase gradients and the turn that takes the pair's displacement out), and the
+/// turn of every bin for the pair's displacement (most tiles keep it).
+struct Alignment {
+    n: usize,
+    shift: (f64, f64),
+    bins: Vec<(usize, f64, f64, C64)>,
+    pair_turn: Vec<C32>,
 }
 
-/// Adds the tile's cross-spectrum (`sums.cross`) with the displacement `d` taken out of its
-/// phase, `c(k)·e^{2πi·k·d/n}`, to the pending sums.
-#[inline(always)]
-fn add_turned(sums: &mut GroupSums, n: usize, d: (f64, f64)) {
-    let tau = 2.0 * std::f64::consts::PI / n as f64;
-    let mut turn_y = [C32::default(); MAX_TILE];
-    for (ky, t) in turn_y[..n].iter_mut().enumerate() {
-        let signed = if ky <= n / 2 { ky as f64 } else { ky as f64 - n as f64 };
-        let c = C64::from_polar(1.0, tau * signed * d.0);
-        *t = C32::new(c.re as f32, c.im as f32);
+impl Alignment {
+    fn new(n: usize, shift: (f64, f64)) -> Alignment {
+        let tau = 2.0 * std::f64::consts::PI / n as f64;
+        let bins = shift_bins(n)
+            .map(|(ky, kx)| {
+                let index = kx * n + ky.rem_euclid(n as i64) as usize;
+                let turn = C64::from_polar(1.0, tau * (ky as f64 * shift.0 + kx as f64 * shift.1));
+                (index, -tau * ky as f64, -tau * kx as f64, turn)
+            })
+            .collect();
+        Alignment { n, shift, bins, pair_turn: turns(n, shift) }
     }
-    let [_, _, cross_re, cross_im] = &mut sums.pending;
-    for kx in 0..n / 2 + 1 {
-        let turn_x = C64::from_polar(1.0, tau * kx as f64 * d.1);
-        let turn_x = C32::new(turn_x.re as f32, turn_x.im as f32);
-        let span = kx * n..(kx + 1) * n;
-        let (re, im, cross) = (&mut cross_re[span.clone()], &mut cross_im[span.clone()], &sums.cross[span]);
-        for (((re, im), c), t) in re.iter_mut().zip(im.iter_mut()).zip(cross).zip(&turn_y[..n]) {
-            let t = t * turn_x;
-            let v = c * t;
-            *re += v.re;
-            *im += v.im;
+
+    /// A tile's own displacement `(dy, dx)` and its weight (the cross power of the bins used):
+    /// the phases of its cross-spectrum at [`shift_bins`], the pair's displacement taken out
+    /// first, fitted by weighted least squares (`arg c(k) = −2π·k·d/n`); the pair's displacement
+    /// instead (weight 0) when the tile's is beyond [`MAX_LOCAL_SHIFT`] of it or uncertain
+    /// beyond [`MAX_LOCAL_ERROR`], and also (weight kept) when it departs from it by less than
+    /// [`SIGNIFICANT`] standard errors. Distortion and moving objects displace tiles apart:
+    /// aligning each tile keeps them out of the MTF ratio, which then measures resolution.
+    fn own(&self, cross: &[C32]) -> ((f64, f64), f64) {
+        let mut phases = [(0.0f64, 0.0f64); 256];
+        let (mut syy, mut syx, mut sxx, mut by, mut bx, mut total) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for (slot, &(index, gy, gx, turn)) in phases.iter_mut().zip(&self.bins) {
+            let c = C64::new(cross[index].re as f64, cross[index].im as f64) * turn;
+            let (w, phase) = (c.norm(), c.arg());
+            *slot = (w, phase);
+            syy += w * gy * gy;
+            syx += w * gy * gx;
+            sxx += w * gx * gx;
+            by += w * gy * phase;
+            bx += w * gx * phase;
+            total += w;
         }
+        let det = syy * sxx - syx * syx;
+        if !(det > 0.0) || !(total > 0.0) {
+            return (self.shift, 0.0);
+        }
+        let (ry, rx) = ((by * sxx - bx * syx) / det, (bx * syy - by * syx) / det);
+        if !(ry.abs() <= MAX_LOCAL_SHIFT && rx.abs() <= MAX_LOCAL_SHIFT) {
+            return (self.shift, 0.0);
+        }
+        // the fit's standard error from its residual phases
+        let mut residual = 0.0f64;
+        for (&(w, phase), &(_, gy, gx, _)) in phases.iter().zip(&self.bins) {
+            let miss = phase - (gy * ry + gx * rx);
+            let miss = (miss + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI) - std::f64::consts::PI;
+            residual += w * miss * miss;
+        }
+        let variance = residual / (self.bins.len() as f64 - 2.0).max(1.0) * (syy + sxx) / det;
+        if !(variance.sqrt() <= MAX_LOCAL_ERROR) {
+            return (self.shift, 0.0);
+        }
+        let significant = (ry * ry + rx * rx) > SIGNIFICANT * SIGNIFICANT * variance;
+        (if significant { (self.shift.0 + ry, self.shift.1 + rx) } else { self.shift }, total)
+    }
+}
+
+/// `e^{2πi·k·d/n}` for every bin of the half plane (`kx·n + ky`, ky signed).
+fn turns(n: usize, d: (f64, f64)) -> Vec<C32> {
+    let tau = 2.0 * std::f64::consts::PI / n as f64;
+    let along_y: Vec<C64> = (0..n)
+        .map(|ky| C64::from_polar(1.0, tau * (if ky <= n / 2 { ky as f64 } else { ky as f64 - n as f64 }) * d.0))
+        .collect();
+    (0..n / 2 + 1)
+        .flat_map(|kx| {
+            let along_x = C64::from_polar(1.0, tau * kx as f64 * d.1);
+            along_y.iter().map(move |&t| {
+                let t = t * along_x;
+                C32::new(t.re as f32, t.im as f32)
+            })
+        })
+        .collect()
+}
+
+/// Adds the tile's cross-spectrum (`sums.cross`) turned by `turn` (`c(k)·turn(k)`: its
+/// displacement taken out of its phase) to the pending sums.
+#[inline(always)]
+fn add_turned(sums: &mut GroupSums, turn: &[C32]) {
+    let [_, _, cross_re, cross_im] = &mut sums.pending;
+    for (((re, im), c), t) in cross_re.iter_mut().zip(cross_im.iter_mut()).zip(&sums.cross).zip(turn) {
+        let v = c * t;
+        *re += v.re;
+        *im += v.im;
     }
 }
 
@@ -492,6 +512,7 @@ pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Til
     let taper = hann(tile);
     let window: Vec<f64> = taper.iter().flat_map(|&wy| taper.iter().map(move |&wx| wy * wx)).collect();
     let fft = PLANNER32.with(|p| p.borrow_mut().plan_fft_forward(tile));
+    let alignment = Alignment::new(tile, shift);
     let bins = tile * (tile / 2 + 1);
     let with_difference = frames.reference.is_some();
     let total = corners.len();
@@ -510,7 +531,7 @@ pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Til
                     }
                     fill_pair(frames.real, frames.sim, cols, (y0, x0), &window, &mut z);
                     square.forward(&mut z);
-                    add_pair(&mut sums, &z, tile, shift);
+                    add_pair(&mut sums, &z, &alignment);
                     if let Some(reference) = frames.reference {
                         fill_difference(frames.real, reference, cols, (y0, x0), &window, &mut z);
                         square.forward(&mut z);

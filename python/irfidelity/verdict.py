@@ -178,11 +178,15 @@ def _plus_minus(value: Any, error: Any, percent: bool = False) -> str:
     return text
 
 
-def _graded_at(estimate: Any, graded: float, words: str) -> str:
-    """", graded at X" when the graded measure differs from the estimate (doubt taken off)."""
+def _graded_at(estimate: Any, graded: float, words: str, own: Any = None) -> str:
+    """", graded at X" when the graded measure differs from the estimate: the doubt taken off,
+    and what the real camera shows against itself (``own``, a second real frame's)."""
     if not isinstance(estimate, (int, float)) or abs(graded - estimate) <= 1e-3 * max(abs(estimate), 1e-12):
         return ""
-    return f", graded at {words} (the least the scene shows, 2 standard errors toward a match)"
+    why = "2 standard errors toward a match"
+    if isinstance(own, (int, float)) and own > 0:
+        why += f", less the {_percent(own)} the real camera shows against itself"
+    return f", graded at {words} ({why})"
 
 
 def _scene_measure(component: str, value: float, metrics: Mapping[str, Any], alpha: float) -> tuple[float, str]:
@@ -202,14 +206,20 @@ def _scene_measure(component: str, value: float, metrics: Mapping[str, Any], alp
                            f"the real camera's at {m.get('scene_reference_frequency', 0):.3g} cy/px (from the scene, "
                            f"trusted over {low:.3g}–{high:.3g} cy/px): an MTF50 mismatch of "
                            f"{_plus_minus(estimate, m.get('scene_mtf50_mismatch_err'), True)}"
-                           + _graded_at(estimate, effective, _percent(effective)))
+                           + _graded_at(estimate, effective, _percent(effective), m.get("scene_mtf50_mismatch_ceiling")))
     gain = m.get("scene_gain")
     if not isinstance(gain, (int, float)) or gain <= 0:
         return effective, "inverted grey levels: the simulated frame falls where the real one rises (gain ≤ 0)"
     estimate = 1.0 - min(gain, 1.0 / gain)
     return effective, (f"gain {_plus_minus(gain, m.get('scene_gain_err'))} on the scene ("
                        + _ratio_text("SiTF slope", 1.0, float(gain)) + ")"
-                       + _graded_at(estimate, effective, f"a mismatch of {_percent(effective)}"))
+                       + _graded_at(estimate, effective, f"a mismatch of {_percent(effective)}", _own_gain(m)))
+
+
+def _own_gain(metrics: Mapping[str, Any]) -> float | None:
+    """The gain mismatch of the real camera against itself, when measured."""
+    own = metrics.get("scene_gain_ceiling")
+    return 1.0 - min(own, 1.0 / own) if isinstance(own, (int, float)) and own > 0 else None
 
 
 def _ratio_words(ratio: Any, error: Any) -> str:

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..alignment import find_registration
 from ..camera import CameraInputs, as_noise, camera_components, describe_input
+from ..system.scene import scene_kinds, sequence_estimate
 from ..ceiling import sequence_ceiling
 from ..config import ScoringConfig
 from ..errors import FidelityError
@@ -88,6 +89,7 @@ class SequencePlan:
     hist_range: tuple[float, float] | None
     registration: Any = None  # found once on the first readable pair (config.register, not register_each)
     ceiling: dict | None = None  # real frame t vs t + 1, or from the real camera's noise (irfidelity.ceiling)
+    transfer: dict | None = None  # the run's scene transfer (irfidelity.system), pooled over frame pairs
     ceiling_source: str | None = None  # "sequence" or "noise3d" (irfidelity.ceiling.CEILING_SOURCES)
     scene_range: float | None = None  # of the first readable real frame: for frames without their own extent
     mask: ScoringMask | None = None  # the pixels scored in every pair (None: all)
@@ -218,6 +220,25 @@ def _ceiling(real: Any, camera: CameraInputs, compared: dict, image: tuple[str, 
     return ceiling, None if ceiling is None else "noise3d"
 
 
+def _components(config: ScoringConfig, given: dict, scene: tuple, absent: dict | None = None) -> tuple:
+    """:func:`~irfidelity.scoring.plan_components` of a run: curves, noise recordings and the
+    frames' scene as inputs, but the scene components in ``absent`` (their reasons given)."""
+    absent = {k: v for k, v in (absent or {}).items() if config.weights[k] > 0}
+    have = {k: (given[k] or k in scene) and k not in absent for k in ("mtf", "sitf", "noise")}
+    try:
+        weights, image, skipped = plan_components(config.weights, config.missing, have_images=True,
+                                                  have_mtf=have["mtf"], have_sitf=have["sitf"],
+                                                  have_noise=have["noise"], have_unit=config.unit is not None,
+                                                  have_mrtd=given["mrtd"])
+    except FidelityError as exc:
+        why = "; ".join(f"{k}: {reason}" for k, reason in absent.items())
+        raise type(exc)(f"{exc}" + (f" (from the frames: {why})" if why else ""), option=exc.option) from None
+    for k, reason in absent.items():
+        if k in skipped:
+            skipped[k] = f"not assessed: {reason}; weight {config.weights[k]:g} dropped and the rest renormalised"
+    return weights, image, skipped
+
+
 def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera: CameraInputs,
               config: ScoringConfig, mask: MaskSpec | None = None) -> SequencePlan:
     """Plan a sequence run (raises before any pair is scored when the plan cannot work).
@@ -225,21 +246,30 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
     ``mask`` (a mask and/or ROI) is resolved against the first readable real frame's shape;
     every pair, the registration found for all and the ceiling are computed over it."""
     given = camera.given()
-    weights, image, skipped = plan_components(config.weights, config.missing, have_images=True,
-                                              have_mtf=given["mtf"], have_sitf=given["sitf"],
-                                              have_noise=given["noise"], have_unit=config.unit is not None,
-                                              have_mrtd=given["mrtd"])
+    scene = scene_kinds(config, given, frames=True, real_noise_known=camera.real_noise is not None or len(real) > 1)
+    weights, image, skipped = _components(config, given, scene)
     if not image:
         raise FidelityError("a sequence needs a positive weight on psnr, nmi or ssim (the per-frame components); "
                             "to compare curves alone, score a single pair without frames", option="weights")
     with recorded_warnings() as notes:
-        fixed, fixed_metrics, inputs, compared = camera_components(camera, weights, config)
+        fixed, fixed_metrics, inputs, compared = camera_components(camera, weights, config, scene=scene)
         first = _first_readable(real, pairing)
         scored = None if first is None or mask is None else mask.resolve(first.shape)
         if scored is not None:
             inputs = {**inputs, "mask": scored.describe()}
             notes.append(scored.note())
         registration = _registration(real, sim, pairing, config, scored)
+        transfer = None
+        if scene or any(weights[k] > 0 for k in ("mtf", "sitf")):
+            found = sequence_estimate(real, sim, list(pairing.pairs), config, scene,
+                                      mask=None if scored is None else scored.values, registration=registration,
+                                      real_noise=compared.get("real_noise", camera.real_noise))
+            missing = {k: "no frame pair decodes" for k in scene} if found is None else found.missing
+            if found is not None:
+                fixed, fixed_metrics, transfer = {**fixed, **found.components}, {**fixed_metrics, **found.metrics}, \
+                    found.transfer
+            if missing:
+                weights, image, skipped = _components(config, given, scene, missing)
         dtype = None if first is None else first.dtype
         default_peak = valid = None
         peak = bins = hist_range = None
@@ -261,4 +291,5 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
                         else None, bins=bins, levels=levels, hist_range=hist_range, registration=registration,
                         ceiling=ceiling, ceiling_source=ceiling_source,
+                        transfer=None if transfer is None else transfer.to_dict(),
                         scene_range=None if first is None else _scene_range(first, scored), mask=scored)

@@ -48,6 +48,7 @@ import numpy as np
 from ..registration import LOW_CONFIDENCE
 from ..scoring import Score, image_components, psnr_peak, score_components
 from ..stats import PairStats, merge_all
+from ..system.scene import unassessed
 from ..temperature import pooled_temperature_scores
 from .plan import SequencePlan
 
@@ -126,9 +127,11 @@ class Pool:
         temperature = pooled_temperature_scores((f["metrics"] for f in scored), plan.weights)
         if temperature is not None:  # scored in a unit
             comps, metrics = comps | temperature[0], metrics | temperature[1]
-        score = score_components(comps | plan.camera_components, metrics | plan.camera_metrics, plan.weights,
+        all_metrics = metrics | plan.camera_metrics
+        score = score_components(comps | plan.camera_components, all_metrics, plan.weights,
                                  plan.config, scene_range=self.scene_range() or plan.scene_range,
-                                 ceiling=plan.ceiling, ceiling_source=plan.ceiling_source)
+                                 ceiling=plan.ceiling, ceiling_source=plan.ceiling_source,
+                                 unassessed=unassessed(plan.skipped, all_metrics))
         return score, pooling
 
 

@@ -184,7 +184,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
              "csv": None if options.csv is None else os.fsdecode(options.csv), "resumed": resumed,
              "max_bytes": budget.resolve(options.max_bytes), "max_memory": options.max_memory},
         sources={"frames": FramePairs(real, sim, pairing.pairs), "curves": plan.camera_objects, "sums": scorer.sums},
-        **pooled)
+        transfer=plan.transfer, **pooled)
 
 
 def _unreadable(real: FrameSequence, index: int) -> str:

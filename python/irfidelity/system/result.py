@@ -141,7 +141,7 @@ def estimate(spectra: TransferSpectra, *, real_variance: float | None = None, no
     rows = ring_sums(spectra, geometry, noise).replicates()
     variances = noise_variances(rows, spectra.window_energy)
     white = real_variance if spectra.difference is None else (None if variances is None else float(variances[1][0]))
-    g = gain_of(spectra, spectra.shift, white)
+    g = gain_of(spectra, (0.0, 0.0), white)  # the low spectrum's displacement is already out
     changed = spectra.changed
     return _assemble(spectra, geometry, rows, variances, g, noise_source if noise is not None else None,
                      REFERENCE_FREQUENCY if reference_frequency is None else float(reference_frequency), changed)

@@ -5,6 +5,7 @@ subtraction."""
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -16,7 +17,7 @@ if TYPE_CHECKING:
 __all__ = ["Geometry", "RingSums", "displacement", "ring_sums", "unchanged", "ratio", "jackknife"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Geometry:
     """The frequencies of a tile's half spectrum: ``fy``, ``fx`` (cy/px), the ring
     ``k = round(f·tile)`` of each bin, the weight of each stored bin (2 for columns whose
@@ -32,6 +33,7 @@ class Geometry:
     vertical: np.ndarray
 
     @classmethod
+    @functools.lru_cache(maxsize=8)
     def of(cls, tile: int) -> Geometry:
         fy = np.fft.fftfreq(tile)[:, None]
         fx = np.fft.rfftfreq(tile)[None, :]
@@ -46,6 +48,15 @@ class Geometry:
     def rings(self) -> int:
         """Rings up to the Nyquist frequency, 0..tile/2."""
         return self.tile // 2 + 1
+
+    @functools.cached_property
+    def summing(self) -> np.ndarray:
+        """The matrix that sums a flattened half spectrum into rings, each bin with its weight:
+        ``values.reshape(-1, bins) @ summing`` gives the ring sums."""
+        out = np.zeros((self.ring.size, self.rings))
+        inside = self.ring.ravel() < self.rings
+        out[np.flatnonzero(inside), self.ring.ravel()[inside]] = self.weight.ravel()[inside]
+        return out
 
     @property
     def frequency(self) -> np.ndarray:
@@ -69,9 +80,12 @@ def displacement(cross: np.ndarray, shape: tuple[int, int], block: int = 1) -> t
     use = (f > 0) & (f < 0.25 / block) & (np.abs(rest) > 0)
     if use.sum() < 3:
         return float(whole[0]), float(whole[1])
-    weight = np.sqrt(np.abs(rest)[use])
+    weight = np.abs(rest)[use]
     design = -2 * np.pi * np.stack([np.broadcast_to(fy, f.shape)[use], np.broadcast_to(fx, f.shape)[use]], axis=1)
-    solution, *_ = np.linalg.lstsq(design * weight[:, None], np.angle(rest[use]) * weight, rcond=None)
+    normal = design.T @ (weight[:, None] * design)
+    if not np.linalg.det(normal) > 0:
+        return float(whole[0]), float(whole[1])
+    solution = np.linalg.solve(normal, design.T @ (weight * np.angle(rest[use])))
     return float(whole[0] + solution[0]), float(whole[1] + solution[1])
 
 
@@ -121,21 +135,14 @@ class RingSums:
 def ring_sums(spectra: TransferSpectra, geometry: Geometry, noise: np.ndarray | None) -> RingSums:
     """The per-group ring sums of the spectra (their cross-spectrum aligned tile by tile in
     Rust; ``noise`` the real camera's noise power per group and bin, or None)."""
-    cross = spectra.cross
-    groups, rings = len(spectra.tiles), geometry.rings
-    index = (geometry.ring[None, :, :] + geometry.tile * np.arange(groups)[:, None, None]).ravel()
-
-    def sums(values: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
-        weight = geometry.weight if where is None else geometry.weight * where
-        total = np.bincount(index, (weight * values).ravel(), minlength=groups * geometry.tile)
-        return total.reshape(groups, geometry.tile)[:, :rings]
-
+    groups = len(spectra.tiles)
     signal = spectra.real if noise is None else spectra.real - noise
-    count = np.bincount(geometry.ring.ravel(), geometry.weight.ravel(), minlength=geometry.tile)[:rings]
-    return RingSums(sums(spectra.real), sums(spectra.sim), sums(cross.real), None if noise is None else sums(noise),
-                    (sums(cross.real, geometry.horizontal), sums(signal, geometry.horizontal)),
-                    (sums(cross.real, geometry.vertical), sums(signal, geometry.vertical)), count,
-                    np.asarray(spectra.tiles))
+    cross = spectra.cross.real
+    stack = [spectra.real, spectra.sim, cross, signal, cross * geometry.horizontal, signal * geometry.horizontal,
+             cross * geometry.vertical, signal * geometry.vertical] + ([] if noise is None else [noise])
+    sums = (np.stack(stack).reshape(len(stack) * groups, -1) @ geometry.summing).reshape(len(stack), groups, -1)
+    return RingSums(sums[0], sums[1], sums[2], None if noise is None else sums[8], (sums[4], sums[5]),
+                    (sums[6], sums[7]), geometry.summing.sum(axis=0), np.asarray(spectra.tiles))
 
 
 #: A group whose transfer over rings 1..3 departs from the groups' median by more than this

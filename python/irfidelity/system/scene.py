@@ -14,7 +14,7 @@ or changing one) does not blame the simulator for its own uncertainty.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Mapping
 
 import numpy as np
@@ -26,8 +26,8 @@ from .readings import REFERENCE_FREQUENCY
 from .result import Transfer, estimate
 from .spectra import transfer_spectra
 
-__all__ = ["SCENE_KINDS", "SceneEstimate", "scene_estimate", "scene_kinds", "scene_transfer", "scene_components",
-           "scene_metrics", "reference_frequency", "unassessed"]
+__all__ = ["SCENE_KINDS", "SceneEstimate", "scene_estimate", "sequence_estimate", "scene_kinds", "scene_transfer",
+           "pair_spectra", "scene_components", "scene_metrics", "reference_frequency", "unassessed"]
 
 #: The components the scene can stand in for.
 SCENE_KINDS = ("mtf", "sitf", "noise")
@@ -55,24 +55,31 @@ def reference_frequency(config: Any, curves: Mapping[str, Any]) -> float:
     return REFERENCE_FREQUENCY
 
 
-def scene_transfer(sources: Mapping[str, Any], config: Any, *, real_ref: np.ndarray | None = None,
-                   real_noise: Any = None, max_bytes: int | None = None) -> Transfer:
-    """The transfer of the pair as scored (``sources``: ``real``, ``sim``, ``mask``, and with a
-    registration ``sim_unregistered`` and ``registration``): a translation is taken as the
+def pair_spectra(sources: Mapping[str, Any], config: Any, *, real_ref: np.ndarray | None = None,
+                 max_bytes: int | None = None) -> Any:
+    """The transfer sums of the pair as scored (``sources``: ``real``, ``sim``, ``mask``, and
+    with a registration ``sim_unregistered`` and ``registration``): a translation is taken as the
     whole-pixel overlap of the unregistered frames (no resampling), other registrations as
-    resampled; the real camera's noise from ``real_ref`` or its 3-D noise ``real_noise``."""
+    resampled; ``real_ref`` a second real frame."""
     real, sim, mask = sources["real"], sources["sim"], sources.get("mask")
     registration = sources.get("registration")
     if registration is not None and registration.model == "translation":
         real, sim, mask, _ = aligned(real, sources["sim_unregistered"], registration, mask, max_bytes)
         real_ref = None if real_ref is None else real_ref[_overlap(sources["real"].shape, registration)]
+    (real, sim, real_ref), mask = cropped([real, sim, real_ref], None if mask is None else np.asarray(mask, dtype=bool))
+    return transfer_spectra(real, sim, mask=mask, real_ref=real_ref, tile=config.transfer_options.get("tile"))
+
+
+def scene_transfer(sources: Mapping[str, Any], config: Any, *, real_ref: np.ndarray | None = None,
+                   real_noise: Any = None, max_bytes: int | None = None) -> Transfer:
+    """The transfer of the pair as scored (:func:`pair_spectra`); the real camera's noise from
+    ``real_ref`` or its 3-D noise ``real_noise``."""
     variance, source = None, None
     if real_ref is not None:
         source = "real_ref"
     elif real_noise is not None:
         variance, source = real_noise_variance(real_noise), "real_noise"
-    (real, sim, real_ref), mask = cropped([real, sim, real_ref], None if mask is None else np.asarray(mask, dtype=bool))
-    spectra = transfer_spectra(real, sim, mask=mask, real_ref=real_ref, tile=config.transfer_options.get("tile"))
+    spectra = pair_spectra(sources, config, real_ref=real_ref, max_bytes=max_bytes)
     return estimate(spectra, real_variance=variance, noise_source=source,
                     reference_frequency=reference_frequency(config, sources.get("curves", {})))
 
@@ -83,12 +90,14 @@ def _overlap(shape: tuple[int, int], registration: Any) -> tuple[slice, slice]:
     return (slice(max(dy, 0), shape[0] + min(dy, 0)), slice(max(dx, 0), shape[1] + min(dx, 0)))
 
 
-def scene_components(t: Transfer, kinds: tuple[str, ...], config: Any) -> tuple[dict, dict]:
-    """``({component: value}, {component: why it could not be assessed})`` for ``kinds``."""
+def scene_components(t: Transfer, kinds: tuple[str, ...], config: Any, ceiling: Transfer | None = None
+                     ) -> tuple[dict, dict]:
+    """``({component: value}, {component: why it could not be assessed})`` for ``kinds``;
+    ``ceiling`` the transfer of the real camera against itself (:func:`camera_ceiling`)."""
     values: dict[str, float] = {}
     missing: dict[str, str] = {}
     for kind in kinds:
-        value, reason = _component(kind, t, config)
+        value, reason = _component(kind, t, config, ceiling)
         if value is None:
             missing[kind] = reason
         else:
@@ -101,30 +110,57 @@ def scene_components(t: Transfer, kinds: tuple[str, ...], config: Any) -> tuple[
 DOUBT = 2.0
 
 
-def _toward_one(value: float, error: float | None) -> float:
-    """``value`` moved :data:`DOUBT` standard errors toward 1, not past it."""
+def _doubted(value: float, error: float | None) -> float:
+    """A mismatch (≥ 0) less :data:`DOUBT` standard errors, not below 0."""
     step = DOUBT * error if error is not None and math.isfinite(error) else 0.0
-    return max(1.0, value - step) if value > 1 else min(1.0, value + step)
+    return max(0.0, value - step)
 
 
-def _component(kind: str, t: Transfer, config: Any) -> tuple[float | None, str]:
-    """The component's value from the transfer, graded at :data:`DOUBT` standard errors toward a
-    perfect match (or why there is none)."""
+def _gain_mismatch(gain: float) -> float:
+    return 1.0 - min(gain, 1.0 / gain)
+
+
+def graded_mismatch(kind: str, t: Transfer, ceiling: Transfer | None) -> float | None:
+    """The mismatch a scene component is graded by: the estimate less :data:`DOUBT` standard
+    errors, less what the real camera shows against itself on the same scene (a second real
+    frame: scene motion and the camera's own changes are no fault of the simulator)."""
     if kind == "mtf":
         if t.mtf50_mismatch is None:
-            return None, t.unread or _NO_CONTRAST
-        err = t.mtf50_mismatch_err
-        mismatch = max(0.0, t.mtf50_mismatch - DOUBT * (err if err is not None and math.isfinite(err) else 0.0))
-        return mu_of_ratio(1.0 - mismatch) ** float(config.mtf_options.get("alpha", 1.0)), ""
+            return None
+        own = 0.0 if ceiling is None or ceiling.mtf50_mismatch is None else ceiling.mtf50_mismatch
+        return max(0.0, _doubted(t.mtf50_mismatch, t.mtf50_mismatch_err) - own)
     if kind == "sitf":
-        if t.gain is None:
-            return None, _NO_CONTRAST
-        gain = _toward_one(t.gain, t.gain_err) if t.gain > 0 else 0.0
-        return (mu_of_ratio(gain) ** float(config.sitf_options.get("alpha", 1.0)) if gain > 0 else 0.0), ""
-    if t.noise_ratio is None:
-        return None, _UNKNOWN_NOISE
-    ratio = _toward_one(t.noise_ratio, t.noise_ratio_err)
-    return (mu_of_ratio(ratio) if ratio > 0 else 0.0), ""
+        if t.gain is None or not t.gain > 0:
+            return None if t.gain is None else 1.0
+        own = 0.0 if ceiling is None or not (ceiling.gain or 0) > 0 else _gain_mismatch(ceiling.gain)
+        relative = (t.gain_err or 0.0) / t.gain
+        return max(0.0, _doubted(_gain_mismatch(t.gain), relative) - own)
+    if t.noise_ratio is None or not t.noise_ratio > 0:
+        return None if t.noise_ratio is None else 1.0
+    return _doubted(_gain_mismatch(t.noise_ratio), (t.noise_ratio_err or 0.0) / t.noise_ratio)
+
+
+def _component(kind: str, t: Transfer, config: Any, ceiling: Transfer | None) -> tuple[float | None, str]:
+    """The component's value from its graded mismatch ``e``: ``μ(1 − e)^α`` (or why none)."""
+    mismatch = graded_mismatch(kind, t, ceiling)
+    if mismatch is None:
+        return None, {"mtf": t.unread or _NO_CONTRAST, "sitf": _NO_CONTRAST, "noise": _UNKNOWN_NOISE}[kind]
+    alpha = float({"mtf": config.mtf_options, "sitf": config.sitf_options}.get(kind, {}).get("alpha", 1.0))
+    return (mu_of_ratio(1.0 - mismatch) ** alpha if mismatch < 1 else 0.0), ""
+
+
+def camera_ceiling(sources: Mapping[str, Any], config: Any, real_ref: np.ndarray | None,
+                   max_bytes: int | None = None) -> Transfer | None:
+    """The real camera against itself: the transfer of the real frame to a second real frame of
+    the scene (None without one, or when it cannot be measured)."""
+    if real_ref is None:
+        return None
+    frames = {"real": sources["real"], "sim": real_ref, "mask": sources.get("mask")}
+    try:
+        return estimate(pair_spectra(frames, config, max_bytes=max_bytes),
+                        reference_frequency=reference_frequency(config, sources.get("curves", {})))
+    except FidelityError:
+        return None
 
 
 _NO_CONTRAST = "the scene has no contrast at low frequencies to measure the gain on (a flat or unrelated pair)"
@@ -185,8 +221,18 @@ def scene_estimate(sources: Mapping[str, Any], config: Any, kinds: tuple[str, ..
             raise
         why = f"the scored region holds no whole tile to measure the pair's transfer on ({exc})"
         return SceneEstimate(None, {}, {}, {k: why for k in kinds})
-    values, missing = scene_components(t, kinds, config)
+    own = camera_ceiling(sources, config, real_ref, max_bytes) if {"mtf", "sitf"} & set(kinds) else None
+    return _estimate(t, kinds, config, own)
+
+
+def _estimate(t: Transfer, kinds: tuple[str, ...], config: Any, own: Transfer | None) -> SceneEstimate:
+    """The :class:`SceneEstimate` of a transfer and the real camera's own (or None)."""
+    values, missing = scene_components(t, kinds, config, own)
     metrics = {**scene_metrics(t), **{f"{k}_source": "scene" for k in values}}
+    for kind in values:
+        metrics[f"scene_{kind}_graded"] = graded_mismatch(kind, t, own)
+    if own is not None:
+        metrics.update(scene_mtf50_mismatch_ceiling=own.mtf50_mismatch, scene_gain_ceiling=own.gain)
     return SceneEstimate(t, values, metrics, missing)
 
 
@@ -199,3 +245,59 @@ def unassessed(skipped: Mapping[str, str], metrics: Mapping[str, Any]) -> dict:
             and metrics.get("noise_source") is None:
         out["noise"] = _UNKNOWN_NOISE
     return out
+
+
+#: Frame pairs of a sequence whose transfers are pooled for the run's camera components.
+SEQUENCE_PAIRS = 8
+
+
+def sequence_estimate(real: Any, sim: Any, pairs: list, config: Any, kinds: tuple[str, ...], *, mask: Any = None,
+                      registration: Any = None, real_noise: Any = None) -> SceneEstimate | None:
+    """The scene estimate of a sequence: the transfers of up to :data:`SEQUENCE_PAIRS` pairs
+    spread over the run (``pairs``: (real index, sim index)), pooled; the real camera's noise
+    from the next real frame of each (its temporal noise, half their difference spectrum), or
+    its 3-D noise ``real_noise``; the real camera's own transfer from each real frame to the next
+    (its repeatability, :func:`graded_mismatch`). None when no pair decodes."""
+    usable = [(r, s) for r, s in pairs if r is not None and s is not None]
+    if not usable:
+        return None
+    if real_noise is None:  # pairs with a next real frame first: their noise pools
+        usable = [p for p in usable if p[0] + 1 < len(real)] or usable
+    picks = sorted({int(round(i)) for i in np.linspace(0, len(usable) - 1, min(SEQUENCE_PAIRS, len(usable)))})
+    pooled = own_pooled = None
+    for r, s in (usable[i] for i in picks):
+        try:
+            spectra, own = _pair_spectra(real, sim, r, s, config, mask, registration, real_noise is None)
+        except FidelityError:
+            continue  # an unreadable frame is the scoring's error row, not the transfer's
+        pooled = spectra if pooled is None else _merged(pooled, spectra)
+        if own is not None:
+            own_pooled = own if own_pooled is None else _merged(own_pooled, own)
+    if pooled is None:
+        return None
+    variance = None if real_noise is None else real_noise_variance(real_noise)
+    source = "real_noise" if variance is not None else ("sequence" if pooled.difference is not None else None)
+    reference = reference_frequency(config, {})
+    t = estimate(pooled, real_variance=variance, noise_source=source, reference_frequency=reference)
+    own = None if own_pooled is None else estimate(own_pooled, reference_frequency=reference)
+    return _estimate(t, kinds, config, own)
+
+
+def _pair_spectra(real: Any, sim: Any, r: int, s: int, config: Any, mask: Any, registration: Any,
+                  with_next: bool) -> Any:
+    """One pair's transfer sums, with the next real frame as the second real frame."""
+    frames = {"real": np.asarray(real[r]), "sim": np.asarray(sim[s]), "mask": mask}
+    if registration is not None and registration.model == "translation":
+        frames.update(sim_unregistered=frames["sim"], registration=registration)
+    nxt = np.asarray(real[r + 1]) if r + 1 < len(real) else None
+    if nxt is not None and nxt.shape != frames["real"].shape:
+        nxt = None
+    own = None if nxt is None else pair_spectra({"real": frames["real"], "sim": nxt, "mask": mask}, config)
+    return pair_spectra(frames, config, real_ref=nxt if with_next else None), own
+
+
+def _merged(a: Any, b: Any) -> Any:
+    """``a`` and ``b`` pooled (a frame without a second real frame drops the noise of all)."""
+    if (a.difference is None) != (b.difference is None):
+        a, b = replace(a, difference=None), replace(b, difference=None)
+    return a.merge(b)

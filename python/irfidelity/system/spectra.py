@@ -48,8 +48,8 @@ class TransferSpectra:
     second real frame) of shape ``(groups, tile, tile//2 + 1)``: Σ|R|², Σ|S|², Σ conj(R)·S and
     Σ|R − R′|² over each group's tiles; ``window_energy`` (Σ w² over a tile); the whole-frame
     spectrum of the ``low_shape`` block-mean frames (blocks of ``factor`` px): ``low_real``,
-    ``low_cross`` (complex); the frames' sums ``sum_real``, ``sum_sim`` over ``pixels`` scored
-    pixels; ``skipped`` tiles (a pixel not scored or not finite); ``shift``, the pair's
+    ``low_cross`` (complex, the pair's displacement taken out of its phase); the frames' sums
+    ``sum_real``, ``sum_sim`` over ``pixels`` scored pixels; ``skipped`` tiles (a pixel not scored or not finite); ``shift``, the pair's
     displacement from the block-mean spectrum (``sim(x) ≈ real(x − d)``; the cross-spectra are
     aligned around it, each tile on its own), and ``shifts`` per group, ``[Σw, Σw·dy, Σw·dx,
     Σw·dy², Σw·dx²]`` over the tiles' own displacements (``w`` their cross power); ``changed``,
@@ -116,15 +116,15 @@ def transfer_spectra(real: np.ndarray, sim: np.ndarray, *, mask: np.ndarray | No
     mask = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
     factor = max(1, min(real.shape) // 64)
     low = _core.low_spectrum(real, sim, mask, factor=factor)
-    low_cross = low["cross_re"] + 1j * low["cross_im"]
-    shift = displacement(low_cross, (int(low["rows"]), int(low["cols"])), int(low["factor"]))
+    low_shape = (int(low["rows"]), int(low["cols"]))
+    shift = displacement(low["cross_re"] + 1j * low["cross_im"], low_shape, int(low["factor"]))
     welch = _core.cross_spectra(real, sim, ref, mask, tile=tile, step=step, groups=GROUPS, shift=shift)
     welch["cross"] = welch["cross_re"] + 1j * welch["cross_im"]
     changed = ~unchanged(_group_sums(welch, tile)) & (np.asarray(welch["tiles"]) > 0)
     if changed.any():
         welch, low = _without(welch, changed), _core.low_spectrum(real, sim, _masked(mask, real.shape, welch, changed),
                                                                    factor=factor)
-        low_cross = low["cross_re"] + 1j * low["cross_im"]
+    low_cross = _turned(low["cross_re"] + 1j * low["cross_im"], low_shape, int(low["factor"]), shift)
     return TransferSpectra(tile=tile, step=step, tiles=np.asarray(welch["tiles"], dtype=np.int64),
                            real=welch["real"], sim=welch["sim"], cross=welch["cross"],
                            difference=welch.get("difference"), window_energy=float(welch["window_energy"]),
@@ -135,17 +135,20 @@ def transfer_spectra(real: np.ndarray, sim: np.ndarray, *, mask: np.ndarray | No
                            shifts=np.asarray(welch["shifts"], dtype=np.float64), changed=int(changed.sum()))
 
 
+def _turned(cross: np.ndarray, shape: tuple[int, int], block: int, d: tuple[float, float]) -> np.ndarray:
+    """A block-mean cross-spectrum with the displacement ``d`` (pixels) taken out of its phase."""
+    fy, fx = np.fft.fftfreq(shape[0])[:, None] / block, np.fft.rfftfreq(shape[1])[None, :] / block
+    return cross * np.exp(2j * np.pi * (fy * d[0] + fx * d[1]))
+
+
 def _group_sums(welch: dict, tile: int):
     """The per-group ring sums of fresh Welch sums (no noise known yet)."""
     from .rings import Geometry, RingSums
 
     geometry = Geometry.of(tile)
     groups = len(welch["tiles"])
-    index = (geometry.ring[None] + tile * np.arange(groups)[:, None, None]).ravel()
-    sums = lambda v: np.bincount(index, (geometry.weight * v).ravel(),  # noqa: E731
-                                 minlength=groups * tile).reshape(groups, tile)[:, :geometry.rings]
-    real, cross = sums(welch["real"]), sums(welch["cross"].real)
-    return RingSums(real, real, cross, None, (cross, real), (cross, real), geometry.rings,
+    real, cross = (np.reshape(v, (groups, -1)) @ geometry.summing for v in (welch["real"], welch["cross"].real))
+    return RingSums(real, real, cross, None, (cross, real), (cross, real), geometry.summing.sum(axis=0),
                     np.asarray(welch["tiles"]))
 
 
