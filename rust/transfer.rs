@@ -98,6 +98,9 @@ pub struct TileSpectra {
     /// Per group, over its tiles' own displacements weighted by their low-frequency cross
     /// power `w`: `[Σw, Σw·dy, Σw·dx, Σw·dy², Σw·dx²]`.
     pub shifts: Vec<[f64; 5]>,
+    /// The whole-pixel displacement of the simulated tiles (the pair's, rounded); `shifts` are
+    /// the rest, measured from it.
+    pub offset: (i64, i64),
     /// Per group, the box its tiles cover: `[row0, row1, col0, col1]` (end excluded; empty
     /// when the group has no tile).
     pub boxes: Vec<[usize; 4]>,
@@ -125,7 +128,20 @@ pub struct LowSpectrum {
 
 /// A Hann window of length `n` without its zero end points, `sin²(π(i + 1)/(n + 1))`.
 pub fn hann(n: usize) -> Vec<f64> {
-    (0..n).map(|i| (std::f64::consts::PI * (i + 1) as f64 / (n + 1) as f64).sin().powi(2)).collect()
+    hann_moved(n, 0.0)
+}
+
+/// The Hann window of [`hann`] moved by `d` pixels (|d| ≤ ½): `sin²(π(i + 1 − d)/(n + 1))`.
+/// Content displaced by `d` under the moved window is the displaced windowed content, so the
+/// cross-spectrum's phase turns linearly with `d` (the same window on both would mix in
+/// neighbouring bins of other phase, and read a fractional displacement about a fifth short).
+fn hann_moved(n: usize, d: f64) -> Vec<f64> {
+    (0..n).map(|i| (std::f64::consts::PI * ((i + 1) as f64 - d) / (n + 1) as f64).sin().powi(2)).collect()
+}
+
+/// The 2-D window of two 1-D ones, row-major.
+fn outer(along_y: &[f64], along_x: &[f64]) -> Vec<f64> {
+    along_y.iter().flat_map(|&wy| along_x.iter().map(move |&wx| wy * wx)).collect()
 }
 
 /// The top-left corners of the tiles along one axis of length `len`: every `step` pixels, the
@@ -150,19 +166,29 @@ fn check_frames<R, S>(frames: &Frames<'_, R, S>, what: &str) -> Result<()> {
     Ok(())
 }
 
-/// Whether every pixel of the `tile × tile` square at `(y0, x0)` is scored and finite.
-fn usable<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, y0: usize, x0: usize, tile: usize) -> bool {
+/// Whether every pixel of the real frame's `tile × tile` square at `(y0, x0)` is scored and
+/// finite, and of the simulated frame's at `at` (None: off the frame).
+fn usable<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, (y0, x0): (usize, usize), at: Option<(usize, usize)>, tile: usize) -> bool {
     fn finite<T: Sample>(values: &[T]) -> bool {
         T::IS_INT || values.iter().all(|v| v.to_f64().is_finite())
     }
+    let Some((sy, sx)) = at else { return false };
     let cols = frames.shape.1;
-    (y0..y0 + tile).all(|y| {
-        let span = y * cols + x0..y * cols + x0 + tile;
+    (0..tile).all(|y| {
+        let span = (y0 + y) * cols + x0..(y0 + y) * cols + x0 + tile;
+        let moved = (sy + y) * cols + sx..(sy + y) * cols + sx + tile;
         frames.mask.is_none_or(|m| m[span.clone()].iter().all(|&k| k))
             && finite(&frames.real[span.clone()])
-            && finite(&frames.sim[span.clone()])
+            && finite(&frames.sim[moved])
             && frames.reference.is_none_or(|r| finite(&r[span.clone()]))
     })
+}
+
+/// Where the simulated frame's tile lies for the real frame's at `(y0, x0)`: displaced by
+/// `offset` whole pixels (the pair's displacement, rounded), None when that leaves the frame.
+fn moved((y0, x0): (usize, usize), offset: (i64, i64), (rows, cols): (usize, usize), tile: usize) -> Option<(usize, usize)> {
+    let (y, x) = (y0 as i64 + offset.0, x0 as i64 + offset.1);
+    (y >= 0 && x >= 0 && y as usize + tile <= rows && x as usize + tile <= cols).then_some((y as usize, x as usize))
 }
 
 /// The mean of a tile of `values`, summed in eight lanes (so the sum vectorises).
@@ -306,12 +332,12 @@ fn add_pair_impl(sums: &mut GroupSums, z: &[C32], alignment: &Alignment) {
             *cross = C32::new(a_re * b_re + a_im * b_im, a_re * b_im - a_im * b_re);
         }
     }
-    let (own, weight) = alignment.own(&sums.cross);
+    let (own, measured, weight) = alignment.own(&sums.cross);
     sums.shifts[0] += weight;
-    sums.shifts[1] += weight * own.0;
-    sums.shifts[2] += weight * own.1;
-    sums.shifts[3] += weight * own.0 * own.0;
-    sums.shifts[4] += weight * own.1 * own.1;
+    sums.shifts[1] += weight * measured.0;
+    sums.shifts[2] += weight * measured.1;
+    sums.shifts[3] += weight * measured.0 * measured.0;
+    sums.shifts[4] += weight * measured.1 * measured.1;
     if own == alignment.shift {
         add_turned(sums, &alignment.pair_turn);
     } else {
@@ -359,14 +385,15 @@ impl Alignment {
         Alignment { n, shift, bins, pair_turn: turns(n, shift) }
     }
 
-    /// A tile's own displacement `(dy, dx)` and its weight (the cross power of the bins used):
+    /// The displacement a tile is aligned on, its own as measured, and the weight of that
+    /// measurement (the cross power of the bins used; 0 when it was not kept). A tile's own:
     /// the phases of its cross-spectrum at [`shift_bins`], the pair's displacement taken out
     /// first, fitted by weighted least squares (`arg c(k) = −2π·k·d/n`); the pair's displacement
     /// instead (weight 0) when the tile's is beyond [`MAX_LOCAL_SHIFT`] of it or uncertain
     /// beyond [`MAX_LOCAL_ERROR`], and also (weight kept) when it departs from it by less than
     /// [`SIGNIFICANT`] standard errors. Distortion and moving objects displace tiles apart:
     /// aligning each tile keeps them out of the MTF ratio, which then measures resolution.
-    fn own(&self, cross: &[C32]) -> ((f64, f64), f64) {
+    fn own(&self, cross: &[C32]) -> ((f64, f64), (f64, f64), f64) {
         let mut phases = [(0.0f64, 0.0f64); 256];
         let (mut syy, mut syx, mut sxx, mut by, mut bx, mut total) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         for (slot, &(index, gy, gx, turn)) in phases.iter_mut().zip(&self.bins) {
@@ -382,11 +409,11 @@ impl Alignment {
         }
         let det = syy * sxx - syx * syx;
         if !(det > 0.0) || !(total > 0.0) {
-            return (self.shift, 0.0);
+            return (self.shift, self.shift, 0.0);
         }
         let (ry, rx) = ((by * sxx - bx * syx) / det, (bx * syy - by * syx) / det);
         if !(ry.abs() <= MAX_LOCAL_SHIFT && rx.abs() <= MAX_LOCAL_SHIFT) {
-            return (self.shift, 0.0);
+            return (self.shift, self.shift, 0.0);
         }
         // the fit's standard error from its residual phases
         let mut residual = 0.0f64;
@@ -397,10 +424,11 @@ impl Alignment {
         }
         let variance = residual / (self.bins.len() as f64 - 2.0).max(1.0) * (syy + sxx) / det;
         if !(variance.sqrt() <= MAX_LOCAL_ERROR) {
-            return (self.shift, 0.0);
+            return (self.shift, self.shift, 0.0);
         }
         let significant = (ry * ry + rx * rx) > SIGNIFICANT * SIGNIFICANT * variance;
-        (if significant { (self.shift.0 + ry, self.shift.1 + rx) } else { self.shift }, total)
+        let measured = (self.shift.0 + ry, self.shift.1 + rx);
+        (if significant { measured } else { self.shift }, measured, total)
     }
 }
 
@@ -434,10 +462,10 @@ fn add_turned(sums: &mut GroupSums, turn: &[C32]) {
 }
 
 avx2_copy! {
-    /// The windowed, mean-free tile `(y0, x0)` of `a` (real part) and `b` (imaginary part) of
-    /// `z`; `window` is the tile's 2-D window, row-major. In a copy compiled for AVX2 when the
+    /// The windowed, mean-free tiles of `a` at the first corner (real part of `z`) and of `b` at
+    /// the second (imaginary part); `windows` are their 2-D windows, row-major. In a copy compiled for AVX2 when the
     /// CPU has it (same code, same results).
-    fn fill_pair[A: Sample, B: Sample](a: &[A], b: &[B], cols: usize, corner: (usize, usize), window: &[f64], z: &mut [C32])
+    fn fill_pair[A: Sample, B: Sample](a: &[A], b: &[B], cols: usize, corners: ((usize, usize), (usize, usize)), windows: (&[f64], &[f64]), z: &mut [C32])
     => fill_pair_avx2, fill_pair_impl
 }
 
@@ -446,26 +474,26 @@ fn fill_pair_impl<A: Sample, B: Sample>(
     a: &[A],
     b: &[B],
     cols: usize,
-    (y0, x0): (usize, usize),
-    window: &[f64],
+    ((y0, x0), (sy, sx)): ((usize, usize), (usize, usize)),
+    (window_a, window_b): (&[f64], &[f64]),
     z: &mut [C32],
 ) {
-    let n = (window.len() as f64).sqrt() as usize;
-    let (mean_a, mean_b) = (tile_mean(a, cols, y0, x0, n), tile_mean(b, cols, y0, x0, n));
-    for (y, (line, weights)) in z.chunks_exact_mut(n).zip(window.chunks_exact(n)).enumerate() {
-        let row = (y0 + y) * cols + x0;
-        let values = a[row..row + n].iter().zip(&b[row..row + n]);
+    let n = (window_a.len() as f64).sqrt() as usize;
+    let (mean_a, mean_b) = (tile_mean(a, cols, y0, x0, n), tile_mean(b, cols, sy, sx, n));
+    let rows = z.chunks_exact_mut(n).zip(window_a.chunks_exact(n).zip(window_b.chunks_exact(n)));
+    for (y, (line, weights)) in rows.enumerate() {
+        let (row, moved) = ((y0 + y) * cols + x0, (sy + y) * cols + sx);
+        let values = a[row..row + n].iter().zip(&b[moved..moved + n]);
         if narrow::<A>() && narrow::<B>() {
             // values of 16 bits or fewer are exact in float32, and so are their differences from
             // the mean to float32's relative precision
             let (mean_a, mean_b) = (mean_a as f32, mean_b as f32);
-            for ((out, &w), (va, vb)) in line.iter_mut().zip(weights).zip(values) {
-                let w = w as f32;
-                *out = C32::new((va.to_f64() as f32 - mean_a) * w, (vb.to_f64() as f32 - mean_b) * w);
+            for ((out, (&wa, &wb)), (va, vb)) in line.iter_mut().zip(weights.0.iter().zip(weights.1)).zip(values) {
+                *out = C32::new((va.to_f64() as f32 - mean_a) * wa as f32, (vb.to_f64() as f32 - mean_b) * wb as f32);
             }
         } else {
-            for ((out, &w), (va, vb)) in line.iter_mut().zip(weights).zip(values) {
-                *out = C32::new(((va.to_f64() - mean_a) * w) as f32, ((vb.to_f64() - mean_b) * w) as f32);
+            for ((out, (&wa, &wb)), (va, vb)) in line.iter_mut().zip(weights.0.iter().zip(weights.1)).zip(values) {
+                *out = C32::new(((va.to_f64() - mean_a) * wa) as f32, ((vb.to_f64() - mean_b) * wb) as f32);
             }
         }
     }
@@ -510,9 +538,15 @@ pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Til
         .flat_map(|y| starts(cols, tile, step).into_iter().map(move |x| (y, x)))
         .collect();
     let taper = hann(tile);
-    let window: Vec<f64> = taper.iter().flat_map(|&wy| taper.iter().map(move |&wx| wy * wx)).collect();
+    let window = outer(&taper, &taper);
     let fft = PLANNER32.with(|p| p.borrow_mut().plan_fft_forward(tile));
-    let alignment = Alignment::new(tile, shift);
+    // the simulated tiles are taken at the whole-pixel part of the pair's displacement, so the
+    // two tiles of a pair hold the same content, under a window moved by the rest; the tiles
+    // align on the rest
+    let offset = (shift.0.round() as i64, shift.1.round() as i64);
+    let rest = (shift.0 - offset.0 as f64, shift.1 - offset.1 as f64);
+    let sim_window = outer(&hann_moved(tile, rest.0), &hann_moved(tile, rest.1));
+    let alignment = Alignment::new(tile, rest);
     let bins = tile * (tile / 2 + 1);
     let with_difference = frames.reference.is_some();
     let total = corners.len();
@@ -525,11 +559,13 @@ pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Til
                 let mut square = Square::new(fft.clone());
                 let mut z = budget::filled(tile * tile, C32::default());
                 for &(y0, x0) in &corners[g * total / groups..(g + 1) * total / groups] {
-                    if !usable(frames, y0, x0, tile) {
+                    let at = moved((y0, x0), offset, frames.shape, tile);
+                    if !usable(frames, (y0, x0), at, tile) {
                         skipped += 1;
                         continue;
                     }
-                    fill_pair(frames.real, frames.sim, cols, (y0, x0), &window, &mut z);
+                    let at = at.unwrap_or((y0, x0));
+                    fill_pair(frames.real, frames.sim, cols, ((y0, x0), at), (&window, &sim_window), &mut z);
                     square.forward(&mut z);
                     add_pair(&mut sums, &z, &alignment);
                     if let Some(reference) = frames.reference {
@@ -556,6 +592,7 @@ pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Til
         window_energy: window.iter().map(|w| w * w).sum::<f64>(),
         skipped: 0,
         shifts: Vec::with_capacity(groups),
+        offset,
         boxes: (0..groups)
             .map(|g| {
                 let mine = &corners[g * total / groups..(g + 1) * total / groups];
@@ -827,7 +864,9 @@ mod tests {
         // the pair's displacement known to 0.3 px: each tile finds the rest
         let spectra = tile_spectra(&frames, Tiling { tile, step: tile / 2, groups: 1, shift: (0.5, -1.0) }).unwrap();
         let [w, wy, wx, _, _] = spectra.shifts[0];
-        assert!((wy / w - 0.7).abs() < 0.03 && (wx / w + 1.3).abs() < 0.03, "{} {}", wy / w, wx / w);
+        let (oy, ox) = (spectra.offset.0 as f64, spectra.offset.1 as f64);
+        assert_eq!(spectra.offset, (1, -1)); // the whole-pixel part of (0.5, −1.0)
+        assert!((oy + wy / w - 0.7).abs() < 0.03 && (ox + wx / w + 1.3).abs() < 0.03, "{} {}", wy / w, wx / w);
         let width = tile / 2 + 1;
         for (ky, kx) in [(3, 0), (0, 3), (2, 3), (4, 4)] {
             let i = ky * width + kx;

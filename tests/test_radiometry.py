@@ -429,13 +429,13 @@ def test_csq_and_plain_jpeg_are_refused_clearly(tmp_path):
         irf.read_radiometry(plain)
 
 
-def test_readme_radiometric_example_runs(capsys):
+def test_guide_radiometric_example_runs(capsys):
     import re
 
-    readme = (pathlib.Path(__file__).parent.parent / "README.md").read_text(encoding="utf-8")
+    readme = (pathlib.Path(__file__).parent.parent / "docs" / "guide.md").read_text(encoding="utf-8")
     block = next(b for b in re.findall(r"```python\n(.*?)```", readme, re.S) if "read_radiometry" in b)
     namespace: dict = {}
-    exec(compile(block, "README.md", "exec"), namespace)
+    exec(compile(block, "docs/guide.md", "exec"), namespace)
     assert namespace["counts"].shape == (60, 80) and namespace["counts"].dtype == np.uint16
     celsius = namespace["celsius"]
     assert celsius.dtype == np.float64 and np.isfinite(celsius).all() and 0 < celsius.mean() < 60

@@ -343,18 +343,18 @@ def test_ax8_shipped_example_scores_in_celsius():
     assert rep.metrics["temperature_rmse"] == 0.0 and rep.components["radiometry"] == 1.0
 
 
-def test_readme_and_demo_radiometric_examples_run(capsys):
+def test_guide_and_demo_radiometric_examples_run(capsys):
     import re
     import warnings
 
-    readme = (pathlib.Path(__file__).parent.parent / "README.md").read_text(encoding="utf-8")
+    readme = (pathlib.Path(__file__).parent.parent / "docs" / "guide.md").read_text(encoding="utf-8")
     blocks = re.findall(r"```python\n(.*?)```", readme, re.S)
     first = next(b for b in blocks if "read_radiometry" in b)
     scoring = next(b for b in blocks if 'unit="C", calibration=' in b)
     namespace: dict = {}
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        exec(compile(first + scoring, "README.md", "exec"), namespace)
+        exec(compile(first + scoring, "docs/guide.md", "exec"), namespace)
     rep = namespace["rep"]
     assert rep.metrics["temperature_bias"] == pytest.approx(0.8, abs=1e-9)
     assert rep.components["radiometry"] == pytest.approx(0.9 ** (0.64 / 1.0), rel=1e-9)

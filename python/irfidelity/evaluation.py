@@ -174,7 +174,9 @@ def _noise_ceiling(real_noise: Any, components: tuple, config: ScoringConfig, st
                       f"ceiling is derived from it (give real_ref=, a second real frame)", NoiseWarning, stacklevel=3)
         return None
     noise = sources["curves"].get("real_noise")
-    if noise is None:
+    if noise is None and isinstance(real_noise, (int, float)) and not isinstance(real_noise, bool):
+        noise = {"tvh": float(real_noise)}  # one σ: the frame-to-frame noise of every pixel
+    elif noise is None:
         noise = real_noise if isinstance(real_noise, Mapping) else as_noise(real_noise, "real", config)
     inputs.setdefault("real_noise", describe_input(real_noise))
     peak = float(stats.peak) if "psnr" in components else None
@@ -252,7 +254,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         The opt-in ``noise`` component (weight 0 by default: give it a weight, e.g.
         ``weights="psnr=0.3,nmi=0.2,ssim=0.3,noise=0.2"``); :func:`irfidelity.noise.noise3d`.
         Without ``real_ref`` and ``ceiling``, ``real_noise`` (also a mapping of the temporal σ
-        ``{"t", "tv", "th", "tvh"}`` in frame units) gives the ceiling: the components a second
+        ``{"t", "tv", "th", "tvh"}`` in frame units, or one σ: pixel noise only) gives the ceiling: the components a second
         real frame would reach (:mod:`irfidelity.noise.repeatability`).
     real_mrtd, sim_mrtd : Curve, (x, y), CSV path, or bar frames, optional
         The opt-in ``mrtd`` component (weight 0 by default): MRTD curves (e.g. the model

@@ -132,6 +132,7 @@ fn cross_spectra<'py>(
     out.set_item("skipped", s.skipped)?;
     out.set_item("shifts", s.shifts)?;
     out.set_item("boxes", s.boxes)?;
+    out.set_item("offset", s.offset)?;
     out.set_item("real", cube(py, s.real, shape)?)?;
     out.set_item("sim", cube(py, s.sim, shape)?)?;
     out.set_item("cross_re", cube(py, s.cross_re, shape)?)?;

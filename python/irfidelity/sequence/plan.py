@@ -265,7 +265,7 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
                                       mask=None if scored is None else scored.values, registration=registration,
                                       real_noise=compared.get("real_noise", camera.real_noise))
             missing = {k: "no frame pair decodes" for k in scene} if found is None else found.missing
-            if found is not None:
+            if found is not None and found.transfer is not None:
                 fixed, fixed_metrics, transfer = {**fixed, **found.components}, {**fixed_metrics, **found.metrics}, \
                     found.transfer
             if missing:

@@ -50,13 +50,26 @@ class Geometry:
         return self.tile // 2 + 1
 
     @functools.cached_property
-    def summing(self) -> np.ndarray:
-        """The matrix that sums a flattened half spectrum into rings, each bin with its weight:
-        ``values.reshape(-1, bins) @ summing`` gives the ring sums."""
-        out = np.zeros((self.ring.size, self.rings))
-        inside = self.ring.ravel() < self.rings
-        out[np.flatnonzero(inside), self.ring.ravel()[inside]] = self.weight.ravel()[inside]
-        return out
+    def _order(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The bins within the rings sorted by ring, where each ring starts, their weights."""
+        ring = self.ring.ravel()
+        inside = np.flatnonzero(ring < self.rings)
+        order = inside[np.argsort(ring[inside], kind="stable")]
+        starts = np.searchsorted(ring[order], np.arange(self.rings))
+        return order, starts, self.weight.ravel()[order]
+
+    def sum_rings(self, values: np.ndarray) -> np.ndarray:
+        """Σ weight·values over each ring, rings 0..tile/2, for each row of ``values`` (a stack
+        of flattened half spectra; a sparse sum: small matrix products go through a BLAS
+        thread pool that costs more than they do)."""
+        order, starts, weight = self._order
+        flat = np.reshape(values, (-1, self.ring.size))
+        return np.add.reduceat(flat[:, order] * weight, starts, axis=1)
+
+    @functools.cached_property
+    def count(self) -> np.ndarray:
+        """The weighted number of bins of each ring."""
+        return self.sum_rings(np.ones(self.ring.size))[0]
 
     @property
     def frequency(self) -> np.ndarray:
@@ -140,9 +153,9 @@ def ring_sums(spectra: TransferSpectra, geometry: Geometry, noise: np.ndarray | 
     cross = spectra.cross.real
     stack = [spectra.real, spectra.sim, cross, signal, cross * geometry.horizontal, signal * geometry.horizontal,
              cross * geometry.vertical, signal * geometry.vertical] + ([] if noise is None else [noise])
-    sums = (np.stack(stack).reshape(len(stack) * groups, -1) @ geometry.summing).reshape(len(stack), groups, -1)
+    sums = geometry.sum_rings(np.stack(stack)).reshape(len(stack), groups, -1)
     return RingSums(sums[0], sums[1], sums[2], None if noise is None else sums[8], (sums[4], sums[5]),
-                    (sums[6], sums[7]), geometry.summing.sum(axis=0), np.asarray(spectra.tiles))
+                    (sums[6], sums[7]), geometry.count, np.asarray(spectra.tiles))
 
 
 #: A group whose transfer over rings 1..3 departs from the groups' median by more than this

@@ -219,8 +219,7 @@ def scene_estimate(sources: Mapping[str, Any], config: Any, kinds: tuple[str, ..
     except FidelityError as exc:
         if exc.option != "tile":
             raise
-        why = f"the scored region holds no whole tile to measure the pair's transfer on ({exc})"
-        return SceneEstimate(None, {}, {}, {k: why for k in kinds})
+        return _no_tile(kinds, exc)
     own = camera_ceiling(sources, config, real_ref, max_bytes) if {"mtf", "sitf"} & set(kinds) else None
     return _estimate(t, kinds, config, own)
 
@@ -278,9 +277,20 @@ def sequence_estimate(real: Any, sim: Any, pairs: list, config: Any, kinds: tupl
     variance = None if real_noise is None else real_noise_variance(real_noise)
     source = "real_noise" if variance is not None else ("sequence" if pooled.difference is not None else None)
     reference = reference_frequency(config, {})
-    t = estimate(pooled, real_variance=variance, noise_source=source, reference_frequency=reference)
-    own = None if own_pooled is None else estimate(own_pooled, reference_frequency=reference)
+    try:
+        t = estimate(pooled, real_variance=variance, noise_source=source, reference_frequency=reference)
+        own = None if own_pooled is None else estimate(own_pooled, reference_frequency=reference)
+    except FidelityError as exc:
+        if exc.option != "tile":
+            raise
+        return _no_tile(kinds, exc)
     return _estimate(t, kinds, config, own)
+
+
+def _no_tile(kinds: tuple[str, ...], exc: Exception) -> SceneEstimate:
+    """The estimate of frames that hold no whole tile: nothing, and why."""
+    why = f"the scored region holds no whole tile to measure the pair's transfer on ({exc})"
+    return SceneEstimate(None, {}, {}, {k: why for k in kinds})
 
 
 def _pair_spectra(real: Any, sim: Any, r: int, s: int, config: Any, mask: Any, registration: Any,

@@ -5,6 +5,7 @@ Mergeable, so the frames of a sequence pool into one estimate."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -132,7 +133,16 @@ def transfer_spectra(real: np.ndarray, sim: np.ndarray, *, mask: np.ndarray | No
                            low_shape=(int(low["rows"]), int(low["cols"])), factor=int(low["factor"]),
                            sum_real=float(low["sum_real"]), sum_sim=float(low["sum_sim"]), pixels=int(low["pixels"]),
                            skipped=int(welch["skipped"]), shift=shift,
-                           shifts=np.asarray(welch["shifts"], dtype=np.float64), changed=int(changed.sum()))
+                           shifts=_absolute(welch["shifts"], welch["offset"]), changed=int(changed.sum()))
+
+
+def _absolute(shifts: Any, offset: tuple[int, int]) -> np.ndarray:
+    """The groups' displacement sums ``[Σw, Σw·dy, Σw·dx, Σw·dy², Σw·dx²]`` measured from the
+    whole-pixel ``offset``, made absolute."""
+    s = np.asarray(shifts, dtype=np.float64)
+    w, oy, ox = s[:, 0], float(offset[0]), float(offset[1])
+    return np.stack([w, s[:, 1] + w * oy, s[:, 2] + w * ox, s[:, 3] + 2 * oy * s[:, 1] + w * oy * oy,
+                     s[:, 4] + 2 * ox * s[:, 2] + w * ox * ox], axis=1)
 
 
 def _turned(cross: np.ndarray, shape: tuple[int, int], block: int, d: tuple[float, float]) -> np.ndarray:
@@ -147,8 +157,8 @@ def _group_sums(welch: dict, tile: int):
 
     geometry = Geometry.of(tile)
     groups = len(welch["tiles"])
-    real, cross = (np.reshape(v, (groups, -1)) @ geometry.summing for v in (welch["real"], welch["cross"].real))
-    return RingSums(real, real, cross, None, (cross, real), (cross, real), geometry.summing.sum(axis=0),
+    real, cross = (geometry.sum_rings(v).reshape(groups, -1) for v in (welch["real"], welch["cross"].real))
+    return RingSums(real, real, cross, None, (cross, real), (cross, real), geometry.count,
                     np.asarray(welch["tiles"]))
 
 
