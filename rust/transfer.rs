@@ -256,11 +256,14 @@ struct GroupSums {
     /// The tile's cross-spectrum, before it is aligned and summed.
     cross: Vec<C32>,
     shifts: [f64; 5],
+    /// What a power of the scaled tiles is multiplied by to be in frame units² (see [`scale_of`]).
+    unscale: f64,
 }
 
 impl GroupSums {
-    fn new(bins: usize, with_difference: bool) -> GroupSums {
+    fn new(bins: usize, with_difference: bool, unscale: f64) -> GroupSums {
         GroupSums {
+            unscale,
             tiles: 0,
             real: budget::filled(bins, 0.0),
             sim: budget::filled(bins, 0.0),
@@ -279,7 +282,7 @@ impl GroupSums {
         let totals = [&mut self.real, &mut self.sim, &mut self.cross_re, &mut self.cross_im];
         for (total, pending) in totals.into_iter().zip(self.pending.iter_mut()) {
             for (t, p) in total.iter_mut().zip(pending.iter_mut()) {
-                *t += *p as f64;
+                *t += *p as f64 * self.unscale;
                 *p = 0.0;
             }
         }
@@ -290,7 +293,7 @@ impl GroupSums {
     fn add_difference(&mut self, z: &[C32], n: usize) {
         let Some(difference) = self.difference.as_mut() else { return };
         for (sum, p) in difference.iter_mut().zip(&z[..(n / 2 + 1) * n]) {
-            *sum += (p.re as f64).powi(2) + (p.im as f64).powi(2);
+            *sum += ((p.re as f64).powi(2) + (p.im as f64).powi(2)) * self.unscale;
         }
     }
 
@@ -333,6 +336,7 @@ fn add_pair_impl(sums: &mut GroupSums, z: &[C32], alignment: &Alignment) {
         }
     }
     let (own, measured, weight) = alignment.own(&sums.cross);
+    let weight = weight * sums.unscale; // in frame units², as the pair's other sums
     sums.shifts[0] += weight;
     sums.shifts[1] += weight * measured.0;
     sums.shifts[2] += weight * measured.1;
@@ -465,7 +469,7 @@ avx2_copy! {
     /// The windowed, mean-free tiles of `a` at the first corner (real part of `z`) and of `b` at
     /// the second (imaginary part); `windows` are their 2-D windows, row-major. In a copy compiled for AVX2 when the
     /// CPU has it (same code, same results).
-    fn fill_pair[A: Sample, B: Sample](a: &[A], b: &[B], cols: usize, corners: ((usize, usize), (usize, usize)), windows: (&[f64], &[f64]), z: &mut [C32])
+    fn fill_pair[A: Sample, B: Sample](a: &[A], b: &[B], cols: usize, corners: ((usize, usize), (usize, usize)), windows: (&[f64], &[f64]), scale: f64, z: &mut [C32])
     => fill_pair_avx2, fill_pair_impl
 }
 
@@ -476,6 +480,7 @@ fn fill_pair_impl<A: Sample, B: Sample>(
     cols: usize,
     ((y0, x0), (sy, sx)): ((usize, usize), (usize, usize)),
     (window_a, window_b): (&[f64], &[f64]),
+    scale: f64,
     z: &mut [C32],
 ) {
     let n = (window_a.len() as f64).sqrt() as usize;
@@ -493,7 +498,7 @@ fn fill_pair_impl<A: Sample, B: Sample>(
             }
         } else {
             for ((out, (&wa, &wb)), (va, vb)) in line.iter_mut().zip(weights.0.iter().zip(weights.1)).zip(values) {
-                *out = C32::new(((va.to_f64() - mean_a) * wa) as f32, ((vb.to_f64() - mean_b) * wb) as f32);
+                *out = C32::new(((va.to_f64() - mean_a) * wa * scale) as f32, ((vb.to_f64() - mean_b) * wb * scale) as f32);
             }
         }
     }
@@ -506,17 +511,48 @@ fn narrow<T: Sample>() -> bool {
 }
 
 /// The windowed, mean-free difference of two real tiles, as the real part of `z`.
-fn fill_difference<A: Sample>(real: &[A], reference: &[A], cols: usize, (y0, x0): (usize, usize), window: &[f64], z: &mut [C32]) {
+fn fill_difference<A: Sample>(real: &[A], reference: &[A], cols: usize, (y0, x0): (usize, usize), window: &[f64], scale: f64, z: &mut [C32]) {
     let n = (window.len() as f64).sqrt() as usize;
     let mean = tile_mean(real, cols, y0, x0, n) - tile_mean(reference, cols, y0, x0, n);
     for (y, (line, weights)) in z.chunks_exact_mut(n).zip(window.chunks_exact(n)).enumerate() {
         let row = (y0 + y) * cols + x0;
         let values = real[row..row + n].iter().zip(&reference[row..row + n]);
         for ((out, &w), (r, q)) in line.iter_mut().zip(weights).zip(values) {
-            *out = C32::new(((r.to_f64() - q.to_f64() - mean) * w) as f32, 0.0);
+            *out = C32::new(((r.to_f64() - q.to_f64() - mean) * w * scale) as f32, 0.0);
         }
     }
 }
+
+/// The power of two the mean-free values of float frames are multiplied by before their tiles
+/// are transformed in float32, so their spectra neither overflow (frames of 1e36) nor flush to
+/// zero (frames of 1e-30): about 1 / the real frame's RMS deviation, from a regular subsample of
+/// its finite values; 1 for integer frames of 16 bits or fewer (exact in float32 as they are).
+/// A power of two scales exactly, and the sums are returned in frame units.
+fn scale_of<R: Sample, S: Sample>(frames: &Frames<'_, R, S>) -> f64 {
+    if narrow::<R>() && narrow::<S>() {
+        return 1.0;
+    }
+    let stride = (frames.real.len() / SCALE_SAMPLES).max(1);
+    let (mut count, mut sum, mut squares) = (0.0f64, 0.0f64, 0.0f64);
+    let finite = frames.real.iter().step_by(stride).map(|v| v.to_f64()).filter(|v| v.is_finite());
+    let values: Vec<f64> = finite.collect();
+    for &v in &values {
+        count += 1.0;
+        sum += v;
+    }
+    let mean = sum / count.max(1.0);
+    for &v in &values {
+        squares += (v - mean) * (v - mean);
+    }
+    let rms = (squares / count.max(1.0)).sqrt();
+    if !(rms > 0.0 && rms.is_finite()) {
+        return 1.0;
+    }
+    2f64.powi((-rms.log2().round()).clamp(-500.0, 500.0) as i32)
+}
+
+/// Values of the real frame [`scale_of`] draws.
+const SCALE_SAMPLES: usize = 16384;
 
 /// Welch sums of a frame pair over the tiles of `tiling`, computed in parallel, one group per
 /// task.
@@ -547,6 +583,7 @@ pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Til
     let rest = (shift.0 - offset.0 as f64, shift.1 - offset.1 as f64);
     let sim_window = outer(&hann_moved(tile, rest.0), &hann_moved(tile, rest.1));
     let alignment = Alignment::new(tile, rest);
+    let scale = scale_of(frames);
     let bins = tile * (tile / 2 + 1);
     let with_difference = frames.reference.is_some();
     let total = corners.len();
@@ -554,7 +591,7 @@ pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Til
         Ok((0..groups)
             .into_par_iter()
             .map(|g| {
-                let mut sums = GroupSums::new(bins, with_difference);
+                let mut sums = GroupSums::new(bins, with_difference, 1.0 / (scale * scale));
                 let mut skipped = 0;
                 let mut square = Square::new(fft.clone());
                 let mut z = budget::filled(tile * tile, C32::default());
@@ -565,11 +602,11 @@ pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Til
                         continue;
                     }
                     let at = at.unwrap_or((y0, x0));
-                    fill_pair(frames.real, frames.sim, cols, ((y0, x0), at), (&window, &sim_window), &mut z);
+                    fill_pair(frames.real, frames.sim, cols, ((y0, x0), at), (&window, &sim_window), scale, &mut z);
                     square.forward(&mut z);
                     add_pair(&mut sums, &z, &alignment);
                     if let Some(reference) = frames.reference {
-                        fill_difference(frames.real, reference, cols, (y0, x0), &window, &mut z);
+                        fill_difference(frames.real, reference, cols, (y0, x0), &window, scale, &mut z);
                         square.forward(&mut z);
                         sums.add_difference(&z, tile);
                     }

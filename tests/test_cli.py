@@ -55,7 +55,7 @@ def test_a_warning_is_printed_once(capsys):
 def test_score_table():
     p = run("score", REAL, SIM, "--bits", "14", check_rc=0)
     out = p.stdout
-    for word in ("psnr", "nmi", "ssim", "fidelity", "grade", "skipped"):
+    for word in ("psnr", "nmi", "ssim", "fidelity", "grade", "scene:", "not assessed: noise"):
         assert word in out
     assert "Traceback" not in p.stderr
 
@@ -102,7 +102,7 @@ def test_edges_and_curves(tmp_path):
     (["score", REAL, SIM, "--pages", "1:4"], ["--pages", "sequences"]),
     (["score", REAL, SIM, "--config", "nope.toml"], ["nope.toml"]),
     (["score", REAL, SIM, "--real-sitf", "a.csv", "--sim-sitf", "b.csv"], ["a.csv"]),
-    (["score", REAL, SIM, "--missing", "raise"], ["real_mtf/sim_mtf", "--missing"]),
+    (["score", REAL, SIM, "--missing", "raise", "--weights", "psnr=0.5,noise=0.5"], ["real_noise/sim_noise", "--missing"]),
     (["score", REAL, SIM, "--real-edge", EDGE_R, "--sim-edge", EDGE_S], ["channel", EDGE_R]),
     (["score", REAL], ["SIM"]),
     (["score", str(DATA / "thermal"), SIM], ["directory"]),

@@ -90,14 +90,19 @@ def _core_calls(fn) -> list[str]:
 
 
 def test_a_registered_evaluate_makes_one_scoring_call():
-    # the pair's one path and its summary, then the defects check on the frames as scored
+    # the pair's one path, the defects search on the frames as scored, the summary, the
+    # concentrated-error check, then the scene's transfer (block means, then the tiles)
     real, sim = _pair(FRAMES[1])
     kw = dict(bits=16, peak="range", register="translation", register_method="phase")
     calls = _core_calls(lambda: irf.evaluate(real, sim, **kw))
-    assert calls == ["score_registered", "PairStats.summary", "error_profile"], calls
+    scene = ["low_spectrum", "cross_spectra"]
+    assert calls == ["score_registered", "error_profile", "PairStats.summary", "error_profile", *scene], calls
     # unregistered: the memory plan is checked (no data crosses), then one pass and its summary
     calls = _core_calls(lambda: irf.evaluate(real, sim, bits=16, peak="range"))
-    assert calls == ["check_budget", "pair_stats", "PairStats.summary", "error_profile"], calls
+    assert calls == ["check_budget", "pair_stats", "error_profile", "PairStats.summary", "error_profile", *scene], calls
+    # without the scene, the pair alone
+    calls = _core_calls(lambda: irf.evaluate(real, sim, bits=16, peak="range", transfer_options={"scene": False}))
+    assert calls == ["check_budget", "pair_stats", "error_profile", "PairStats.summary", "error_profile"], calls
 
 
 def test_the_array_loop_scores_as_the_engine(tmp_path):

@@ -50,8 +50,11 @@ def chromium() -> str:
     for name in (os.environ.get("IRFIDELITY_CHROMIUM"), "chromium", "chromium-browser", "google-chrome"):
         if name and shutil.which(name):
             return shutil.which(name)
-    pytest.fail("headless Chromium is needed for the browser test: apt-get install chromium "
-                "(.ci/run installs it when missing), or set IRFIDELITY_CHROMIUM")
+    why = ("headless Chromium is needed for the browser test: apt-get install chromium (.ci/run installs it when "
+           "missing), or set IRFIDELITY_CHROMIUM")
+    if os.environ.get("IRFIDELITY_REQUIRE_TOOLS"):
+        pytest.fail(why)  # CI: the browser is installed, so this test always runs there
+    pytest.skip(why)  # a newcomer's machine: every other test still runs
 
 
 class Recorder(socketserver.ThreadingTCPServer):

@@ -32,6 +32,7 @@ from irfidelity.metrics import psnr_from_mse
 from irfidelity.sequence import SequenceReport, score_sequence
 from irfidelity.sequence.plan import SequenceRequest
 from irfidelity.stats import PairRequest
+from scene_off import NO_SCENE
 
 tifffile = pytest.importorskip("tifffile")
 cv2 = pytest.importorskip("cv2")
@@ -85,7 +86,7 @@ def _frame_metrics(frame: dict) -> dict:
 @pytest.mark.parametrize("workers", [1, 2])
 def test_per_frame_values_equal_the_single_pair_api(lepton, workers):
     real_path, sim_path, real, sim = lepton
-    rep = score_sequence(real_path, sim_path, bits=14, workers=workers, progress=False)
+    rep = score_sequence(real_path, sim_path, bits=14, workers=workers, progress=False, **NO_SCENE)
     assert isinstance(rep, SequenceReport)
     assert len(rep.frames) == 100 and rep.failed == []
     assert [f["index"] for f in rep.frames] == list(range(100))
@@ -96,7 +97,7 @@ def test_per_frame_values_equal_the_single_pair_api(lepton, workers):
         st = irf.pair_stats(real[i], sim[i], bits=14)
         want = st.metrics()
         assert _frame_metrics(f) == want, i  # identical, not approximately
-        one = evaluate(real[i], sim[i], bits=14, ceiling=rep.ceiling)  # graded against the sequence's ceiling
+        one = evaluate(real[i], sim[i], bits=14, ceiling=rep.ceiling, **NO_SCENE)  # against the sequence's ceiling
         assert f["components"] == one.components
         assert f["grade"] == one.grade and f["component_grades"] == one.component_grades
         assert f["fidelity"] == one.fidelity
@@ -106,11 +107,11 @@ def test_per_frame_values_equal_the_single_pair_api(lepton, workers):
 
 def test_arrays_and_files_agree(lepton):
     real_path, sim_path, real, sim = lepton
-    a = score_sequence(real[:20], sim[:20], bits=14, progress=False)
-    b = score_sequence(real_path, sim_path, bits=14, progress=False)
+    a = score_sequence(real[:20], sim[:20], bits=14, progress=False, **NO_SCENE)  # the scene of 20 frames, not 100
+    b = score_sequence(real_path, sim_path, bits=14, progress=False, **NO_SCENE)
     assert a.frames[:20] == [dict(f, real=f"[{i}]", sim=f"[{i}]") for i, f in enumerate(b.frames[:20])]
     # list of 2-D arrays
-    c = score_sequence(list(real[:3]), list(sim[:3]), bits=14, progress=False)
+    c = score_sequence(list(real[:3]), list(sim[:3]), bits=14, progress=False, **NO_SCENE)
     assert [f["fidelity"] for f in c.frames] == [f["fidelity"] for f in a.frames[:3]]
 
 
@@ -157,12 +158,13 @@ def test_default_hist_range_pools_nmi_as_pixel_mean(lepton):
     s = rep.frame_stats["fidelity"]
     assert s["p5"] <= s["p50"] <= s["p95"] and s["min"] <= s["mean"] <= s["max"]
     assert set(rep.frame_stats["metrics"]) >= {"mse", "psnr_db", "ssim", "nmi"}
-    assert set(rep.frame_stats["components"]) == {"psnr", "nmi", "ssim"}
+    assert set(rep.frame_stats["components"]) == {"mtf", "sitf", "psnr", "nmi", "ssim"}  # mtf, sitf from the scene
+    assert {rep.metrics[f"{k}_source"] for k in ("mtf", "sitf")} == {"scene"}
     text = rep.summary_text()
     assert "100 scored, 0 failed" in text and "fidelity" in text and "paired by page" in text
     d = rep.to_dict()
-    assert d["failed"] == [] and len(d["frames"]) == 100 and d["weights"]["mtf"] == 0.0
-    assert "mtf" in d["skipped"] and "sitf" in d["skipped"]
+    assert d["failed"] == [] and len(d["frames"]) == 100 and d["weights"]["mtf"] == 0.2
+    assert d["transfer"]["tiles"] > 0 and d["transfer"]["noise_source"] == "sequence"
     assert d["irfidelity"] == irf.__version__ and d["config"]["bits"] == 14
     back = SequenceReport.from_dict(d)
     assert back.to_dict() == d

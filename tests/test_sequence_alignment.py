@@ -19,6 +19,7 @@ import irfidelity as irf
 from irfidelity.errors import FidelityError
 from irfidelity.registration import DEFAULT_METHOD
 from irfidelity.report import render_sequence_html
+from scene_off import NO_SCENE
 
 DATA = pathlib.Path(__file__).parent / "data" / "thermal"
 LEPTON_STACK = DATA / "cptv_v2_all100frames_uint16.tif"
@@ -63,12 +64,12 @@ def test_every_pair_is_registered_on_its_own_and_scored_as_evaluate_scores_it(tm
     real, sims, shifts = moving_view
     write_pngs(tmp_path / "real", real)
     write_pngs(tmp_path / "sim", sims)
-    options = dict(register="translation", register_each=True, bits=16, peak="range", progress=False)
+    options = dict(register="translation", register_each=True, bits=16, peak="range", progress=False, **NO_SCENE)
     from_files = quietly(irf.score_sequence, tmp_path / "real", tmp_path / "sim", csv=tmp_path / "f.csv", **options)
     from_arrays = quietly(irf.score_sequence, real, np.stack(sims), **options)
     assert not from_files.failed and not from_arrays.failed
     for i, (dy, dx) in enumerate(shifts):
-        alone = quietly(irf.evaluate, real[i], sims[i], register="translation", bits=16, peak="range")
+        alone = quietly(irf.evaluate, real[i], sims[i], register="translation", bits=16, peak="range", **NO_SCENE)
         for rep in (from_files, from_arrays):
             frame = rep.frames[i]
             assert frame["registration"] == alone.registration
@@ -97,13 +98,13 @@ def test_the_peak_range_is_that_of_the_pixels_scored(tmp_path, moving_view, each
     sims = [ndi.shift(s, (-6, 0), order=0, mode="nearest") for s in sims]
     write_pngs(tmp_path / "real", real)
     write_pngs(tmp_path / "sim", sims)
-    options = dict(register="translation", register_each=each, bits=16, peak="range", progress=False)
+    options = dict(register="translation", register_each=each, bits=16, peak="range", progress=False, **NO_SCENE)
     for source in ((tmp_path / "real", tmp_path / "sim"), (real, np.stack(sims))):
         rep = quietly(irf.score_sequence, *source, **options)
         for i in (0, 3):
             reg = irf.Registration.from_dict(rep.frames[i]["registration"])
             assert not reg.apply(sims[i])[1][:2].any()  # the hot border is not scored
-            alone = quietly(irf.evaluate, real[i], sims[i], register="translation", bits=16, peak="range")
+            alone = quietly(irf.evaluate, real[i], sims[i], register="translation", bits=16, peak="range", **NO_SCENE)
             if each:
                 assert rep.frames[i]["metrics"] == alone.metrics
             assert rep.frames[i]["metrics"]["psnr_peak"] <= float(real[i, 2:].max()) - float(real[i, 2:].min())
@@ -175,7 +176,7 @@ def panning(count: int, delay: int, view_shift=(0.0, 0.0), seed: int = 2) -> tup
 @pytest.mark.parametrize("delay", [3, -2, 0])
 def test_the_delay_between_two_sequences_is_found_and_frames_paired_by_it(delay, view_shift):
     real, sim = panning(60, delay, view_shift)
-    rep = quietly(irf.score_sequence, real, sim, max_delay=5, peak="range", progress=False)
+    rep = quietly(irf.score_sequence, real, sim, max_delay=5, peak="range", progress=False, **NO_SCENE)
     assert rep.delay["frames"] == delay and rep.delay["confidence"] > 0.5
     paired = [f for f in rep.frames if f["index"] not in rep.unpaired]
     assert len(paired) == 60 - abs(delay) and not rep.failed
@@ -191,10 +192,10 @@ def test_the_delay_between_two_sequences_is_found_and_frames_paired_by_it(delay,
     first = paired[0]
     real_index, sim_index = (0, delay) if delay >= 0 else (-delay, 0)
     assert (first["real"], first["sim"]) == (f"[{real_index}]", f"[{sim_index}]")
-    alone = quietly(irf.evaluate, real[real_index], sim[sim_index], peak="range")
+    alone = quietly(irf.evaluate, real[real_index], sim[sim_index], peak="range", **NO_SCENE)
     assert first["fidelity"] == alone.fidelity
     if delay:  # paired without the delay, the metrics measure the motion, not the simulator
-        unaligned = quietly(irf.score_sequence, real, sim, peak="range", progress=False)
+        unaligned = quietly(irf.score_sequence, real, sim, peak="range", progress=False, **NO_SCENE)
         assert unaligned.fidelity < rep.fidelity - 0.03
     assert "delay: " in rep.summary_text() and "paired by delay" in rep.summary_text()
     page = render_sequence_html(rep.to_dict())

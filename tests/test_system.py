@@ -249,3 +249,16 @@ def test_a_sequence_pools_the_transfer_and_grades_against_the_camera_itself():
     worse = irf.score_sequence(recording[30:42], blurred, bits=14, progress=False, pair_by="order")
     assert worse.grade == "poor" and worse.verdict["decided_by"] == "mtf"
     assert worse.frames[0]["components"]["mtf"] == worse.components["mtf"]  # a camera property
+
+
+@pytest.mark.parametrize("scale", [1e-30, 1e33])
+def test_float_frames_of_any_scale_give_the_same_transfer(frames, scale):
+    """Float32 tiles of frames near 1e37 would overflow and near 1e-30 flush to zero: the kernel
+    scales them by a power of two first and returns the sums in frame units."""
+    real = frames["FLIR FFF"].astype(np.float64)
+    sim = 1.1 * ndimage.gaussian_filter(real, 1.0) + 5
+    counts = irf.transfer(real, sim)
+    scaled = irf.transfer((real * scale).astype(np.float32), (sim * scale).astype(np.float32))
+    assert scaled.gain == pytest.approx(counts.gain, rel=1e-5)
+    assert scaled.mtf50_mismatch == pytest.approx(counts.mtf50_mismatch, abs=1e-4)
+    assert scaled.offset == pytest.approx(counts.offset * scale, rel=1e-3)

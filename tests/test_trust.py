@@ -23,6 +23,7 @@ from irfidelity.config import ScoringConfig
 from irfidelity.errors import FidelityError, PeakWarning
 from irfidelity.fuzzy import GradeScale, Weights
 from irfidelity.schema import csv_columns
+from scene_off import NO_SCENE
 
 DATA = pathlib.Path(__file__).parent / "data" / "thermal"
 STACK = DATA / "cptv_v2_all100frames_uint16.tif"
@@ -87,8 +88,15 @@ def test_cli_reads_and_writes_the_config(tmp_path):
 
 # --------------------------------------------------------------------------- one schema
 def test_single_pair_and_sequence_share_names(tmp_path):
+    # with the scene's transfer: a sequence's frames carry the run's, and the camera's own beside it
     pair = irf.evaluate(LEPTON[0], LEPTON[1], bits=14).to_dict()
     seq = irf.score_sequence(LEPTON[:2], LEPTON[1:3], bits=14, progress=False, pair_by="order").to_dict()
+    frame = seq["frames"][0]
+    assert set(pair["components"]) == set(frame["components"]) == set(seq["components"])
+    assert set(frame["metrics"]) - set(pair["metrics"]) == {"scene_gain_ceiling", "scene_mtf50_mismatch_ceiling"}
+    # without it, a frame is the pair
+    pair = irf.evaluate(LEPTON[0], LEPTON[1], bits=14, **NO_SCENE).to_dict()
+    seq = irf.score_sequence(LEPTON[:2], LEPTON[1:3], bits=14, progress=False, pair_by="order", **NO_SCENE).to_dict()
     shared = ("irfidelity", "fidelity", "grade", "components", "component_grades", "membership", "metrics",
               "weights", "skipped", "config", "notes", "inputs")
     assert set(shared) <= set(pair) and set(shared) <= set(seq)
@@ -99,8 +107,11 @@ def test_single_pair_and_sequence_share_names(tmp_path):
     assert frame["grade"] == pair["grade"] and frame["component_grades"] == pair["component_grades"]
     assert irf.ScoringConfig().missing == "renormalize"  # one default everywhere
     # the CSVs: same columns for a single pair and a sequence
-    assert cli("score", LEPTON[0], LEPTON[1], "--bits", "14", "--csv", tmp_path / "one.csv").returncode == 0
-    irf.score_sequence(LEPTON[:2], LEPTON[1:3], bits=14, progress=False, pair_by="order", csv=tmp_path / "seq.csv")
+    (tmp_path / "no_scene.toml").write_text("[transfer_options]\nscene = false\n")
+    assert cli("score", LEPTON[0], LEPTON[1], "--bits", "14", "--config", tmp_path / "no_scene.toml",
+               "--csv", tmp_path / "one.csv").returncode == 0
+    irf.score_sequence(LEPTON[:2], LEPTON[1:3], bits=14, progress=False, pair_by="order", csv=tmp_path / "seq.csv",
+                       **NO_SCENE)
     one = list(csv.DictReader(open(tmp_path / "one.csv")))
     many = list(csv.DictReader(open(tmp_path / "seq.csv")))
     assert list(one[0]) == list(many[0]) == csv_columns(["psnr", "nmi", "ssim"])
@@ -207,7 +218,7 @@ _PYTHON_SYNTAX = re.compile(r"\w+=\(|\w+=(True|False|None)\b|\.astype\(|np\.\w|\
 @pytest.mark.parametrize("args", [
     ["score", LEPTON[0], LEPTON[1], "--bits", "3"],
     ["score", LEPTON[0], REAL],
-    ["score", LEPTON[0], LEPTON[1], "--missing", "raise"],
+    ["score", LEPTON[0], LEPTON[1], "--missing", "raise", "--weights", "psnr=0.5,noise=0.5"],
     ["score", LEPTON[0], LEPTON[1], "--channel", "Q"],
     ["score", LEPTON[0], LEPTON[1], "--weights", "mtf=2"],
     ["score", LEPTON[0], LEPTON[1], "--real-sitf", DATA.parent / "curves" / "pyradi_jade_lwir_calibration_sitf.csv",

@@ -20,6 +20,7 @@ from irfidelity.cli import main
 from irfidelity.errors import FidelityError
 from irfidelity.tolerances import Tolerances, component_cuts, mu_of_ratio
 from irfidelity.verdict import judge, mu_ratio
+from scene_off import NO_SCENE
 
 tifffile = pytest.importorskip("tifffile")
 
@@ -194,7 +195,9 @@ def test_noise_at_the_scenes_own_24_db_is_not_excellent():
 
 # --------------------------------------------------------------------------- the ceiling
 def test_a_second_real_frame_is_the_ceiling(recording):
-    rep = irf.evaluate(recording[11], recording[12], bits=14, peak="range", real_ref=recording[10])
+    # the image components' ceiling; the scene's transfer from one frame difference of this camera
+    # is not steady enough for a grade (docs/interpretation.md, Limits)
+    rep = irf.evaluate(recording[11], recording[12], bits=14, peak="range", real_ref=recording[10], **NO_SCENE)
     alone = irf.pair_stats(recording[11], recording[10], bits=14)
     assert rep.ceiling["ssim"] == pytest.approx(max(alone.ssim().value, 0), abs=1e-12)
     assert rep.ceiling["nmi"] == pytest.approx(alone.nmi().value, abs=1e-12)

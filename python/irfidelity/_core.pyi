@@ -24,12 +24,14 @@ __all__ = [
     "SUPPORTED_DTYPES",
     "applied_matrix",
     "check_budget",
+    "cross_spectra",
     "default_max_bytes",
     "default_max_pixels",
     "error_profile",
     "file_digests",
     "list_channels",
     "load_frame",
+    "low_spectrum",
     "max_scales",
     "merge_all",
     "ms_ssim",
@@ -339,6 +341,7 @@ def cross_spectra(
     tile: int,
     step: int,
     groups: int,
+    shift: tuple[float, float] = ...,
 ) -> dict[str, Any]: ...
 def low_spectrum(
     real: npt.NDArray[Any],

@@ -133,6 +133,11 @@ MAX_CANDIDATES = 0.005
 #: small hot target blurred by the simulator still stands out in both.
 ISOLATED = 0.2
 
+#: A cluster is no defect when the other frame, within its box (2 px around it), departs the
+#: same way by more than this share of the defective frame's departure: the same small target,
+#: displaced.
+DISPLACED = 0.5
+
 #: Differences drawn for the robust scale (a regular subsample of the frame).
 _SCALE_SAMPLES = 16384
 
@@ -237,6 +242,11 @@ def _cluster(real: np.ndarray, sim: np.ndarray, scored: np.ndarray, members: tup
     frame = max(departs, key=lambda k: abs(departs[k]))
     other = "real" if frame == "simulated" else "simulated"
     if abs(departs[other]) > ISOLATED * abs(departs[frame]):
+        return None
+    # a small target the other frame shows a pixel or two away (a displaced view) is no defect
+    box_other = box_real if other == "real" else box_sim
+    sign = 1.0 if departs[frame] > 0 else -1.0
+    if (sign * (box_other - np.median(box_other[around]))).max() > DISPLACED * abs(departs[frame]):
         return None
     return {"frame": frame, "kind": "bright" if departs[frame] > 0 else "dark", "pixels": int(rows.size),
             "rows": [int(rows.min()), int(rows.max())], "cols": [int(cols.min()), int(cols.max())]}

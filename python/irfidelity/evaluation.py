@@ -363,11 +363,13 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
             components.update(image)
             metrics.update(image_metrics)
         ref = sources.pop("real_ref", None)
+        missing = unassessed(skipped, metrics)
         by_region = {} if regions is None else score_regions(regions, sources, image_plan, cfg, weights, components,
                                                              metrics, ceiling=ceiling, real_ref=ref,
-                                                             ceiling_source=ceiling_source, max_bytes=max_bytes)
+                                                             ceiling_source=ceiling_source, unassessed=missing,
+                                                             max_bytes=max_bytes)
     score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling,
-                             ceiling_source=ceiling_source, unassessed=unassessed(skipped, metrics))
+                             ceiling_source=ceiling_source, unassessed=missing)
     registration = sources.get("registration")
     return FidelityReport(fidelity=score.fidelity, grade=score.grade, components=score.components,
                           weights=weights, metrics=score.metrics,

@@ -339,14 +339,15 @@ def _entry(label: int, pixels: int, score: Any, metrics: dict, ceiling: Any) -> 
 def score_regions(regions: Regions, sources: Mapping[str, Any], plan: tuple, config: ScoringConfig,
                   weights: Weights, pair_components: Mapping[str, float], pair_metrics: Mapping[str, Any], *,
                   ceiling: Any = None, ceiling_source: str | None = None, real_ref: Any = None,
-                  max_bytes: int | None = None) -> dict[str, dict]:
+                  unassessed: Mapping[str, str] | None = None, max_bytes: int | None = None) -> dict[str, dict]:
     """Each region's entry of ``report.regions`` (labels ascending): its image components over
     its own pixels, the pair's camera components, eq. (15) and the grade.
 
     ``sources`` are the pair's frames as scored (``real``, ``sim``, ``mask``, ``registration``);
     ``plan`` the image components; ``ceiling`` the pair's ceiling (given, or from the real
     camera's noise; ``ceiling_source`` says which), or ``real_ref`` the second real frame from
-    which each region's own ceiling is measured.
+    which each region's own ceiling is measured; ``unassessed`` what the pair could not assess,
+    said in each region's verdict too.
     """
     from .ceiling import pair_ceiling
 
@@ -367,7 +368,8 @@ def score_regions(regions: Regions, sources: Mapping[str, Any], plan: tuple, con
         camera_metrics = {k: v for k, v in pair_metrics.items() if k not in metrics}
         score = score_components({**camera, **own}, {**camera_metrics, **metrics}, weights, config,
                                  scene_range=span, ceiling=region_ceiling,
-                                 ceiling_source="real_ref" if real_ref is not None and plan else ceiling_source)
+                                 ceiling_source="real_ref" if real_ref is not None and plan else ceiling_source,
+                                 unassessed=unassessed)
         out[name] = _entry(label, regions.pixels[name], score, metrics, region_ceiling)
     return out
 

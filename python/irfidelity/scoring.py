@@ -28,7 +28,7 @@ __all__ = ["plan_components", "image_components", "score_components", "Score", "
            "pinned_psnr_floor", "IMAGE_COMPONENTS", "CURVE_COMPONENTS"]
 
 _INPUTS = {"mtf": "real_mtf/sim_mtf", "sitf": "real_sitf/sim_sitf", "psnr": "real/sim", "nmi": "real/sim",
-           "ssim": "real/sim", "noise": "real_noise/sim_noise", "radiometry": "real/sim scored in a unit (unit=K or C)",
+           "ssim": "real/sim", "noise": "real_noise/sim_noise or real_ref", "radiometry": "real/sim scored in a unit (unit=K or C)",
            "mrtd": "real_mrtd/sim_mrtd"}
 
 

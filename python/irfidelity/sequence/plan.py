@@ -150,7 +150,9 @@ class SequencePlan:
         """What a resumed run must share with the one it continues (beyond the config)."""
         return {"dtype": None if self.dtype is None else self.dtype.name, "peak": self.peak,
                 "bins": self.bin_label, "hist_range": None if self.hist_range is None else list(self.hist_range),
-                "curves": {k: float(v) for k, v in self.camera_components.items()},
+                # the scene's components are measured again from the frames at every run
+                "curves": {k: float(v) for k, v in self.camera_components.items()
+                           if self.camera_metrics.get(f"{k}_source") != "scene"},
                 "registration": None if self.registration is None else self.registration.to_dict(),
                 **({} if self.mask is None else {"mask": self.mask.digest()})}
 

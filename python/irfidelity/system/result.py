@@ -75,6 +75,18 @@ class Transfer:
     unread : str or None
         Why the ratio could not be read at the reference frequency (then the MTF50 mismatch
         is None), or None.
+
+    Examples
+    --------
+    >>> import numpy as np, irfidelity as irf
+    >>> from scipy import ndimage
+    >>> rng = np.random.default_rng(1)
+    >>> real = 3000 + ndimage.gaussian_filter(rng.normal(0, 50, (192, 192)), 2)
+    >>> t = irf.transfer(real, 0.9 * real + 300)          # a 10 % contrast error, sharp
+    >>> t
+    Transfer(gain=0.9000±0.0000, offset=300, mtf50_mismatch=0.000±0.000, band 0.016-0.5 cy/px, 25 tiles)
+    >>> t.to_dict()["gain"] == t.gain
+    True
     """
 
     frequency: np.ndarray
@@ -109,6 +121,16 @@ class Transfer:
     changed: int = 0
     notes: tuple = field(default=())
     unread: str | None = None
+
+    def __repr__(self) -> str:
+        def pm(value: float | None, error: float | None, digits: int) -> str:
+            return "None" if value is None else f"{value:.{digits}f}±{error:.{digits}f}"
+        band = "no band" if self.band is None else f"band {self.band[0]:.2g}-{self.band[1]:.2g} cy/px"
+        noise = "" if self.noise_ratio is None else f", noise_ratio={pm(self.noise_ratio, self.noise_ratio_err, 3)}"
+        offset = "None" if self.offset is None else f"{self.offset:.4g}"
+        return (f"Transfer(gain={pm(self.gain, self.gain_err, 4)}, offset={offset}, "
+                f"mtf50_mismatch={pm(self.mtf50_mismatch, self.mtf50_mismatch_err, 3)}{noise}, {band}, "
+                f"{self.tiles} tiles)")
 
     def ratio_at(self, frequency: float) -> float:
         """The measured radial ratio at ``frequency`` (cy/px), linearly interpolated."""

@@ -185,11 +185,13 @@ def ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
 
 
 def jackknife(values: np.ndarray) -> np.ndarray:
-    """The jackknife standard error of row 0 from the replicate rows 1.. (NaN without them)."""
-    values = np.asarray(values, dtype=np.float64)
-    m = values.shape[0] - 1
-    if m < 2:
-        return np.full(values.shape[1:], np.nan)
-    rest = values[1:]
-    with np.errstate(invalid="ignore"):
-        return np.sqrt((m - 1) / m * np.nansum((rest - np.nanmean(rest, axis=0)) ** 2, axis=0))
+    """The jackknife standard error of row 0 from the replicate rows 1.. that are finite (NaN
+    where fewer than two are)."""
+    rest = np.asarray(values, dtype=np.float64)[1:]
+    finite = np.isfinite(rest)
+    m = finite.sum(axis=0)
+    kept = np.where(finite, rest, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = kept.sum(axis=0) / m
+        spread = np.where(finite, kept - mean, 0.0)
+        return np.where(m >= 2, np.sqrt((m - 1) / m * (spread ** 2).sum(axis=0)), np.nan)

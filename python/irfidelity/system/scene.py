@@ -269,8 +269,10 @@ def sequence_estimate(real: Any, sim: Any, pairs: list, config: Any, kinds: tupl
             spectra, own = _pair_spectra(real, sim, r, s, config, mask, registration, real_noise is None)
         except FidelityError:
             continue  # an unreadable frame is the scoring's error row, not the transfer's
+        if pooled is not None and not pooled.poolable(spectra):
+            continue  # frames of another size than the first pair's: pooled apart they would not add
         pooled = spectra if pooled is None else _merged(pooled, spectra)
-        if own is not None:
+        if own is not None and (own_pooled is None or own_pooled.poolable(own)):
             own_pooled = own if own_pooled is None else _merged(own_pooled, own)
     if pooled is None:
         return None

@@ -77,10 +77,14 @@ class TransferSpectra:
     shifts: np.ndarray | None = None
     changed: int = 0
 
+    def poolable(self, other: TransferSpectra) -> bool:
+        """Whether :meth:`merge` can add ``other``: the same tiling and frame size."""
+        return (self.tile, self.step, self.factor, self.low_shape) == (other.tile, other.step, other.factor,
+                                                                        other.low_shape)
+
     def merge(self, other: TransferSpectra) -> TransferSpectra:
         """The sums of both (frames of one sequence: the same tiling and frame size)."""
-        if (self.tile, self.step, self.factor, self.low_shape) != (other.tile, other.step, other.factor,
-                                                                    other.low_shape):
+        if not self.poolable(other):
             raise ShapeError("transfer spectra of different tilings or frame sizes cannot be merged")
         difference = (None if self.difference is None or other.difference is None
                       else self.difference + other.difference)
