@@ -209,3 +209,38 @@ def test_report_notes_say_what_to_pass():
     assert "curves={" not in page and "pass curves" not in page
     for needle in ("real_mtf= and sim_mtf=", "--real-mtf/--sim-mtf", "real_sitf= and sim_sitf=", "--real-sitf"):
         assert needle in page
+
+
+def test_a_bool_npy_mask_is_read_and_a_mask_of_nan_is_refused(tmp_path, capsys):
+    shape = irf.load_frame(REAL).shape
+    keep = np.ones(shape, dtype=bool)
+    keep[:10] = False
+    np.save(tmp_path / "bool.npy", keep)
+    np.save(tmp_path / "nan.npy", np.full(shape, np.nan))
+    rep = irf.evaluate(REAL, SIM, bits=14, mask=tmp_path / "bool.npy")
+    assert rep.metrics["n"] + rep.metrics["masked"] == keep.size and rep.metrics["masked"] >= (~keep).sum()
+    assert main(["score", REAL, SIM, "--bits", "14", "--mask", str(tmp_path / "bool.npy")]) == 0
+    capsys.readouterr()
+    assert main(["score", REAL, SIM, "--bits", "14", "--mask", str(tmp_path / "nan.npy")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "not finite" in err and "--mask" in err, err
+
+
+@pytest.mark.parametrize("flags, needle", [
+    (["--levels", "0,1e308", "--format", "tiff"], "--levels 0,1e308"),
+    (["--levels", "0,nan", "--format", "npy"], "--levels 0,nan"),
+    (["--size", "30000,30000", "--format", "npy"], "--size 30000,30000"),
+    (["--size", "0,10"], "--size 0,10"),
+])
+def test_targets_refuse_sizes_and_levels_they_cannot_write(tmp_path, capsys, flags, needle):
+    assert main(["targets", str(tmp_path / "out"), "--frequency", "0.1", *flags]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and needle in err, err
+    assert not list((tmp_path).glob("out/*.*"))  # nothing written
+
+
+def test_rank_refuses_resamples_beyond_its_bound(capsys):
+    lepton = str(DATA / "thermal" / "cptv_v2_all100frames_uint16.tif")
+    assert main(["rank", lepton, lepton, lepton, "--names", "a,b", "--no-progress", "--resamples", "100000000"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "99..1000000" in err and "--resamples" in err, err

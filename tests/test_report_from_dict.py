@@ -164,3 +164,13 @@ def test_failed_frames_without_error_rows_still_summarise():
     data["failed"] = [2]
     text = irf.SequenceReport.from_dict(data).summary_text()
     assert "failed frames: 2" in text and "first error" not in text
+
+
+def test_pixel_counts_stay_integers_through_json():
+    rng = np.random.default_rng(0)
+    frames = rng.integers(0, 1000, (3, 64, 64)).astype(np.uint16)
+    rep = irf.score_sequence(frames, frames, bits=10, progress=False)
+    back = irf.SequenceReport.from_dict(json.loads(json.dumps(rep.to_dict())))
+    for metrics in (back.metrics, back.frames[0]["metrics"]):
+        assert all(type(metrics[k]) is int for k in ("n", "masked", "nonfinite")), metrics
+    assert back.to_dict() == rep.to_dict()

@@ -81,9 +81,16 @@ def check_non_negative(name: str, value: Any) -> float:
     return number
 
 
+#: The most resamples: Monte Carlo error far below the sampling error already at 10,000, and the
+#: resamples' arrays (one value per resample and simulator) stay within tens of megabytes.
+MAX_RESAMPLES = 1_000_000
+
+
 def check_resamples(resamples: int) -> int:
-    if isinstance(resamples, bool) or not isinstance(resamples, (int, np.integer)) or resamples < 99:
-        raise FidelityError(f"resamples must be an integer >= 99, got {resamples!r}", option="resamples")
+    if isinstance(resamples, bool) or not isinstance(resamples, (int, np.integer)) \
+            or not 99 <= resamples <= MAX_RESAMPLES:
+        raise FidelityError(f"resamples must be an integer in 99..{MAX_RESAMPLES}, got {resamples!r}",
+                            option="resamples")
     return int(resamples)
 
 

@@ -262,8 +262,9 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         (:class:`~irfidelity.BarFrames` or a directory with a ``bars.csv``) whose MRTD is
         measured (:func:`irfidelity.curves.measured_mrtd`); compared by
         :func:`irfidelity.curves.mrtd_similarity` (docs/bars.md).
-    mask : 2-D bool array, optional
-        ``False`` excludes a pixel pair from the image components.
+    mask : 2-D bool array or path, optional
+        ``False`` (or 0) excludes a pixel pair from the image components; a path names a mask
+        file (``.npy``, or an image whose non-zero pixels are scored).
     regions : Regions, 2-D integer array or mapping, optional
         Labelled regions scored each on its own (``report.regions``,
         :class:`~irfidelity.Regions`): a label image (0 not scored, 1..255 a region, named by

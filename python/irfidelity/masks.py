@@ -72,7 +72,9 @@ def _mask_values(mask: Any, shape: tuple[int, int], channel: str | None) -> tupl
 
         source = os.fsdecode(os.fspath(mask))
         try:
-            values = np.asarray(load_frame(mask, channel=channel))
+            values = _npy_mask(source) if source.lower().endswith(".npy") else None
+            if values is None:
+                values = np.asarray(load_frame(mask, channel=channel))
         except FidelityError as exc:
             raise type(exc)(f"mask: {exc}", option="mask") from None
     else:
@@ -84,7 +86,21 @@ def _mask_values(mask: Any, shape: tuple[int, int], channel: str | None) -> tupl
     if values.dtype.kind not in "biuf":
         raise FidelityError(f"mask: expected a bool or numeric array (non-zero = scored), got dtype {values.dtype}",
                             option="mask")
+    if values.dtype.kind == "f" and not np.isfinite(values).all():
+        where = f" {source!r}" if source != "array" else ""
+        raise FidelityError(f"mask{where} holds {np.count_nonzero(~np.isfinite(values))} values that are not finite: "
+                            f"expected 0 (left out) or a finite non-zero value (scored)", option="mask")
     return values != 0, source
+
+
+def _npy_mask(path: str) -> np.ndarray | None:
+    """A bool ``.npy`` mask (frames never are bool, so the frame reader refuses it); None for
+    other dtypes, which the frame reader reads with its checks."""
+    try:
+        values = np.load(path, mmap_mode="r", allow_pickle=False)
+    except (OSError, ValueError) as exc:
+        raise FidelityError(f"{path}: not a readable .npy file ({exc})", option="mask") from None
+    return values if values.dtype == np.bool_ else None  # read when the shape has been checked
 
 
 @dataclass(frozen=True, eq=False)

@@ -116,9 +116,11 @@ def anything(value: Any, where: str) -> Any:
 
 
 def metric(value: Any, where: str) -> Any:
-    """A raw metric: a number, a unit string, or null."""
+    """A raw metric: a number (an integer, such as a pixel count, stays one), a unit string, or null."""
     if value is None or isinstance(value, str):
         return value
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        return int(value)
     return number(value, where)
 
 

@@ -17,6 +17,7 @@ byte a pixel) exists at a time.
 
 from __future__ import annotations
 
+import os
 import re
 import warnings
 from collections.abc import Mapping, Sequence
@@ -222,7 +223,12 @@ def as_regions(value: Any) -> Regions:
 
 
 def scored_mask(mask: Any, regions: Regions | None, shape: tuple[int, ...]) -> Any:
-    """The pixels the whole is scored over: ``mask`` within the union of ``regions``."""
+    """The pixels the whole is scored over: ``mask`` (an array, or a mask file's path) within the
+    union of ``regions``."""
+    if isinstance(mask, (str, os.PathLike)):
+        from .masks import scoring_mask
+
+        mask = scoring_mask(mask, None, (int(shape[0]), int(shape[1]))).values
     if regions is None:
         return mask
     regions.check_shape(shape)

@@ -20,7 +20,7 @@ import warnings
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterator, Mapping
 
-from .bootstrap import DEFAULT_RESAMPLES, check_level
+from .bootstrap import DEFAULT_RESAMPLES, check_level, check_resamples
 from .camera import CameraInputs
 from .config import ScoringConfig
 from .errors import FidelityError
@@ -295,6 +295,7 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
     sims = _simulators(simulators)
     names = list(sims)
     check_level(level)
+    check_resamples(resamples)  # before any frame is scored
     curves = {key: _per_simulator(key, value, names)
               for key, value in (("sim_mtf", sim_mtf), ("sim_sitf", sim_sitf), ("sim_noise", sim_noise),
                                  ("sim_mrtd", sim_mrtd))}

@@ -10,7 +10,10 @@ from __future__ import annotations
 import argparse
 import os
 
+import numpy as np
+
 from ..errors import FidelityError
+from ..frames import default_max_pixels
 from .output import UsageError
 
 __all__ = ["targets_command", "KINDS"]
@@ -32,6 +35,10 @@ def _shape(text: str) -> tuple[int, int]:
         rows, cols = (int(p) for p in parts)
     except ValueError:
         raise UsageError(f"--size: expected ROWS,COLS (e.g. 128,128), got {text!r}") from None
+    limit = default_max_pixels()
+    if not (rows > 0 and cols > 0 and rows * cols <= limit):
+        raise UsageError(f"--size {rows},{cols}: expected at least one pixel and at most {limit} "
+                         f"(the largest frame irfidelity reads by default)")
     return rows, cols
 
 
@@ -45,11 +52,18 @@ def _otf(a: argparse.Namespace):
     return gaussian_otf(a.blur)
 
 
+#: The largest level each format writes (a float32 TIFF; PNG's 16 bits are checked when written).
+LEVEL_LIMITS = {"png": 65535.0, "tiff": float(np.finfo(np.float32).max), "npy": float(np.finfo(np.float64).max)}
+
+
 def _levels(a: argparse.Namespace) -> tuple[float, float]:
     if a.levels is not None:
         values = _numbers(a.levels, "levels")
         if len(values) != 2:
             raise UsageError(f"--levels: expected BACKGROUND,BAR, got {a.levels!r}")
+        top = LEVEL_LIMITS[a.format]
+        if not all(abs(v) <= top for v in values):
+            raise UsageError(f"--levels {a.levels}: a {a.format} target holds levels within ±{top:g}")
         return values[0], values[1]
     return (16384.0, 49152.0) if a.format == "png" else (0.0, 1.0)
 
