@@ -8,6 +8,7 @@ format ``irfidelity score --real-bars/--sim-bars`` reads.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 
 import numpy as np
@@ -52,8 +53,9 @@ def _otf(a: argparse.Namespace):
     return gaussian_otf(a.blur)
 
 
-#: The largest level each format writes (a float32 TIFF; PNG's 16 bits are checked when written).
-LEVEL_LIMITS = {"png": 65535.0, "tiff": float(np.finfo(np.float32).max), "npy": float(np.finfo(np.float64).max)}
+#: The largest level the float formats write (float32 TIFF, float64 .npy); PNG's 16 bits are
+#: checked with the frame.
+LEVEL_LIMITS = {"tiff": float(np.finfo(np.float32).max), "npy": float(np.finfo(np.float64).max)}
 
 
 def _levels(a: argparse.Namespace) -> tuple[float, float]:
@@ -61,7 +63,9 @@ def _levels(a: argparse.Namespace) -> tuple[float, float]:
         values = _numbers(a.levels, "levels")
         if len(values) != 2:
             raise UsageError(f"--levels: expected BACKGROUND,BAR, got {a.levels!r}")
-        top = LEVEL_LIMITS[a.format]
+        if not all(math.isfinite(v) for v in values):
+            raise UsageError(f"--levels {a.levels}: expected two finite numbers")
+        top = LEVEL_LIMITS.get(a.format, math.inf)
         if not all(abs(v) <= top for v in values):
             raise UsageError(f"--levels {a.levels}: a {a.format} target holds levels within ±{top:g}")
         return values[0], values[1]
