@@ -244,3 +244,10 @@ def test_rank_refuses_resamples_beyond_its_bound(capsys):
     assert main(["rank", lepton, lepton, lepton, "--names", "a,b", "--no-progress", "--resamples", "100000000"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "99..1000000" in err and "--resamples" in err, err
+
+
+def test_the_conversion_to_temperature_is_planned_against_max_bytes():
+    fff = DATA / "radiometric" / "flirpy_frame_000000.fff"
+    assert irf.load_frame(fff, unit="C", max_bytes=4_000_000).dtype == np.float64  # counts + kelvin: 3.3 MB
+    with pytest.raises(FidelityError, match=r"conversion to temperature of 512 x 640 .*max_bytes"):
+        irf.load_frame(fff, unit="C", max_bytes=2_000_000)  # the counts decode within it; their kelvin not

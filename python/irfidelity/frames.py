@@ -22,7 +22,7 @@ from typing import Any, NamedTuple, Union, overload
 
 import numpy as np
 
-from . import _core
+from . import _core, budget
 from .errors import FidelityError, FrameError, RangeError
 
 __all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "page_chain", "PageChain", "natural_key",
@@ -258,6 +258,8 @@ def _in_unit(path: str, frame: np.ndarray, page: int, max_bytes: int | None, uni
         calibration = read_radiometry(path, page=page, max_bytes=max_bytes)
     except FrameError as exc:
         raise FrameError(f"{exc}; integer counts without one cannot become temperatures (unit={unit!r})") from None
+    # the counts and their float64 temperatures held together
+    budget.check(f"{path}: conversion to temperature", frame.shape, frame.nbytes + 8 * frame.size, max_bytes)
     try:
         return np.asarray(calibration.temperature(frame, unit, **overrides), dtype=np.float64)
     except RangeError as exc:

@@ -231,8 +231,9 @@ const CHUNK: usize = 1 << 14;
 
 /// `f` of every input, in parallel; integer inputs spanning a range much smaller than their
 /// count go through a table of `f` over that range (the same values, fewer logarithms).
-fn convert<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync + Copy) -> Converted {
-    let mut values = vec![0.0; input.len()];
+fn convert<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync + Copy) -> Result<Converted> {
+    // refused as an error, not an abort, when the memory is not there
+    let mut values = crate::budget::try_filled(input.len(), 0.0)?;
     let table = integer_table(input, f);
     let (outside, nonfinite) = values
         .par_chunks_mut(CHUNK)
@@ -247,7 +248,7 @@ fn convert<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync + Copy) -> Conv
             count_nan(inp, out)
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-    Converted { values, outside, nonfinite }
+    Ok(Converted { values, outside, nonfinite })
 }
 
 avx2_copy! {
@@ -287,14 +288,14 @@ fn integer_table<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync) -> Optio
 pub fn temperatures<T: Sample>(counts: &[T], calibration: &Calibration, unit: Unit) -> Result<Converted> {
     let model = calibration.model()?;
     let shift = unit.to_kelvin();
-    Ok(convert(counts, |s| model.kelvin(s) - shift))
+    convert(counts, |s| model.kelvin(s) - shift)
 }
 
 /// Raw counts (unrounded) of temperatures in `unit`: the inverse of [`temperatures`].
 pub fn counts<T: Sample>(temperatures: &[T], calibration: &Calibration, unit: Unit) -> Result<Converted> {
     let model = calibration.model()?;
     let shift = unit.to_kelvin();
-    Ok(convert(temperatures, |t| model.counts(t + shift)))
+    convert(temperatures, |t| model.counts(t + shift))
 }
 
 #[cfg(test)]
