@@ -251,3 +251,18 @@ def test_the_conversion_to_temperature_is_planned_against_max_bytes():
     assert irf.load_frame(fff, unit="C", max_bytes=4_000_000).dtype == np.float64  # counts + kelvin: 3.3 MB
     with pytest.raises(FidelityError, match=r"conversion to temperature of 512 x 640 .*max_bytes"):
         irf.load_frame(fff, unit="C", max_bytes=2_000_000)  # the counts decode within it; their kelvin not
+
+
+def test_weights_fit_answers_a_huge_field_and_too_many_rows_in_one_line(tmp_path, capsys, monkeypatch):
+    import irfidelity.judgements as judgements
+
+    header = "a_psnr,a_ssim,b_psnr,b_ssim,preferred\n"
+    huge = tmp_path / "huge.csv"
+    huge.write_text(header + "0.9,0.7,0.8,0.9," + "b" * 200_000 + "\n")
+    many = tmp_path / "many.csv"
+    many.write_text(header + "0.9,0.7,0.8,0.9,b\n" * 11)
+    monkeypatch.setattr(judgements, "MAX_JUDGEMENTS", 10)
+    for path, needle in ((huge, "line 2: not a CSV row"), (many, "more than 10 judgement rows")):
+        assert main(["weights", "fit", str(path)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and needle in err and str(path) in err, err

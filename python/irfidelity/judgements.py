@@ -631,6 +631,11 @@ def _csv_number(path: str, line: int, column: str, text: str) -> float:
     return value
 
 
+#: The most judgement rows a file may hold: far beyond any panel of experts, and the fit's
+#: memory (a few hundred bytes a row) stays within tens of megabytes.
+MAX_JUDGEMENTS = 100_000
+
+
 def read_judgements(path: str | os.PathLike) -> list[tuple]:
     """Judgements from a CSV file, for :func:`fit_weights`.
 
@@ -664,8 +669,15 @@ def read_judgements(path: str | os.PathLike) -> list[tuple]:
                 raise FidelityError(f"{name}: empty file; expected a header row a_<component>,...,preferred")
             components, has_expert = _csv_columns(name, header)
             index = {h.strip(): i for i, h in enumerate(header)}
-            out = [_csv_row(name, reader.line_num, row, index, components, has_expert)
-                   for row in reader if any(cell.strip() for cell in row)]
+            out = []
+            for row in reader:
+                if any(cell.strip() for cell in row):
+                    if len(out) == MAX_JUDGEMENTS:
+                        raise FidelityError(f"{name}: more than {MAX_JUDGEMENTS} judgement rows (line "
+                                            f"{reader.line_num}); fit a sample of them")
+                    out.append(_csv_row(name, reader.line_num, row, index, components, has_expert))
+    except csv.Error as exc:  # a field beyond the csv module's limit, a NUL byte, ...
+        raise FidelityError(f"{name}: line {reader.line_num}: not a CSV row ({exc})") from None
     except OSError as exc:
         raise FidelityError(f"{name}: cannot read the judgements ({exc.strerror or exc})") from None
     except UnicodeDecodeError:
