@@ -28,7 +28,7 @@ from ..masks import MaskSpec, ScoringMask
 from ..registration import DEFAULT_ORDER
 from ..results import recorded_warnings
 from ..scoring import plan_components, psnr_peak
-from ..stats import PairRequest, full_range, hist_params, peak_and_valid
+from ..stats import PairRequest, full_range, hist_params, peak_and_valid, real_range
 from .pairing import Pairing
 
 __all__ = ["SequencePlan", "SequenceRequest", "make_plan"]
@@ -198,11 +198,10 @@ def _registration(real: FrameSequence, sim: FrameSequence, pairing: Pairing, con
 
 
 def _scene_range(frame: np.ndarray, mask: ScoringMask | None = None) -> float | None:
-    """max − min of the frame's finite values (within ``mask``); None when there are none."""
-    if mask is not None and frame.shape == mask.shape:
-        frame = frame[mask.values]
-    values = frame[np.isfinite(frame)] if frame.dtype.kind == "f" else frame
-    return float(values.max()) - float(values.min()) if values.size else None
+    """max − min of the frame's finite values (within ``mask``); None when there are none. The
+    values are not copied (:func:`irfidelity.stats.real_range`)."""
+    within = mask.values if mask is not None and frame.shape == mask.shape else None
+    return real_range(frame, within, "mask")
 
 
 def _ceiling(real: Any, camera: CameraInputs, compared: dict, image: tuple[str, ...], config: ScoringConfig,
@@ -277,10 +276,11 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
         peak = bins = hist_range = None
         levels = False
         ceiling = ceiling_source = None
+        scene_range = None if first is None else _scene_range(first, scored)
         if dtype is not None:
             default_peak, valid = peak_and_valid(dtype, config.bits, None)
             if "psnr" in image and config.peak != "range":  # "range": each frame's own
-                peak = psnr_peak(config, default_peak, _scene_range(first, scored), where="the first real frame")
+                peak = psnr_peak(config, default_peak, scene_range, where="the first real frame")
             if "nmi" in image:
                 bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
                                                        full_range(dtype, config.bits, config.numeric_peak))
@@ -294,4 +294,4 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
                         else None, bins=bins, levels=levels, hist_range=hist_range, registration=registration,
                         ceiling=ceiling, ceiling_source=ceiling_source,
                         transfer=None if transfer is None else transfer.to_dict(),
-                        scene_range=None if first is None else _scene_range(first, scored), mask=scored)
+                        scene_range=scene_range, mask=scored)
