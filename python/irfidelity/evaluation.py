@@ -30,7 +30,7 @@ from .errors import FidelityError, NoiseWarning, RangeError, ShapeError
 from .frames import dtype_name
 from .regions import as_regions, masked_stats, registered_union, score_regions, scored_mask, with_psnr_peak
 from .results import FidelityReport, recorded_warnings
-from .scoring import image_components, plan_components, score_components
+from .scoring import image_components, plan_with_scene, score_components
 from .temperature import TemperatureErrors, scoring_config, temperature_scores, to_temperature, tolerance_for
 from .system.scene import SceneEstimate, scene_estimate, scene_kinds, unassessed
 
@@ -184,34 +184,6 @@ def _noise_ceiling(real_noise: Any, components: tuple, config: ScoringConfig, st
                          max_bytes=max_bytes)
 
 
-class _Plan:
-    """What to compute (:func:`irfidelity.scoring.plan_components`), made once from the inputs
-    given and the components the scene stands in for, and made again without the scene
-    components the pair could not give (their reasons replace the plan's)."""
-
-    def __init__(self, config: ScoringConfig, given: dict, scene: tuple, *, have_images: bool):
-        self.config, self.given, self.scene, self.have_images = config, given, scene, have_images
-
-    def make(self, absent: dict | None = None) -> tuple:
-        absent = absent or {}
-        have = {k: (self.given[k] or k in self.scene) and k not in absent for k in ("mtf", "sitf", "noise")}
-        try:
-            weights, image_plan, skipped = plan_components(
-                self.config.weights, self.config.missing, have_images=self.have_images, have_mtf=have["mtf"],
-                have_sitf=have["sitf"], have_noise=have["noise"], have_unit=self.config.unit is not None,
-                have_mrtd=self.given["mrtd"])
-        except FidelityError as exc:
-            why = "; ".join(f"{k}: {reason}" for k, reason in absent.items())
-            raise type(exc)(f"{exc}" + (f" (from the frames: {why})" if why else ""), option=exc.option) from None
-        for k, reason in absent.items():
-            if k in skipped:
-                skipped[k] = f"not assessed: {reason}; weight {self.config.weights[k]:g} dropped and the rest renormalised"
-        return weights, image_plan, skipped
-
-    def without(self, absent: dict) -> tuple:
-        return self.make({k: v for k, v in absent.items() if self.config.weights[k] > 0})
-
-
 def _scene(sources: dict, config: ScoringConfig, real_ref: Any, real_noise: Any, scene: tuple, components: dict,
            metrics: dict, max_bytes: int | None) -> SceneEstimate:
     """The pair's transfer (:mod:`irfidelity.system`): the components the scene stands in for,
@@ -331,8 +303,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
     given = camera.given()
     scene = scene_kinds(cfg, given, frames=real is not None, real_noise_known=real_ref is not None or real_noise is not None)
-    plan = _Plan(cfg, given, scene, have_images=real is not None)
-    weights, image_plan, skipped = plan.make()
+    weights, image_plan, skipped = plan_with_scene(cfg, given, scene, have_images=real is not None)
     in_unit = cfg.unit is not None and real is not None
     # the scene's transfer: for the components it stands in for, and as a cross-check beside
     # camera curves when the frames are read anyway
@@ -356,7 +327,8 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
             defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"))
         if transfer_wanted:
             measured = _scene(sources, cfg, real_ref, real_noise, scene, components, metrics, max_bytes)
-            weights, image_plan, skipped = plan.without(measured.missing)
+            weights, image_plan, skipped = plan_with_scene(cfg, given, scene, have_images=real is not None,
+                                                           absent=measured.missing)
         if in_unit:
             errors = TemperatureErrors.of_frames(sources["real"], sources["sim"], mask=sources["mask"],
                                                  tolerance=tolerance_for(cfg, metrics), unit=str(cfg.unit))

@@ -24,7 +24,7 @@ from .normalize import normalize_psnr
 from .schema import CURVE_COMPONENTS, IMAGE_COMPONENTS
 from .verdict import Verdict, judge
 
-__all__ = ["plan_components", "image_components", "score_components", "Score", "psnr_peak",
+__all__ = ["plan_components", "plan_with_scene", "image_components", "score_components", "Score", "psnr_peak",
            "pinned_psnr_floor", "IMAGE_COMPONENTS", "CURVE_COMPONENTS"]
 
 _INPUTS = {"mtf": "real_mtf/sim_mtf", "sitf": "real_sitf/sim_sitf", "psnr": "real/sim", "nmi": "real/sim",
@@ -33,6 +33,28 @@ _INPUTS = {"mtf": "real_mtf/sim_mtf", "sitf": "real_sitf/sim_sitf", "psnr": "rea
 
 
 # --------------------------------------------------------------------------- plan
+def plan_with_scene(config: ScoringConfig, given: Mapping[str, bool], scene: tuple[str, ...], *,
+                    have_images: bool, absent: Mapping[str, str] | None = None
+                    ) -> tuple[Weights, tuple[str, ...], dict]:
+    """:func:`plan_components` with curves, noise recordings and MRTD inputs as ``given``
+    (``{"mtf", "sitf", "noise", "mrtd": bool}``), the components the frames' scene stands in for
+    (``scene``) as inputs too, but those in ``absent`` (``{component: why}``: the scene could not
+    give them) not; their reasons replace the plan's."""
+    absent = {k: why for k, why in (absent or {}).items() if config.weights[k] > 0}
+    have = {k: (given[k] or k in scene) and k not in absent for k in ("mtf", "sitf", "noise")}
+    try:
+        weights, image, skipped = plan_components(
+            config.weights, config.missing, have_images=have_images, have_mtf=have["mtf"], have_sitf=have["sitf"],
+            have_noise=have["noise"], have_unit=config.unit is not None, have_mrtd=given["mrtd"])
+    except FidelityError as exc:
+        why = "; ".join(f"{k}: {reason}" for k, reason in absent.items())
+        raise type(exc)(f"{exc}" + (f" (from the frames: {why})" if why else ""), option=exc.option) from None
+    for k, reason in absent.items():
+        if k in skipped:
+            skipped[k] = f"not assessed: {reason}; weight {config.weights[k]:g} dropped and the rest renormalised"
+    return weights, image, skipped
+
+
 def plan_components(weights: Weights, missing: str, *, have_images: bool, have_mtf: bool,
                     have_sitf: bool, have_noise: bool = False, have_unit: bool = False, have_mrtd: bool = False
                     ) -> tuple[Weights, tuple[str, ...], dict]:

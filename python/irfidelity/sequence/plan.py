@@ -27,7 +27,7 @@ from ..fuzzy import Weights
 from ..masks import MaskSpec, ScoringMask
 from ..registration import DEFAULT_ORDER
 from ..results import recorded_warnings
-from ..scoring import plan_components, psnr_peak
+from ..scoring import plan_with_scene, psnr_peak
 from ..stats import PairRequest, full_range, hist_params, peak_and_valid, real_range
 from .pairing import Pairing
 
@@ -221,25 +221,6 @@ def _ceiling(real: Any, camera: CameraInputs, compared: dict, image: tuple[str, 
     return ceiling, None if ceiling is None else "noise3d"
 
 
-def _components(config: ScoringConfig, given: dict, scene: tuple, absent: dict | None = None) -> tuple:
-    """:func:`~irfidelity.scoring.plan_components` of a run: curves, noise recordings and the
-    frames' scene as inputs, but the scene components in ``absent`` (their reasons given)."""
-    absent = {k: v for k, v in (absent or {}).items() if config.weights[k] > 0}
-    have = {k: (given[k] or k in scene) and k not in absent for k in ("mtf", "sitf", "noise")}
-    try:
-        weights, image, skipped = plan_components(config.weights, config.missing, have_images=True,
-                                                  have_mtf=have["mtf"], have_sitf=have["sitf"],
-                                                  have_noise=have["noise"], have_unit=config.unit is not None,
-                                                  have_mrtd=given["mrtd"])
-    except FidelityError as exc:
-        why = "; ".join(f"{k}: {reason}" for k, reason in absent.items())
-        raise type(exc)(f"{exc}" + (f" (from the frames: {why})" if why else ""), option=exc.option) from None
-    for k, reason in absent.items():
-        if k in skipped:
-            skipped[k] = f"not assessed: {reason}; weight {config.weights[k]:g} dropped and the rest renormalised"
-    return weights, image, skipped
-
-
 def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera: CameraInputs,
               config: ScoringConfig, mask: MaskSpec | None = None) -> SequencePlan:
     """Plan a sequence run (raises before any pair is scored when the plan cannot work).
@@ -248,7 +229,7 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
     every pair, the registration found for all and the ceiling are computed over it."""
     given = camera.given()
     scene = scene_kinds(config, given, frames=True, real_noise_known=camera.real_noise is not None or len(real) > 1)
-    weights, image, skipped = _components(config, given, scene)
+    weights, image, skipped = plan_with_scene(config, given, scene, have_images=True)
     if not image:
         raise FidelityError("a sequence needs a positive weight on psnr, nmi or ssim (the per-frame components); "
                             "to compare curves alone, score a single pair without frames", option="weights")
@@ -270,7 +251,7 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
                 fixed, fixed_metrics, transfer = {**fixed, **found.components}, {**fixed_metrics, **found.metrics}, \
                     found.transfer
             if missing:
-                weights, image, skipped = _components(config, given, scene, missing)
+                weights, image, skipped = plan_with_scene(config, given, scene, have_images=True, absent=missing)
         dtype = None if first is None else first.dtype
         default_peak = valid = None
         peak = bins = hist_range = None
