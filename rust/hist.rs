@@ -1,4 +1,4 @@
-//! Joint grey-level histograms with shared edges, and their Shannon entropies
+//! Joint grey-level histograms (shared edges, or each frame's own), and their Shannon entropies
 //! (paper eqs. 7–8). One representation serves every dtype and binning mode:
 //! a dense `bins × bins` table when that is small, otherwise a sorted run list of
 //! packed `(row_bin << 32) | col_bin` keys. Marginals always come from the joint.
@@ -11,6 +11,9 @@ use crate::error::{Error, Result};
 pub enum HistSpec {
     /// `bins` uniform bins starting at `lo`, each `width` wide (integers for integer frames).
     Binned { bins: usize, lo: f64, width: f64 },
+    /// `bins` uniform bins for each frame over its own range: `(lo, width)` of the real and
+    /// of the simulated frame's bins.
+    Each { bins: usize, real: (f64, f64), sim: (f64, f64) },
     /// Every grey level its own bin (integer frames only).
     Levels,
 }
@@ -281,7 +284,7 @@ impl JointTable {
     /// `max_cells` counts.
     pub fn of(spec: &HistSpec, joint: &Joint, max_cells: usize) -> Result<JointTable> {
         let ((real_first, rows), (sim_first, cols)) = match spec {
-            HistSpec::Binned { bins, .. } => ((0, *bins), (0, *bins)),
+            HistSpec::Binned { bins, .. } | HistSpec::Each { bins, .. } => ((0, *bins), (0, *bins)),
             HistSpec::Levels => match joint.occupied() {
                 Some(((rl, rh), (sl, sh))) => ((rl, (rh - rl + 1) as usize), (sl, (sh - sl + 1) as usize)),
                 None => ((0, 0), (0, 0)),

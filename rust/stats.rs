@@ -261,6 +261,13 @@ impl PairStats {
                         b.extend_from_slice(&lo.to_le_bytes());
                         b.extend_from_slice(&width.to_le_bytes());
                     }
+                    HistSpec::Each { bins, real, sim } => {
+                        b.push(3);
+                        b.extend_from_slice(&(*bins as u64).to_le_bytes());
+                        for v in [real.0, real.1, sim.0, sim.1] {
+                            b.extend_from_slice(&v.to_le_bytes());
+                        }
+                    }
                 }
                 match joint {
                     Joint::Dense { bins, offset, counts } => {
@@ -315,10 +322,15 @@ impl PairStats {
         let hist = match rd.u8()? {
             0 => None,
             tag => {
-                let spec = if tag == 1 {
-                    HistSpec::Levels
-                } else {
-                    HistSpec::Binned { bins: rd.u64()? as usize, lo: rd.f64()?, width: rd.f64()? }
+                let spec = match tag {
+                    1 => HistSpec::Levels,
+                    2 => HistSpec::Binned { bins: rd.u64()? as usize, lo: rd.f64()?, width: rd.f64()? },
+                    3 => HistSpec::Each {
+                        bins: rd.u64()? as usize,
+                        real: (rd.f64()?, rd.f64()?),
+                        sim: (rd.f64()?, rd.f64()?),
+                    },
+                    _ => return Err(Reader::bad()),
                 };
                 let joint = match rd.u8()? {
                     0 => {

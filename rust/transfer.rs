@@ -158,8 +158,12 @@ fn starts(len: usize, tile: usize, step: usize) -> Vec<usize> {
 fn check_frames<R, S>(frames: &Frames<'_, R, S>, what: &str) -> Result<()> {
     let (rows, cols) = frames.shape;
     let n = rows.checked_mul(cols).ok_or_else(|| Error::Shape(format!("{what}: frame too large")))?;
-    let lengths = [Some(frames.real.len()), Some(frames.sim.len()), frames.reference.map(<[R]>::len),
-        frames.mask.map(<[bool]>::len)];
+    let lengths = [
+        Some(frames.real.len()),
+        Some(frames.sim.len()),
+        frames.reference.map(<[R]>::len),
+        frames.mask.map(<[bool]>::len),
+    ];
     if lengths.iter().flatten().any(|&len| len != n) {
         return Err(Error::Shape(format!("{what}: the frames, reference and mask must all be {rows} x {cols}")));
     }
@@ -168,7 +172,12 @@ fn check_frames<R, S>(frames: &Frames<'_, R, S>, what: &str) -> Result<()> {
 
 /// Whether every pixel of the real frame's `tile × tile` square at `(y0, x0)` is scored and
 /// finite, and of the simulated frame's at `at` (None: off the frame).
-fn usable<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, (y0, x0): (usize, usize), at: Option<(usize, usize)>, tile: usize) -> bool {
+fn usable<R: Sample, S: Sample>(
+    frames: &Frames<'_, R, S>,
+    (y0, x0): (usize, usize),
+    at: Option<(usize, usize)>,
+    tile: usize,
+) -> bool {
     fn finite<T: Sample>(values: &[T]) -> bool {
         T::IS_INT || values.iter().all(|v| v.to_f64().is_finite())
     }
@@ -186,7 +195,12 @@ fn usable<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, (y0, x0): (usize, usi
 
 /// Where the simulated frame's tile lies for the real frame's at `(y0, x0)`: displaced by
 /// `offset` whole pixels (the pair's displacement, rounded), None when that leaves the frame.
-fn moved((y0, x0): (usize, usize), offset: (i64, i64), (rows, cols): (usize, usize), tile: usize) -> Option<(usize, usize)> {
+fn moved(
+    (y0, x0): (usize, usize),
+    offset: (i64, i64),
+    (rows, cols): (usize, usize),
+    tile: usize,
+) -> Option<(usize, usize)> {
     let (y, x) = (y0 as i64 + offset.0, x0 as i64 + offset.1);
     (y >= 0 && x >= 0 && y as usize + tile <= rows && x as usize + tile <= cols).then_some((y as usize, x as usize))
 }
@@ -327,7 +341,9 @@ fn add_pair_impl(sums: &mut GroupSums, z: &[C32], alignment: &Alignment) {
         opposite[1..].iter_mut().zip(mirror[1..].iter().rev()).for_each(|(o, m)| *o = *m);
         let span = kx * n..(kx + 1) * n;
         let (real, sim, cross) = (&mut real[span.clone()], &mut sim[span.clone()], &mut sums.cross[span]);
-        for (((real, sim), cross), (p, q)) in real.iter_mut().zip(sim.iter_mut()).zip(cross.iter_mut()).zip(column.iter().zip(opposite.iter())) {
+        for (((real, sim), cross), (p, q)) in
+            real.iter_mut().zip(sim.iter_mut()).zip(cross.iter_mut()).zip(column.iter().zip(opposite.iter()))
+        {
             let (a_re, a_im) = (0.5 * (p.re + q.re), 0.5 * (p.im - q.im));
             let (b_re, b_im) = (0.5 * (p.im + q.im), -0.5 * (p.re - q.re));
             *real += a_re * a_re + a_im * a_im;
@@ -498,7 +514,10 @@ fn fill_pair_impl<A: Sample, B: Sample>(
             }
         } else {
             for ((out, (&wa, &wb)), (va, vb)) in line.iter_mut().zip(weights.0.iter().zip(weights.1)).zip(values) {
-                *out = C32::new(((va.to_f64() - mean_a) * wa * scale) as f32, ((vb.to_f64() - mean_b) * wb * scale) as f32);
+                *out = C32::new(
+                    ((va.to_f64() - mean_a) * wa * scale) as f32,
+                    ((vb.to_f64() - mean_b) * wb * scale) as f32,
+                );
             }
         }
     }
@@ -511,7 +530,15 @@ fn narrow<T: Sample>() -> bool {
 }
 
 /// The windowed, mean-free difference of two real tiles, as the real part of `z`.
-fn fill_difference<A: Sample>(real: &[A], reference: &[A], cols: usize, (y0, x0): (usize, usize), window: &[f64], scale: f64, z: &mut [C32]) {
+fn fill_difference<A: Sample>(
+    real: &[A],
+    reference: &[A],
+    cols: usize,
+    (y0, x0): (usize, usize),
+    window: &[f64],
+    scale: f64,
+    z: &mut [C32],
+) {
     let n = (window.len() as f64).sqrt() as usize;
     let mean = tile_mean(real, cols, y0, x0, n) - tile_mean(reference, cols, y0, x0, n);
     for (y, (line, weights)) in z.chunks_exact_mut(n).zip(window.chunks_exact(n)).enumerate() {
@@ -560,7 +587,9 @@ pub fn tile_spectra<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, tiling: Til
     let Tiling { tile, step, groups, shift } = tiling;
     check_frames(frames, "cross-spectra")?;
     if !(MIN_TILE..=MAX_TILE).contains(&tile) || tile % 2 != 0 {
-        return Err(Error::Value(format!("tile: expected an even number of pixels in {MIN_TILE}..={MAX_TILE}, got {tile}")));
+        return Err(Error::Value(format!(
+            "tile: expected an even number of pixels in {MIN_TILE}..={MAX_TILE}, got {tile}"
+        )));
     }
     if groups == 0 {
         return Err(Error::Value("groups: expected at least 1".into()));
@@ -737,7 +766,8 @@ fn blocks<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, factor: usize) -> Blo
         (real, sim, counts, totals)
     };
     let parts: Vec<_> = (0..out_rows).into_par_iter().map(block_row).collect();
-    let mut out = Blocks { real: Vec::new(), sim: Vec::new(), counts: Vec::new(), sum_real: 0.0, sum_sim: 0.0, pixels: 0 };
+    let mut out =
+        Blocks { real: Vec::new(), sim: Vec::new(), counts: Vec::new(), sum_real: 0.0, sum_sim: 0.0, pixels: 0 };
     for (real, sim, counts, totals) in parts {
         out.real.extend(real);
         out.sim.extend(sim);
@@ -768,7 +798,8 @@ pub fn low_spectrum<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, factor: usi
         return Err(Error::Value("low-frequency spectrum: no scored, finite pixel".into()));
     }
     let used = (counts.len() - empty as usize) as f64;
-    let mean = |v: &[f64]| v.iter().zip(&counts).filter(|(_, &c)| c > 0).map(|(x, &c)| x / c as f64).sum::<f64>() / used;
+    let mean =
+        |v: &[f64]| v.iter().zip(&counts).filter(|(_, &c)| c > 0).map(|(x, &c)| x / c as f64).sum::<f64>() / used;
     let (mean_real, mean_sim) = (mean(&real), mean(&sim));
     let (w_rows, w_cols) = (hann(rows), hann(cols));
     let mut z: Vec<C64> = budget::try_collect(
@@ -783,11 +814,10 @@ pub fn low_spectrum<R: Sample, S: Sample>(frames: &Frames<'_, R, S>, factor: usi
             }
         }),
     )?;
-    let (along_rows, along_cols) =
-        PLANNER64.with(|p| {
-            let mut planner = p.borrow_mut();
-            (planner.plan_fft_forward(cols), planner.plan_fft_forward(rows))
-        });
+    let (along_rows, along_cols) = PLANNER64.with(|p| {
+        let mut planner = p.borrow_mut();
+        (planner.plan_fft_forward(cols), planner.plan_fft_forward(rows))
+    });
     along_rows.process(&mut z);
     let mut columns: Vec<C64> = budget::try_filled(rows * cols, C64::default())?;
     for y in 0..rows {
@@ -841,15 +871,16 @@ mod tests {
             state ^= state << 17;
             ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
         };
-        (0..n)
-            .map(|_| (-2.0 * uniform().ln()).sqrt() * (2.0 * std::f64::consts::PI * uniform()).cos())
-            .collect()
+        (0..n).map(|_| (-2.0 * uniform().ln()).sqrt() * (2.0 * std::f64::consts::PI * uniform()).cos()).collect()
     }
 
     /// A direct DFT of a windowed, mean-free tile at one frequency.
     fn dft(values: &[f64], cols: usize, (y0, x0): (usize, usize), tile: usize, (ky, kx): (usize, usize)) -> C64 {
         let window = hann(tile);
-        let mean: f64 = (0..tile).flat_map(|y| (0..tile).map(move |x| (y, x))).map(|(y, x)| values[(y0 + y) * cols + x0 + x]).sum::<f64>()
+        let mean: f64 = (0..tile)
+            .flat_map(|y| (0..tile).map(move |x| (y, x)))
+            .map(|(y, x)| values[(y0 + y) * cols + x0 + x])
+            .sum::<f64>()
             / (tile * tile) as f64;
         let mut sum = C64::default();
         for y in 0..tile {
@@ -896,7 +927,8 @@ mod tests {
             (0..60).map(|i| noise[i] * (1.2 * (y * noise[60 + i] + x * noise[120 + i]) + noise[180 + i]).sin()).sum()
         };
         let real: Vec<f64> = (0..rows * cols).map(|i| smooth((i / cols) as f64, (i % cols) as f64)).collect();
-        let sim: Vec<f64> = (0..rows * cols).map(|i| smooth((i / cols) as f64 - 0.7, (i % cols) as f64 + 1.3)).collect();
+        let sim: Vec<f64> =
+            (0..rows * cols).map(|i| smooth((i / cols) as f64 - 0.7, (i % cols) as f64 + 1.3)).collect();
         let frames = Frames::<f64, f64> { real: &real, sim: &sim, reference: None, mask: None, shape: (rows, cols) };
         // the pair's displacement known to 0.3 px: each tile finds the rest
         let spectra = tile_spectra(&frames, Tiling { tile, step: tile / 2, groups: 1, shift: (0.5, -1.0) }).unwrap();
@@ -950,17 +982,26 @@ mod tests {
         assert_eq!(spectra.skipped, 2);
         assert_eq!(spectra.tiles.iter().sum::<u64>(), 7 * 7 - 2);
         assert!(spectra.real.iter().chain(&spectra.cross_re).all(|v| v.is_finite()));
-        let small = Frames::<u16, f32> { real: &real[..64], sim: &sim[..64], reference: None, mask: None, shape: (8, 8) };
-        assert_eq!(tile_spectra(&small, Tiling { tile: 16, step: 8, groups: 2, shift: (0.0, 0.0) }).unwrap().tiles, vec![0, 0]);
+        let small =
+            Frames::<u16, f32> { real: &real[..64], sim: &sim[..64], reference: None, mask: None, shape: (8, 8) };
+        assert_eq!(
+            tile_spectra(&small, Tiling { tile: 16, step: 8, groups: 2, shift: (0.0, 0.0) }).unwrap().tiles,
+            vec![0, 0]
+        );
         assert!(tile_spectra(&frames, Tiling { tile: 7, step: 3, groups: 2, shift: (0.0, 0.0) }).is_err());
-        let wrong = Frames::<u16, f32> { real: &real, sim: &sim[..10], reference: None, mask: None, shape: (rows, cols) };
-        assert!(matches!(tile_spectra(&wrong, Tiling { tile: 16, step: 8, groups: 2, shift: (0.0, 0.0) }), Err(Error::Shape(_))));
+        let wrong =
+            Frames::<u16, f32> { real: &real, sim: &sim[..10], reference: None, mask: None, shape: (rows, cols) };
+        assert!(matches!(
+            tile_spectra(&wrong, Tiling { tile: 16, step: 8, groups: 2, shift: (0.0, 0.0) }),
+            Err(Error::Shape(_))
+        ));
     }
 
     #[test]
     fn the_low_spectrum_sees_a_gain() {
         let (rows, cols) = (96, 128);
-        let real: Vec<f64> = (0..rows * cols).map(|i| ((i / cols) as f64 / 9.0).sin() * 50.0 + (i % cols) as f64).collect();
+        let real: Vec<f64> =
+            (0..rows * cols).map(|i| ((i / cols) as f64 / 9.0).sin() * 50.0 + (i % cols) as f64).collect();
         let sim: Vec<f64> = real.iter().map(|v| 1.5 * v + 7.0).collect();
         let frames = Frames::<f64, f64> { real: &real, sim: &sim, reference: None, mask: None, shape: (rows, cols) };
         let low = low_spectrum(&frames, 4).unwrap();

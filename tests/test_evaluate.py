@@ -114,7 +114,7 @@ def test_components_equal_standalone(frames, edges, sitf_curves):
     assert list(rep.components) == list(PAPER_COMPONENTS)
     assert rep.components["psnr"] == normalize_psnr(psnr(r, s, bits=14))
     assert rep.metrics["psnr_db"] == psnr(r, s, bits=14)
-    assert rep.components["nmi"] == nmi(r, s).value
+    assert rep.components["nmi"] == nmi(r, s, hist_range=rep.config.hist_range).value
     assert rep.components["ssim"] == max(ssim(r, s).value, 0)
     assert rep.components["mtf"] == mtf_similarity(m_r, m_s).value
     assert rep.components["sitf"] == sitf_similarity(*sitf_curves).value
@@ -337,6 +337,6 @@ def test_sequence_style_use(frames):
     r, s = frames
     cfg = ScoringConfig(weights="image_quality", bits=14)
     w, image, _ = plan_components(cfg.weights, cfg.missing, have_images=True, have_mtf=False, have_sitf=False)
-    comps, _ = image_components(pair_stats(r, s, bits=14, need=image), image, cfg)
+    comps, _ = image_components(pair_stats(r, s, bits=14, hist_range=cfg.hist_range, need=image), image, cfg)
     rep = evaluate(r, s, config=cfg)
     assert comps == {k: v for k, v in rep.components.items() if k in image}

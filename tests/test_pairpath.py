@@ -61,7 +61,7 @@ def test_registered_evaluate_equals_the_steps_it_stands_for(name):
     reg = irf.register(real, sim, method="phase")
     aligned, valid = reg.apply(sim)
     r64 = real.astype(np.float64)
-    st = irf.pair_stats(r64, aligned, mask=valid, bins=256)
+    st = irf.pair_stats(r64, aligned, mask=valid, bins=256, hist_range=rep.config.hist_range)
     span = r64[valid].max() - r64[valid].min()
     assert rep.metrics["psnr_peak"] == span
     assert rep.metrics["psnr_db"] == st.psnr(span)

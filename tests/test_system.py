@@ -179,6 +179,10 @@ LADDERS = {
     "column pattern": ((0, 0.005, 0.01, 0.02, 0.04, 0.08),
                        lambda f, s: f + s * np.ptp(f) * np.random.default_rng(4).standard_normal(f.shape[1])),
     "whole-pixel shift": ((0, 1, 2, 4), lambda f, s: np.roll(f, (s, s), axis=(0, 1))),
+    # odd and even counts: NMI's bins must not read the offset's phase
+    "offset": ((0, 1, 2, 3, 5, 10, 15, 20, 50), lambda f, s: f + s),
+    "offset of a noisy copy": ((0, 1, 2, 5, 10, 20),
+                               lambda f, s: f + s + 0.01 * np.ptp(f) * np.random.default_rng(6).standard_normal(f.shape)),
 }
 
 

@@ -106,10 +106,12 @@ def peak_value(value: Any) -> float | str | None:
 
 
 def hist_range_value(value: Any) -> str | tuple:
+    from .stats import HIST_RANGES
+
     if isinstance(value, str):
-        if value in ("data", "full"):
+        if value in HIST_RANGES:
             return value
-        raise ConfigError("hist_range", f"expected 'data', 'full' or (lo, hi); got {_short(value)}")
+        raise ConfigError("hist_range", f"expected {', '.join(map(repr, HIST_RANGES))} or (lo, hi); got {_short(value)}")
     lo, hi = finite_numbers("hist_range", value, 2)
     if not lo <= hi:
         raise ConfigError("hist_range", f"expected lo <= hi; got {_short(value)}")

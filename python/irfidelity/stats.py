@@ -71,6 +71,9 @@ class PairRequest:
         Uniform histogram bins over ``hist_range`` (NMI); ``None``: no histogram.
     levels : bool
         One histogram bin per grey level (integer frames); overrides ``bins``.
+    each : bool
+        Each frame's bins over its own data range (``hist_range="each"``); overrides
+        ``hist_range``.
     hist_range : (float, float) or None
         Explicit histogram edges; ``None``: the data's min..max over both frames.
     valid : (int, int) or None
@@ -84,6 +87,7 @@ class PairRequest:
     moments: bool = True
     bins: int | None = None
     levels: bool = False
+    each: bool = False
     hist_range: tuple[float, float] | None = None
     valid: tuple[int, int] | None = None
     mask_nonfinite: bool = False
@@ -234,7 +238,8 @@ class PairStats:
         ``counts[i, j]`` (int64, ``counts.sum() == n``) counts the pixel pairs whose real value
         lies in ``[real_edges[i], real_edges[i + 1])`` and simulated value in
         ``[sim_edges[j], sim_edges[j + 1])``. The edges are those of :func:`pair_stats`'s
-        binning: ``bins=B`` gives ``B × B`` counts and the shared edges ``lo + i·width``
+        binning: ``bins=B`` gives ``B × B`` counts and the edges ``lo + i·width`` (shared, or
+        each frame's own with ``hist_range="each"``)
         (integer frames: a bin is ``width`` whole grey levels; float frames: the last bin also
         holds the top of the range; values outside an explicit ``hist_range`` are counted in
         the edge bins). ``bins="levels"`` gives one row per real grey level and one column per
@@ -273,6 +278,10 @@ class PairStats:
         if spec[0] == "levels":
             real_edges = float(self.level_origin + real_first) + np.arange(counts.shape[0] + 1, dtype=np.float64)
             sim_edges = float(self.level_origin + sim_first) + np.arange(counts.shape[1] + 1, dtype=np.float64)
+        elif spec[0] == "each":
+            _, nbins, real_lo, real_width, sim_lo, sim_width = spec
+            steps = np.arange(nbins + 1, dtype=np.float64)
+            real_edges, sim_edges = real_lo + real_width * steps, sim_lo + sim_width * steps
         else:
             _, nbins, lo, width = spec
             real_edges = lo + width * np.arange(nbins + 1, dtype=np.float64)
@@ -450,8 +459,23 @@ def bins_value(bins: Any) -> int | str:
     raise ConfigError("bins", f"expected an integer in 1..{_core.MAX_HIST_BINS} or 'levels'; got {reprlib.repr(bins)}")
 
 
-def hist_params(bins, hist_range, dtype: np.dtype, full: tuple[float, float] | None):
-    """``(nbins, levels, range)`` for the kernel from ``bins``/``hist_range`` (see :func:`pair_stats`);
+#: The named histogram ranges: "data" (min..max over both frames, shared edges), "each" (each
+#: frame's bins over its own min..max) and "full" (0..peak, shared); else an explicit (lo, hi).
+HIST_RANGES = ("data", "each", "full")
+
+
+class HistParams(NamedTuple):
+    """The kernel's histogram request: ``bins`` uniform bins (None with ``levels``), one bin per
+    grey level, each frame's own range, or the shared explicit ``range`` (None: the data's)."""
+
+    bins: int | None
+    levels: bool
+    each: bool
+    range: tuple[float, float] | None
+
+
+def hist_params(bins, hist_range, dtype: np.dtype, full: tuple[float, float] | None) -> HistParams:
+    """The kernel's :class:`HistParams` from ``bins``/``hist_range`` (see :func:`pair_stats`);
     ``full`` is :func:`full_range`. Shared with the sequence engine, so both bin frames alike."""
     bins = bins_value(bins)
     levels = bins == "levels"
@@ -459,23 +483,22 @@ def hist_params(bins, hist_range, dtype: np.dtype, full: tuple[float, float] | N
     if levels and dtype.kind not in "ui":
         raise FidelityError("the 'levels' binning needs integer frames; give a number of bins for float frames",
                             option="bins")
+    wrong = f"hist_range must be one of {', '.join(map(repr, HIST_RANGES))} or (lo, hi), got {hist_range!r}"
     rng = None
-    if isinstance(hist_range, str) and hist_range == "full":
-        if full is None:
-            raise FidelityError("the 'full' histogram range of float frames needs a peak", option="hist_range")
-        rng = full
-    elif isinstance(hist_range, str):
-        if hist_range != "data":
-            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}",
-                                option="hist_range")
+    if isinstance(hist_range, str):
+        if hist_range not in HIST_RANGES:
+            raise FidelityError(wrong, option="hist_range")
+        if hist_range == "full":
+            if full is None:
+                raise FidelityError("the 'full' histogram range of float frames needs a peak", option="hist_range")
+            rng = full
     else:
         try:
             lo, hi = (float(v) for v in hist_range)
         except (TypeError, ValueError) as exc:
-            raise FidelityError(f"hist_range must be 'data', 'full' or (lo, hi), got {hist_range!r}",
-                                option="hist_range") from exc
+            raise FidelityError(wrong, option="hist_range") from exc
         rng = (lo, hi)
-    return nbins, levels, rng
+    return HistParams(nbins, levels, hist_range == "each" and not levels, rng)
 
 
 def pair_stats(
@@ -508,10 +531,14 @@ def pair_stats(
         frames each bin is a whole number of grey levels (width ``ceil(span/bins)``), so a
         pair spanning at most ``bins`` levels is binned exactly. ``"levels"``: every grey
         level its own bin (integer frames).
-    hist_range : "data", "full" or (lo, hi)
-        ``"data"``: min..max over both frames; ``"full"``: 0..peak; or explicit edges.
-        Both frames always share the same edges; values outside an explicit range are
-        counted in the edge bins. Use "full" or explicit edges to merge histograms of
+    hist_range : "data", "each", "full" or (lo, hi)
+        ``"data"``: min..max over both frames; ``"full"``: 0..peak; or explicit edges: both
+        frames share these edges. ``"each"`` (the scorer's default, ``ScoringConfig``): each
+        frame's bins over its own range, set by its bulk — its min..max cut to the
+        0.1 %..99.9 % quantiles of an evenly spaced sample of (at most 65,536) counted pixels,
+        widened by that span on each side — so a grey-level offset between the frames does not
+        move their bins and a few extreme pixels do not stretch them. Values outside the range
+        are counted in the edge bins. Use "full" or explicit edges to merge histograms of
         different frames.
     mask : 2-D bool array, optional
         ``False`` excludes a pixel pair.
@@ -561,12 +588,12 @@ def kernel_request(need: Iterable[str] | None, dtype: np.dtype, *, bins: int | s
     levels of the frames given, from :func:`peak_and_valid`), and the histogram's binning as
     :class:`PairStats` records it."""
     wanted = plan_need(need)
-    nbins, levels, rng = None, False, None
+    hist = HistParams(None, False, False, None)
     if "hist" in wanted:
-        nbins, levels, rng = hist_params(bins, hist_range, dtype, full)
-    request = PairRequest(sse="sse" in wanted, moments="moments" in wanted, bins=nbins, levels=levels,
-                            hist_range=rng, valid=valid, mask_nonfinite=nonfinite == "mask")
-    return request, (("levels" if levels else nbins) if "hist" in wanted else None)
+        hist = hist_params(bins, hist_range, dtype, full)
+    request = PairRequest(sse="sse" in wanted, moments="moments" in wanted, bins=hist.bins, levels=hist.levels,
+                          each=hist.each, hist_range=hist.range, valid=valid, mask_nonfinite=nonfinite == "mask")
+    return request, (("levels" if hist.levels else hist.bins) if "hist" in wanted else None)
 
 
 # Default PSNR peak per integer dtype (see peak_and_valid), for the single-metric fast path.

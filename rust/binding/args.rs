@@ -18,6 +18,7 @@ pub(crate) struct PairRequest {
     moments: bool,
     bins: Option<usize>,
     levels: bool,
+    each: bool,
     hist_range: Option<(f64, f64)>,
     valid: Option<(i64, i64)>,
     mask_nonfinite: bool,
@@ -42,7 +43,10 @@ impl PairRequest {
         if self.levels {
             Some(HistRequest::Levels)
         } else {
-            self.bins.map(|bins| HistRequest::Bins { bins, range: self.hist_range })
+            self.bins.map(|bins| match self.each {
+                true => HistRequest::Each { bins },
+                false => HistRequest::Bins { bins, range: self.hist_range },
+            })
         }
     }
 

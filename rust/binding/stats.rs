@@ -107,13 +107,17 @@ impl PyPairStats {
     ) -> (Option<f64>, Option<Moments>, Option<(f64, f64, f64)>, Option<(f64, f64, f64)>) {
         (self.mse(), self.moments(), self.centred(), self.entropies(py))
     }
-    /// `("levels",)` or `("bins", bins, lo, width)`, or None.
+    /// `("levels",)`, `("bins", bins, lo, width)` or `("each", bins, real_lo, real_width,
+    /// sim_lo, sim_width)`, or None.
     fn hist_spec<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         Ok(match &self.inner.hist {
             None => None,
             Some((HistSpec::Levels, _)) => Some(("levels",).into_pyobject(py)?.into_any()),
             Some((HistSpec::Binned { bins, lo, width }, _)) => {
                 Some(("bins", *bins, *lo, *width).into_pyobject(py)?.into_any())
+            }
+            Some((HistSpec::Each { bins, real, sim }, _)) => {
+                Some(("each", *bins, real.0, real.1, sim.0, sim.1).into_pyobject(py)?.into_any())
             }
         })
     }

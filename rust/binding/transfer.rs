@@ -30,7 +30,11 @@ enum Output {
 /// Runs `pass` on the frames as `R` (real, reference) and `R` or float64 (sim).
 fn typed<R: numpy::Element + Sample>(
     py: Python<'_>,
-    (real, sim, reference): (&Bound<'_, PyUntypedArray>, &Bound<'_, PyUntypedArray>, Option<&Bound<'_, PyUntypedArray>>),
+    (real, sim, reference): (
+        &Bound<'_, PyUntypedArray>,
+        &Bound<'_, PyUntypedArray>,
+        Option<&Bound<'_, PyUntypedArray>>,
+    ),
     mask: Option<&[bool]>,
     shape: (usize, usize),
     pass: &Pass,
@@ -43,7 +47,11 @@ fn typed<R: numpy::Element + Sample>(
     let reference_view = match reference {
         None => None,
         Some(r) => Some(readonly(r.cast::<PyArrayDyn<R>>().map_err(|_| {
-            Error::Shape(format!("real_ref: dtype {} with a {} real frame: expected the same dtype", r.dtype(), real_view.dtype()))
+            Error::Shape(format!(
+                "real_ref: dtype {} with a {} real frame: expected the same dtype",
+                r.dtype(),
+                real_view.dtype()
+            ))
         })?)?),
     };
     let reference = match reference_view.as_ref() {
@@ -92,12 +100,14 @@ fn dispatch(
 }
 
 fn cube<'py>(py: Python<'py>, values: Vec<f64>, shape: (usize, usize, usize)) -> PyResult<Bound<'py, PyArray3<f64>>> {
-    let array = Array3::from_shape_vec(shape, values).map_err(|e| Error::Value(format!("internal: spectra shape: {e}")))?;
+    let array =
+        Array3::from_shape_vec(shape, values).map_err(|e| Error::Value(format!("internal: spectra shape: {e}")))?;
     Ok(PyArray3::from_owned_array(py, array))
 }
 
 fn plane<'py>(py: Python<'py>, values: Vec<f64>, shape: (usize, usize)) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let array = Array2::from_shape_vec(shape, values).map_err(|e| Error::Value(format!("internal: spectrum shape: {e}")))?;
+    let array =
+        Array2::from_shape_vec(shape, values).map_err(|e| Error::Value(format!("internal: spectrum shape: {e}")))?;
     Ok(PyArray2::from_owned_array(py, array))
 }
 

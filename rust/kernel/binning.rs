@@ -2,7 +2,7 @@
 //! table for ≤ 16-bit frames, float edges) and the joint table's layout, decided before the
 //! pass from the request and (for `hist_range="data"`) the data range.
 
-use super::range::data_range;
+use super::range::{data_range, data_ranges, robust_range};
 use super::request::{HistRequest, Request};
 use super::sample::Sample;
 use crate::error::{Error, Result};
@@ -78,7 +78,7 @@ impl IntEdges {
     }
 }
 
-/// How a value becomes a bin index (shared edges for both frames).
+/// How a value of one frame becomes a bin index.
 pub(crate) struct Binner {
     pub(super) bins: usize,
     /// float frames: bin = clamp(trunc((v − lo) · inv_width), 0, bins − 1)
@@ -117,6 +117,9 @@ impl Binner {
 pub(crate) struct HistPlan {
     pub(super) spec: HistSpec,
     pub(super) binner: Option<Binner>, // None = levels keyed by value − MIN
+    /// The simulated frame's binning when it has its own edges (`HistRequest::Each`); None:
+    /// both frames share `binner`.
+    pub(super) sim_binner: Option<Binner>,
     pub(super) dense_bins: Option<usize>,
     pub(super) offset: u64, // levels stored densely: key offset of bin 0
 }
@@ -143,48 +146,78 @@ pub(super) fn plan_hist<T: Sample>(
             Ok(HistPlan {
                 spec: HistSpec::Levels,
                 binner,
+                sim_binner: None,
                 dense_bins: dense.then_some(span),
                 offset: if dense { (lo as i64 - T::MIN) as u64 } else { 0 },
             })
         }
         HistRequest::Bins { bins, range } => {
-            let bins = *bins;
-            if bins == 0 || bins > MAX_BINS {
-                // the Python layer checks `bins` once (stats.bins_value)
-                return Err(Error::Value(format!("internal: {bins} histogram bins asked, outside 1..={MAX_BINS}")));
-            }
+            let bins = checked_bins(*bins)?;
             let (lo, hi) = match range {
-                Some((lo, hi)) => {
-                    if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
-                        return Err(Error::Value(format!("hist_range must be finite with lo <= hi, got ({lo}, {hi})")));
-                    }
-                    if T::IS_INT && (lo.fract() != 0.0 || hi.fract() != 0.0) {
-                        return Err(Error::Value(format!(
-                            "hist_range for integer frames must be whole grey levels, got ({lo}, {hi})"
-                        )));
-                    }
-                    if T::IS_INT && (lo.abs() > INT_RANGE_LIMIT || hi.abs() > INT_RANGE_LIMIT) {
-                        return Err(Error::Value(format!(
-                            "hist_range for integer frames must lie within ±2^100, got ({lo}, {hi})"
-                        )));
-                    }
-                    (*lo, *hi)
-                }
+                Some(range) => explicit_range::<T>(*range)?,
                 None => known.or_else(|| data_range(r, s, req)).unwrap_or((0.0, 0.0)),
             };
-            let binner = if T::IS_INT {
-                // a bin is a whole number of grey levels: width = ceil(span / bins); whole f64
-                // values within ±2^100 (checked above, or data values) are exact in i128
-                make_int_binner::<T>(bins, IntEdges::new(bins, lo as i128, hi as i128))
-            } else {
-                let width = (hi - lo) / bins as f64;
-                let inv_width = if width > 0.0 { 1.0 / width } else { 0.0 };
-                Binner { bins, lo, width, inv_width, edges: None, lut: Vec::new() }
-            };
+            let binner = uniform_binner::<T>(bins, lo, hi);
             let spec = HistSpec::Binned { bins, lo, width: binner.width };
-            Ok(HistPlan { spec, binner: Some(binner), dense_bins: (bins <= DENSE_MAX_BINS).then_some(bins), offset: 0 })
+            Ok(HistPlan {
+                spec,
+                binner: Some(binner),
+                sim_binner: None,
+                dense_bins: (bins <= DENSE_MAX_BINS).then_some(bins),
+                offset: 0,
+            })
+        }
+        HistRequest::Each { bins } => {
+            let bins = checked_bins(*bins)?;
+            let (real_full, sim_full) = data_ranges(r, s, req).unwrap_or(((0.0, 0.0), (0.0, 0.0)));
+            let (rlo, rhi) = robust_range(r, s, req, real_full);
+            let (slo, shi) = robust_range(s, r, req, sim_full);
+            let (real, sim) = (uniform_binner::<T>(bins, rlo, rhi), uniform_binner::<T>(bins, slo, shi));
+            let spec = HistSpec::Each { bins, real: (rlo, real.width), sim: (slo, sim.width) };
+            Ok(HistPlan {
+                spec,
+                binner: Some(real),
+                sim_binner: Some(sim),
+                dense_bins: (bins <= DENSE_MAX_BINS).then_some(bins),
+                offset: 0,
+            })
         }
     }
+}
+
+fn checked_bins(bins: usize) -> Result<usize> {
+    if bins == 0 || bins > MAX_BINS {
+        // the Python layer checks `bins` once (stats.bins_value)
+        return Err(Error::Value(format!("internal: {bins} histogram bins asked, outside 1..={MAX_BINS}")));
+    }
+    Ok(bins)
+}
+
+/// An explicit `hist_range`, checked: finite, `lo <= hi`, whole levels within ±2^100 for
+/// integer frames.
+fn explicit_range<T: Sample>((lo, hi): (f64, f64)) -> Result<(f64, f64)> {
+    if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+        return Err(Error::Value(format!("hist_range must be finite with lo <= hi, got ({lo}, {hi})")));
+    }
+    if T::IS_INT && (lo.fract() != 0.0 || hi.fract() != 0.0) {
+        return Err(Error::Value(format!("hist_range for integer frames must be whole grey levels, got ({lo}, {hi})")));
+    }
+    if T::IS_INT && (lo.abs() > INT_RANGE_LIMIT || hi.abs() > INT_RANGE_LIMIT) {
+        return Err(Error::Value(format!("hist_range for integer frames must lie within ±2^100, got ({lo}, {hi})")));
+    }
+    Ok((lo, hi))
+}
+
+/// `bins` uniform bins over `lo..=hi`: for integer frames a bin is a whole number of grey
+/// levels, width = ceil(span / bins) (whole f64 values within ±2^100, checked or data
+/// values, are exact in i128); for floats width = (hi − lo) / bins.
+fn uniform_binner<T: Sample>(bins: usize, lo: f64, hi: f64) -> Binner {
+    if T::IS_INT {
+        return make_int_binner::<T>(bins, IntEdges::new(bins, lo as i128, hi as i128));
+    }
+    let width = (hi - lo) / bins as f64;
+    let inv_width = if width > 0.0 { 1.0 / width } else { 0.0 };
+    Binner { bins, lo, width, inv_width, edges: None, lut: Vec::new() }
 }
 
 fn make_int_binner<T: Sample>(bins: usize, edges: IntEdges) -> Binner {

@@ -427,24 +427,27 @@ mod avx2 {
     /// The CPU supports AVX2 (loads and table writes stay in bounds for any lengths; the
     /// table's size is asserted).
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn hist_dense<T: Lanes>(r: &[T], s: &[T], bn: &Binner, dense: &mut [u32]) {
-        let bins = bn.bins;
-        assert!(dense.len() == bins * bins && bins <= crate::hist::DENSE_MAX_BINS);
+    pub(super) unsafe fn hist_dense<T: Lanes>(r: &[T], s: &[T], (rb, sb): (&Binner, &Binner), dense: &mut [u32]) {
+        let bins = rb.bins;
+        assert!(sb.bins == bins && dense.len() == bins * bins && bins <= crate::hist::DENSE_MAX_BINS);
         let n = r.len().min(s.len());
         let full = n / 4 * 4;
-        let (lo, inv) = (_mm256_set1_pd(bn.lo), _mm256_set1_pd(bn.inv_width));
         let (zero, top) = (_mm256_setzero_pd(), _mm256_set1_pd((bins - 1) as f64));
         let stride = _mm_set1_epi32(bins as i32);
         // maxpd returns its second operand for NaN, as `NaN as i64` gives 0: same bin 0
-        let bin = |v: __m256d| {
-            _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(_mm256_sub_pd(v, lo), inv), zero), top))
+        let binner = |bn: &Binner| {
+            let (lo, inv) = (_mm256_set1_pd(bn.lo), _mm256_set1_pd(bn.inv_width));
+            move |v: __m256d| {
+                _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(_mm256_sub_pd(v, lo), inv), zero), top))
+            }
         };
+        let (real_bin, sim_bin) = (binner(rb), binner(sb));
         let mut idx = [0u32; 4];
         let mut j = 0;
         while j < full {
             // SAFETY: j + 4 <= full <= len of both runs (j steps by 4 up to full, a multiple of 4)
             let (x, y) = (T::load4(r.as_ptr().add(j)), T::load4(s.as_ptr().add(j)));
-            let cell = _mm_add_epi32(_mm_mullo_epi32(bin(x), stride), bin(y));
+            let cell = _mm_add_epi32(_mm_mullo_epi32(real_bin(x), stride), sim_bin(y));
             _mm_storeu_si128(idx.as_mut_ptr().cast(), cell);
             for &c in &idx {
                 // SAFETY: both bins are clamped to [0, bins − 1] in float64 before the conversion
@@ -456,7 +459,7 @@ mod avx2 {
             j += 4;
         }
         for (&x, &y) in r[full..n].iter().zip(&s[full..n]) {
-            dense[bn.float_bin(x.to_f64()) * bins + bn.float_bin(y.to_f64())] += 1;
+            dense[rb.float_bin(x.to_f64()) * bins + sb.float_bin(y.to_f64())] += 1;
         }
     }
 
@@ -668,13 +671,13 @@ fn centred_add(l: &mut [[f64; LANES_C]; 6], k: usize, x: f64, y: f64, (pr, ps): 
 /// float64), four pairs are binned at a time (`avx2::hist_dense`): the same arithmetic as
 /// `Binner::float_bin`, so the same bins; the scalar loop spent most of its time there.
 #[inline(always)]
-fn float_hist<T: Sample>(rr: &[T], sb: &[T], bn: &Binner, dense_bins: usize, acc: &mut Acc) {
+fn float_hist<T: Sample>(rr: &[T], sb: &[T], (rb, sbn): (&Binner, &Binner), dense_bins: usize, acc: &mut Acc) {
     if dense_bins > 0 {
         // the dense table holds dense_bins² counts (`Acc::new`); hist_dense asserts it
-        avx2_floats!(rr, sb, |r, s| avx2::hist_dense(r, s, bn, &mut acc.dense));
+        avx2_floats!(rr, sb, |r, s| avx2::hist_dense(r, s, (rb, sbn), &mut acc.dense));
     }
     for (&x, &y) in rr.iter().zip(sb) {
-        acc.count(dense_bins, bn.float_bin(x.to_f64()), bn.float_bin(y.to_f64()));
+        acc.count(dense_bins, rb.float_bin(x.to_f64()), sbn.float_bin(y.to_f64()));
     }
 }
 
@@ -695,8 +698,9 @@ fn float_centred<T: Sample>(
     }
     let mut tot = if req.moments || req.sse { centred_totals(rr, sb, pivot, (mr, ms)) } else { Default::default() };
     if let Some(p) = plan {
-        if let Some(bn) = p.binner.as_ref() {
-            float_hist(rr, sb, bn, p.dense_bins.unwrap_or(0), acc);
+        if let Some(rb) = p.binner.as_ref() {
+            let sbn = p.sim_binner.as_ref().unwrap_or(rb);
+            float_hist(rr, sb, (rb, sbn), p.dense_bins.unwrap_or(0), acc);
         }
     }
     if !req.sse {

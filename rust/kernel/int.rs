@@ -33,6 +33,8 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
     }
     let dense_bins = plan.and_then(|p| p.dense_bins).unwrap_or(0);
     let binner = plan.and_then(|p| p.binner.as_ref());
+    // the simulated frame's bins: its own (`HistRequest::Each`) or the shared ones
+    let sim_binner = plan.and_then(|p| p.sim_binner.as_ref()).or(binner);
     let mut start = a;
     while start < b {
         let end = (start + T::BLOCK).min(b);
@@ -90,9 +92,9 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
         macro_rules! bin {
             ($x:expr, $y:expr) => {{
                 let (x, y): (i64, i64) = ($x, $y);
-                match binner {
-                    Some(bn) => acc.count(dense_bins, bn.int_bin(x, T::MIN), bn.int_bin(y, T::MIN)),
-                    None => acc.count(0, (x - T::MIN) as usize, (y - T::MIN) as usize),
+                match (binner, sim_binner) {
+                    (Some(rb), Some(sb)) => acc.count(dense_bins, rb.int_bin(x, T::MIN), sb.int_bin(y, T::MIN)),
+                    _ => acc.count(0, (x - T::MIN) as usize, (y - T::MIN) as usize),
                 }
             }};
         }
@@ -107,22 +109,25 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
                     n += rr.len() as u64;
                 }
                 if HIST {
-                    match binner {
-                        Some(bn) if dense_bins > 0 && bn.lut.len() == T::LUT && T::LUT > 0 => {
+                    match (binner, sim_binner) {
+                        (Some(rb), Some(sbn))
+                            if dense_bins > 0 && rb.lut.len() == T::LUT && sbn.lut.len() == T::LUT && T::LUT > 0 =>
+                        {
                             // The hot case (8/16-bit frames, dense table): LUT gather + increment.
-                            let (lut, dense) = (&bn.lut[..], &mut acc.dense[..]);
-                            assert!(bn.bins == dense_bins && dense.len() == dense_bins * dense_bins);
+                            let (lut, sim_lut, dense) = (&rb.lut[..], &sbn.lut[..], &mut acc.dense[..]);
+                            assert!(rb.bins == dense_bins && sbn.bins == dense_bins);
+                            assert!(dense.len() == dense_bins * dense_bins);
                             for (&x, &y) in rr.iter().zip(sb) {
                                 let (i, j) = ((x.to_i64() - T::MIN) as usize, (y.to_i64() - T::MIN) as usize);
-                                // SAFETY: `lut` has one entry per value of T (len == T::LUT, checked
-                                // above), so `i, j < lut.len()`; every entry is at most the bin of the
-                                // range's top, which `IntEdges::new` proves below `bins` ==
+                                // SAFETY: each table has one entry per value of T (len == T::LUT,
+                                // checked above), so `i, j` index them; every entry is at most the bin
+                                // of its range's top, which `IntEdges::new` proves below `bins` ==
                                 // dense_bins (asserted above), so `k < dense_bins² == dense.len()`.
                                 // Tested at the type's extreme levels and ranges by
                                 // `kernel::tests::int_bins_stay_below_bins_at_the_edges`.
                                 unsafe {
-                                    let k =
-                                        *lut.get_unchecked(i) as usize * dense_bins + *lut.get_unchecked(j) as usize;
+                                    let k = *lut.get_unchecked(i) as usize * dense_bins
+                                        + *sim_lut.get_unchecked(j) as usize;
                                     *dense.get_unchecked_mut(k) += 1;
                                 }
                             }

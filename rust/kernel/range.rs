@@ -44,19 +44,26 @@ pub(crate) fn min_max<T: Sample>(r: &[T], s: &[T]) -> Option<(T, T)> {
 
 /// Min and max over the counted pixels of both frames (f64 for floats, exact for ints).
 pub(super) fn data_range<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<(f64, f64)> {
-    let fold = |(a, b): (usize, usize)| -> (f64, f64) {
+    data_ranges(r, s, req).map(|(a, b)| (a.0.min(b.0), a.1.max(b.1)))
+}
+
+/// Each frame's min and max over the counted pixels (a pixel pair counts when the mask keeps
+/// it and, for floats, both values are finite): `(real range, simulated range)`.
+pub(super) fn data_ranges<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<((f64, f64), (f64, f64))> {
+    type Ranges = ((f64, f64), (f64, f64));
+    const EMPTY: (f64, f64) = (f64::INFINITY, f64::NEG_INFINITY);
+    let fold = |(a, b): (usize, usize)| -> Ranges {
         if req.mask.is_none() {
-            // a branch-free loop the compiler vectorises; for floats it is kept only when both
+            // a branch-free loop the compiler vectorises; for floats it is kept only when all
             // ends are finite (a NaN or ±Inf anywhere falls through to the careful loop)
-            match min_max(&r[a..b], &s[a..b]) {
-                None => return (f64::INFINITY, f64::NEG_INFINITY),
-                Some((lo, hi)) if T::IS_INT || (lo.to_f64().is_finite() && hi.to_f64().is_finite()) => {
-                    return (lo.to_f64(), hi.to_f64())
-                }
-                Some(_) => {}
+            let ends = |v: &[T]| min_max(v, &[]).map(|(lo, hi)| (lo.to_f64(), hi.to_f64()));
+            match (ends(&r[a..b]), ends(&s[a..b])) {
+                (None, _) | (_, None) => return (EMPTY, EMPTY),
+                (Some(x), Some(y)) if T::IS_INT || [x.0, x.1, y.0, y.1].iter().all(|v| v.is_finite()) => return (x, y),
+                _ => {}
             }
         }
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let (mut rr, mut ss) = (EMPTY, EMPTY);
         for i in a..b {
             if req.mask.is_some_and(|m| !m[i]) {
                 continue;
@@ -65,18 +72,87 @@ pub(super) fn data_range<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<(
             if !(x.is_finite() && y.is_finite()) {
                 continue;
             }
-            lo = lo.min(x.min(y));
-            hi = hi.max(x.max(y));
+            rr = (rr.0.min(x), rr.1.max(x));
+            ss = (ss.0.min(y), ss.1.max(y));
         }
-        (lo, hi)
+        (rr, ss)
     };
-    let both = |a: (f64, f64), b: (f64, f64)| (a.0.min(b.0), a.1.max(b.1));
-    let Ok((lo, hi)) = fold_chunks::<_, std::convert::Infallible>(
+    let union = |a: (f64, f64), b: (f64, f64)| (a.0.min(b.0), a.1.max(b.1));
+    let both = |a: Ranges, b: Ranges| (union(a.0, b.0), union(a.1, b.1));
+    let Ok((rr, ss)) = fold_chunks::<_, std::convert::Infallible>(
         r.len(),
         cost::RANGE,
-        || (f64::INFINITY, f64::NEG_INFINITY),
+        || (EMPTY, EMPTY),
         |acc, range| Ok(both(acc, fold(range))),
         both,
     );
-    (lo <= hi).then_some((lo, hi))
+    (rr.0 <= rr.1 && ss.0 <= ss.1).then_some((rr, ss))
+}
+
+/// Pixels sampled (evenly spaced) to find a frame's bulk for [`robust_range`].
+const BULK_SAMPLES: usize = 1 << 14;
+/// The bulk of a frame: its values between these quantiles of the sample.
+const BULK_QUANTILE: f64 = 1e-3;
+/// How far beyond its bulk a frame's bins reach, in bulk spans: values further out (a few
+/// dead, hot or stuck pixels) land in the edge bins instead of stretching every bin.
+const BULK_MARGIN: f64 = 1.0;
+
+/// A frame's histogram range that a few extreme pixels cannot stretch: its `full` min..max,
+/// cut to the bulk (the 0.1 %..99.9 % quantiles of an evenly spaced sample of the counted
+/// pixels) widened by one bulk span on each side. A frame whose values all lie that close to
+/// their bulk keeps its whole range; a flat bulk (span 0) keeps it too. Integer frames get
+/// whole levels. `values` is one frame and `other` the other, for the pairs that count.
+pub(super) fn robust_range<T: Sample>(values: &[T], other: &[T], req: &Request, full: (f64, f64)) -> (f64, f64) {
+    let step = values.len().div_ceil(BULK_SAMPLES).max(1);
+    let mut sample: Vec<f64> = (0..values.len())
+        .step_by(step)
+        .filter(|&i| req.mask.is_none_or(|m| m[i]))
+        .map(|i| (values[i].to_f64(), other[i].to_f64()))
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .map(|(x, _)| x)
+        .collect();
+    if sample.len() < 2 {
+        return full;
+    }
+    let last = sample.len() - 1;
+    let at = |q: f64| (q * last as f64).round() as usize;
+    let (lo_at, hi_at) = (at(BULK_QUANTILE), at(1.0 - BULK_QUANTILE));
+    let (_, &mut bulk_hi, _) = sample.select_nth_unstable_by(hi_at, f64::total_cmp);
+    let (_, &mut bulk_lo, _) = sample[..=hi_at].select_nth_unstable_by(lo_at, f64::total_cmp);
+    let span = bulk_hi - bulk_lo;
+    if span.is_nan() || span <= 0.0 {
+        return full;
+    }
+    let (mut lo, mut hi) = (full.0.max(bulk_lo - BULK_MARGIN * span), full.1.min(bulk_hi + BULK_MARGIN * span));
+    if T::IS_INT {
+        (lo, hi) = (lo.floor(), hi.ceil());
+    }
+    (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_bulk_range_keeps_a_clean_frame_and_cuts_a_few_extremes() {
+        let req = Request::default();
+        let clean: Vec<u16> = (0..10_000u32).map(|i| 3000 + (i * 7919 % 1600) as u16).collect();
+        let full = (3000.0, 4599.0);
+        assert_eq!(robust_range(&clean, &clean, &req, full), full);
+        let mut dead = clean.clone();
+        for k in 0..5 {
+            dead[k * 1000] = if k % 2 == 0 { 0 } else { 65535 };
+        }
+        let (lo, hi) = robust_range(&dead, &clean, &req, (0.0, 65535.0));
+        assert!(lo > 1000.0 && lo < 3000.0 && hi > 4599.0 && hi < 7000.0, "{lo} {hi}");
+        // a flat bulk keeps the whole range; a masked-out or non-finite pair does not count
+        let flat = [5u16; 100];
+        assert_eq!(robust_range(&flat, &flat, &req, (5.0, 5.0)), (5.0, 5.0));
+        let values = [1.0f64, f64::NAN, 3.0, 1e30];
+        let other = [0.0f64, 0.0, f64::NAN, 0.0];
+        let mask = [true, true, true, false];
+        let masked = Request { mask: Some(&mask), ..Request::default() };
+        assert_eq!(robust_range(&values, &other, &masked, (1.0, 1.0)), (1.0, 1.0));
+    }
 }

@@ -6,6 +6,10 @@ pub enum HistRequest {
     /// `bins` uniform bins over `range` (inclusive integer levels for integer frames);
     /// `None` = the data range of both frames.
     Bins { bins: usize, range: Option<(f64, f64)> },
+    /// `bins` uniform bins over each frame's own data range: the real frame's edges span the
+    /// real values, the simulated frame's the simulated ones, so a grey-level offset between
+    /// the frames (or an outlier in one of them) does not move the other frame's edges.
+    Each { bins: usize },
     /// Every grey level its own bin (integer frames only).
     Levels,
 }

@@ -96,12 +96,14 @@ def _bins(text: str) -> int | str:
 
 
 def _hist_range(text: str) -> str | tuple[float, float]:
-    if text in ("data", "full"):
+    from ..stats import HIST_RANGES
+
+    if text in HIST_RANGES:
         return text
     try:
         lo, hi = (float(v) for v in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected data, full or LO,HI; got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected {', '.join(HIST_RANGES)} or LO,HI; got {text!r}") from None
     return (lo, hi)
 
 

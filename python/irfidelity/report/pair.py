@@ -267,7 +267,7 @@ def _joint_histogram(d, real, sim, mask, given):
     if not (bins == "levels" and real.dtype.kind in "ui") and not (isinstance(bins, int) and bins > 0):
         bins = 256
     hist_range = st.get("hist_range", "data")
-    if not (isinstance(hist_range, (list, tuple)) and len(hist_range) == 2):
+    if not (isinstance(hist_range, (list, tuple)) and len(hist_range) == 2) and hist_range != "each":
         hist_range = "data"  # "full" needs the peak, which the pixels of a report need not know
     try:
         stats = pair_stats(real, sim, bins=bins, hist_range=hist_range, mask=mask, need=("nmi",), nonfinite="mask")

@@ -86,6 +86,7 @@ class SequencePlan:
     valid: tuple[int, int] | None
     bins: int | None
     levels: bool
+    each: bool
     hist_range: tuple[float, float] | None
     registration: Any = None  # found once on the first readable pair (config.register, not register_each)
     ceiling: dict | None = None  # real frame t vs t + 1, or from the real camera's noise (irfidelity.ceiling)
@@ -114,7 +115,7 @@ class SequencePlan:
     def pair_request(self) -> PairRequest:
         """What every pair's kernel pass computes (only what the image components need)."""
         return PairRequest(sse="psnr" in self.image, moments="ssim" in self.image, bins=self.bins,
-                           levels=self.levels, hist_range=self.hist_range, valid=self.valid,
+                           levels=self.levels, each=self.each, hist_range=self.hist_range, valid=self.valid,
                            mask_nonfinite=self.config.nonfinite == "mask")
 
     @property
@@ -255,7 +256,7 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
         dtype = None if first is None else first.dtype
         default_peak = valid = None
         peak = bins = hist_range = None
-        levels = False
+        levels = each = False
         ceiling = ceiling_source = None
         scene_range = None if first is None else _scene_range(first, scored)
         if dtype is not None:
@@ -263,8 +264,8 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
             if "psnr" in image and config.peak != "range":  # "range": each frame's own
                 peak = psnr_peak(config, default_peak, scene_range, where="the first real frame")
             if "nmi" in image:
-                bins, levels, hist_range = hist_params(config.bins, config.hist_range, dtype,
-                                                       full_range(dtype, config.bits, config.numeric_peak))
+                bins, levels, each, hist_range = hist_params(config.bins, config.hist_range, dtype,
+                                                             full_range(dtype, config.bits, config.numeric_peak))
             ceiling, ceiling_source = _ceiling(real, camera, compared, image, config, peak,
                                                None if scored is None else scored.values)
             if ceiling_source == "noise3d":
@@ -272,7 +273,7 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,
                         camera_metrics=fixed_metrics, inputs=inputs, camera_objects=compared, notes=tuple(notes), dtype=dtype,
                         peak=peak, default_peak=default_peak, valid=valid if dtype is not None and dtype.kind in "ui"
-                        else None, bins=bins, levels=levels, hist_range=hist_range, registration=registration,
+                        else None, bins=bins, levels=levels, each=each, hist_range=hist_range, registration=registration,
                         ceiling=ceiling, ceiling_source=ceiling_source,
                         transfer=None if transfer is None else transfer.to_dict(),
                         scene_range=scene_range, mask=scored)
