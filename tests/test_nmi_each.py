@@ -1,7 +1,8 @@
-"""NMI with each frame binned over its own range (``hist_range="each"``, the scorer's default):
-the kernel equals a numpy reference and scikit-image, a pure offset reads NMI 1 where shared
-edges read the offset's phase, the statistics keep both edge sets through pickling, and
-sequences, evaluate and the CLI take the option.
+"""NMI with the real frame binned over its own range and the simulated frame's bins carried
+over by the gain and offset between the frames' bulks (``hist_range="each"``): the kernel
+equals a numpy reference, a pure offset or gain reads NMI 1 where shared edges read the
+offset's phase, a few extreme pixels land in the edge bins, the statistics keep both edge sets
+through pickling, and sequences, evaluate and the CLI take the option.
 
 Data: the Lepton recording and the DJI Zenmuse XT-R frame in tests/data/thermal
 (tests/data/README.md).
@@ -28,46 +29,54 @@ def lepton() -> np.ndarray:
     return tifffile.imread(DATA / "cptv_v2_all100frames_uint16.tif")
 
 
-def reference_counts(real: np.ndarray, sim: np.ndarray, bins: int) -> np.ndarray:
-    """The joint counts by the documented rule, in numpy: integer frames, bins of
-    ``ceil(span / bins)`` whole levels from each frame's own minimum."""
-    def bin_of(v: np.ndarray) -> np.ndarray:
-        v = v.astype(np.int64).ravel()
-        width = -(-(int(v.max()) - int(v.min()) + 1) // bins)
-        return (v - v.min()) // width
+def reference_counts(real: np.ndarray, sim: np.ndarray, bins: int) -> tuple[np.ndarray, float, float]:
+    """The joint counts by the documented rule, in numpy, for frames without outliers (the
+    robust range is the whole range): the real frame's ``bins`` bins of width
+    ``(max − min) / bins`` from its minimum; the simulated frame's over that range carried by
+    the map between the two frames' 0.1 %..99.9 % quantiles of every pixel (frames of at most
+    16,384 pixels); and the simulated range."""
+    def quantiles(v: np.ndarray) -> tuple[float, float]:
+        ordered = np.sort(v.astype(np.float64).ravel())
+        last = ordered.size - 1
+        return ordered[round(1e-3 * last)], ordered[round((1 - 1e-3) * last)]
+
+    (rq0, rq1), (sq0, sq1) = quantiles(real), quantiles(sim)
+    lo, hi = float(real.min()), float(real.max())
+    gain = (sq1 - sq0) / (rq1 - rq0)
+    slo, shi = sq0 + (lo - rq0) * gain, sq0 + (hi - rq0) * gain
+
+    def bin_of(v: np.ndarray, lo: float, hi: float) -> np.ndarray:
+        inv = 1.0 / ((hi - lo) / bins)
+        return np.clip(((v.astype(np.float64).ravel() - lo) * inv).astype(np.int64), 0, bins - 1)
 
     counts = np.zeros((bins, bins), dtype=np.int64)
-    np.add.at(counts, (bin_of(real), bin_of(sim)), 1)
-    return counts
+    np.add.at(counts, (bin_of(real, lo, hi), bin_of(sim, slo, shi)), 1)
+    return counts, slo, shi
 
 
 @pytest.mark.parametrize("bins", [7, 64, 256])
 def test_integer_frames_equal_the_reference_binning(lepton, bins):
-    real, sim = lepton[10], lepton[40] // 3 + 9000  # another range and offset than the real frame's
+    real, sim = lepton[10][:100, :150], lepton[40][:100, :150] // 3 + 9000  # another gain and offset
     counts, real_edges, sim_edges = irf.pair_stats(real, sim, bins=bins, hist_range="each").joint_histogram()
-    assert np.array_equal(counts, reference_counts(real, sim, bins))
-    assert real_edges[0] == real.min() and sim_edges[0] == sim.min()
-    assert not np.array_equal(real_edges, sim_edges)
+    want, slo, shi = reference_counts(real, sim, bins)
+    assert np.array_equal(counts, want)
+    assert (real_edges[0], real_edges[-1]) == (real.min(), real.max())
+    assert sim_edges[0] == pytest.approx(slo, rel=1e-12) and sim_edges[-1] == pytest.approx(shi, rel=1e-12)
 
 
-def test_float_frames_equal_scikit_image():
-    """Each frame over its own range is scikit-image's binning: the joint counts equal
-    ``numpy.histogram2d`` over each frame's range but for values on a bin's edge (rounded
-    the other way by one of the two), and Studholme's NMI from ours (``2 / (2 − NMI)``) equals
-    ``normalized_mutual_information``."""
-    from skimage.metrics import normalized_mutual_information
-
+def test_an_affine_copy_reads_one_and_a_few_extreme_pixels_do_not_stretch_the_bins():
+    """Float frames: an exact affine copy is binned alike (NMI 1); 9 pixels at the float32
+    maximum in a noisy copy leave NMI near the clean pair's, where shared edges put every
+    other pixel in one bin (NMI 0)."""
     rng = np.random.default_rng(11)
-    real = rng.normal(300.0, 4.0, (96, 128))
-    sim = 0.7 * real + rng.normal(0.0, 2.0, real.shape) - 40.0
-    for dtype in (np.float64, np.float32):
-        r, s = real.astype(dtype), sim.astype(dtype)
-        counts, real_edges, sim_edges = irf.pair_stats(r, s, peak=1, bins=64, hist_range="each").joint_histogram()
-        want, _, _ = np.histogram2d(r.ravel(), s.ravel(), bins=64, range=[(r.min(), r.max()), (s.min(), s.max())])
-        assert np.abs(counts - want).sum() <= 4, dtype  # at most two pixels on an edge
-        assert real_edges[[0, -1]] == pytest.approx([r.min(), r.max()], rel=1e-12)
-        ours = irf.nmi(r, s, bins=64, hist_range="each").value
-        assert 2 / (2 - ours) == pytest.approx(normalized_mutual_information(r, s, bins=64), abs=1e-6)
+    real = rng.normal(300.0, 4.0, (96, 128)).astype(np.float32)
+    assert irf.nmi(real, 2 * real - 100, hist_range="each").value == 1.0
+    sim = real + rng.normal(0.0, 2.0, real.shape).astype(np.float32)
+    clean = irf.nmi(real, sim, hist_range="each").value
+    hot = sim.copy()
+    hot.flat[rng.choice(hot.size, 9, replace=False)] = np.finfo(np.float32).max
+    assert irf.nmi(real, hot, hist_range="each").value == pytest.approx(clean, abs=0.01)
+    assert irf.nmi(real, hot, hist_range="data").value < 0.01
 
 
 def test_a_pure_offset_reads_one_where_shared_edges_read_its_phase(lepton):
@@ -76,6 +85,9 @@ def test_a_pure_offset_reads_one_where_shared_edges_read_its_phase(lepton):
     data = [irf.nmi(real, real + d, hist_range="data").value for d in range(0, 12)]
     assert each == [1.0] * 12
     assert min(data) < 0.9  # the phase of the shared 2-level bins (the reason for "each")
+    tripled = (3 * real.astype(np.int64) + 1000).astype(np.uint16)  # an exact gain and offset
+    assert irf.nmi(real, tripled, hist_range="each").value == 1.0
+    assert irf.nmi(real, tripled, hist_range="data").value < 0.95
 
 
 def test_masks_and_nonfinite_values_set_each_frames_range():
@@ -104,10 +116,10 @@ def test_statistics_keep_both_edge_sets_through_pickling_and_merge_only_alike(le
         st.merge(irf.pair_stats(lepton[7], lepton[8], bits=16, hist_range="each"))
 
 
-def test_the_scorer_defaults_to_each_and_takes_the_others(lepton):
+def test_the_scorer_takes_each_and_the_others(lepton):
     real, sim = lepton[30], lepton[31] + 5
-    assert irf.ScoringConfig().hist_range == "each"
     options = dict(bits=14, weights="nmi=1", transfer_options={"scene": False})
+    assert irf.evaluate(real, sim, **options).config.hist_range == "data"
     for hist_range in ("each", "data", "full", (2000, 4000)):
         rep = irf.evaluate(real, sim, hist_range=hist_range, **options)
         want = irf.nmi(real, sim, bits=14, hist_range=hist_range).value
@@ -122,7 +134,7 @@ def test_a_sequence_scores_each_frame_with_its_own_edges(tmp_path, lepton):
     real_path, sim_path = tmp_path / "real.tif", tmp_path / "sim.tif"
     tifffile.imwrite(real_path, lepton[:6])
     tifffile.imwrite(sim_path, lepton[:6] + 3)
-    rep = irf.score_sequence(real_path, sim_path, bits=14, weights="nmi=1", progress=False,
+    rep = irf.score_sequence(real_path, sim_path, bits=14, weights="nmi=1", progress=False, hist_range="each",
                              transfer_options={"scene": False})
     assert [f["metrics"]["nmi"] for f in rep.frames] == [1.0] * 6
     assert rep.metrics["nmi"] == 1.0 and rep.components["nmi"] == 1.0

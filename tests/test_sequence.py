@@ -94,7 +94,7 @@ def test_per_frame_values_equal_the_single_pair_api(lepton, workers):
     assert rep.frames[3]["sim"] == "sim.tif[3]"
     for i in (0, 1, 37, 99):
         f = rep.frames[i]
-        st = irf.pair_stats(real[i], sim[i], bits=14, hist_range="each")
+        st = irf.pair_stats(real[i], sim[i], bits=14)
         want = st.metrics()
         assert _frame_metrics(f) == want, i  # identical, not approximately
         one = evaluate(real[i], sim[i], bits=14, ceiling=rep.ceiling, **NO_SCENE)  # against the sequence's ceiling
@@ -210,7 +210,7 @@ def test_truncated_frame_fails_alone(png_dirs, tmp_path):
     for i in range(12):
         if i != 5:
             assert rep.frames[i]["error"] is None
-            assert _frame_metrics(rep.frames[i]) == irf.pair_stats(real[i], sim[i], bits=14, hist_range="each").metrics()
+            assert _frame_metrics(rep.frames[i]) == irf.pair_stats(real[i], sim[i], bits=14).metrics()
     assert rep.pooling["frames"] == 11 and rep.pooling["n"] == 11 * real[0].size
     rows = list(csv.DictReader(open(out)))
     assert sorted(int(r["index"]) for r in rows) == list(range(12))

@@ -106,16 +106,13 @@ def test_a_2_kelvin_offset_moves_radiometry_and_leaves_ssim():
 
 
 def test_gain_and_offset_errors_rank_below_a_blur():
-    """The issue's case: a 0.95 gain with an offset ranked first on image components alone.
-    NMI does not see an affine change of the grey levels (each frame binned over its own
-    range); the radiometry and the scene's SiTF (the gain) do."""
+    """The issue's case: a 0.95 gain with an offset ranked first on image components alone."""
     real = scene(6, (96, 128))
     gain_offset = 0.95 * real + 16.0
     blur = gaussian_filter(real, 0.8)
     image_only = {name: irf.evaluate(real, sim, unit="K", weights="nmi=0.5,ssim=0.5").fidelity
                   for name, sim in (("gain", gain_offset), ("blur", blur))}
-    with_radiometry = {name: irf.evaluate(real, sim, unit="K",
-                                          weights="nmi=0.2,ssim=0.2,sitf=0.2,radiometry=0.4").fidelity
+    with_radiometry = {name: irf.evaluate(real, sim, unit="K", weights="nmi=0.3,ssim=0.3,radiometry=0.4").fidelity
                        for name, sim in (("gain", gain_offset), ("blur", blur))}
     assert image_only["gain"] > image_only["blur"]
     assert with_radiometry["gain"] < with_radiometry["blur"]

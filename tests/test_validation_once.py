@@ -72,7 +72,7 @@ def test_every_entry_takes_good_bins_alike(bins):
     real, sim = frames()
     assert irf.ScoringConfig(bins=bins).bins == bins_value(bins)
     assert type(bins_value(bins)) in (int, str)
-    st = irf.pair_stats(real, sim, bins=bins, hist_range="each", need=("nmi",))
+    st = irf.pair_stats(real, sim, bins=bins, need=("nmi",))
     assert st.bins == bins_value(bins)
     assert irf.evaluate(real, sim, bins=bins, weights="nmi=1").metrics["nmi"] == pytest.approx(st.nmi().value)
 

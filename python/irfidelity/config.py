@@ -82,14 +82,13 @@ class ScoringConfig:
         ``0..2**bits - 1``).
     bins : int or "levels"
         Histogram bins for NMI (uniform over ``hist_range``), or one bin per grey level.
-    hist_range : "each", "data", "full" or (lo, hi)
-        The NMI histogram's edges. ``"each"`` (the default): each frame's bins over its own
-        range, set by the frame's bulk (:func:`irfidelity.pair_stats` states the rule), so NMI
-        reads the grey-level relation whatever the offset between the frames, and a few
-        extreme pixels do not stretch the bins. ``"data"`` (the paper's
-        binning, the default of :func:`irfidelity.nmi`): edges shared by both frames over their
-        joint min..max, so a pure offset changes NMI with the phase of the two frames' levels
-        in the shared bins. ``"full"``: shared ``0..peak``; or shared explicit ``(lo, hi)``.
+    hist_range : "data", "each", "full" or (lo, hi)
+        The NMI histogram's edges. ``"data"`` (the default, the paper's binning): edges shared
+        by both frames over their joint min..max; ``"full"``: shared ``0..peak``; or shared
+        explicit ``(lo, hi)``. ``"each"``: the real frame's bins over its own range and the
+        simulated frame's carried over by the gain and offset between the two frames' bulks
+        (:func:`irfidelity.pair_stats` states the rule), so a gain or an offset moves the bins
+        with the levels and a few extreme pixels do not stretch them (docs/interpretation.md).
     psnr_anchors : ((dB, value), (dB, value))
         The two points fixing eq. (6); default 30 dB -> 0.9, 45 dB -> 0.99. Both within
         0.01..1000 dB, and giving a curve that rises there
@@ -195,7 +194,7 @@ class ScoringConfig:
     bits: int | None = None
     peak: float | str | None = None
     bins: int | str = 256
-    hist_range: str | tuple = "each"
+    hist_range: str | tuple = "data"
     psnr_anchors: tuple = DEFAULT_PSNR_ANCHORS
     ssim_exponents: tuple = (1.0, 1.0, 1.0)
     missing: str = "renormalize"

@@ -39,6 +39,11 @@ def _where(rows: np.ndarray, cols: np.ndarray) -> str:
     return f"scattered over {box}"
 
 
+def _span(name: str, ends: Any) -> str:
+    """``row 85`` or ``rows 85–87``."""
+    return f"{name} {ends[0]}" if ends[0] == ends[1] else f"{name}s {ends[0]}–{ends[1]}"
+
+
 def _finding(pixels: int, count: int, share: float, rows: np.ndarray, cols: np.ndarray, where: str) -> dict:
     text = (f"{100 * share:.0f} % of the squared error comes from {pixels} pixels ({100 * pixels / count:.2g} % of "
             f"those scored), {where}: PSNR and global SSIM describe those pixels more than the frame; leave them out "
@@ -169,8 +174,8 @@ class Defects:
 
     def text(self) -> str:
         """One sentence naming the clusters (the largest first, at most three)."""
-        parts = [f"{c['pixels']} {c['kind']} pixel{'s' if c['pixels'] > 1 else ''} in the {c['frame']} frame at rows "
-                 f"{c['rows'][0]}–{c['rows'][1]}, columns {c['cols'][0]}–{c['cols'][1]}" for c in self.clusters[:3]]
+        parts = [f"{c['pixels']} {c['kind']} pixel{'s' if c['pixels'] > 1 else ''} in the {c['frame']} frame at "
+                 f"{_span('row', c['rows'])}, {_span('column', c['cols'])}" for c in self.clusters[:3]]
         more = f" and {len(self.clusters) - 3} more clusters" if len(self.clusters) > 3 else ""
         return (f"defective pixels left out of the image components and the transfer: {'; '.join(parts)}{more} "
                 f"({100 * self.share:.3g} % of the squared error)")

@@ -28,7 +28,8 @@ from .alignment import score_registered
 from .config import ScoringConfig
 from .errors import FidelityError, NoiseWarning, RangeError, ShapeError
 from .frames import dtype_name
-from .regions import as_regions, masked_stats, registered_union, score_regions, scored_mask, with_psnr_peak
+from .regions import (as_regions, masked_stats, registered_union, score_regions, scored_frames, scored_mask,
+                      with_psnr_peak)
 from .results import FidelityReport, recorded_warnings
 from .scoring import image_components, plan_with_scene, score_components
 from .temperature import TemperatureErrors, scoring_config, temperature_scores, to_temperature, tolerance_for
@@ -125,7 +126,8 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
         if config.register is not None:
             st, span = _registered(r, s, mask, components, config, sources, max_bytes)
             if _left_out_defects(sources) and regions is None:
-                st, span = masked_stats(sources["real"], sources["sim"], components, config, sources["mask"],
+                real_scored, sim_scored, _, _ = scored_frames(sources, config)
+                st, span = masked_stats(real_scored, sim_scored, components, config, sources["mask"],
                                         bits=None, peak=float(st.peak) if "psnr" in components else None)
             if regions is None:
                 st = with_psnr_peak(st, span, components, config, "real frame")

@@ -33,7 +33,7 @@ from .fuzzy import Weights
 from .scoring import image_components, psnr_peak, score_components
 from .temperature import TemperatureErrors, temperature_scores, tolerance_for
 
-__all__ = ["Regions", "as_regions", "masked_stats", "with_psnr_peak", "score_regions", "registered_union",
+__all__ = ["Regions", "as_regions", "masked_stats", "with_psnr_peak", "score_regions", "registered_union", "scored_frames",
            "region_columns", "region_values", "MAX_LABEL"]
 
 #: The largest label: a label image is one byte a pixel.
@@ -277,9 +277,10 @@ def _check_budget(regions: Regions, sources: Mapping[str, Any], widened: bool, m
     budget.check("scoring regions", regions.shape, held + per_pixel * regions.labels.size, max_bytes)
 
 
-def _frames(sources: Mapping[str, Any], config: ScoringConfig) -> tuple[np.ndarray, np.ndarray, int | None,
-                                                                           float | None]:
-    """The frames the regions are scored on, with the bit depth and peak their statistics take:
+def scored_frames(sources: Mapping[str, Any], config: ScoringConfig) -> tuple[np.ndarray, np.ndarray, int | None,
+                                                                                 float | None]:
+    """The frames a pair's pixels (or its regions) are scored on, with the bit depth and peak
+    their statistics take:
     as given, or for a registered pair the real frame as float64 beside the resampled one (the
     integer levels were checked against ``bits`` by the pair's pass)."""
     real, sim = np.asarray(sources["real"]), np.asarray(sources["sim"])
@@ -293,7 +294,7 @@ def registered_union(regions: Regions, sources: dict, components: tuple, config:
                      max_bytes: int | None) -> tuple[_stats.PairStats, float | None]:
     """The statistics of a registered pair over the union of ``regions`` within the overlap (the
     pair's scored pixels become those), and the real frame's range over them."""
-    real, sim, bits, peak = _frames(sources, config)
+    real, sim, bits, peak = scored_frames(sources, config)
     _check_budget(regions, sources, real is not sources["real"], max_bytes)
     sources["mask"] = within = regions.union() & np.asarray(sources["mask"], dtype=bool)
     if not within.any():
@@ -357,7 +358,7 @@ def score_regions(regions: Regions, sources: Mapping[str, Any], plan: tuple, con
     """
     from .ceiling import pair_ceiling
 
-    real, sim, bits, peak = _frames(sources, config)
+    real, sim, bits, peak = scored_frames(sources, config)
     _check_budget(regions, sources, real is not sources["real"], max_bytes)
     camera = {k: v for k, v in pair_components.items() if k not in OWN_COMPONENTS}
     out: dict[str, dict] = {}

@@ -533,12 +533,14 @@ def pair_stats(
         level its own bin (integer frames).
     hist_range : "data", "each", "full" or (lo, hi)
         ``"data"``: min..max over both frames; ``"full"``: 0..peak; or explicit edges: both
-        frames share these edges. ``"each"`` (the scorer's default, ``ScoringConfig``): each
-        frame's bins over its own range, set by its bulk — its min..max cut to the
-        0.1 %..99.9 % quantiles of an evenly spaced sample of (at most 65,536) counted pixels,
-        widened by that span on each side — so a grey-level offset between the frames does not
-        move their bins and a few extreme pixels do not stretch them. Values outside the range
-        are counted in the edge bins. Use "full" or explicit edges to merge histograms of
+        frames share these edges. ``"each"``: the real frame's bins over its own range, set by
+        its bulk — its min..max cut to the 0.1 %..99.9 % quantiles of an evenly spaced sample
+        of (at most 16,384) counted pixels, widened by that span on each side — and the
+        simulated frame's over that range carried over by the map between the two frames'
+        bulks (a gain and an offset from quantiles); each bin ``(hi − lo) / bins`` wide,
+        integer frames too. A gain or offset between the frames then moves the bins with the
+        levels, and a few extreme pixels do not stretch them. Values outside the range are
+        counted in the edge bins. Use "full" or explicit edges to merge histograms of
         different frames.
     mask : 2-D bool array, optional
         ``False`` excludes a pixel pair.

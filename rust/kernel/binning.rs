@@ -2,7 +2,7 @@
 //! table for ≤ 16-bit frames, float edges) and the joint table's layout, decided before the
 //! pass from the request and (for `hist_range="data"`) the data range.
 
-use super::range::{data_range, data_ranges, robust_range};
+use super::range::{bulk, data_range, data_ranges, mapped_range, robust_range};
 use super::request::{HistRequest, Request};
 use super::sample::Sample;
 use crate::error::{Error, Result};
@@ -100,7 +100,7 @@ impl Binner {
         }
         match &self.edges {
             Some(e) => e.bin(v),
-            None => 0,
+            None => self.float_bin(v as f64),
         }
     }
 
@@ -169,10 +169,18 @@ pub(super) fn plan_hist<T: Sample>(
         }
         HistRequest::Each { bins } => {
             let bins = checked_bins(*bins)?;
+            // the real frame's bins over its robust range; the simulated frame's over that range
+            // carried over by the map between the two frames' bulks, so a gain or an offset
+            // between them moves the bins with the levels (its own robust range if a bulk is flat)
             let (real_full, sim_full) = data_ranges(r, s, req).unwrap_or(((0.0, 0.0), (0.0, 0.0)));
-            let (rlo, rhi) = robust_range(r, s, req, real_full);
-            let (slo, shi) = robust_range(s, r, req, sim_full);
-            let (real, sim) = (uniform_binner::<T>(bins, rlo, rhi), uniform_binner::<T>(bins, slo, shi));
+            let (real_bulk, sim_bulk) = (bulk(r, s, req), bulk(s, r, req));
+            let (rlo, rhi) = robust_range::<T>(real_bulk, real_full);
+            let (slo, shi) = match (real_bulk, sim_bulk) {
+                (Some(rb), Some(sb)) => mapped_range((rlo, rhi), rb, sb),
+                _ => None,
+            }
+            .unwrap_or_else(|| robust_range::<T>(sim_bulk, sim_full));
+            let (real, sim) = (proportional_binner::<T>(bins, rlo, rhi), proportional_binner::<T>(bins, slo, shi));
             let spec = HistSpec::Each { bins, real: (rlo, real.width), sim: (slo, sim.width) };
             Ok(HistPlan {
                 spec,
@@ -218,6 +226,21 @@ fn uniform_binner<T: Sample>(bins: usize, lo: f64, hi: f64) -> Binner {
     let width = (hi - lo) / bins as f64;
     let inv_width = if width > 0.0 { 1.0 / width } else { 0.0 };
     Binner { bins, lo, width, inv_width, edges: None, lut: Vec::new() }
+}
+
+/// `bins` bins of width `(hi − lo) / bins` from `lo`, for floats and integers alike (a bin
+/// need not be a whole number of grey levels): two frames whose ranges differ by a gain and
+/// an offset get bins that differ by the same gain and offset, so their levels fall into
+/// their bins alike. Integer frames with ≤ 16-bit types get the rule as a lookup table.
+fn proportional_binner<T: Sample>(bins: usize, lo: f64, hi: f64) -> Binner {
+    let width = (hi - lo) / bins as f64;
+    let inv_width = if width > 0.0 { 1.0 / width } else { 0.0 };
+    let mut binner = Binner { bins, lo, width, inv_width, edges: None, lut: Vec::new() };
+    if T::IS_INT && T::LUT > 0 && bins <= u16::MAX as usize + 1 {
+        // every entry is a clamped bin, below `bins` (the dense table's bound)
+        binner.lut = (0..T::LUT).map(|k| binner.float_bin((k as i64 + T::MIN) as f64) as u16).collect();
+    }
+    binner
 }
 
 fn make_int_binner<T: Sample>(bins: usize, edges: IntEdges) -> Binner {

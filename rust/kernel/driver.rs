@@ -5,7 +5,7 @@
 use super::acc::{Acc, Bad};
 use super::binning::{plan_hist, HistPlan};
 use super::dispatch::{run_chunk, Pass};
-use super::float::{float_pivot, float_scan, float_total, RunSums};
+use super::float::{float_pivot, float_scan, float_total, offset_mean, RunSums};
 use super::parallel::{cost, fold_chunks};
 use super::request::Request;
 use super::sample::Sample;
@@ -161,7 +161,7 @@ fn float_sums(n: usize, plan: &Plan, acc: &mut Acc) -> Result<FloatSums> {
     let means = match (plan.finite_scan(), plan.centre) {
         (Some(sc), Some(_)) => {
             acc.max_abs = acc.max_abs.max(sc.max_abs);
-            Some((sc.r.value() / n as f64, sc.s.value() / n as f64))
+            Some((offset_mean(0.0, &sc.r, n as f64), offset_mean(0.0, &sc.s, n as f64)))
         }
         _ => None,
     };

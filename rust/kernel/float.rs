@@ -67,12 +67,13 @@ pub(super) fn float_total(
         }
         let nf = n.max(1) as f64;
         let [dr, ds, m2r, m2s, crs, _] = t.map(|t| t.value());
-        // corrected two-pass, once for the whole pass: remove the residual of the centre from
-        // the means too (the scan's Σ/n may be an ulp off: seven copies of a value must have
-        // that value as their mean, or a merge of constant parts sees a spread)
+        // corrected two-pass, once for the whole pass, for the second moments. The means are
+        // the scan's, rounded once from its compensated sums (`offset_mean`): the residual
+        // Σ(x − centre) is summed plainly within runs, and on ±3e38 data its rounding (1e-14 of
+        // the mean) would outweigh the sub-ulp it corrects
         return FloatSums {
-            mr: mr + dr / nf,
-            ms: ms + ds / nf,
+            mr,
+            ms,
             m2r: m2r - dr * dr / nf,
             m2s: m2s - ds * ds / nf,
             crs: crs - dr * ds / nf,
@@ -103,7 +104,7 @@ pub(super) fn float_total(
 /// cancellation of a pivot far from the mean (the first finite value, with a mask: ±3e38
 /// data whose mean is 1e35 lost ten digits of the mean). The quotient's remainder is exact
 /// (fused multiply-add, once per pass) and the pivot is added as a two-sum.
-fn offset_mean(pivot: f64, sum: &Neumaier, n: f64) -> f64 {
+pub(super) fn offset_mean(pivot: f64, sum: &Neumaier, n: f64) -> f64 {
     let q = sum.sum / n;
     let rem = (-q).mul_add(n, sum.sum); // sum.sum − q·n, exactly
     let (hi, lo) = two_sum(pivot, q);

@@ -89,7 +89,7 @@ pub(super) fn data_ranges<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<
     (rr.0 <= rr.1 && ss.0 <= ss.1).then_some((rr, ss))
 }
 
-/// Pixels sampled (evenly spaced) to find a frame's bulk for [`robust_range`].
+/// Most pixels sampled (evenly spaced) to find a frame's bulk for [`robust_range`].
 const BULK_SAMPLES: usize = 1 << 14;
 /// The bulk of a frame: its values between these quantiles of the sample.
 const BULK_QUANTILE: f64 = 1e-3;
@@ -97,12 +97,10 @@ const BULK_QUANTILE: f64 = 1e-3;
 /// dead, hot or stuck pixels) land in the edge bins instead of stretching every bin.
 const BULK_MARGIN: f64 = 1.0;
 
-/// A frame's histogram range that a few extreme pixels cannot stretch: its `full` min..max,
-/// cut to the bulk (the 0.1 %..99.9 % quantiles of an evenly spaced sample of the counted
-/// pixels) widened by one bulk span on each side. A frame whose values all lie that close to
-/// their bulk keeps its whole range; a flat bulk (span 0) keeps it too. Integer frames get
-/// whole levels. `values` is one frame and `other` the other, for the pairs that count.
-pub(super) fn robust_range<T: Sample>(values: &[T], other: &[T], req: &Request, full: (f64, f64)) -> (f64, f64) {
+/// A frame's bulk: the 0.1 %..99.9 % quantiles of an evenly spaced sample of its counted
+/// pixels (`values` one frame, `other` the other, for the pairs that count); None for fewer
+/// than two such pixels.
+pub(super) fn bulk<T: Sample>(values: &[T], other: &[T], req: &Request) -> Option<(f64, f64)> {
     let step = values.len().div_ceil(BULK_SAMPLES).max(1);
     let mut sample: Vec<f64> = (0..values.len())
         .step_by(step)
@@ -112,13 +110,22 @@ pub(super) fn robust_range<T: Sample>(values: &[T], other: &[T], req: &Request, 
         .map(|(x, _)| x)
         .collect();
     if sample.len() < 2 {
-        return full;
+        return None;
     }
     let last = sample.len() - 1;
     let at = |q: f64| (q * last as f64).round() as usize;
     let (lo_at, hi_at) = (at(BULK_QUANTILE), at(1.0 - BULK_QUANTILE));
-    let (_, &mut bulk_hi, _) = sample.select_nth_unstable_by(hi_at, f64::total_cmp);
-    let (_, &mut bulk_lo, _) = sample[..=hi_at].select_nth_unstable_by(lo_at, f64::total_cmp);
+    let (_, &mut hi, _) = sample.select_nth_unstable_by(hi_at, f64::total_cmp);
+    let (_, &mut lo, _) = sample[..=hi_at].select_nth_unstable_by(lo_at, f64::total_cmp);
+    Some((lo, hi))
+}
+
+/// A frame's histogram range that a few extreme pixels cannot stretch: its `full` min..max,
+/// cut to its `bulk` widened by one bulk span on each side. A frame whose values all lie that
+/// close to their bulk keeps its whole range; a flat bulk (span 0) keeps it too. Integer
+/// frames get whole levels.
+pub(super) fn robust_range<T: Sample>(bulk: Option<(f64, f64)>, full: (f64, f64)) -> (f64, f64) {
+    let Some((bulk_lo, bulk_hi)) = bulk else { return full };
     let span = bulk_hi - bulk_lo;
     if span.is_nan() || span <= 0.0 {
         return full;
@@ -130,6 +137,19 @@ pub(super) fn robust_range<T: Sample>(values: &[T], other: &[T], req: &Request, 
     (lo, hi)
 }
 
+/// The simulated frame's range for bins that follow the real frame's: the real `range`
+/// carried over by the map that takes the real bulk onto the simulated one (a gain and an
+/// offset, from quantiles, which one pixel cannot move). None when either bulk is flat.
+pub(super) fn mapped_range(range: (f64, f64), real_bulk: (f64, f64), sim_bulk: (f64, f64)) -> Option<(f64, f64)> {
+    let (real_span, sim_span) = (real_bulk.1 - real_bulk.0, sim_bulk.1 - sim_bulk.0);
+    if !(real_span > 0.0 && sim_span > 0.0 && real_span.is_finite() && sim_span.is_finite()) {
+        return None;
+    }
+    let gain = sim_span / real_span;
+    let map = |v: f64| sim_bulk.0 + (v - real_bulk.0) * gain;
+    Some((map(range.0), map(range.1)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -139,20 +159,23 @@ mod tests {
         let req = Request::default();
         let clean: Vec<u16> = (0..10_000u32).map(|i| 3000 + (i * 7919 % 1600) as u16).collect();
         let full = (3000.0, 4599.0);
-        assert_eq!(robust_range(&clean, &clean, &req, full), full);
+        assert_eq!(robust_range::<u16>(bulk(&clean, &clean, &req), full), full);
         let mut dead = clean.clone();
         for k in 0..5 {
             dead[k * 1000] = if k % 2 == 0 { 0 } else { 65535 };
         }
-        let (lo, hi) = robust_range(&dead, &clean, &req, (0.0, 65535.0));
+        let (lo, hi) = robust_range::<u16>(bulk(&dead, &clean, &req), (0.0, 65535.0));
         assert!(lo > 1000.0 && lo < 3000.0 && hi > 4599.0 && hi < 7000.0, "{lo} {hi}");
         // a flat bulk keeps the whole range; a masked-out or non-finite pair does not count
         let flat = [5u16; 100];
-        assert_eq!(robust_range(&flat, &flat, &req, (5.0, 5.0)), (5.0, 5.0));
+        assert_eq!(robust_range::<u16>(bulk(&flat, &flat, &req), (5.0, 5.0)), (5.0, 5.0));
         let values = [1.0f64, f64::NAN, 3.0, 1e30];
         let other = [0.0f64, 0.0, f64::NAN, 0.0];
         let mask = [true, true, true, false];
         let masked = Request { mask: Some(&mask), ..Request::default() };
-        assert_eq!(robust_range(&values, &other, &masked, (1.0, 1.0)), (1.0, 1.0));
+        assert_eq!(bulk(&values, &other, &masked), None);
+        // an offset and a gain carry the range over exactly
+        assert_eq!(mapped_range((10.0, 50.0), (20.0, 40.0), (120.0, 160.0)), Some((100.0, 180.0)));
+        assert_eq!(mapped_range((10.0, 50.0), (20.0, 20.0), (120.0, 160.0)), None);
     }
 }
