@@ -174,3 +174,22 @@ def test_binding_errors_are_the_library_classes():
         _core.score_registered(frame, frame.astype(np.float32), PairRequest(), matrix=(1.0, 0, 0, 0, 1.0, 0))
     with pytest.raises(FidelityError, match="exactly one of search and matrix"):
         _core.score_registered(frame, frame, PairRequest())
+
+
+def test_a_registered_pair_with_defects_left_out_is_scored_on_float64_frames():
+    """A registered integer pair whose real frame holds hot pixels: the defects pass leaves them
+    out and the pair is scored again over the rest, the real frame as float64 beside the
+    resampled simulation (it raised a dtype ShapeError); one-pixel defects named as a pixel."""
+    real = irf.load_frame(DATA / "readthermal_zenmuse_xtr_raw16.png")
+    rng = np.random.default_rng(0)
+    blurred = 0.98 * ndi.gaussian_filter(real.astype(float), 1.0) + 45 + rng.normal(0, 16, real.shape)
+    sim = np.clip(ndi.shift(blurred, (1.4, -2.6), order=3, mode="nearest"), 0, 65535).round().astype(np.uint16)
+    rep = irf.evaluate(real, sim, register="translation", register_method="phase", bits=16, peak="range")
+    defects = rep.verdict["defects"]
+    assert defects is not None and defects["pixels"] >= 1
+    mask = rep.sources["mask"]
+    want = irf.pair_stats(real.astype(np.float64), rep.sources["sim"], peak=1.0, mask=mask)
+    assert rep.metrics["n"] == want.n == int(mask.sum()) < real.size
+    assert rep.metrics["mse"] == want.mse() and rep.metrics["nmi"] == want.nmi().value
+    single = next(c for c in defects["clusters"] if c["pixels"] == 1)
+    assert f"row {single['rows'][0]}, column {single['cols'][0]}" in defects["text"]
