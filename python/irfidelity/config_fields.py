@@ -14,6 +14,7 @@ from . import _core
 from .curves.similarity import MAX_FEATURE_POINTS
 from .errors import ConfigError, FidelityError
 from .fuzzy import GradeScale
+from .stats import HIST_RANGES
 from .stats import bins_value
 
 __all__ = ["MISSING_MODES", "NONFINITE_MODES", "REGISTRATION_MODELS", "REGISTRATION_METHODS", "PAIRING_RULES",
@@ -106,8 +107,6 @@ def peak_value(value: Any) -> float | str | None:
 
 
 def hist_range_value(value: Any) -> str | tuple:
-    from .stats import HIST_RANGES
-
     if isinstance(value, str):
         if value in HIST_RANGES:
             return value

@@ -126,7 +126,7 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
         if config.register is not None:
             st, span = _registered(r, s, mask, components, config, sources, max_bytes)
             if _left_out_defects(sources) and regions is None:
-                real_scored, sim_scored, _, _ = scored_frames(sources, config)
+                real_scored, sim_scored, _, _ = scored_frames(sources, config, max_bytes)
                 st, span = masked_stats(real_scored, sim_scored, components, config, sources["mask"],
                                         bits=None, peak=float(st.peak) if "psnr" in components else None)
             if regions is None:

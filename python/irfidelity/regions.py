@@ -277,16 +277,19 @@ def _check_budget(regions: Regions, sources: Mapping[str, Any], widened: bool, m
     budget.check("scoring regions", regions.shape, held + per_pixel * regions.labels.size, max_bytes)
 
 
-def scored_frames(sources: Mapping[str, Any], config: ScoringConfig) -> tuple[np.ndarray, np.ndarray, int | None,
-                                                                                 float | None]:
+def scored_frames(sources: Mapping[str, Any], config: ScoringConfig, max_bytes: int | None
+                  ) -> tuple[np.ndarray, np.ndarray, int | None, float | None]:
     """The frames a pair's pixels (or its regions) are scored on, with the bit depth and peak
-    their statistics take:
-    as given, or for a registered pair the real frame as float64 beside the resampled one (the
-    integer levels were checked against ``bits`` by the pair's pass)."""
+    their statistics take: as given, or for a registered pair the real frame as float64 beside
+    the resampled one (the integer levels were checked against ``bits`` by the pair's pass; the
+    float64 copy is planned against ``max_bytes`` with what the pair holds)."""
     real, sim = np.asarray(sources["real"]), np.asarray(sources["sim"])
     if sources.get("registration") is None:
         return real, sim, config.bits, config.numeric_peak
     peak, _ = _stats.peak_and_valid(real.dtype, config.bits, config.numeric_peak)
+    if real.dtype != np.float64:
+        held = budget.nbytes(*(sources.get(k) for k in ("real", "sim", "sim_unregistered", "mask")))
+        budget.check("the real frame as float64 beside the resampled one", real.shape, held + 8 * real.size, max_bytes)
     return real.astype(np.float64, copy=False), sim, None, peak
 
 
@@ -294,7 +297,7 @@ def registered_union(regions: Regions, sources: dict, components: tuple, config:
                      max_bytes: int | None) -> tuple[_stats.PairStats, float | None]:
     """The statistics of a registered pair over the union of ``regions`` within the overlap (the
     pair's scored pixels become those), and the real frame's range over them."""
-    real, sim, bits, peak = scored_frames(sources, config)
+    real, sim, bits, peak = scored_frames(sources, config, max_bytes)
     _check_budget(regions, sources, real is not sources["real"], max_bytes)
     sources["mask"] = within = regions.union() & np.asarray(sources["mask"], dtype=bool)
     if not within.any():
@@ -358,7 +361,7 @@ def score_regions(regions: Regions, sources: Mapping[str, Any], plan: tuple, con
     """
     from .ceiling import pair_ceiling
 
-    real, sim, bits, peak = scored_frames(sources, config)
+    real, sim, bits, peak = scored_frames(sources, config, max_bytes)
     _check_budget(regions, sources, real is not sources["real"], max_bytes)
     camera = {k: v for k, v in pair_components.items() if k not in OWN_COMPONENTS}
     out: dict[str, dict] = {}

@@ -10,7 +10,7 @@ from ..config import MISSING_MODES, NONFINITE_MODES, PAIRING_RULES, REGISTRATION
 from ..curves.table import parse_columns, parse_where
 from ..errors import ConfigError, FidelityError
 from ..registration import DEFAULT_METHOD, METHODS
-from ..stats import bins_value
+from ..stats import HIST_RANGES, bins_value
 
 __all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "EXIT_NOT_ACCEPTED", "flag_for",
            "CALIBRATION_FLAGS"]
@@ -96,8 +96,6 @@ def _bins(text: str) -> int | str:
 
 
 def _hist_range(text: str) -> str | tuple[float, float]:
-    from ..stats import HIST_RANGES
-
     if text in HIST_RANGES:
         return text
     try:
