@@ -230,6 +230,73 @@ def test_a_dead_cluster_is_named_and_left_out(frames):
     assert rep.grade == "excellent" and rep.metrics["n"] == real.size - 9  # the rest is the real frame
 
 
+def test_the_transfer_fills_defects_instead_of_losing_their_tiles(frames):
+    from irfidelity.defects import find_defects
+
+    real = frames["FLIR Duo Pro R"]
+    sim = real.copy()
+    sim[250:253, 300:303] = 0
+    found = find_defects(real, sim)
+    same, filled = found.repaired(real, sim)
+    assert same is real and filled is not sim and filled.dtype == sim.dtype
+    box = real[248:255, 298:305].astype(np.float64)
+    assert (filled[250:253, 300:303] == np.rint(np.median(box[~found.mask[248:255, 298:305]]))).all()
+    assert (filled[~found.mask] == sim[~found.mask]).all()
+    rep = irf.evaluate(real, sim, bits=16, peak="range")
+    assert rep.transfer["skipped"] == 0 and rep.transfer["gain"] == pytest.approx(1.0, abs=1e-3)
+
+
+def _dead(frame: np.ndarray, fraction: float) -> np.ndarray:
+    out = frame.copy()
+    order = np.random.default_rng(5).permutation(frame.size)  # nested sets: each rung adds pixels
+    out.flat[order[:int(round(fraction * frame.size))]] = 0
+    return out
+
+
+def test_dead_pixels_of_a_moving_scene_are_named_and_more_never_score_better():
+    """Two Lepton frames of a scene that moved (a quiet camera: 72 % of the differences are 0, the
+    rest heavy-tailed) with the later one's pixels dying: a few are named and left out, the
+    transfer fills them and keeps its tiles, and when there are too many to be defects the
+    simulated frame's noise hides the MTF ratio: a whole mismatch, not a skipped component whose
+    weight would lift the others."""
+    import tifffile
+
+    recording = tifffile.imread(DATA / "thermal/cptv_v2_all100frames_uint16.tif")
+    real, later = recording[30], recording[31]
+    reps = [irf.evaluate(real, _dead(later, f), bits=14, peak="range", real_ref=later)
+            for f in (0, 1e-4, 1e-3, 5e-3, 0.02)]
+    assert [r.verdict["defects"] and r.verdict["defects"]["pixels"] for r in reps[:4]] == [None, 2, 19, 96]
+    assert all(set(r.components) == {"mtf", "sitf", "psnr", "nmi", "ssim"} for r in reps)
+    assert all(r.grade == "excellent" for r in reps[:4]) and reps[-1].grade == "poor"
+    fidelity = [r.fidelity for r in reps]
+    # leaving out more pixels moves the rest's score by < 1e-4; the fault itself never scores better
+    assert all(b <= a + 1e-4 for a, b in zip(fidelity, fidelity[1:])), fidelity
+    last = reps[-1]
+    assert last.components["mtf"] == 0.0 and last.transfer["unread_cause"] == "simulator"
+    assert "noise hides" in last.verdict["components"]["mtf"]["text"]
+
+
+def test_a_noisy_simulator_is_forgiven_only_a_perfect_simulators_doubt(frames):
+    """The grade takes the estimate less 2 standard errors, but no more than the real camera
+    against itself shows (a perfect simulator's doubt): the simulator's own noise widens the
+    error, and forgiving that would grade a noisier simulator better."""
+    from dataclasses import replace
+
+    from irfidelity.system.scene import graded_mismatch
+
+    real = frames["FLIR FFF"]
+    t = irf.transfer(real, gain(real, 1.1))
+    noisy = replace(t, gain=1.1, gain_err=0.05, mtf50_mismatch=0.2, mtf50_mismatch_err=0.1)
+    ceiling = replace(t, gain=1.0, gain_err=0.001, mtf50_mismatch=0.01, mtf50_mismatch_err=0.002)
+    assert graded_mismatch("sitf", noisy, None) == pytest.approx(0.0, abs=1e-12)  # 0.0909 less 2 × 0.0455
+    assert graded_mismatch("sitf", noisy, ceiling) == pytest.approx(1 - 1 / 1.1 - 2 * 0.001)
+    assert graded_mismatch("mtf", noisy, None) == pytest.approx(0.0)
+    assert graded_mismatch("mtf", noisy, ceiling) == pytest.approx(0.2 - 2 * 0.002 - 0.01)
+    hidden = replace(t, mtf50_mismatch=None, mtf50_mismatch_err=None, unread="hidden", unread_cause="simulator")
+    assert graded_mismatch("mtf", hidden, None) == 1.0
+    assert graded_mismatch("mtf", replace(hidden, unread_cause="scene"), None) is None
+
+
 def test_a_blurred_small_target_is_not_a_defect(frames):
     real = frames["FLIR Lepton"]
     assert irf.evaluate(real, blur(real, 6.0), bits=16, peak="range").verdict["defects"] is None

@@ -125,6 +125,9 @@ def _frames(real: Any, sim: Any) -> tuple[np.ndarray, np.ndarray]:
 #: (1.4826 × the median absolute deviation) from the median difference.
 OUTLIER = 10.0
 
+#: ... and this many times the 99th percentile of the differences' absolute deviations.
+TAIL = 3.0
+
 #: A cluster of at most this many pixels (a 5×5 block) can be a defect (dead, hot or stuck
 #: pixels); larger regions of error are the simulation's, not a pixel defect's.
 MAX_CLUSTER = 25
@@ -180,15 +183,38 @@ class Defects:
         return (f"defective pixels left out of the image components and the transfer: {'; '.join(parts)}{more} "
                 f"({100 * self.share:.3g} % of the squared error)")
 
+    def repaired(self, real: np.ndarray, sim: np.ndarray, frames: tuple = ("real", "simulated")
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """The frames with each cluster of ``frames`` filled, in the frame it departs in, by the
+        median of that frame's other pixels within 2 px (a camera's bad-pixel replacement), for
+        measures over whole tiles (the transfer), which would lose every tile holding a pixel left
+        out. A frame is copied only when it has a cluster to fill."""
+        out = {"real": real, "simulated": sim}
+        for c in self.clusters:
+            if c["frame"] not in frames:
+                continue
+            if out[c["frame"]] is (real if c["frame"] == "real" else sim):
+                out[c["frame"]] = np.array(out[c["frame"]], copy=True)
+            box = (slice(max(c["rows"][0] - 2, 0), c["rows"][1] + 3), slice(max(c["cols"][0] - 2, 0), c["cols"][1] + 3))
+            values, bad = out[c["frame"]][box], self.mask[box]
+            fill = np.median(values[~bad].astype(np.float64))
+            values[bad] = np.rint(fill) if values.dtype.kind in "iu" else fill
+        return out["real"], out["simulated"]
+
     def finding(self) -> dict:
         """JSON-ready: ``pixels``, ``share``, ``clusters``, ``text``."""
         return {"pixels": self.pixels, "share": self.share, "clusters": [dict(c) for c in self.clusters],
                 "text": self.text()}
 
 
-def _robust_scale(real: np.ndarray, sim: np.ndarray, mask: np.ndarray | None) -> tuple[float, float]:
-    """The median and the robust standard deviation of ``sim − real`` over a regular subsample;
-    the deviation at least the frames' resolution (half a count for integer frames)."""
+def _outlier_threshold(real: np.ndarray, sim: np.ndarray, mask: np.ndarray | None) -> tuple[float, float]:
+    """The median of ``sim − real`` over a regular subsample, and how far from it a difference
+    makes a candidate: :data:`OUTLIER` robust standard deviations (1.4826 × the median absolute
+    deviation, at least the frames' resolution: half a count for integer frames), and at least
+    :data:`TAIL` × the 99th percentile of the absolute deviations. The percentile raises it for a
+    heavy-tailed difference (a scene that moved between two frames of a quiet camera, whose
+    deviation is mostly 0) and leaves a Gaussian one at 10 σ (3 × 2.58 σ); defects, fewer than
+    :data:`MAX_CANDIDATES` of the pixels, do not reach it."""
     step = max(1, int(math.sqrt(real.size / _SCALE_SAMPLES)))
     d = sim[::step, ::step].astype(np.float64) - real[::step, ::step]
     keep = np.isfinite(d) if mask is None else np.isfinite(d) & mask[::step, ::step]
@@ -196,9 +222,10 @@ def _robust_scale(real: np.ndarray, sim: np.ndarray, mask: np.ndarray | None) ->
     if d.size == 0:
         return 0.0, math.inf
     median = float(np.median(d))
-    sigma = 1.4826 * float(np.median(np.abs(d - median)))
+    deviation = np.abs(d - median)
+    sigma = 1.4826 * float(np.median(deviation))
     floor = 0.5 if real.dtype.kind in "iu" and sim.dtype.kind in "iu" else 1e-9 * (abs(median) + float(np.std(d)) + 1e-300)
-    return median, max(sigma, floor)
+    return median, max(OUTLIER * max(sigma, floor), TAIL * float(np.quantile(deviation, 0.99)))
 
 
 def _clusters(rows: np.ndarray, cols: np.ndarray) -> list[np.ndarray]:
@@ -261,7 +288,8 @@ def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
     """Clusters of dead, hot or stuck pixels in either frame, before the image components.
 
     A pixel is a candidate when ``sim − real`` lies more than :data:`OUTLIER` robust standard
-    deviations from its median; candidates join into 8-connected clusters, and a cluster is a
+    deviations from its median, and more than :data:`TAIL` times the 99th percentile of the
+    deviations; candidates join into 8-connected clusters, and a cluster is a
     defect when it has at most :data:`MAX_CLUSTER` pixels, is isolated (the median error around
     it, within 2 px, under :data:`ISOLATED` of its own) and departs from its surroundings in one
     frame only (the other's departure under :data:`ISOLATED` of it): a blurred edge or a
@@ -291,10 +319,9 @@ def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
     """
     real, sim = _frames(real, sim)
     scored = np.ones(real.shape, dtype=bool) if mask is None else np.ascontiguousarray(mask, dtype=bool)
-    median, sigma = _robust_scale(real, sim, None if mask is None else scored)
+    median, threshold = _outlier_threshold(real, sim, None if mask is None else scored)
     total, count, largest, _, _ = _core.error_profile(real, sim, None if mask is None else scored, top_share=TOP_SHARE,
                                                       most=2.0, border=_BORDER)
-    threshold = OUTLIER * sigma
     if count == 0 or not math.sqrt(largest) > threshold - abs(median):
         return None
     with np.errstate(invalid="ignore"):

@@ -202,6 +202,10 @@ def _scene_measure(component: str, value: float, metrics: Mapping[str, Any], alp
     if component == "mtf":
         low, high = m.get("scene_band_low"), m.get("scene_band_high")
         estimate = m.get("scene_mtf50_mismatch")
+        if estimate is None:  # unread, by the simulator's doing (Transfer.unread_cause)
+            return effective, (f"no MTF ratio to read: the simulated frame's noise hides it where the scene carries "
+                               f"detail (over {low:.3g}–{high:.3g} cy/px), counted as an MTF50 mismatch of "
+                               f"{_percent(effective)}")
         return effective, (f"simulated MTF {_ratio_words(m.get('scene_mtf_ratio'), m.get('scene_mtf_ratio_err'))} "
                            f"the real camera's at {m.get('scene_reference_frequency', 0):.3g} cy/px (from the scene, "
                            f"trusted over {low:.3g}–{high:.3g} cy/px): an MTF50 mismatch of "

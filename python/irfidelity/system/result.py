@@ -75,6 +75,10 @@ class Transfer:
     unread : str or None
         Why the ratio could not be read at the reference frequency (then the MTF50 mismatch
         is None), or None.
+    unread_cause : str or None
+        Whose doing that is: "scene" (it carries no detail there, or no contrast) or
+        "simulator" (the real camera's noise is known and the scene carries detail past half
+        the reference frequency, but the simulated frame's noise hides the ratio there).
 
     Examples
     --------
@@ -121,6 +125,7 @@ class Transfer:
     changed: int = 0
     notes: tuple = field(default=())
     unread: str | None = None
+    unread_cause: str | None = None
 
     def __repr__(self) -> str:
         def pm(value: float | None, error: float | None, digits: int) -> str:
@@ -213,7 +218,8 @@ def _assemble(spectra: TransferSpectra, geometry: Geometry, rows: RingSums,
         f"for it, and the band stops where the real spectrum falls below {MIN_SNR_UNKNOWN:g}× its floor and the "
         f"pair's coherence below {MIN_COHERENCE:g}"]
     reading = mtf_reading(frequency, values, error, fitted, reference)
-    unread = _unread(frequency, values[0], fitted, reference, gain is not None)
+    unread, cause = _unread(frequency, values[0], fitted, trusted if snr is not None else None, reference,
+                            gain is not None)
     if unread is not None:
         reading = {key: None for key in reading}
     elif fitted.any() and frequency[fitted][-1] < reference:
@@ -234,25 +240,35 @@ def _assemble(spectra: TransferSpectra, geometry: Geometry, rows: RingSums,
                     reference_frequency=reference, **reading, **_noise_reading(variances),
                     noise_source=noise_source, shift=(-shift[0], -shift[1]), local_shift=spread, tile=geometry.tile,
                     tiles=int(rows.tiles[0]), skipped=int(spectra.skipped), changed=changed, notes=tuple(notes),
-                    unread=unread)
+                    unread=unread, unread_cause=cause)
 
 
-def _unread(frequency: np.ndarray, value: np.ndarray, fitted: np.ndarray, reference: float,
-            has_gain: bool) -> str | None:
-    """Why the ratio cannot be read at the reference frequency, or None: no gain, no ring to fit,
-    or fitted rings that end below half the reference frequency while the ratio is still above
-    0.5 there (the scene's detail, not the simulator, ended them: the fit would extrapolate
-    blindly; where the ratio has fallen below 0.5 the mismatch is large either way, and read)."""
+def _unread(frequency: np.ndarray, value: np.ndarray, fitted: np.ndarray, trusted: np.ndarray | None,
+            reference: float, has_gain: bool) -> tuple[str | None, str | None]:
+    """Why the ratio cannot be read at the reference frequency, and whose doing that is (the
+    scene's or the simulator's), or ``(None, None)``: no gain, no ring to fit, or fitted rings
+    that end below half the reference frequency while the ratio is still above 0.5 there (the
+    fit would extrapolate blindly; where the ratio has fallen below 0.5 the mismatch is large
+    either way, and read). ``trusted`` is the band when the real camera's noise is known: when
+    it goes on past half the reference frequency, the scene carries the detail and the rings
+    left out of the fit were lost in the simulated frame's noise."""
     if not has_gain:
-        return "the scene has no contrast at low frequencies to measure the gain on (a flat or unrelated pair)"
+        return "the scene has no contrast at low frequencies to measure the gain on (a flat or unrelated pair)", "scene"
+    if trusted is not None and trusted.any() and 2 * float(frequency[trusted][-1]) >= reference:
+        top = float(frequency[fitted][-1]) if fitted.any() else 0.0
+        if reference > 2 * top and (not fitted.any() or value[fitted][-1] > 0.5):
+            return (f"the simulated frame's noise hides the MTF ratio above {top:.3g} cy/px, where the scene carries "
+                    f"detail up to {float(frequency[trusted][-1]):.3g} cy/px: the simulator shows none of it beyond "
+                    f"doubt (scored 0)"), "simulator"
     if not fitted.any():
-        return "the scene carries no detail above its noise to measure the MTF ratio on (no band of trusted frequencies)"
+        return ("the scene carries no detail above its noise to measure the MTF ratio on (no band of trusted "
+                "frequencies)"), "scene"
     top = float(frequency[fitted][-1])
     if reference > 2 * top and value[fitted][-1] > 0.5:
         return (f"the scene's detail is trusted only up to {top:.3g} cy/px, below half the real MTF50 "
                 f"({reference:.3g} cy/px) where the ratio is read; a second real frame (real_ref) lets the band go "
-                f"further, or choose a scene with more detail")
-    return None
+                f"further, or choose a scene with more detail"), "scene"
+    return None, None
 
 
 def _floor_snr(rows: RingSums) -> np.ndarray:

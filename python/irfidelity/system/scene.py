@@ -20,6 +20,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..tolerances import mu_of_ratio
+from .. import budget
 from ..errors import FidelityError
 from .pair import aligned, cropped, real_noise_variance
 from .readings import REFERENCE_FREQUENCY
@@ -60,9 +61,18 @@ def pair_spectra(sources: Mapping[str, Any], config: Any, *, real_ref: np.ndarra
     """The transfer sums of the pair as scored (``sources``: ``real``, ``sim``, ``mask``, and
     with a registration ``sim_unregistered`` and ``registration``): a translation is taken as the
     whole-pixel overlap of the unregistered frames (no resampling), other registrations as
-    resampled; ``real_ref`` a second real frame."""
+    resampled; ``real_ref`` a second real frame. Defective pixels found in an unregistered pair
+    (``defects``, left out of ``mask``) are filled from their surroundings instead
+    (:meth:`~irfidelity.defects.Defects.repaired`): leaving one out would lose its tiles;
+    ``repair`` says in which frames ("real" alone for the real camera against itself)."""
     real, sim, mask = sources["real"], sources["sim"], sources.get("mask")
     registration = sources.get("registration")
+    defects = sources.get("defects")
+    if defects is not None and registration is None and mask is not None:
+        budget.check("filling defective pixels for the transfer", np.shape(real), 2 * budget.nbytes(real), max_bytes)
+        real, sim = defects.repaired(np.asarray(real), np.asarray(sim), sources.get("repair", ("real", "simulated")))
+        mask = np.asarray(mask, dtype=bool) | defects.mask
+        mask = None if mask.all() else mask
     if registration is not None and registration.model == "translation":
         real, sim, mask, _ = aligned(real, sources["sim_unregistered"], registration, mask, max_bytes)
         real_ref = None if real_ref is None else real_ref[_overlap(sources["real"].shape, registration)]
@@ -110,10 +120,16 @@ def scene_components(t: Transfer, kinds: tuple[str, ...], config: Any, ceiling: 
 DOUBT = 2.0
 
 
-def _doubted(value: float, error: float | None) -> float:
-    """A mismatch (≥ 0) less :data:`DOUBT` standard errors, not below 0."""
-    step = DOUBT * error if error is not None and math.isfinite(error) else 0.0
-    return max(0.0, value - step)
+def _doubted(value: float, error: float | None, perfect: float | None = None) -> float:
+    """A mismatch (≥ 0) less :data:`DOUBT` standard errors, not below 0; the error no larger
+    than ``perfect``'s, when known: what a perfect simulator's estimate would show on this scene
+    (the real camera against itself). The doubt the simulator's own noise adds is its fault, and
+    forgiving it would grade a noisier simulator better."""
+    if error is None or not math.isfinite(error):
+        return value
+    if perfect is not None and math.isfinite(perfect):
+        error = min(error, perfect)
+    return max(0.0, value - DOUBT * error)
 
 
 def _gain_mismatch(gain: float) -> float:
@@ -122,19 +138,23 @@ def _gain_mismatch(gain: float) -> float:
 
 def graded_mismatch(kind: str, t: Transfer, ceiling: Transfer | None) -> float | None:
     """The mismatch a scene component is graded by: the estimate less :data:`DOUBT` standard
-    errors, less what the real camera shows against itself on the same scene (a second real
-    frame: scene motion and the camera's own changes are no fault of the simulator)."""
+    errors (no more than the real camera's against itself shows), less what the real camera
+    shows against itself on the same scene (a second real frame: scene motion and the camera's
+    own changes are no fault of the simulator). An MTF ratio the simulated frame's noise hides
+    where the scene carries detail is a whole mismatch (``Transfer.unread_cause``)."""
     if kind == "mtf":
         if t.mtf50_mismatch is None:
-            return None
-        own = 0.0 if ceiling is None or ceiling.mtf50_mismatch is None else ceiling.mtf50_mismatch
-        return max(0.0, _doubted(t.mtf50_mismatch, t.mtf50_mismatch_err) - own)
+            return 1.0 if t.unread_cause == "simulator" else None
+        own, perfect = (0.0, None) if ceiling is None or ceiling.mtf50_mismatch is None else (
+            ceiling.mtf50_mismatch, ceiling.mtf50_mismatch_err)
+        return max(0.0, _doubted(t.mtf50_mismatch, t.mtf50_mismatch_err, perfect) - own)
     if kind == "sitf":
         if t.gain is None or not t.gain > 0:
             return None if t.gain is None else 1.0
-        own = 0.0 if ceiling is None or not (ceiling.gain or 0) > 0 else _gain_mismatch(ceiling.gain)
+        own, perfect = (0.0, None) if ceiling is None or not (ceiling.gain or 0) > 0 else (
+            _gain_mismatch(ceiling.gain), (ceiling.gain_err or 0.0) / ceiling.gain)
         relative = (t.gain_err or 0.0) / t.gain
-        return max(0.0, _doubted(_gain_mismatch(t.gain), relative) - own)
+        return max(0.0, _doubted(_gain_mismatch(t.gain), relative, perfect) - own)
     if t.noise_ratio is None or not t.noise_ratio > 0:
         return None if t.noise_ratio is None else 1.0
     return _doubted(_gain_mismatch(t.noise_ratio), (t.noise_ratio_err or 0.0) / t.noise_ratio)
@@ -155,7 +175,8 @@ def camera_ceiling(sources: Mapping[str, Any], config: Any, real_ref: np.ndarray
     the scene (None without one, or when it cannot be measured)."""
     if real_ref is None:
         return None
-    frames = {"real": sources["real"], "sim": real_ref, "mask": sources.get("mask")}
+    frames = {"real": sources["real"], "sim": real_ref, "mask": sources.get("mask"), "defects": sources.get("defects"),
+              "repair": ("real",)}
     try:
         return estimate(pair_spectra(frames, config, max_bytes=max_bytes),
                         reference_frequency=reference_frequency(config, sources.get("curves", {})))
