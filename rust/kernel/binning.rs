@@ -173,7 +173,10 @@ pub(super) fn plan_hist<T: Sample>(
             // carried over by the map between the two frames' bulks, so a gain or an offset
             // between them moves the bins with the levels (its own robust range if a bulk is flat)
             let (real_full, sim_full) = data_ranges(r, s, req).unwrap_or(((0.0, 0.0), (0.0, 0.0)));
-            let (real_bulk, sim_bulk) = (bulk(r, s, req), bulk(s, r, req));
+            // a finite scan (`known`) certified every float pair finite
+            let finite = T::IS_INT || known.is_some();
+            let (real_bulk, sim_bulk) =
+                (bulk(r, (!finite).then_some(s), req, real_full), bulk(s, (!finite).then_some(r), req, sim_full));
             let (rlo, rhi) = robust_range::<T>(real_bulk, real_full);
             let (slo, shi) = match (real_bulk, sim_bulk) {
                 (Some(rb), Some(sb)) => mapped_range((rlo, rhi), rb, sb),
@@ -237,10 +240,38 @@ fn proportional_binner<T: Sample>(bins: usize, lo: f64, hi: f64) -> Binner {
     let inv_width = if width > 0.0 { 1.0 / width } else { 0.0 };
     let mut binner = Binner { bins, lo, width, inv_width, edges: None, lut: Vec::new() };
     if T::IS_INT && T::LUT > 0 && bins <= u16::MAX as usize + 1 {
-        // every entry is a clamped bin, below `bins` (the dense table's bound)
-        binner.lut = (0..T::LUT).map(|k| binner.float_bin((k as i64 + T::MIN) as f64) as u16).collect();
+        binner.lut = proportional_lut::<T>(&binner);
     }
     binner
+}
+
+/// `binner`'s rule as a table, value − MIN → bin, filled run by run: the bin rises with the
+/// value, so each bin's first level is found from its edge (then checked against the rule
+/// itself, a step either way absorbing the edge's rounding) and the levels up to the next are
+/// filled at once. Every entry equals `binner.float_bin` of its level and lies below `bins`.
+fn proportional_lut<T: Sample>(binner: &Binner) -> Vec<u16> {
+    let bin_of = |k: usize| binner.float_bin((k as i64 + T::MIN) as f64);
+    let mut lut = vec![0u16; T::LUT];
+    let mut start = 0usize;
+    while start < T::LUT {
+        let b = bin_of(start);
+        if b + 1 >= binner.bins || binner.inv_width == 0.0 {
+            lut[start..].fill(b as u16);
+            break;
+        }
+        // the first level of bin b + 1 or above: near its edge lo + (b + 1)·width
+        let edge = binner.lo + (b + 1) as f64 * binner.width - T::MIN as f64;
+        let mut next = (edge.floor().max(start as f64 + 1.0) as usize).min(T::LUT);
+        while next > start + 1 && bin_of(next - 1) > b {
+            next -= 1;
+        }
+        while next < T::LUT && bin_of(next) == b {
+            next += 1;
+        }
+        lut[start..next].fill(b as u16);
+        start = next;
+    }
+    lut
 }
 
 fn make_int_binner<T: Sample>(bins: usize, edges: IntEdges) -> Binner {
@@ -298,6 +329,25 @@ mod tests {
             (bn.int_bin(-32768, i16::MIN as i64), bn.int_bin(-6, i16::MIN as i64), bn.int_bin(9, i16::MIN as i64)),
             (0, 0, 3)
         );
+    }
+
+    /// The proportional table, filled run by run, equals its rule at every level: fractional
+    /// widths, widths below one level, ranges beyond the type, one bin, a flat range.
+    #[test]
+    fn the_proportional_table_equals_its_rule() {
+        let cases = [(256usize, 2000.0, 14000.0), (256, 3000.0, 3100.0), (7, -5.5, 70000.25), (1, 10.0, 20.0),
+                     (65536, 0.0, 65535.0), (65536, 100.0, 200.0), (300, 5.0, 5.0), (256, 2345.678, 2345.679)];
+        for (bins, lo, hi) in cases {
+            let bn = proportional_binner::<u16>(bins, lo, hi);
+            assert_eq!(bn.lut.len(), 65536);
+            for (k, &b) in bn.lut.iter().enumerate() {
+                assert_eq!(b as usize, bn.float_bin(k as f64), "bins {bins} ({lo}, {hi}) level {k}");
+            }
+            let bn = proportional_binner::<i16>(bins, lo - 40000.0, hi - 40000.0);
+            for (k, &b) in bn.lut.iter().enumerate() {
+                assert_eq!(b as usize, bn.float_bin((k as i64 + i16::MIN as i64) as f64), "i16 bins {bins} level {k}");
+            }
+        }
     }
 
     /// Every table entry is below `bins` (the bound the unchecked dense-table writes rely

@@ -89,34 +89,92 @@ pub(super) fn data_ranges<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<
     (rr.0 <= rr.1 && ss.0 <= ss.1).then_some((rr, ss))
 }
 
-/// Most pixels sampled (evenly spaced) to find a frame's bulk for [`robust_range`].
+/// Most pixels sampled to find a frame's bulk for [`robust_range`] ...
 const BULK_SAMPLES: usize = 1 << 14;
+/// ... in evenly spaced runs of this many consecutive pixels (a cache line of float32), so the
+/// sample reads a sixteenth of a large frame's memory rather than a line per sampled pixel.
+const BULK_RUN: usize = 16;
 /// The bulk of a frame: its values between these quantiles of the sample.
 const BULK_QUANTILE: f64 = 1e-3;
 /// How far beyond its bulk a frame's bins reach, in bulk spans: values further out (a few
 /// dead, hot or stuck pixels) land in the edge bins instead of stretching every bin.
 const BULK_MARGIN: f64 = 1.0;
 
-/// A frame's bulk: the 0.1 %..99.9 % quantiles of an evenly spaced sample of its counted
-/// pixels (`values` one frame, `other` the other, for the pairs that count); None for fewer
-/// than two such pixels.
-pub(super) fn bulk<T: Sample>(values: &[T], other: &[T], req: &Request) -> Option<(f64, f64)> {
-    let step = values.len().div_ceil(BULK_SAMPLES).max(1);
-    let mut sample: Vec<f64> = (0..values.len())
-        .step_by(step)
-        .filter(|&i| req.mask.is_none_or(|m| m[i]))
-        .map(|i| (values[i].to_f64(), other[i].to_f64()))
-        .filter(|(x, y)| x.is_finite() && y.is_finite())
-        .map(|(x, _)| x)
-        .collect();
+/// The pixels [`bulk`] samples from a frame of `len` that `keep`: runs of [`BULK_RUN`]
+/// starting every `stride` pixels, at most [`BULK_SAMPLES`] in all (every pixel of a small
+/// frame), as `value` gives them.
+fn bulk_sample<K>(len: usize, keep: impl Fn(usize) -> bool, value: impl Fn(usize) -> K) -> Vec<K> {
+    let stride = len.div_ceil(BULK_SAMPLES / BULK_RUN).max(BULK_RUN);
+    let mut out = Vec::with_capacity(BULK_SAMPLES.min(len));
+    for start in (0..len).step_by(stride) {
+        for i in start..(start + BULK_RUN).min(len) {
+            if keep(i) {
+                out.push(value(i));
+            }
+        }
+    }
+    out
+}
+
+/// A frame's bulk: the 0.1 %..99.9 % quantiles of [`bulk_sample`]'s pixels among those that
+/// count (kept by the mask and, with `other` the other frame, finite in both; `other` None:
+/// every pixel is known finite); None for fewer than two such pixels. `full` is the frame's
+/// min..max over the counted pixels: integer samples within a span of 2^20 levels are
+/// counted per level rather than selected.
+pub(super) fn bulk<T: Sample>(values: &[T], other: Option<&[T]>, req: &Request, full: (f64, f64)) -> Option<(f64, f64)> {
+    let kept = |i: usize| req.mask.is_none_or(|m| m[i]);
+    if T::IS_INT {
+        let sample = bulk_sample(values.len(), kept, |i| values[i].to_f64() as i64);
+        let (lo, span) = (full.0 as i64, (full.1 - full.0) as usize);
+        let ranks = if span < 1 << 20 { counted_quantiles(&sample, lo, span) } else { quantiles(&mut { sample }) };
+        return ranks.map(|(a, b)| (a as f64, b as f64));
+    }
+    let finite = |i: usize| values[i].to_f64().is_finite() && other.is_none_or(|o| o[i].to_f64().is_finite());
+    let mut sample = bulk_sample(values.len(), |i| kept(i) && finite(i), |i| values[i].to_f64());
+    quantiles(&mut sample) // finite values: partial_cmp orders them all
+}
+
+/// [`quantiles`] of integer values within `lo..=lo + span`, by counting each level.
+fn counted_quantiles(sample: &[i64], lo: i64, span: usize) -> Option<(i64, i64)> {
+    if sample.len() < 2 {
+        return None;
+    }
+    let mut counts = vec![0u32; span + 1];
+    for &v in sample {
+        let Some(count) = usize::try_from(v - lo).ok().and_then(|k| counts.get_mut(k)) else {
+            return quantiles(&mut sample.to_vec()); // a value outside the range: select instead
+        };
+        *count += 1;
+    }
+    let last = sample.len() - 1;
+    let at = |q: f64| (q * last as f64).round() as usize;
+    let (lo_at, hi_at) = (at(BULK_QUANTILE), at(1.0 - BULK_QUANTILE));
+    // the value of rank k (0-based) is the first level whose running count exceeds k
+    let (mut seen, mut low) = (0usize, None);
+    for (level, &c) in counts.iter().enumerate() {
+        seen += c as usize;
+        if low.is_none() && seen > lo_at {
+            low = Some(lo + level as i64);
+        }
+        if seen > hi_at {
+            return low.map(|l| (l, lo + level as i64));
+        }
+    }
+    None
+}
+
+/// The [`BULK_QUANTILE`] and `1 − BULK_QUANTILE` quantiles of a sample (reordered); None for
+/// fewer than two values.
+fn quantiles<K: Copy + PartialOrd>(sample: &mut [K]) -> Option<(K, K)> {
     if sample.len() < 2 {
         return None;
     }
     let last = sample.len() - 1;
     let at = |q: f64| (q * last as f64).round() as usize;
     let (lo_at, hi_at) = (at(BULK_QUANTILE), at(1.0 - BULK_QUANTILE));
-    let (_, &mut hi, _) = sample.select_nth_unstable_by(hi_at, f64::total_cmp);
-    let (_, &mut lo, _) = sample[..=hi_at].select_nth_unstable_by(lo_at, f64::total_cmp);
+    let order = |a: &K, b: &K| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal);
+    let (_, &mut hi, _) = sample.select_nth_unstable_by(hi_at, order);
+    let (_, &mut lo, _) = sample[..=hi_at].select_nth_unstable_by(lo_at, order);
     Some((lo, hi))
 }
 
@@ -159,21 +217,33 @@ mod tests {
         let req = Request::default();
         let clean: Vec<u16> = (0..10_000u32).map(|i| 3000 + (i * 7919 % 1600) as u16).collect();
         let full = (3000.0, 4599.0);
-        assert_eq!(robust_range::<u16>(bulk(&clean, &clean, &req), full), full);
+        assert_eq!(robust_range::<u16>(bulk(&clean, Some(&clean), &req, full), full), full);
         let mut dead = clean.clone();
         for k in 0..5 {
             dead[k * 1000] = if k % 2 == 0 { 0 } else { 65535 };
         }
-        let (lo, hi) = robust_range::<u16>(bulk(&dead, &clean, &req), (0.0, 65535.0));
+        let (lo, hi) = robust_range::<u16>(bulk(&dead, Some(&clean), &req, (0.0, 65535.0)), (0.0, 65535.0));
         assert!(lo > 1000.0 && lo < 3000.0 && hi > 4599.0 && hi < 7000.0, "{lo} {hi}");
         // a flat bulk keeps the whole range; a masked-out or non-finite pair does not count
         let flat = [5u16; 100];
-        assert_eq!(robust_range::<u16>(bulk(&flat, &flat, &req), (5.0, 5.0)), (5.0, 5.0));
+        assert_eq!(robust_range::<u16>(bulk(&flat, Some(&flat), &req, (5.0, 5.0)), (5.0, 5.0)), (5.0, 5.0));
         let values = [1.0f64, f64::NAN, 3.0, 1e30];
         let other = [0.0f64, 0.0, f64::NAN, 0.0];
         let mask = [true, true, true, false];
         let masked = Request { mask: Some(&mask), ..Request::default() };
-        assert_eq!(bulk(&values, &other, &masked), None);
+        assert_eq!(bulk(&values, Some(&other), &masked, (1.0, 3.0)), None);
+        // counting per level gives the selected quantiles, also with values outside the range
+        let mut state = 7u64;
+        let sample: Vec<i64> = (0..5000)
+            .map(|_| {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (state >> 40) as i64 % 900 - 300
+            })
+            .collect();
+        let selected = quantiles(&mut sample.clone());
+        assert_eq!(counted_quantiles(&sample, -300, 899), selected);
+        assert_eq!(counted_quantiles(&sample, 0, 10), selected);
+        assert_eq!(counted_quantiles(&sample[..1], -300, 899), None);
         // an offset and a gain carry the range over exactly
         assert_eq!(mapped_range((10.0, 50.0), (20.0, 40.0), (120.0, 160.0)), Some((100.0, 180.0)));
         assert_eq!(mapped_range((10.0, 50.0), (20.0, 20.0), (120.0, 160.0)), None);
