@@ -308,9 +308,24 @@ pub fn check_mergeable(a: &HistSpec, b: &HistSpec) -> Result<()> {
         Ok(())
     } else {
         Err(Error::Value(format!(
-            "cannot merge histograms with different edges ({a:?} vs {b:?}); \
-             use hist_range='full' or an explicit (lo, hi), or bins='levels', to pool NMI"
+            "cannot merge histograms with different edges ({} vs {}); \
+             use hist_range='full' or an explicit (lo, hi), or bins='levels', to pool NMI",
+            edges_text(a),
+            edges_text(b)
         )))
+    }
+}
+
+/// A spec's edges in words, for messages.
+fn edges_text(spec: &HistSpec) -> String {
+    match spec {
+        HistSpec::Binned { bins, lo, width } => format!("{bins} bins of {width} from {lo}"),
+        HistSpec::Each { bins, real, sim } => format!(
+            "each frame's own {bins} bins (hist_range='each'): the real frame's of {} from {}, the simulated \
+             frame's of {} from {}",
+            real.1, real.0, sim.1, sim.0
+        ),
+        HistSpec::Levels => "one bin per grey level".into(),
     }
 }
 

@@ -119,12 +119,12 @@ def test_statistics_keep_both_edge_sets_through_pickling_and_merge_only_alike(le
 def test_the_scorer_takes_each_and_the_others(lepton):
     real, sim = lepton[30], lepton[31] + 5
     options = dict(bits=14, weights="nmi=1", transfer_options={"scene": False})
-    assert irf.evaluate(real, sim, **options).config.hist_range == "data"
+    assert irf.evaluate(real, sim, **options).config.hist_range == "each"  # the default
     for hist_range in ("each", "data", "full", (2000, 4000)):
         rep = irf.evaluate(real, sim, hist_range=hist_range, **options)
         want = irf.nmi(real, sim, bits=14, hist_range=hist_range).value
         assert rep.components["nmi"] == pytest.approx(want, abs=1e-12), hist_range
-    with pytest.raises(ConfigError, match="'data', 'each', 'full' or \\(lo, hi\\)"):
+    with pytest.raises(ConfigError, match="'each', 'data', 'full' or \\(lo, hi\\)"):
         irf.ScoringConfig(hist_range="own")
 
 

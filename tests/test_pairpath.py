@@ -41,7 +41,7 @@ def test_one_call_equals_register_apply_and_pair_stats(name):
     reg = irf.register(real, sim, method="phase", mask=mask)
     aligned, valid = reg.apply(sim, mask=mask)
     keep = valid & mask
-    want = irf.pair_stats(real.astype(np.float64), aligned, bins=256, peak=1.0, mask=keep)
+    want = irf.pair_stats(real.astype(np.float64), aligned, bins=256, hist_range="data", peak=1.0, mask=keep)
     assert pair.registration == reg
     assert pair.stats.to_bytes() == want.to_bytes()
     np.testing.assert_array_equal(pair.sim, aligned)

@@ -26,6 +26,7 @@ from .errors import FidelityError
 from .fuzzy import GradeScale, Weights
 from .normalize import DEFAULT_PSNR_ANCHORS, psnr_curve_params
 from .registration import DEFAULT_METHOD
+from .stats import DEFAULT_HIST_RANGE
 from .temperature import unit_fields
 from .tolerances import Tolerances
 
@@ -82,13 +83,14 @@ class ScoringConfig:
         ``0..2**bits - 1``).
     bins : int or "levels"
         Histogram bins for NMI (uniform over ``hist_range``), or one bin per grey level.
-    hist_range : "data", "each", "full" or (lo, hi)
-        The NMI histogram's edges. ``"data"`` (the default, the paper's binning): edges shared
-        by both frames over their joint min..max; ``"full"``: shared ``0..peak``; or shared
-        explicit ``(lo, hi)``. ``"each"``: the real frame's bins over its own range and the
-        simulated frame's carried over by the gain and offset between the two frames' bulks
-        (:func:`irfidelity.pair_stats` states the rule), so a gain or an offset moves the bins
-        with the levels and a few extreme pixels do not stretch them (docs/interpretation.md).
+    hist_range : "each" (default), "data", "full" or (lo, hi)
+        The NMI histogram's edges. ``"each"``: the real frame's bins over its own robust range
+        and the simulated frame's carried over by the gain and offset between the two frames'
+        bulks (:func:`irfidelity.pair_stats` states the rule), so a gain or an offset moves the
+        bins with the levels and a few extreme pixels do not stretch them
+        (docs/interpretation.md). ``"data"`` (the paper's binning): edges shared by both frames
+        over their joint min..max; ``"full"``: shared ``0..peak``; or shared explicit
+        ``(lo, hi)``.
     psnr_anchors : ((dB, value), (dB, value))
         The two points fixing eq. (6); default 30 dB -> 0.9, 45 dB -> 0.99. Both within
         0.01..1000 dB, and giving a curve that rises there
@@ -194,7 +196,7 @@ class ScoringConfig:
     bits: int | None = None
     peak: float | str | None = None
     bins: int | str = 256
-    hist_range: str | tuple = "data"
+    hist_range: str | tuple = DEFAULT_HIST_RANGE
     psnr_anchors: tuple = DEFAULT_PSNR_ANCHORS
     ssim_exponents: tuple = (1.0, 1.0, 1.0)
     missing: str = "renormalize"

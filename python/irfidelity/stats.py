@@ -459,9 +459,13 @@ def bins_value(bins: Any) -> int | str:
     raise ConfigError("bins", f"expected an integer in 1..{_core.MAX_HIST_BINS} or 'levels'; got {reprlib.repr(bins)}")
 
 
-#: The named histogram ranges: "data" (min..max over both frames, shared edges), "each" (each
-#: frame's bins over its own min..max) and "full" (0..peak, shared); else an explicit (lo, hi).
-HIST_RANGES = ("data", "each", "full")
+#: The named histogram ranges: "each" (each frame's bins over its own robust range, the
+#: simulated frame's carried by the gain and offset between the frames), "data" (min..max over
+#: both frames, shared edges: the paper's) and "full" (0..peak, shared); else an explicit (lo, hi).
+HIST_RANGES = ("each", "data", "full")
+
+#: The default: a gain, an offset or a few extreme pixels do not move NMI (docs/design.md).
+DEFAULT_HIST_RANGE = "each"
 
 
 class HistParams(NamedTuple):
@@ -508,7 +512,7 @@ def pair_stats(
     bits: int | None = None,
     peak: float | None = None,
     bins: int | str = 256,
-    hist_range="data",
+    hist_range=DEFAULT_HIST_RANGE,
     mask=None,
     need: Iterable[str] | None = None,
     nonfinite: str = "raise",
@@ -531,17 +535,17 @@ def pair_stats(
         frames each bin is a whole number of grey levels (width ``ceil(span/bins)``), so a
         pair spanning at most ``bins`` levels is binned exactly. ``"levels"``: every grey
         level its own bin (integer frames).
-    hist_range : "data", "each", "full" or (lo, hi)
-        ``"data"``: min..max over both frames; ``"full"``: 0..peak; or explicit edges: both
-        frames share these edges. ``"each"``: the real frame's bins over its own range, set by
-        its bulk — its min..max cut to the 0.1 %..99.9 % quantiles of an evenly spaced sample
-        of (at most 16,384) counted pixels, widened by that span on each side — and the
-        simulated frame's over that range carried over by the map between the two frames'
-        bulks (a gain and an offset from quantiles); each bin ``(hi − lo) / bins`` wide,
-        integer frames too. A gain or offset between the frames then moves the bins with the
-        levels, and a few extreme pixels do not stretch them. Values outside the range are
-        counted in the edge bins. Use "full" or explicit edges to merge histograms of
-        different frames.
+    hist_range : "each" (default), "data", "full" or (lo, hi)
+        ``"each"``: the real frame's bins over its own range, set by its bulk — its min..max
+        cut to the 0.1 %..99.9 % quantiles of a sample of (at most 16,384) counted pixels, in
+        evenly spaced runs of 16, widened by that span on each side — and the simulated
+        frame's over that range carried over by the map between the two frames' bulks (a gain
+        and an offset from quantiles); each bin ``(hi − lo) / bins`` wide, integer frames too.
+        A gain or offset between the frames then moves the bins with the levels, and a few
+        extreme pixels do not stretch them; values outside the range are counted in the edge
+        bins. ``"data"`` (the paper's): min..max over both frames; ``"full"``: 0..peak; or
+        explicit edges: both frames share these edges. Use "full" or explicit edges to merge
+        histograms of different frames.
     mask : 2-D bool array, optional
         ``False`` excludes a pixel pair.
     need : iterable of {"mse", "psnr", "ssim", "nmi"}, optional
@@ -559,10 +563,13 @@ def pair_stats(
     >>> st.n, st.mse(), round(st.psnr(), 2), st.nmi().value
     (4, 1.5, 82.53, 1.0)
 
-    Statistics merge: those of two frames are the statistics of their union.
+    Statistics merge: those of two frames are the statistics of their union (histograms on
+    shared edges, such as ``"full"``'s, merge too).
 
-    >>> st.merge(irf.pair_stats(real, real, bits=14)).mse()     # (6 + 0) / 8
-    0.75
+    >>> full = irf.pair_stats(real, sim, bits=14, hist_range="full")
+    >>> both = full.merge(irf.pair_stats(real, real, bits=14, hist_range="full"))
+    >>> both.mse(), both.n                                      # (6 + 0) / 8
+    (0.75, 8)
     """
     r, s = _frame_pair(real, sim)
     if nonfinite not in ("raise", "mask"):
@@ -713,7 +720,7 @@ def ssim(real, sim, *, alpha: float = 1.0, beta: float = 1.0, gamma: float = 1.0
     return st.ssim(alpha, beta, gamma)
 
 
-def nmi(real, sim, *, bins: int | str = 256, hist_range="data", bits=None, peak=None, mask=None) -> NMI:
+def nmi(real, sim, *, bins: int | str = 256, hist_range=DEFAULT_HIST_RANGE, bits=None, peak=None, mask=None) -> NMI:
     """Normalised mutual information, eqs. 7–10: ``MI / ((H(R) + H(S)) / 2)``.
 
     Returns an :class:`NMI` with ``.value .h_real .h_sim .h_joint .mi .bins``. NMI = 1

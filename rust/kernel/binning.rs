@@ -2,7 +2,7 @@
 //! table for ≤ 16-bit frames, float edges) and the joint table's layout, decided before the
 //! pass from the request and (for `hist_range="data"`) the data range.
 
-use super::range::{bulk, data_range, data_ranges, mapped_range, robust_range};
+use super::range::{bulk, data_range, data_ranges, robust_range, Bulk};
 use super::request::{HistRequest, Request};
 use super::sample::Sample;
 use crate::error::{Error, Result};
@@ -169,22 +169,13 @@ pub(super) fn plan_hist<T: Sample>(
         }
         HistRequest::Each { bins } => {
             let bins = checked_bins(*bins)?;
-            // the real frame's bins over its robust range; the simulated frame's over that range
-            // carried over by the map between the two frames' bulks, so a gain or an offset
-            // between them moves the bins with the levels (its own robust range if a bulk is flat)
             let (real_full, sim_full) = data_ranges(r, s, req).unwrap_or(((0.0, 0.0), (0.0, 0.0)));
             // a finite scan (`known`) certified every float pair finite
             let finite = T::IS_INT || known.is_some();
-            let (real_bulk, sim_bulk) =
-                (bulk(r, (!finite).then_some(s), req, real_full), bulk(s, (!finite).then_some(r), req, sim_full));
-            let (rlo, rhi) = robust_range::<T>(real_bulk, real_full);
-            let (slo, shi) = match (real_bulk, sim_bulk) {
-                (Some(rb), Some(sb)) => mapped_range((rlo, rhi), rb, sb),
-                _ => None,
-            }
-            .unwrap_or_else(|| robust_range::<T>(sim_bulk, sim_full));
-            let (real, sim) = (proportional_binner::<T>(bins, rlo, rhi), proportional_binner::<T>(bins, slo, shi));
-            let spec = HistSpec::Each { bins, real: (rlo, real.width), sim: (slo, sim.width) };
+            let real_bulk = bulk(r, (!finite).then_some(s), req, real_full);
+            let sim_bulk = bulk(s, (!finite).then_some(r), req, sim_full);
+            let (real, sim) = locked_binners::<T>(bins, (real_bulk, real_full), (sim_bulk, sim_full));
+            let spec = HistSpec::Each { bins, real: (real.lo, real.width), sim: (sim.lo, sim.width) };
             Ok(HistPlan {
                 spec,
                 binner: Some(real),
@@ -194,6 +185,48 @@ pub(super) fn plan_hist<T: Sample>(
             })
         }
     }
+}
+
+/// `hist_range="each"`: bins of one width for both frames, each frame's covering its own
+/// robust range, the simulated frame's edges locked to the real frame's by the offset between
+/// their medians. The width is the wider robust span over `bins` (whole levels for integer
+/// frames, the offset too), so an offset moves the edges with the levels, a few extreme pixels
+/// land in the edge bins instead of stretching every bin, and a gain spreads the simulated
+/// frame over more bins, as with shared edges.
+fn locked_binners<T: Sample>(
+    bins: usize,
+    (real_bulk, real_full): (Option<Bulk>, (f64, f64)),
+    (sim_bulk, sim_full): (Option<Bulk>, (f64, f64)),
+) -> (Binner, Binner) {
+    let (rlo, rhi) = robust_range::<T>(real_bulk, real_full);
+    let (slo, shi) = robust_range::<T>(sim_bulk, sim_full);
+    let span = (rhi - rlo).max(shi - slo);
+    let mut offset = match (real_bulk, sim_bulk) {
+        (Some(r), Some(s)) => s.median - r.median,
+        _ => slo - rlo,
+    };
+    let width = if T::IS_INT {
+        offset = offset.round();
+        ((span + 1.0) / bins as f64).ceil().max(1.0)
+    } else {
+        span / bins as f64
+    };
+    // the simulated frame's first edge: the real frame's moved by the offset, then whole bins
+    // down to its own range
+    let anchor = rlo + offset;
+    let sim_lo = if width > 0.0 { anchor + ((slo - anchor) / width).floor() * width } else { slo };
+    (width_binner::<T>(bins, rlo, width), width_binner::<T>(bins, sim_lo, width))
+}
+
+/// `bins` bins of `width` from `lo` (whole levels for integer frames), values beyond them in
+/// the edge bins.
+fn width_binner<T: Sample>(bins: usize, lo: f64, width: f64) -> Binner {
+    if T::IS_INT {
+        let edges = IntEdges::Small { lo: lo as i64, width: width as i64, top: bins as i64 - 1 };
+        return make_int_binner::<T>(bins, edges);
+    }
+    let inv_width = if width > 0.0 { 1.0 / width } else { 0.0 };
+    Binner { bins, lo, width, inv_width, edges: None, lut: Vec::new() }
 }
 
 fn checked_bins(bins: usize) -> Result<usize> {
@@ -229,49 +262,6 @@ fn uniform_binner<T: Sample>(bins: usize, lo: f64, hi: f64) -> Binner {
     let width = (hi - lo) / bins as f64;
     let inv_width = if width > 0.0 { 1.0 / width } else { 0.0 };
     Binner { bins, lo, width, inv_width, edges: None, lut: Vec::new() }
-}
-
-/// `bins` bins of width `(hi − lo) / bins` from `lo`, for floats and integers alike (a bin
-/// need not be a whole number of grey levels): two frames whose ranges differ by a gain and
-/// an offset get bins that differ by the same gain and offset, so their levels fall into
-/// their bins alike. Integer frames with ≤ 16-bit types get the rule as a lookup table.
-fn proportional_binner<T: Sample>(bins: usize, lo: f64, hi: f64) -> Binner {
-    let width = (hi - lo) / bins as f64;
-    let inv_width = if width > 0.0 { 1.0 / width } else { 0.0 };
-    let mut binner = Binner { bins, lo, width, inv_width, edges: None, lut: Vec::new() };
-    if T::IS_INT && T::LUT > 0 && bins <= u16::MAX as usize + 1 {
-        binner.lut = proportional_lut::<T>(&binner);
-    }
-    binner
-}
-
-/// `binner`'s rule as a table, value − MIN → bin, filled run by run: the bin rises with the
-/// value, so each bin's first level is found from its edge (then checked against the rule
-/// itself, a step either way absorbing the edge's rounding) and the levels up to the next are
-/// filled at once. Every entry equals `binner.float_bin` of its level and lies below `bins`.
-fn proportional_lut<T: Sample>(binner: &Binner) -> Vec<u16> {
-    let bin_of = |k: usize| binner.float_bin((k as i64 + T::MIN) as f64);
-    let mut lut = vec![0u16; T::LUT];
-    let mut start = 0usize;
-    while start < T::LUT {
-        let b = bin_of(start);
-        if b + 1 >= binner.bins || binner.inv_width == 0.0 {
-            lut[start..].fill(b as u16);
-            break;
-        }
-        // the first level of bin b + 1 or above: near its edge lo + (b + 1)·width
-        let edge = binner.lo + (b + 1) as f64 * binner.width - T::MIN as f64;
-        let mut next = (edge.floor().max(start as f64 + 1.0) as usize).min(T::LUT);
-        while next > start + 1 && bin_of(next - 1) > b {
-            next -= 1;
-        }
-        while next < T::LUT && bin_of(next) == b {
-            next += 1;
-        }
-        lut[start..next].fill(b as u16);
-        start = next;
-    }
-    lut
 }
 
 fn make_int_binner<T: Sample>(bins: usize, edges: IntEdges) -> Binner {
@@ -329,25 +319,6 @@ mod tests {
             (bn.int_bin(-32768, i16::MIN as i64), bn.int_bin(-6, i16::MIN as i64), bn.int_bin(9, i16::MIN as i64)),
             (0, 0, 3)
         );
-    }
-
-    /// The proportional table, filled run by run, equals its rule at every level: fractional
-    /// widths, widths below one level, ranges beyond the type, one bin, a flat range.
-    #[test]
-    fn the_proportional_table_equals_its_rule() {
-        let cases = [(256usize, 2000.0, 14000.0), (256, 3000.0, 3100.0), (7, -5.5, 70000.25), (1, 10.0, 20.0),
-                     (65536, 0.0, 65535.0), (65536, 100.0, 200.0), (300, 5.0, 5.0), (256, 2345.678, 2345.679)];
-        for (bins, lo, hi) in cases {
-            let bn = proportional_binner::<u16>(bins, lo, hi);
-            assert_eq!(bn.lut.len(), 65536);
-            for (k, &b) in bn.lut.iter().enumerate() {
-                assert_eq!(b as usize, bn.float_bin(k as f64), "bins {bins} ({lo}, {hi}) level {k}");
-            }
-            let bn = proportional_binner::<i16>(bins, lo - 40000.0, hi - 40000.0);
-            for (k, &b) in bn.lut.iter().enumerate() {
-                assert_eq!(b as usize, bn.float_bin((k as i64 + i16::MIN as i64) as f64), "i16 bins {bins} level {k}");
-            }
-        }
     }
 
     /// Every table entry is below `bins` (the bound the unchecked dense-table writes rely

@@ -116,26 +116,71 @@ fn bulk_sample<K>(len: usize, keep: impl Fn(usize) -> bool, value: impl Fn(usize
     out
 }
 
-/// A frame's bulk: the 0.1 %..99.9 % quantiles of [`bulk_sample`]'s pixels among those that
-/// count (kept by the mask and, with `other` the other frame, finite in both; `other` None:
-/// every pixel is known finite); None for fewer than two such pixels. `full` is the frame's
-/// min..max over the counted pixels: integer samples within a span of 2^20 levels are
-/// counted per level rather than selected.
-pub(super) fn bulk<T: Sample>(values: &[T], other: Option<&[T]>, req: &Request, full: (f64, f64)) -> Option<(f64, f64)> {
+/// A frame's bulk: the 0.1 %, 50 % and 99.9 % quantiles of [`bulk_sample`]'s pixels among
+/// those that count (kept by the mask and, with `other` the other frame, finite in both;
+/// `other` None: every pixel is known finite); None for fewer than two such pixels. `full` is
+/// the frame's min..max over the counted pixels: integer samples within a span of 2^20 levels
+/// are counted per level rather than selected.
+pub(super) fn bulk<T: Sample>(values: &[T], other: Option<&[T]>, req: &Request, full: (f64, f64)) -> Option<Bulk> {
     let kept = |i: usize| req.mask.is_none_or(|m| m[i]);
     if T::IS_INT {
         let sample = bulk_sample(values.len(), kept, |i| values[i].to_f64() as i64);
         let (lo, span) = (full.0 as i64, (full.1 - full.0) as usize);
         let ranks = if span < 1 << 20 { counted_quantiles(&sample, lo, span) } else { quantiles(&mut { sample }) };
-        return ranks.map(|(a, b)| (a as f64, b as f64));
+        return ranks.map(|[a, m, b]| Bulk { low: a as f64, median: m as f64, high: b as f64 });
     }
     let finite = |i: usize| values[i].to_f64().is_finite() && other.is_none_or(|o| o[i].to_f64().is_finite());
-    let mut sample = bulk_sample(values.len(), |i| kept(i) && finite(i), |i| values[i].to_f64());
-    quantiles(&mut sample) // finite values: partial_cmp orders them all
+    let sample = bulk_sample(values.len(), |i| kept(i) && finite(i), |i| values[i].to_f64());
+    bucketed_quantiles(sample, full).map(|[low, median, high]| Bulk { low, median, high })
+}
+
+/// Buckets [`bucketed_quantiles`] sorts a float sample into first.
+const BUCKETS: usize = 1024;
+
+/// [`quantiles`] of finite values within `full` (lo, hi): each value's bucket of `full` counted
+/// first, then each quantile selected within its own bucket only.
+fn bucketed_quantiles(mut sample: Vec<f64>, (lo, hi): (f64, f64)) -> Option<[f64; 3]> {
+    let scale = BUCKETS as f64 / (hi - lo);
+    if sample.len() < 2 || !(scale.is_finite() && scale > 0.0) || sample.iter().any(|v| !(lo..=hi).contains(v)) {
+        return quantiles(&mut sample); // finite values: partial_cmp orders them all
+    }
+    let bucket = |v: f64| (((v - lo) * scale) as usize).min(BUCKETS - 1); // monotone in v
+    let mut counts = [0usize; BUCKETS];
+    for &v in &sample {
+        counts[bucket(v)] += 1;
+    }
+    let mut out = [0.0; 3];
+    for (k, rank) in ranks(sample.len()).into_iter().enumerate() {
+        // the bucket holding rank `rank`, and the rank within it
+        let (mut b, mut below) = (0usize, 0usize);
+        while below + counts[b] <= rank {
+            below += counts[b];
+            b += 1;
+        }
+        let mut inside: Vec<f64> = sample.iter().copied().filter(|&v| bucket(v) == b).collect();
+        let (_, &mut value, _) = inside.select_nth_unstable_by(rank - below, f64::total_cmp);
+        out[k] = value;
+    }
+    sample.clear();
+    Some(out)
+}
+
+/// Where most of a frame's values lie: its 0.1 %, 50 % and 99.9 % quantiles ([`bulk`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Bulk {
+    pub(super) low: f64,
+    pub(super) median: f64,
+    pub(super) high: f64,
+}
+
+/// The ranks [`quantiles`] picks in a sample of `n` (≥ 2): 0.1 %, 50 %, 99.9 %.
+fn ranks(n: usize) -> [usize; 3] {
+    let last = (n - 1) as f64;
+    [BULK_QUANTILE, 0.5, 1.0 - BULK_QUANTILE].map(|q| (q * last).round() as usize)
 }
 
 /// [`quantiles`] of integer values within `lo..=lo + span`, by counting each level.
-fn counted_quantiles(sample: &[i64], lo: i64, span: usize) -> Option<(i64, i64)> {
+fn counted_quantiles(sample: &[i64], lo: i64, span: usize) -> Option<[i64; 3]> {
     if sample.len() < 2 {
         return None;
     }
@@ -146,66 +191,51 @@ fn counted_quantiles(sample: &[i64], lo: i64, span: usize) -> Option<(i64, i64)>
         };
         *count += 1;
     }
-    let last = sample.len() - 1;
-    let at = |q: f64| (q * last as f64).round() as usize;
-    let (lo_at, hi_at) = (at(BULK_QUANTILE), at(1.0 - BULK_QUANTILE));
     // the value of rank k (0-based) is the first level whose running count exceeds k
-    let (mut seen, mut low) = (0usize, None);
+    let wanted = ranks(sample.len());
+    let (mut out, mut next, mut seen) = ([0i64; 3], 0usize, 0usize);
     for (level, &c) in counts.iter().enumerate() {
         seen += c as usize;
-        if low.is_none() && seen > lo_at {
-            low = Some(lo + level as i64);
+        while next < 3 && seen > wanted[next] {
+            out[next] = lo + level as i64;
+            next += 1;
         }
-        if seen > hi_at {
-            return low.map(|l| (l, lo + level as i64));
+        if next == 3 {
+            return Some(out);
         }
     }
     None
 }
 
-/// The [`BULK_QUANTILE`] and `1 − BULK_QUANTILE` quantiles of a sample (reordered); None for
-/// fewer than two values.
-fn quantiles<K: Copy + PartialOrd>(sample: &mut [K]) -> Option<(K, K)> {
+/// The 0.1 %, 50 % and 99.9 % quantiles of a sample (reordered); None for fewer than two
+/// values.
+fn quantiles<K: Copy + PartialOrd>(sample: &mut [K]) -> Option<[K; 3]> {
     if sample.len() < 2 {
         return None;
     }
-    let last = sample.len() - 1;
-    let at = |q: f64| (q * last as f64).round() as usize;
-    let (lo_at, hi_at) = (at(BULK_QUANTILE), at(1.0 - BULK_QUANTILE));
+    let [lo_at, mid_at, hi_at] = ranks(sample.len());
     let order = |a: &K, b: &K| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal);
     let (_, &mut hi, _) = sample.select_nth_unstable_by(hi_at, order);
-    let (_, &mut lo, _) = sample[..=hi_at].select_nth_unstable_by(lo_at, order);
-    Some((lo, hi))
+    let (_, &mut mid, _) = sample[..=hi_at].select_nth_unstable_by(mid_at, order);
+    let (_, &mut lo, _) = sample[..=mid_at].select_nth_unstable_by(lo_at, order);
+    Some([lo, mid, hi])
 }
 
 /// A frame's histogram range that a few extreme pixels cannot stretch: its `full` min..max,
 /// cut to its `bulk` widened by one bulk span on each side. A frame whose values all lie that
 /// close to their bulk keeps its whole range; a flat bulk (span 0) keeps it too. Integer
 /// frames get whole levels.
-pub(super) fn robust_range<T: Sample>(bulk: Option<(f64, f64)>, full: (f64, f64)) -> (f64, f64) {
-    let Some((bulk_lo, bulk_hi)) = bulk else { return full };
-    let span = bulk_hi - bulk_lo;
+pub(super) fn robust_range<T: Sample>(bulk: Option<Bulk>, full: (f64, f64)) -> (f64, f64) {
+    let Some(Bulk { low, high, .. }) = bulk else { return full };
+    let span = high - low;
     if span.is_nan() || span <= 0.0 {
         return full;
     }
-    let (mut lo, mut hi) = (full.0.max(bulk_lo - BULK_MARGIN * span), full.1.min(bulk_hi + BULK_MARGIN * span));
+    let (mut lo, mut hi) = (full.0.max(low - BULK_MARGIN * span), full.1.min(high + BULK_MARGIN * span));
     if T::IS_INT {
         (lo, hi) = (lo.floor(), hi.ceil());
     }
     (lo, hi)
-}
-
-/// The simulated frame's range for bins that follow the real frame's: the real `range`
-/// carried over by the map that takes the real bulk onto the simulated one (a gain and an
-/// offset, from quantiles, which one pixel cannot move). None when either bulk is flat.
-pub(super) fn mapped_range(range: (f64, f64), real_bulk: (f64, f64), sim_bulk: (f64, f64)) -> Option<(f64, f64)> {
-    let (real_span, sim_span) = (real_bulk.1 - real_bulk.0, sim_bulk.1 - sim_bulk.0);
-    if !(real_span > 0.0 && sim_span > 0.0 && real_span.is_finite() && sim_span.is_finite()) {
-        return None;
-    }
-    let gain = sim_span / real_span;
-    let map = |v: f64| sim_bulk.0 + (v - real_bulk.0) * gain;
-    Some((map(range.0), map(range.1)))
 }
 
 #[cfg(test)]
@@ -217,7 +247,12 @@ mod tests {
         let req = Request::default();
         let clean: Vec<u16> = (0..10_000u32).map(|i| 3000 + (i * 7919 % 1600) as u16).collect();
         let full = (3000.0, 4599.0);
-        assert_eq!(robust_range::<u16>(bulk(&clean, Some(&clean), &req, full), full), full);
+        let found = bulk(&clean, Some(&clean), &req, full).unwrap();
+        let mut sorted = clean.clone();
+        sorted.sort_unstable();
+        let at = |k: usize| sorted[ranks(sorted.len())[k]] as f64;
+        assert_eq!((found.low, found.median, found.high), (at(0), at(1), at(2)));
+        assert_eq!(robust_range::<u16>(Some(found), full), full);
         let mut dead = clean.clone();
         for k in 0..5 {
             dead[k * 1000] = if k % 2 == 0 { 0 } else { 65535 };
@@ -244,8 +279,12 @@ mod tests {
         assert_eq!(counted_quantiles(&sample, -300, 899), selected);
         assert_eq!(counted_quantiles(&sample, 0, 10), selected);
         assert_eq!(counted_quantiles(&sample[..1], -300, 899), None);
-        // an offset and a gain carry the range over exactly
-        assert_eq!(mapped_range((10.0, 50.0), (20.0, 40.0), (120.0, 160.0)), Some((100.0, 180.0)));
-        assert_eq!(mapped_range((10.0, 50.0), (20.0, 20.0), (120.0, 160.0)), None);
+        // so does bucketing floats, clustered or spread, and with a value outside the range
+        let floats: Vec<f64> = sample.iter().map(|&v| (v as f64 * 0.37).powi(3)).collect();
+        let (lo, hi) = floats.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        let selected = quantiles(&mut floats.clone());
+        assert_eq!(bucketed_quantiles(floats.clone(), (lo, hi)), selected);
+        assert_eq!(bucketed_quantiles(floats.clone(), (lo, 0.0)), selected);
+        assert_eq!(bucketed_quantiles(vec![2.5; 50], (2.5, 2.5)), Some([2.5; 3]));
     }
 }

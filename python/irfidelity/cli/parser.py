@@ -167,8 +167,9 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                         "sum 1)")
     g.add_argument("--bins", type=_bins, metavar="N|levels",
                    help="histogram bins for NMI (default 256), or 'levels' (one bin per grey level)")
-    g.add_argument("--hist-range", type=_hist_range, metavar="data|full|LO,HI",
-                   help="histogram edges: both frames' min..max (default), 0..peak, or given")
+    g.add_argument("--hist-range", type=_hist_range, metavar="each|data|full|LO,HI",
+                   help="histogram edges: each frame's own robust range, the simulated one's carried by their gain "
+                        "and offset (default); both frames' min..max (the paper's); 0..peak; or given")
     g.add_argument("--missing", choices=MISSING_MODES,
                    help="a weighted component without inputs: drop it and renormalise the other weights "
                         "(default; shown as skipped), or fail (raise)")
