@@ -1,5 +1,6 @@
-"""NMI on shared edges (``hist_range="data"``, the default) against each frame's own bins
-(``hist_range="each"``): the figures docs/design.md quotes for the choice.
+"""NMI on the default binning (``hist_range="each"``: each frame's bins over its own robust
+range, one width, the edges locked by the offset) against shared edges (``hist_range="data"``,
+the paper's): the figures docs/design.md quotes for the choice.
 
 - A pure offset of a real frame (0..20 counts): NMI per offset on both binnings, per camera.
 - Nine pixels at 65535 in a noisy copy of the FLIR Duo Pro R frame: NMI against the clean copy's.
