@@ -188,7 +188,7 @@ def test_binned_nmi_equals_histogram2d_integer_edges():
     span = int(max(r.max(), s.max())) - lo + 1
     width = -(-span // bins)  # ceil: a bin is a whole number of grey levels
     want = _nmi_from_hist2d(r, s, bins, lo - 0.5, width)  # half-level edges: integers fall inside
-    assert irf.nmi(r, s, bins=bins).value == pytest.approx(want, abs=1e-12)
+    assert irf.nmi(r, s, bins=bins, hist_range="data").value == pytest.approx(want, abs=1e-12)
 
 
 def test_binned_nmi_float_equals_histogram2d():
@@ -197,7 +197,7 @@ def test_binned_nmi_float_equals_histogram2d():
     s = r + rng.normal(scale=0.3, size=r.shape)
     lo, hi = min(r.min(), s.min()), max(r.max(), s.max())
     want = _nmi_from_hist2d(r, s, 32, lo, (hi - lo) / 32)
-    assert irf.nmi(r, s, bins=32).value == pytest.approx(want, abs=1e-9)
+    assert irf.nmi(r, s, bins=32, hist_range="data").value == pytest.approx(want, abs=1e-9)
 
 
 def test_span_within_bins_equals_levels():

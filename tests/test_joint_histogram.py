@@ -77,7 +77,7 @@ def test_dense_levels_for_8_bit_frames():
     check_against_numpy(st, real, sim)
     # a pair spanning at most `bins` levels is binned exactly: the same table as "levels"
     span = int(max(real.max(), sim.max())) - int(min(real.min(), sim.min())) + 1
-    exact = irf.pair_stats(real, sim, bins=span).joint_histogram()[0]
+    exact = irf.pair_stats(real, sim, bins=span, hist_range="data").joint_histogram()[0]
     lv, re, se = st.joint_histogram()
     lo = int(min(real.min(), sim.min()))
     r0, s0 = int(re[0]) - lo, int(se[0]) - lo
@@ -88,7 +88,7 @@ def test_float_bins_and_explicit_range():
     rng = np.random.default_rng(2)
     real = rng.normal(20.0, 3.0, size=(60, 70)).astype(np.float32)
     sim = (real * 0.8 + rng.normal(0, 1, real.shape)).astype(np.float32)
-    st = irf.pair_stats(real, sim, peak=50.0, bins=100)
+    st = irf.pair_stats(real, sim, peak=50.0, bins=100, hist_range="data")
     counts, re, se = check_against_numpy(st, real, sim)
     assert counts.shape == (100, 100)
     assert re[0] == min(real.min(), sim.min()) and abs(re[-1] - max(real.max(), sim.max())) < 1e-9

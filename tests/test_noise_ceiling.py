@@ -258,8 +258,7 @@ def test_bad_noise_and_degenerate_frames(scene):
     # noise beyond the frame's own variance: said, and the ceiling is that of uncorrelated frames
     with pytest.warns(NoiseWarning, match="at least the real frame's variance"):
         loud = noise_ceiling(a, {"tvh": 100.0}, COMPONENTS, CONFIG)
-    unrelated = irf.nmi(a, np.random.default_rng(10).permutation(a.ravel()).reshape(a.shape)).value
-    assert loud["ssim"] == 0.0 and unrelated < loud["nmi"] < 2 * unrelated  # near NMI's floor at this size
+    assert loud["ssim"] == 0.0 and loud["nmi"] < 0.05
 
 
 def test_temperature_frames_get_no_noise_ceiling(scene):

@@ -64,8 +64,9 @@ def _no_nan(m: dict):
 @given(st.one_of(int_pair(), float_pair()))
 def test_symmetry(pair):
     r, s = pair
-    a = irf.pair_stats(r, s, peak=_peak(r))
-    b = irf.pair_stats(s, r, peak=_peak(r))
+    # shared edges: the default binning takes the real frame as the reference, not symmetric
+    a = irf.pair_stats(r, s, peak=_peak(r), hist_range="data")
+    b = irf.pair_stats(s, r, peak=_peak(r), hist_range="data")
     assert a.mse() == b.mse()
     sa, sb = a.ssim(), b.ssim()
     if r.dtype.kind in "ui":  # exact sums: bit-identical
@@ -215,10 +216,21 @@ def test_binned_nmi_equals_histogram2d_with_integer_level_edges(pair, bins):
     width = -(-levels // bins)  # ceil(span / bins) whole grey levels, starting at the data min
     nb = -(-levels // width)
     edges = lo - 0.5 + width * np.arange(nb + 1, dtype=np.float64)
-    got = irf.nmi(r, s, bins=bins)
+    got = irf.nmi(r, s, bins=bins, hist_range="data")
     assert got.value == pytest.approx(_hist2d_nmi(r, s, edges), abs=1e-12)
     if levels <= bins:  # a pair spanning at most `bins` levels is binned exactly
         assert got.value == pytest.approx(irf.nmi(r, s, bins="levels").value, abs=1e-15)
+
+
+@SETTINGS
+@given(int_pair(max_side=32), st.integers(-3000, 3000), st.sampled_from([3, 16, 256]))
+def test_an_offset_reads_nmi_one_on_the_default_binning(pair, offset, bins):
+    """The default bins lock the simulated frame's edges to the real frame's by the offset."""
+    r, _ = pair
+    info = np.iinfo(r.dtype)
+    s = r.astype(np.int64) + offset
+    assume(s.min() >= info.min and s.max() <= info.max)
+    assert irf.nmi(r, s.astype(r.dtype), bins=bins).value == 1.0
 
 
 @SETTINGS
@@ -234,5 +246,5 @@ def test_float_binned_nmi_equals_histogram2d(pair, bins):
     pos = np.concatenate([(r64.ravel() - lo) / width, (s64.ravel() - lo) / width])
     frac = np.abs(pos - np.round(pos))
     assume(not np.any((frac < 1e-9) & (np.round(pos) > 0) & (np.round(pos) < bins)))
-    got = irf.nmi(r, s, bins=bins)
+    got = irf.nmi(r, s, bins=bins, hist_range="data")
     assert got.value == pytest.approx(_hist2d_nmi(r64, s64, edges), abs=1e-12)

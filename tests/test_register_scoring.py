@@ -58,11 +58,9 @@ def test_registration_restores_the_score_of_a_displaced_simulated_frame():
     # unregistered, the image metrics measure the misalignment
     assert displaced.fidelity < aligned.fidelity - 0.08
     assert displaced.components["ssim"] < aligned.components["ssim"] - 0.1
-    # registered, the score is the aligned one's within 1.5 %: resampling the displaced frame
-    # (twice cubic) averages some of its noise, so SSIM and NMI read a little higher
-    assert abs(registered.fidelity - aligned.fidelity) < 0.015
-    assert 0 <= registered.components["nmi"] - aligned.components["nmi"] < 0.03
-    assert 0 <= registered.components["ssim"] - aligned.components["ssim"] < 0.01
+    # registered, the score is the aligned one's within a percent
+    assert abs(registered.fidelity - aligned.fidelity) < 0.01
+    assert abs(registered.components["nmi"] - aligned.components["nmi"]) < 0.02
     reg = registered.registration
     assert reg["model"] == "rigid" and reg["confidence"] > 0.5
     dy, dx = reg["shift"]  # real ≈ shift(sim, (dy, dx)): the view moved +3 px in x

