@@ -361,3 +361,16 @@ def test_cli_max_memory(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     assert main(["score", pr, ps, "--bits", "12", "--register", "translation", "--max-memory", "100k"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "memory budget of 102400 bytes" in err[0] and "--max-memory" in err[0], err
+
+
+def test_the_transfer_plans_its_copies_of_cropped_frames() -> None:
+    """A cropped view is copied for the kernel: planned with the frames before it is made."""
+    rng = np.random.default_rng(3)
+    whole = rng.normal(1000.0, 20.0, (1024, 1025))
+    real, sim = whole[:, :-1], whole[:, 1:]  # views, not C-contiguous: 8 MB each
+    frames = real.nbytes + sim.nbytes
+    with pytest.raises(FidelityError, match="measuring the transfer of 1024 x 1024") as err:
+        irf.transfer(real, sim, max_bytes=frames + real.size)  # no room for the two copies
+    assert "max_bytes" in str(err.value) or "budget" in str(err.value)
+    t = irf.transfer(np.ascontiguousarray(real), np.ascontiguousarray(sim), max_bytes=frames + real.size)
+    assert t.tiles > 0

@@ -163,5 +163,5 @@ def transfer(real: Any, sim: Any, *, mask: Any = None, roi: Any = None, real_ref
         source = "real_ref"
     elif real_noise is not None:
         variance, source = real_noise_variance(real_noise), "real_noise"
-    spectra = transfer_spectra(r, s, mask=keep, real_ref=ref, tile=tile)
+    spectra = transfer_spectra(r, s, mask=keep, real_ref=ref, tile=tile, max_bytes=max_bytes)
     return estimate(spectra, real_variance=variance, noise_source=source, reference_frequency=reference_frequency)

@@ -77,7 +77,8 @@ def pair_spectra(sources: Mapping[str, Any], config: Any, *, real_ref: np.ndarra
         real, sim, mask, _ = aligned(real, sources["sim_unregistered"], registration, mask, max_bytes)
         real_ref = None if real_ref is None else real_ref[_overlap(sources["real"].shape, registration)]
     (real, sim, real_ref), mask = cropped([real, sim, real_ref], None if mask is None else np.asarray(mask, dtype=bool))
-    return transfer_spectra(real, sim, mask=mask, real_ref=real_ref, tile=config.transfer_options.get("tile"))
+    return transfer_spectra(real, sim, mask=mask, real_ref=real_ref, tile=config.transfer_options.get("tile"),
+                            max_bytes=max_bytes)
 
 
 def scene_transfer(sources: Mapping[str, Any], config: Any, *, real_ref: np.ndarray | None = None,

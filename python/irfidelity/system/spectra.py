@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _core
+from .. import _core, budget
 from ..errors import ShapeError
 from ..frames import FRAME_DTYPES
 from .rings import displacement, unchanged
@@ -111,11 +111,27 @@ def _kernel_frames(real: np.ndarray, sim: np.ndarray, ref: np.ndarray | None) ->
     return real, sim, ref
 
 
+def _copy_bytes(real: np.ndarray, sim: np.ndarray, ref: np.ndarray | None) -> int:
+    """The bytes :func:`_kernel_frames` allocates: every frame as float64 when the dtypes do not
+    go together, else a copy of each frame that is not C-contiguous (a cropped or registered
+    view)."""
+    frames = [f for f in (real, sim, ref) if f is not None]
+    same = real.dtype in FRAME_DTYPES and sim.dtype in (real.dtype, np.float64) and (ref is None or ref.dtype == real.dtype)
+    copies = sum(f.nbytes for f in frames if not f.flags.c_contiguous)
+    return copies + (0 if same else sum(8 * f.size for f in frames))
+
+
 def transfer_spectra(real: np.ndarray, sim: np.ndarray, *, mask: np.ndarray | None = None,
-                     real_ref: np.ndarray | None = None, tile: int | None = None) -> TransferSpectra:
+                     real_ref: np.ndarray | None = None, tile: int | None = None,
+                     max_bytes: int | None = None) -> TransferSpectra:
     """The Welch and low-frequency sums of one frame pair (2-D frames of one shape, as scored;
-    ``mask`` the scored pixels; ``real_ref`` a second real frame of the scene)."""
-    real, sim, ref = _kernel_frames(real, sim, real_ref)
+    ``mask`` the scored pixels; ``real_ref`` a second real frame of the scene). The frames, the
+    copies the kernel needs and the mask are planned against ``max_bytes`` first."""
+    real, sim = np.asarray(real), np.asarray(sim)
+    ref = None if real_ref is None else np.asarray(real_ref)
+    held = budget.nbytes(real, sim, ref, None if mask is None else np.asarray(mask))
+    budget.check("measuring the transfer", real.shape, held + _copy_bytes(real, sim, ref) + real.size, max_bytes)
+    real, sim, ref = _kernel_frames(real, sim, ref)
     tile = tile_size(real.shape) if tile is None else int(tile)
     step = tiling(real.shape, tile)
     mask = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
