@@ -553,12 +553,16 @@ def main() -> None:
         "exr_zip_block": block_seeds({ZIP, ZIPS}),
         "decode_fff": fff_seeds(),
         "decode_rjpeg": rjpeg_seeds(),
+        "temperatures_fff": {**fff_seeds(), **rjpeg_seeds()},
     }
     for target, seeds in targets.items():
         d = args.out / target
         d.mkdir(parents=True, exist_ok=True)
         for name, data in seeds.items():
-            if target.startswith("decode_"):
+            if target == "temperatures_fff":
+                for sel in (0, 9):  # page 0 in Celsius, page 0 in kelvin
+                    (d / f"{name}.s{sel}").write_bytes(bytes([sel]) + data)
+            elif target.startswith("decode_"):
                 # selector 0 (defaults) and 2 ("R"), and one under the tight budget
                 for sel in (0, 2, 130):
                     (d / f"{name}.s{sel}").write_bytes(bytes([sel]) + data)

@@ -10,7 +10,8 @@
 use std::collections::HashSet;
 use std::sync::{Mutex, Once};
 
-use irfidelity::io::{decode_bytes, DecodeOptions};
+use irfidelity::io::{decode_bytes, read_camera_info_bytes, DecodeOptions, FrameData};
+use irfidelity::radiometry::{temperatures as to_temperatures, Converted, Unit};
 use irfidelity::Error;
 
 /// The limits of a fuzzed decode: a header may claim anything, the decode allocates at most
@@ -81,4 +82,38 @@ pub fn block(data: &[u8]) -> Option<(&[u8], Vec<usize>, usize, usize, usize)> {
     let sizes: Vec<usize> = (0..n).map(|i| if head[2] >> (3 + i % 5) & 1 == 1 { 4 } else { 2 }).collect();
     let selected = head[3] as usize % n;
     Some((body, sizes, selected, w, h))
+}
+
+/// A radiometric file (FLIR FFF or SEQ, a radiometric JPEG; after one selector byte: page,
+/// unit) decoded, its camera-info record read, and its counts converted to temperatures
+/// (`radiometry::temperatures`): each step returns its result or an error naming the input (a
+/// calibration no model can use is an `Error::Value`), and a conversion gives one temperature
+/// per count.
+pub fn temperatures(data: &[u8]) {
+    let Some((&sel, bytes)) = data.split_first() else { return };
+    let opts = DecodeOptions { channel: None, max_pixels: MAX_PIXELS, max_bytes: MAX_BYTES, page: (sel % 3) as usize };
+    let Ok(frame) = decode_bytes(bytes, "fuzz-input", &opts) else { return }; // decode_fff's business
+    let info = match read_camera_info_bytes(bytes, "fuzz-input", &opts) {
+        Ok(info) => info,
+        Err(Error::Frame(msg)) => return assert!(msg.starts_with("fuzz-input: "), "{msg}"),
+        Err(other) => panic!("not a FrameError: {other:?}"),
+    };
+    let unit = if sel & 8 == 0 { Unit::Celsius } else { Unit::Kelvin };
+    let converted = match &frame.data {
+        FrameData::U8(v) => to_temperatures(v, &info.calibration, unit),
+        FrameData::U16(v) => to_temperatures(v, &info.calibration, unit),
+        FrameData::I16(v) => to_temperatures(v, &info.calibration, unit),
+        FrameData::U32(v) => to_temperatures(v, &info.calibration, unit),
+        FrameData::F16(v) => to_temperatures(v, &info.calibration, unit),
+        FrameData::F32(v) => to_temperatures(v, &info.calibration, unit),
+        FrameData::F64(v) => to_temperatures(v, &info.calibration, unit),
+    };
+    match converted {
+        Ok(Converted { values, outside, nonfinite }) => {
+            assert_eq!(values.len(), frame.rows * frame.cols);
+            assert!(outside + nonfinite <= values.len());
+        }
+        Err(Error::Value(_)) => {}
+        Err(other) => panic!("not a ValueError: {other:?}"),
+    }
 }

@@ -421,6 +421,15 @@ pub fn read_camera_info(path: &Path, opts: &DecodeOptions) -> Result<CameraInfo>
     }
 }
 
+/// The calibration of a radiometric FLIR frame held in memory (`name` names it in errors), as
+/// [`read_camera_info`] reads it from a file.
+pub fn read_camera_info_bytes(bytes: &[u8], name: &str, opts: &DecodeOptions) -> Result<CameraInfo> {
+    match guarded(name, || run_op(Cursor::new(bytes), &Op::Radiometry(opts), None))? {
+        OpOut::Radiometry(c) => Ok(*c),
+        _ => unreachable!("read_camera_info returns a calibration"),
+    }
+}
+
 /// The pages of a frame file: how many can be read, and why the rest cannot.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PageChain {
