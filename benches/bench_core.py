@@ -6,8 +6,9 @@ otherwise run): ``skimage.metrics.mean_squared_error`` and PSNR from it,
 ``skimage.metrics.normalized_mutual_information(bins=256)`` and a numpy-float64 global SSIM
 (means, variances, covariance). irfidelity: one ``pair_stats`` call computing the squared
 error, the SSIM moments and the 256-bin joint histogram and entropies (exact sums for uint16),
-on shared edges (``hist_range="data"``) and, in the "each" column, on each frame's own edges
-set by its bulk (``hist_range="each"``, what ``evaluate`` and sequences use).
+on shared edges (``hist_range="data"``, the paper's) and, in the "each" column, on each
+frame's own edges locked by the offset (``hist_range="each"``, the default: what ``evaluate``
+and sequences use).
 The run checks that both sides agree on MSE, PSNR and SSIM (scikit-image's NMI is Studholme's
 ``(H(R) + H(S)) / H(R, S)`` over its own bins: the same work, another number).
 
