@@ -274,6 +274,7 @@ def test_dead_pixels_of_a_moving_scene_are_named_and_more_never_score_better():
     last = reps[-1]
     assert last.components["mtf"] == 0.0 and last.transfer["unread_cause"] == "simulator"
     assert "noise hides" in last.verdict["components"]["mtf"]["text"]
+    assert "the simulated frame's noise hides it" in last.summary_text()
 
 
 def test_a_noisy_simulator_is_forgiven_only_a_perfect_simulators_doubt(frames):

@@ -83,9 +83,11 @@ _RAW = {
 
 #: The raw text of a camera component graded from the scene's transfer (irfidelity.system).
 _SCENE_RAW = {
-    "mtf": lambda m: f"scene: MTF ratio {m['scene_mtf_ratio']:.3g} at {m['scene_reference_frequency']:.3g} cy/px, "
-                     f"MTF50 mismatch {100 * m['scene_mtf50_mismatch']:.3g} %, band {m['scene_band_low']:.3g}–"
-                     f"{m['scene_band_high']:.3g} cy/px",
+    "mtf": lambda m: (f"scene: MTF ratio {m['scene_mtf_ratio']:.3g} at {m['scene_reference_frequency']:.3g} cy/px, "
+                      f"MTF50 mismatch {100 * m['scene_mtf50_mismatch']:.3g} %, band {m['scene_band_low']:.3g}–"
+                      f"{m['scene_band_high']:.3g} cy/px") if m["scene_mtf50_mismatch"] is not None else (
+                      f"scene: no MTF ratio to read, the simulated frame's noise hides it (band "
+                      f"{m['scene_band_low']:.3g}–{m['scene_band_high']:.3g} cy/px)"),
     "sitf": lambda m: f"scene: gain {m['scene_gain']:.4g} ± {m['scene_gain_err']:.1g}, offset {m['scene_offset']:.4g}",
     "noise": lambda m: f"scene: noise ratio {m['scene_noise_ratio']:.3g} ± {m['scene_noise_ratio_err']:.1g}",
 }
