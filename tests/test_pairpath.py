@@ -91,11 +91,12 @@ def _core_calls(fn) -> list[str]:
 
 def test_a_registered_evaluate_makes_one_scoring_call():
     # the pair's one path, the defects search on the frames as scored, the summary, the
-    # concentrated-error check, then the scene's transfer (block means, then the tiles)
+    # concentrated-error check, then the scene's transfer (its memory plan, block means, then
+    # the tiles)
     real, sim = _pair(FRAMES[1])
     kw = dict(bits=16, peak="range", register="translation", register_method="phase")
     calls = _core_calls(lambda: irf.evaluate(real, sim, **kw))
-    scene = ["low_spectrum", "cross_spectra"]
+    scene = ["check_budget", "low_spectrum", "cross_spectra"]
     assert calls == ["score_registered", "error_profile", "PairStats.summary", "error_profile", *scene], calls
     # unregistered: the memory plan is checked (no data crosses), then one pass and its summary
     calls = _core_calls(lambda: irf.evaluate(real, sim, bits=16, peak="range"))
