@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import json
 import re
+import struct
+import zlib
 from pathlib import Path
 
 import cv2
@@ -58,6 +60,17 @@ try:
     elif op == "noise3d":
         nz = irf.noise3d(job["paths"], **kw)
         out["sigma"] = nz.sigma
+    elif op == "load":
+        out["shape"] = list(irf.load_frame(job["path"], **kw).shape)
+    elif op == "evaluate_paths":
+        out["fidelity"] = irf.evaluate(job["real"], job["sim"], **kw).fidelity
+    elif op == "cli":
+        import contextlib, io
+        from irfidelity.cli import main
+        err, said = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(said):
+            out["status"] = main(job["argv"])
+        out["stderr"], out["stdout"] = err.getvalue(), said.getvalue()
     elif op == "sequence":
         seq = irf.score_sequence(job["real"], job["sim"], progress=False, **kw)
         out["errors"] = [f["error"] for f in seq.frames]
@@ -374,3 +387,86 @@ def test_the_transfer_plans_its_copies_of_cropped_frames() -> None:
     assert "max_bytes" in str(err.value) or "budget" in str(err.value)
     t = irf.transfer(np.ascontiguousarray(real), np.ascontiguousarray(sim), max_bytes=frames + real.size)
     assert t.tiles > 0
+
+
+# ------------------------------------------------------------------ radiometric files, capped
+
+def flir_file(path: Path, size: int, counts: np.ndarray | None) -> str:
+    """A little-endian FLIR FFF frame of ``size`` x ``size`` counts (each row ``counts``, or
+    zeros), as a PNG raw record (FLIR's byte order) with a camera-info record holding a
+    Duo Pro R calibration; built row by row, never holding the frame."""
+    row = b"\0" + (bytes(2 * size) if counts is None else counts.astype("<u2").tobytes())
+    z = zlib.compressobj(1)
+    rows = b"".join(z.compress(row) for _ in range(size)) + z.flush()
+    chunk = lambda kind, data: struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", size, size, 16, 0, 0, 0, 0))
+           + chunk(b"IDAT", rows) + chunk(b"IEND", b""))
+    raw = struct.pack("<HHH", 2, size, size) + bytes(26) + png
+    camera = bytearray(0x468)
+    camera[0:2] = struct.pack("<H", 2)
+    for at, value in {0x20: 0.95, 0x24: 1.0, 0x28: 293.15, 0x2C: 293.15, 0x30: 293.15, 0x34: 1.0, 0x3C: 0.5,
+                      0x58: 17096.0, 0x5C: 1428.0, 0x60: 1.0, 0x70: 0.006569, 0x74: 0.01262, 0x78: -0.002276,
+                      0x7C: -0.00667, 0x80: 1.9, 0x30C: 0.0125}.items():
+        camera[at:at + 4] = struct.pack("<f", value)
+    camera[0x308:0x30C] = struct.pack("<i", -370)
+    records = [(1, raw), (0x20, bytes(camera))]
+    head = bytearray(64)
+    head[:4], head[4:8] = b"FFF\0", b"FLIR"
+    head[20:32] = struct.pack("<III", 100, 64, len(records))
+    at, directory = 64 + 32 * len(records), b""
+    for kind, body in records:
+        directory += struct.pack("<HHIIII", kind, 1, 100, 1, at, len(body)) + bytes(12)
+        at += len(body)
+    path.write_bytes(bytes(head) + directory + b"".join(body for _, body in records))
+    return str(path)
+
+
+def test_a_huge_radiometric_frame_in_temperature_is_refused_under_a_cap(tmp_path: Path) -> None:
+    """A 2 MB FFF whose PNG holds 16000 x 16000 counts: refused by the default pixel limit, and
+    with the limit raised its conversion to temperature is refused by the budget before it
+    allocates (it aborted under a 2 GB cap)."""
+    path = flir_file(tmp_path / "huge.fff", 16000, None)
+    rec = run_child(cap=2 * GIB, frames=False, op="load", path=path, kwargs={"unit": "C"})
+    assert rec["kind"] == "error" and "exceeds the limit of 67108864 pixels" in rec["message"], rec
+    rec = run_child(cap=2 * GIB, frames=False, op="load", path=path,
+                    kwargs={"unit": "C", "max_bytes": 600_000_000, "max_pixels": 16000 * 16000})
+    assert rec["kind"] == "error" and "conversion to temperature of 16000 x 16000" in rec["message"], rec
+    assert rec["maxrss"] < 800 << 20, rec
+
+
+def test_scoring_in_temperature_at_8k_peaks_at_its_plan(tmp_path: Path) -> None:
+    """Two 8192 x 8192 FFF frames scored in °C within a 1300 MiB budget, under a cap: the
+    peak is the scoring plan's (both frames' temperatures and 3 bytes a pixel) within 10 %,
+    and a smaller budget refuses the simulated frame's conversion, naming it."""
+    levels = (np.arange(BIG) * 3) % 2000
+    real = flir_file(tmp_path / "real.fff", BIG, 13000 + levels)
+    sim = flir_file(tmp_path / "sim.fff", BIG, 13100 + levels)
+    budget_bytes = 1300 << 20
+    rec = run_child(cap=int(1.9 * GIB), frames=False, op="evaluate_paths", real=real, sim=sim,
+                    kwargs={"unit": "C", "max_bytes": budget_bytes})
+    assert rec["kind"] == "ok" and 0 < rec["fidelity"] <= 1, rec
+    plan = 2 * 8 * BIG * BIG + 3 * BIG * BIG  # evaluation.SCORING_BYTES
+    assert abs(rec["maxrss"] - plan) <= 0.1 * plan and rec["maxrss"] <= budget_bytes, (rec["maxrss"], plan)
+    rec = run_child(cap=int(1.9 * GIB), frames=False, op="cli",
+                    argv=["score", real, sim, "--unit", "C", "--max-memory", "1100M"])
+    assert rec["status"] == 2 and len(rec["stderr"].strip().splitlines()) == 1, rec
+    assert "conversion to temperature beside the pair's other frames" in rec["stderr"] and "--max-memory" in rec["stderr"]
+
+
+def test_a_sequence_of_frames_beyond_the_pixel_limit_is_error_rows_under_a_cap(tmp_path: Path) -> None:
+    """Two workers on two pairs of small files that decode to 16384 x 16384: error rows naming
+    --max-pixels by default; with it raised, scored within the workers' budgets; never a signal."""
+    rows = zlib.compress(bytes(16384 * (1 + 2 * 16384)), 1)
+    chunk = lambda kind, data: struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 16384, 16384, 16, 0, 0, 0, 0))
+           + chunk(b"IDAT", rows) + chunk(b"IEND", b""))
+    for side in ("real", "sim"):
+        (tmp_path / side).mkdir()
+        for i in range(2):
+            (tmp_path / side / f"{i}.png").write_bytes(png)
+    argv = ["score", str(tmp_path / "real"), str(tmp_path / "sim"), "--workers", "2", "--no-progress", "--bits", "12"]
+    rec = run_child(cap=4 * GIB, frames=False, op="cli", argv=argv)
+    assert rec["status"] == 3 and "0 scored, 2 failed" in rec["stdout"], rec
+    assert "exceeds the limit of 67108864 pixels; raise max_pixels (--max-pixels)" in rec["stdout"], rec
+    rec = run_child(cap=4 * GIB, frames=False, op="cli", argv=[*argv, "--max-pixels", str(16384 * 16384)])
+    assert rec["status"] == 0 and "2 scored, 0 failed" in rec["stdout"], rec  # within 2 workers x 2 GiB

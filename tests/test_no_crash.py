@@ -39,12 +39,13 @@ CHILD = textwrap.dedent(
     from irfidelity.errors import FrameError
     from irfidelity.frames import list_channels, load_frame, page_count
     rec = {}
+    limit = job.get("max_pixels", 16384 * 16384)  # the budget, not the default pixel limit, is under test
     try:
         if job["op"] == "load" and job.get("max_bytes") is not None:
-            a = _core.load_frame(job["path"], job.get("channel"), 0, None, max_bytes=job["max_bytes"])
+            a = _core.load_frame(job["path"], job.get("channel"), 0, limit, max_bytes=job["max_bytes"])
             rec.update(kind="ok", shape=list(a.shape), dtype=str(a.dtype), nonzero=int(np.count_nonzero(a)))
         elif job["op"] == "load":
-            a = load_frame(job["path"], channel=job.get("channel"))
+            a = load_frame(job["path"], channel=job.get("channel"), max_pixels=limit)
             rec.update(kind="ok", shape=list(a.shape), dtype=str(a.dtype), nonzero=int(np.count_nonzero(a)))
         elif job["op"] == "channels":
             rec.update(kind="ok", value=list_channels(job["path"]))
@@ -289,6 +290,26 @@ def test_png_16k_16bit_decodes_within_the_budget(tmp_path: Path, colour: int, ch
     assert rec["maxrss"] < RSS_LIMIT, rec
 
 
+def test_the_default_pixel_limit_refuses_a_small_file_that_expands_past_it(tmp_path: Path, capsys) -> None:
+    # a 2 KB deflate PNG of 16384 x 16384 16-bit pixels (512 MiB decoded): refused unless asked
+    import irfidelity as irf
+    from irfidelity.cli import main
+
+    path = tmp_path / "big.png"
+    path.write_bytes(png_file(16384, 16384, 16, 0, zeros_zlib(16384 * (1 + 16384 * 2))))
+    assert path.stat().st_size < 1 << 20
+    rec = run_child(op="load", path=str(path), max_pixels=None)
+    assert rec["kind"] == "frame_error" and "16384 x 16384 pixels exceeds the limit of 67108864 pixels" in rec["message"]
+    assert "max_pixels" in rec["message"] and "--max-pixels" in rec["message"] and rec["maxrss"] < 300 << 20, rec
+    assert main(["score", str(path), str(path), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--max-pixels" in err and str(path) in err, err
+    with irf.budget.pixel_limit(16384 * 16384):  # what --max-pixels sets for a command
+        assert irf.frames.default_max_pixels() == 16384 * 16384
+        assert irf.FrameSequence([str(path)]).max_pixels == 16384 * 16384
+    assert irf.budget.max_pixels(None) == irf.budget.DEFAULT_MAX_PIXELS == 8192 * 8192
+
+
 def test_tiff_claiming_16k_rgba_float64_is_refused(tmp_path: Path) -> None:
     path = tmp_path / "f64.tif"
     path.write_bytes(rgba_tiff(16384, 64, 3, 16384, b"\0" * 16, compression=1))
@@ -341,7 +362,7 @@ def test_sequence_row_for_a_hostile_frame(tmp_path: Path) -> None:
     good = tmp_path / "good.png"
     good.write_bytes(png_file(8, 8, 8, 0, zlib.compress(b"\0" * 72)))
     rows = _core.score_pairs([str(good), str(bad)], [str(good), str(good)], workers=1,
-                             request=SequenceRequest(max_bytes=64 << 20))
+                             request=SequenceRequest(max_bytes=64 << 20, max_pixels=16384 * 16384))
     assert rows[0][2] is None and rows[0][1] is not None
     assert rows[1][1] is None and BUDGET in rows[1][2] and "67108864 bytes" in rows[1][2]
 

@@ -414,8 +414,10 @@ def test_tiny_header_claiming_a_huge_image(tmp_path):
     path = tmp_path / "huge.fff"
     path.write_bytes(_fff(struct.pack("<HHH", 2, 16000, 16000) + bytes(26) + bytes(10)))
     with pytest.raises(FrameError, match="claims 16000 x 16000 pixels") as info:
-        irf.load_frame(path)
+        irf.load_frame(path, max_pixels=16000 * 16000)
     assert str(path) in str(info.value)
+    with pytest.raises(FrameError, match=r"16000 x 16000 pixels exceeds the limit of 67108864 pixels.*--max-pixels"):
+        irf.load_frame(path)  # the default limit: 8192 x 8192
     with pytest.raises(FrameError, match="max_pixels"):
         irf.load_frame(path, max_pixels=1000)
     with pytest.raises(FrameError, match="max_bytes"):

@@ -10,18 +10,30 @@ run's ``max_memory`` is divided among its workers (:func:`per_pair`).
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import os
 import re
-from typing import Any
+from typing import Any, Iterator
 
 from . import _core
 from .errors import FidelityError
 
-__all__ = ["DEFAULT_MAX_BYTES", "resolve", "per_pair", "parse_size", "check", "nbytes", "cpu_workers"]
+__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_PIXELS", "BLOCK_PIXELS", "pixel_limit", "max_pixels", "resolve", "per_pair", "parse_size", "check", "nbytes", "cpu_workers",
+           "row_blocks"]
 
 #: The default per-pair budget, bytes (``rust/io/mod.rs``: 2 GiB).
 DEFAULT_MAX_BYTES: int = int(_core.default_max_bytes())
+
+#: The default pixel limit of a decode (``rust/io/mod.rs``: one 8192 x 8192 frame).
+DEFAULT_MAX_PIXELS: int = int(_core.default_max_pixels())
+
+_PIXEL_LIMIT: contextvars.ContextVar[int | None] = contextvars.ContextVar("irfidelity_pixel_limit", default=None)
+
+#: Pixels per block of a pass that works a block of rows at a time instead of on frame-sized
+#: temporaries (8 MiB of float64).
+BLOCK_PIXELS = 1 << 20
 
 _UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
 _MOST = (1 << 64) - 1
@@ -103,3 +115,41 @@ def check(operation: str, shape: tuple[int, ...], bytes_needed: float, max_bytes
     the bytes needed, the budget and how to raise it."""
     needed = min(int(math.ceil(bytes_needed)), _MOST)  # beyond counting is beyond any budget
     _core.check_budget(operation, (int(shape[0]), int(shape[1])), needed, resolve(max_bytes), kind)
+
+
+def row_blocks(shape: tuple[int, ...], pixels: int = BLOCK_PIXELS) -> list[slice]:
+    """Slices of whole rows (the first axis) of about ``pixels`` pixels each, covering ``shape``:
+    the blocks of a pass whose temporaries stay that small, whatever the frame size."""
+    rows = int(shape[0]) if shape else 1
+    per_row = max(1, math.prod(int(n) for n in shape[1:]))
+    step = max(1, pixels // per_row)
+    return [slice(start, start + step) for start in range(0, rows, step)]
+
+
+@contextlib.contextmanager
+def pixel_limit(max_pixels: int) -> Iterator[None]:
+    """Within the block, decodes given no ``max_pixels`` allow frames of up to ``max_pixels``
+    pixels instead of :data:`DEFAULT_MAX_PIXELS` (what ``--max-pixels`` does for a command):
+    every path a call decodes, its real_ref, masks and curves included.
+
+    >>> import irfidelity as irf
+    >>> with irf.budget.pixel_limit(16384 * 16384):
+    ...     irf.budget.max_pixels(None)
+    268435456
+    """
+    if isinstance(max_pixels, bool) or not isinstance(max_pixels, int) or not 1 <= max_pixels < _LARGEST:
+        raise FidelityError(f"max_pixels must be a number of pixels in 1..2^63-1, got {max_pixels!r}",
+                            option="max_pixels")
+    token = _PIXEL_LIMIT.set(int(max_pixels))
+    try:
+        yield
+    finally:
+        _PIXEL_LIMIT.reset(token)
+
+
+def max_pixels(given: int | None) -> int:
+    """The pixel limit of a decode: ``given``, else :func:`pixel_limit`'s, else the default."""
+    if given is not None:
+        return given
+    limit = _PIXEL_LIMIT.get()
+    return DEFAULT_MAX_PIXELS if limit is None else limit

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _core
+from . import _core, budget
 from .frames import FRAME_DTYPES
 
 __all__ = ["TOP_SHARE", "MOST", "concentrated_error", "Defects", "find_defects"]
@@ -284,6 +284,17 @@ def _cluster(real: np.ndarray, sim: np.ndarray, scored: np.ndarray, members: tup
             "rows": [int(rows.min()), int(rows.max())], "cols": [int(cols.min()), int(cols.max())]}
 
 
+def _candidates(real: np.ndarray, sim: np.ndarray, scored: np.ndarray, median: float, threshold: float) -> np.ndarray:
+    """The scored pixels whose difference lies beyond ``threshold`` from ``median``, found a
+    block of rows at a time (float64 differences of one block, not of the frame)."""
+    far = np.empty(real.shape, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        for block in budget.row_blocks(real.shape):
+            np.greater(np.abs(sim[block].astype(np.float64) - real[block] - median), threshold, out=far[block])
+    far &= scored
+    return far
+
+
 def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
     """Clusters of dead, hot or stuck pixels in either frame, before the image components.
 
@@ -324,9 +335,7 @@ def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
                                                       most=2.0, border=_BORDER)
     if count == 0 or not math.sqrt(largest) > threshold - abs(median):
         return None
-    with np.errstate(invalid="ignore"):
-        far = np.abs(sim.astype(np.float64) - real - median) > threshold
-    far &= scored
+    far = _candidates(real, sim, scored, median, threshold)
     rows, cols = np.nonzero(far)
     if rows.size == 0 or rows.size > MAX_CANDIDATES * count:
         return None

@@ -85,6 +85,16 @@ def _registered(r: Any, s: Any, mask: Any, components: tuple, config: ScoringCon
     return _stats.PairStats(pair.stats, peak=peak, bins=bins), span
 
 
+def _load_ref(real_ref: Any, config: ScoringConfig, sources: dict, max_bytes: int | None) -> np.ndarray:
+    """The second real frame, decoded (and converted to ``config.unit``) within what ``max_bytes``
+    leaves beside the scored pair."""
+    held = budget.nbytes(np.asarray(sources["real"]), np.asarray(sources["sim"]))
+    ref = _load(real_ref, "real_ref", config.real_channel, max(1, budget.resolve(max_bytes) - held))
+    if config.unit is not None:
+        ref = to_temperature(ref, real_ref, "real_ref", config, max_bytes, held=held)
+    return ref
+
+
 def _left_out_defects(sources: dict) -> bool:
     """Finds clusters of defective pixels in the pair as scored (:func:`irfidelity.defects.find_defects`)
     and leaves them out of ``sources["mask"]``; whether there were any."""
@@ -113,9 +123,14 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
     """The pair's statistics and the real frame's range over the scored pixels (``mask``, within
     the union of ``regions``; a registration is searched within ``mask`` alone)."""
     r = _load(real, "real", config.real_channel, max_bytes)
+    if config.unit is not None:  # converted before the simulated frame is decoded: one frame of counts at a time
+        r = to_temperature(r, real, "real", config, max_bytes)
+    if isinstance(sim, (str, os.PathLike)) and np.ndim(r) == 2:  # the least a frame of its shape holds: a byte a pixel
+        budget.check("decoding the simulated frame beside the real one", np.shape(r), budget.nbytes(r) + np.size(r),
+                     max_bytes)
     s = _load(sim, "sim", config.sim_channel, _left(max_bytes, r) if isinstance(sim, (str, os.PathLike)) else None)
     if config.unit is not None:
-        r, s = to_temperature(r, real, "real", config), to_temperature(s, sim, "sim", config)
+        s = to_temperature(s, sim, "sim", config, max_bytes, held=budget.nbytes(r))
     scored = scored_mask(mask, regions, np.shape(r))
     sources.update(real=r, sim=s, mask=scored)
     inputs.update(real=describe_input(real), sim=describe_input(sim), shape=list(np.shape(r)),
@@ -149,13 +164,11 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
 
 
 def _ceiling(real_ref: Any, components: tuple, config: ScoringConfig, stats: _stats.PairStats,
-             sources: dict, inputs: dict) -> dict:
+             sources: dict, inputs: dict, max_bytes: int | None) -> dict:
     """The real-vs-real components with ``real_ref`` (:mod:`irfidelity.ceiling`)."""
     from .ceiling import pair_ceiling
 
-    ref = _load(real_ref, "real_ref", config.real_channel, None)
-    if config.unit is not None:
-        ref = to_temperature(ref, real_ref, "real_ref", config)
+    ref = _load_ref(real_ref, config, sources, max_bytes)
     inputs["real_ref"] = describe_input(real_ref)
     sources["real_ref"] = ref  # each region's ceiling; dropped once the regions are scored
     peak = float(stats.peak) if "psnr" in components else None
@@ -192,9 +205,7 @@ def _scene(sources: dict, config: ScoringConfig, real_ref: Any, real_noise: Any,
     its estimate among the metrics (beside curves, a cross-check), and what it could not give."""
     ref = sources.get("real_ref")
     if ref is None and real_ref is not None:
-        ref = _load(real_ref, "real_ref", config.real_channel, None)
-        if config.unit is not None:
-            ref = to_temperature(ref, real_ref, "real_ref", config)
+        ref = _load_ref(real_ref, config, sources, max_bytes)
     noise = sources["curves"].get("real_noise", real_noise) if ref is None else None
     found = scene_estimate(sources, config, scene, real_ref=ref, real_noise=noise, max_bytes=max_bytes)
     components.update(found.components)
@@ -386,7 +397,7 @@ def _measured_ceiling(real_ref: Any, real_noise: Any, components: tuple, config:
     """The ceiling and its source when no values were given: from ``real_ref``, else from the real
     camera's noise, else none."""
     if real_ref is not None:
-        return _ceiling(real_ref, components, config, stats, sources, inputs), "real_ref"
+        return _ceiling(real_ref, components, config, stats, sources, inputs, max_bytes), "real_ref"
     if real_noise is not None:
         ceiling = _noise_ceiling(real_noise, components, config, stats, sources, inputs, max_bytes)
         return ceiling, None if ceiling is None else "noise3d"

@@ -51,8 +51,9 @@ _GLOB_CHARS = re.compile(r"[*?\[]")
 
 
 def default_max_pixels() -> int:
-    """The default pixel limit: one 16384 x 16384 frame."""
-    return int(_core.default_max_pixels())
+    """The pixel limit of a decode given no ``max_pixels``: :func:`irfidelity.budget.pixel_limit`'s
+    within one, else the core's (one 8192 x 8192 frame)."""
+    return budget.max_pixels(None)
 
 
 def _is_npy(path: str) -> bool:
@@ -125,7 +126,8 @@ def _load_npy(path: str, channel: str | None, page: int, max_pixels: int | None)
         raise FrameError(f"{path}: empty image ({cols} x {rows} pixels)")
     if rows * cols > limit:
         raise FrameError(
-            f"{path}: image of {cols} x {rows} pixels exceeds the limit of {limit} pixels (max_pixels)"
+            f"{path}: image of {cols} x {rows} pixels exceeds the limit of {limit} pixels; raise max_pixels "
+            f"(--max-pixels) to load it"
         )
     try:
         return np.array(mapped, copy=True, order="C")
@@ -225,7 +227,7 @@ def load_frame(
     if isinstance(spath, bytes):
         spath = os.fsdecode(spath)
     page = _check_page(spath, page)
-    max_pixels = _check_limit(spath, "max_pixels", max_pixels)
+    max_pixels = budget.max_pixels(_check_limit(spath, "max_pixels", max_pixels))
     max_bytes = _check_limit(spath, "max_bytes", max_bytes)
     if channel is not None and not isinstance(channel, str):
         raise FrameError(f"{spath}: channel must be a string, got {channel!r}")
@@ -463,7 +465,7 @@ class FrameSequence(Sequence[np.ndarray]):
         max_bytes: int | None = None,
     ) -> None:
         self.channel = channel
-        self.max_pixels = max_pixels
+        self.max_pixels = budget.max_pixels(max_pixels)  # resolved here: a worker process has no context
         self.max_bytes = max_bytes
         self._array: np.ndarray | None = None
         # entries: (path, page, display name); for arrays: (None, index, name)

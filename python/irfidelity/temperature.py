@@ -31,6 +31,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from . import budget
 from .config_fields import ConfigError
 from .errors import FidelityError, FrameError, RangeError
 from .frames import FrameSequence
@@ -121,7 +122,8 @@ def _user_calibration(frame: np.ndarray, name: str, config: Any) -> np.ndarray |
     return None
 
 
-def frame_temperature(frame: Any, name: str, config: Any, path: str | None = None, page: int = 0) -> np.ndarray:
+def frame_temperature(frame: Any, name: str, config: Any, path: str | None = None, page: int = 0,
+                      max_bytes: int | None = None, held: int = 0) -> np.ndarray:
     """One frame in ``config.unit`` (float64); the module notes say how.
 
     Parameters
@@ -134,6 +136,10 @@ def frame_temperature(frame: Any, name: str, config: Any, path: str | None = Non
         Its ``unit`` and ``calibration``.
     path, page : str and int, optional
         The file the frame came from: its own calibration, when it has one, comes first.
+    max_bytes, held : int, optional
+        The budget of the conversion's peak (None: the default): ``held`` bytes already in
+        memory beside it (the other frames of the pair), the counts and their float64
+        temperatures.
 
     Raises
     ------
@@ -141,13 +147,16 @@ def frame_temperature(frame: Any, name: str, config: Any, path: str | None = Non
         Integer counts without a calibration (the file's or ``config.calibration``), or counts
         of which none lies within the calibration's domain.
     FidelityError
-        A calibration field out of its range, named.
+        A calibration field out of its range, named; a conversion beyond ``max_bytes``.
     """
     values = np.asarray(frame)
     if values.dtype.kind == "f":
+        if values.dtype != np.float64:
+            _check_conversion(f"{name}: conversion to float64 temperatures", values, max_bytes, held)
         return values.astype(np.float64, copy=False)
     if values.dtype.kind not in "ui":
         raise FidelityError(f"{name}: expected integer counts or float temperatures, got dtype {values.dtype}")
+    _check_conversion(f"{name}: conversion to temperature", values, max_bytes, held)
     overrides = {k: v for k, v in config.calibration.items() if k in CALIBRATION_FIELDS}
     why = "an array carries none" if path is None else "a .npy file carries none"
     try:
@@ -169,13 +178,21 @@ def frame_temperature(frame: Any, name: str, config: Any, path: str | None = Non
     return converted
 
 
-def to_temperature(frame: np.ndarray, source: Any, which: str, config: Any) -> np.ndarray:
+def to_temperature(frame: np.ndarray, source: Any, which: str, config: Any, max_bytes: int | None = None,
+                   held: int = 0) -> np.ndarray:
     """A loaded frame of :func:`irfidelity.evaluate` in ``config.unit``; ``source`` is what the
-    caller gave (a path, whose calibration is read, or the array itself)."""
+    caller gave (a path, whose calibration is read, or the array itself); the conversion and
+    the ``held`` bytes beside it within ``max_bytes``."""
     if isinstance(source, (str, os.PathLike)):
         path = os.fsdecode(os.fspath(source))
-        return frame_temperature(frame, f"{which} {path}", config, path)
-    return frame_temperature(frame, f"{which} frame", config)
+        return frame_temperature(frame, f"{which} {path}", config, path, max_bytes=max_bytes, held=held)
+    return frame_temperature(frame, f"{which} frame", config, max_bytes=max_bytes, held=held)
+
+
+def _check_conversion(operation: str, values: np.ndarray, max_bytes: int | None, held: int) -> None:
+    """The counts, their float64 temperatures and ``held`` bytes beside them, within ``max_bytes``."""
+    beside = " beside the pair's other frames" if held else ""
+    budget.check(operation + beside, values.shape, held + values.nbytes + 8 * values.size, max_bytes)
 
 
 class TemperatureSequence(FrameSequence):
@@ -188,7 +205,7 @@ class TemperatureSequence(FrameSequence):
     def _load(self, entry: Any) -> np.ndarray:
         frame = super()._load(entry)
         path, page, name = entry
-        return frame_temperature(frame, f"{self._which} {name}", self._config, path, page)
+        return frame_temperature(frame, f"{self._which} {name}", self._config, path, page, self.max_bytes)
 
     @property
     def is_files(self) -> bool:
@@ -242,19 +259,27 @@ class TemperatureErrors:
 
     @classmethod
     def of_frames(cls, real: Any, sim: Any, *, tolerance: float, unit: str, mask: Any = None) -> TemperatureErrors:
-        """The errors over the pixel pairs where ``mask`` is true and both values are finite."""
-        diff = np.subtract(sim, real, dtype=np.float64)
-        keep = np.isfinite(diff)
-        if mask is not None:
-            keep &= np.asarray(mask, dtype=bool)
-        d = diff.ravel() if keep.all() else diff[keep]  # one temporary: large ones cost page faults
-        if d.size == 0:
+        """The errors over the pixel pairs where ``mask`` is true and both values are finite,
+        taken a block of rows at a time: no frame-sized temporary."""
+        real, sim = np.broadcast_arrays(np.atleast_1d(real), np.atleast_1d(sim))
+        keep_all = None if mask is None else np.broadcast_to(np.asarray(mask, dtype=bool), real.shape)
+        n, sums, squares, magnitudes, within = 0, [], [], [], 0
+        for block in budget.row_blocks(real.shape):
+            diff = np.subtract(sim[block], real[block], dtype=np.float64)
+            keep = np.isfinite(diff)
+            if keep_all is not None:
+                keep &= keep_all[block]
+            d = diff.ravel() if keep.all() else diff[keep]
+            n += int(d.size)
+            sums.append(float(np.sum(d)))
+            squares.append(float(np.sum(np.square(d))))
+            magnitude = np.abs(d, out=d)
+            magnitudes.append(float(np.sum(magnitude)))
+            within += int(np.count_nonzero(magnitude <= tolerance))
+        if n == 0:
             raise FidelityError("no pixel pair with finite temperatures on both sides to compare", option="mask")
-        n = int(d.size)
-        bias, squares = float(np.sum(d)) / n, float(np.sum(np.square(d)))
-        magnitude = np.abs(d, out=d)
-        return cls(n=n, bias=bias, rmse=math.sqrt(squares / n), mae=float(np.sum(magnitude)) / n,
-                   within=int(np.count_nonzero(magnitude <= tolerance)), tolerance=float(tolerance), unit=unit)
+        return cls(n=n, bias=math.fsum(sums) / n, rmse=math.sqrt(math.fsum(squares) / n), mae=math.fsum(magnitudes) / n,
+                   within=within, tolerance=float(tolerance), unit=unit)
 
     def to_dict(self) -> dict[str, Any]:
         """The fields, JSON-ready (a resumable run's record keeps them); :meth:`from_dict` inverts it."""

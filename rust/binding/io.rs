@@ -76,7 +76,7 @@ fn list_channels(py: Python<'_>, path: PathBuf) -> PyResult<Vec<String>> {
     Ok(py.detach(|| io::list_channels(&path))?)
 }
 
-/// The default pixel limit (16384 x 16384).
+/// The default pixel limit (8192 x 8192).
 #[pyfunction]
 fn default_max_pixels() -> u64 {
     io::DEFAULT_MAX_PIXELS

@@ -198,7 +198,8 @@ fn extract<T: Sample>(block: &UncompressedBlock, layout: &Layout) -> Result<Piec
             block.data.len()
         ));
     }
-    let mut samples = Vec::with_capacity(w * h);
+    let mut samples = Vec::new();
+    samples.try_reserve_exact(w * h).map_err(|_| format!("out of memory for a block of {w} x {h} samples"))?;
     let run = w * T::SIZE;
     for r in 0..h {
         let start = r * row_bytes + w * layout.channel_offset_per_pixel;
@@ -321,7 +322,7 @@ fn assemble<T: Sample, C: ChunksReader>(
     cols: usize,
 ) -> Result<Vec<T>, Reason> {
     let meta = chunks.meta_data().clone();
-    let mut out: Vec<T> = vec![T::ZERO; rows * cols];
+    let mut out: Vec<T> = super::frame_buffer(rows * cols, T::ZERO)?;
     let mut seen: HashSet<(usize, usize)> = HashSet::new();
     let mut covered: usize = 0;
     // blocks per round of sharing: each round wakes a helper, and bounds the bytes held

@@ -285,7 +285,7 @@ fn raw16(image: &[u8], (cols, rows): (usize, usize), big: bool, held: u64, o: &D
     let what = || format!("a {cols} x {rows} FLIR frame and its {held} bytes of FLIR data");
     check_budget(held.checked_add(need as u64), what, o.max_bytes)?;
     let read = if big { u16::from_be_bytes } else { u16::from_le_bytes };
-    let counts = image[..need].chunks_exact(2).map(|b| read([b[0], b[1]])).collect();
+    let counts = super::frame_collect(need / 2, image[..need].chunks_exact(2).map(|b| read([b[0], b[1]])))?;
     Ok(Frame { rows, cols, data: FrameData::U16(counts) })
 }
 

@@ -137,8 +137,10 @@ pub struct DecodeOptions {
     pub page: usize,
 }
 
-/// Default pixel limit: one 16384 x 16384 frame.
-pub const DEFAULT_MAX_PIXELS: u64 = 16384 * 16384;
+/// Default pixel limit: one 8192 x 8192 frame (67 Mpx), 200 times a 640 x 512 thermal frame.
+/// Like Pillow's, it keeps a small compressed file from expanding to gigabytes unless the
+/// caller raises it (`max_pixels`, `--max-pixels`); a float64 frame of this size is 512 MiB.
+pub const DEFAULT_MAX_PIXELS: u64 = 8192 * 8192;
 
 /// Default memory budget of one frame pair's work, 2 GiB (docs/design.md §14): decoding
 /// (this module checks its part), the float64 copies, registration, resampling, statistics
@@ -481,8 +483,23 @@ pub(crate) fn check_size(cols: u64, rows: u64, max_pixels: u64) -> std::result::
     }
     match cols.checked_mul(rows) {
         Some(n) if n <= max_pixels => Ok(()),
-        _ => Err(format!("image of {cols} x {rows} pixels exceeds the limit of {max_pixels} pixels (max_pixels)")),
+        _ => Err(format!(
+            "image of {cols} x {rows} pixels exceeds the limit of {max_pixels} pixels; raise max_pixels \
+             (--max-pixels) to decode it"
+        )),
     }
+}
+
+/// A frame's buffer of `len` copies of `value`, or the system's refusal as the decode's reason:
+/// a budget within `max_bytes` can still exceed what the process may have (an address-space
+/// limit, other processes), and that is an error, never an abort.
+pub(crate) fn frame_buffer<T: Clone>(len: usize, value: T) -> std::result::Result<Vec<T>, Reason> {
+    crate::budget::try_filled(len, value).map_err(|e| e.to_string())
+}
+
+/// The `len` values `iter` yields, in a frame's buffer reserved at once ([`frame_buffer`]).
+pub(crate) fn frame_collect<T>(len: usize, iter: impl Iterator<Item = T>) -> std::result::Result<Vec<T>, Reason> {
+    crate::budget::try_collect(len, iter).map_err(|e| e.to_string())
 }
 
 /// `a * b * ...` in u64, `None` on overflow.

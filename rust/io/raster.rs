@@ -194,7 +194,7 @@ fn png_rows<T: PngSample, R: BufRead + Seek>(
     c: usize,
 ) -> Result<Vec<T>, Reason> {
     let interlaced = reader.info().interlaced;
-    let mut out = vec![T::default(); w * h];
+    let mut out = super::frame_buffer(w * h, T::default())?;
     let truncated = || "truncated or corrupt PNG file (image data ends early)".to_string();
     if spp == 1 && !interlaced {
         for row in out.chunks_exact_mut(w) {
@@ -382,7 +382,7 @@ fn chunk_grid<R: Read + Seek>(dec: &mut TiffDecoder<R>, spp: usize, c: usize) ->
 
 /// The selected channel of every chunk into a frame of `T`.
 fn read_chunks<T: Plain, R: Read + Seek>(dec: &mut TiffDecoder<R>, g: &ChunkGrid) -> Result<Vec<T>, Reason> {
-    let mut out = vec![T::default(); g.width * g.height];
+    let mut out = super::frame_buffer(g.width * g.height, T::default())?;
     let mut scratch: Vec<T> = Vec::new();
     for k in 0..g.chunks() {
         let index = u32::try_from(g.first + k).map_err(|_| "corrupt TIFF file: too many chunks".to_string())?;
@@ -392,7 +392,11 @@ fn read_chunks<T: Plain, R: Read + Seek>(dec: &mut TiffDecoder<R>, g: &ChunkGrid
             dec.read_chunk_bytes(index, bytes_mut(&mut out[y * g.width..])).map_err(chunk_err)?;
             continue;
         }
-        scratch.resize(cw * ch * g.per_chunk, T::default());
+        let len = cw * ch * g.per_chunk;
+        if len > scratch.len() {
+            scratch = super::frame_buffer(len, T::default())?;
+        }
+        scratch.truncate(len);
         dec.read_chunk_bytes(index, bytes_mut(&mut scratch)).map_err(chunk_err)?;
         for (r, src) in scratch.chunks_exact(cw * g.per_chunk).enumerate() {
             let dst = &mut out[(y + r) * g.width + x..][..cw];
@@ -433,7 +437,8 @@ fn decode_tiff_page<R: Read + Seek>(dec: &mut TiffDecoder<R>, o: &DecodeOptions)
     let data = match sample {
         Some(DecodingSampleType::U8) => FrameData::U8(read_chunks(dec, &g)?),
         Some(DecodingSampleType::I8) => {
-            FrameData::I16(read_chunks::<i8, R>(dec, &g)?.into_iter().map(i16::from).collect())
+            let narrow = read_chunks::<i8, R>(dec, &g)?;
+            FrameData::I16(super::frame_collect(narrow.len(), narrow.into_iter().map(i16::from))?)
         }
         Some(DecodingSampleType::U16) => FrameData::U16(read_chunks(dec, &g)?),
         Some(DecodingSampleType::I16) => FrameData::I16(read_chunks(dec, &g)?),

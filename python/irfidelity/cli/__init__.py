@@ -9,6 +9,7 @@ the frames scored); 4 scored, but not accepted by the ``--spec`` acceptance spec
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import warnings
 from collections.abc import Sequence
@@ -42,6 +43,14 @@ def _config(a) -> int:
     else:
         ScoringConfig().save(a.path)
     return EXIT_OK
+
+
+def _pixel_limit(a) -> contextlib.AbstractContextManager:
+    """``--max-pixels`` for every decode of the command."""
+    from .. import budget
+
+    limit = getattr(a, "max_pixels", None)
+    return contextlib.nullcontext() if limit is None else budget.pixel_limit(limit)
 
 
 def _run(a) -> int:
@@ -81,7 +90,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            return _run(a)
+            with _pixel_limit(a):
+                return _run(a)
         except (UsageError, FidelityError, OSError, ValueError, OverflowError) as exc:
             print(f"irfidelity {a.command}: error: {message(exc, a)}", file=sys.stderr)
             return EXIT_USAGE

@@ -278,6 +278,9 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
                    help="memory budget of the run, e.g. 2G, 512M or bytes: a sequence's workers share it (each "
                         "pair gets SIZE / workers), a single pair gets all of it; work that would need more is "
                         "refused before it starts (a frame's error row in a sequence). Default: 2 GiB per pair")
+    o.add_argument("--max-pixels", type=_positive_int, metavar="N",
+                   help="decode frames of up to N pixels (default 67108864, one 8192 x 8192 frame): a larger "
+                        "frame is refused before it is decoded")
     o.add_argument("--no-progress", action="store_true", help="sequences: no progress display")
 
 

@@ -95,6 +95,7 @@ class RunOptions:
         set_(self, "workers", _positive("workers", self.workers, allow_none=True))
         threads = self.workers if self.workers is not None or self.client is None else 1
         set_(self, "max_bytes", budget.per_pair(self.max_bytes, self.max_memory, threads))
+        set_(self, "max_pixels", budget.max_pixels(self.max_pixels))  # explicit for workers elsewhere
         set_(self, "chunk_size", _positive("chunk_size", self.chunk_size))
         set_(self, "csv", None if self.csv is None else os.fspath(self.csv))
         set_(self, "resume", bool(self.resume))

@@ -8,6 +8,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from .. import budget
 from ..errors import FidelityError, ShapeError
 from .result import Transfer, estimate
 from .spectra import transfer_spectra
@@ -46,6 +47,19 @@ def _frame(x: Any, which: str, channel: str | None, max_bytes: int | None) -> np
     if frame.ndim != 2:
         raise ShapeError(f"{which}: expected a 2-D frame, got shape {frame.shape}", option=which)
     return frame
+
+
+def _in_unit(loaded: list, sources: tuple, unit: str, max_bytes: int | None) -> None:
+    """The frames of ``loaded`` converted to ``unit`` in place, one at a time, each conversion
+    within what the others leave of ``max_bytes``."""
+    from ..config import ScoringConfig
+    from ..temperature import to_temperature
+
+    config = ScoringConfig(unit=unit)
+    for i, (source, which) in enumerate(zip(sources, ("real", "sim", "real_ref"))):
+        if loaded[i] is not None:
+            held = budget.nbytes(*loaded[:i], *loaded[i + 1:])
+            loaded[i] = to_temperature(loaded[i], source, which, config, max_bytes, held=held)
 
 
 def aligned(real: np.ndarray, sim: np.ndarray, register: Any, mask: np.ndarray | None,
@@ -135,15 +149,11 @@ def transfer(real: Any, sim: Any, *, mask: Any = None, roi: Any = None, real_ref
     (1967); the "two-image" on-orbit MTF method of remote sensing (e.g. Helder et al.,
     Remote Sens. Environ. 88 (2003)).
     """
-    frames = [_frame(real, "real", channel, max_bytes), _frame(sim, "sim", channel, max_bytes)]
-    ref = None if real_ref is None else _frame(real_ref, "real_ref", channel, max_bytes)
+    loaded = [_frame(real, "real", channel, max_bytes), _frame(sim, "sim", channel, max_bytes),
+              None if real_ref is None else _frame(real_ref, "real_ref", channel, max_bytes)]
     if unit is not None:
-        from ..config import ScoringConfig
-        from ..temperature import to_temperature
-
-        config = ScoringConfig(unit=unit)
-        frames = [to_temperature(f, src, which, config) for f, src, which in zip(frames, (real, sim), ("real", "sim"))]
-        ref = None if ref is None else to_temperature(ref, real_ref, "real_ref", config)
+        _in_unit(loaded, (real, sim, real_ref), unit, max_bytes)
+    frames, ref = loaded[:2], loaded[2]
     if frames[0].shape != frames[1].shape or (ref is not None and ref.shape != frames[0].shape):
         raise ShapeError(f"real {frames[0].shape}, sim {frames[1].shape}"
                          + ("" if ref is None else f" and real_ref {ref.shape}") + ": expected one shape")
