@@ -53,7 +53,8 @@ def _load(x: Any, which: str, channel: str | None, max_bytes: int | None) -> np.
 
     pages = page_count(x)
     if pages > 1:
-        raise FidelityError(f"{which} {os.fsdecode(os.fspath(x))!r} is a multi-page TIFF of {pages} frames: "
+        kind = "FLIR recording" if os.fsdecode(os.fspath(x)).lower().endswith((".seq", ".csq")) else "multi-page TIFF"
+        raise FidelityError(f"{which} {os.fsdecode(os.fspath(x))!r} is a {kind} of {pages} frames: "
                             f"score it as a sequence (irfidelity.score_sequence, or irfidelity score with both "
                             f"sides multi-page or directories), or load one page as an array", option=which)
     return load_frame(x, channel=channel, max_bytes=max_bytes)

@@ -34,7 +34,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 FRAME_EXTENSIONS = (".exr", ".png", ".tif", ".tiff", ".npy", ".fff", ".seq")
 
 #: Extensions of files that may hold several frames (pages), each a frame of a sequence.
-MULTIPAGE_EXTENSIONS = (".tif", ".tiff", ".seq")
+MULTIPAGE_EXTENSIONS = (".tif", ".tiff", ".seq", ".csq")
 
 #: dtypes a frame may have (the dtypes the metrics accept).
 FRAME_DTYPES = tuple(np.dtype(t) for t in _core.SUPPORTED_DTYPES)
