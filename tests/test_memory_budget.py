@@ -470,3 +470,30 @@ def test_a_sequence_of_frames_beyond_the_pixel_limit_is_error_rows_under_a_cap(t
     assert "exceeds the limit of 67108864 pixels; raise max_pixels (--max-pixels)" in rec["stdout"], rec
     rec = run_child(cap=4 * GIB, frames=False, op="cli", argv=[*argv, "--max-pixels", str(16384 * 16384)])
     assert rec["status"] == 0 and "2 scored, 0 failed" in rec["stdout"], rec  # within 2 workers x 2 GiB
+
+
+DATA = Path(__file__).parent / "data"
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["targets", "{tmp}/out", "--frequency", "0.1", "--size", "30000,30000", "--format", "npy"], "--size 30000,30000"),
+    (["targets", "{tmp}/out", "--frequency", "0.1", "--levels", "0,1e308", "--format", "tiff"], "--levels 0,1e308"),
+    (["rank", "{lepton}", "{lepton}", "{lepton}", "--names", "a,b", "--no-progress", "--resamples", "100000000"],
+     "--resamples"),
+    (["weights", "fit", "{tmp}/many.csv"], "more than 100000 judgement rows"),
+    (["weights", "fit", "{tmp}/huge.csv"], "not a CSV row"),
+])
+def test_the_cli_answers_in_one_line_under_a_cap(tmp_path: Path, argv: list[str], needle: str) -> None:
+    """The CLI cases that printed tracebacks or grew without bound, each in a child under a
+    1 GiB address-space cap: exit 2 and one line naming the flag or the file's fault."""
+    header = "a_psnr,a_ssim,b_psnr,b_ssim,preferred\n"
+    if "many.csv" in argv[-1]:
+        (tmp_path / "many.csv").write_text(header + "0.9,0.7,0.8,0.9,b\n" * 1_000_000)  # 18 MB
+    if "huge.csv" in argv[-1]:
+        (tmp_path / "huge.csv").write_text(header + "0.9,0.7,0.8,0.9," + "b" * 200_000 + "\n")
+    lepton = str(DATA / "thermal" / "cptv_v2_all100frames_uint16.tif")
+    argv = [a.format(tmp=tmp_path, lepton=lepton) for a in argv]
+    rec = run_child(cap=GIB, frames=False, op="cli", argv=argv)
+    err = rec["stderr"].strip()
+    assert rec["status"] == 2 and len(err.splitlines()) == 1 and needle in err, rec
+    assert not list(tmp_path.glob("out/*.*"))  # nothing written
