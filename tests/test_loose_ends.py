@@ -15,6 +15,7 @@ from irfidelity.cli import main
 from irfidelity.config import ScoringConfig
 from irfidelity.curves import mtf_from_edge
 from irfidelity.errors import FidelityError, FrameError, RangeError, ShapeError
+from irfidelity.judgements import fit_weights
 
 DATA = pathlib.Path(__file__).parent / "data"
 REAL = str(DATA / "thermal" / "ptw_bb150C_frame000.png")
@@ -266,3 +267,20 @@ def test_weights_fit_answers_a_huge_field_and_too_many_rows_in_one_line(tmp_path
         assert main(["weights", "fit", str(path)]) == 2
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and needle in err and str(path) in err, err
+
+
+def test_weights_fit_names_a_value_outside_the_components_range_and_stays_quiet(tmp_path, capsys):
+    header = "a_psnr,a_ssim,b_psnr,b_ssim,preferred\n"
+    huge = tmp_path / "huge.csv"
+    huge.write_text(header + "1e308,0.7,0.8,0.9,b\n0.5,0.7,0.8,0.9,a\n")
+    assert main(["weights", "fit", str(huge)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "line 2, column 'a_psnr'" in err and "outside [0, 1]" in err, err
+    with pytest.raises(FidelityError, match=r"component psnr must be a number in \[0, 1\]"):
+        fit_weights([({"psnr": 2.0, "ssim": 0.5}, {"psnr": 0.5, "ssim": 0.5}, "a")] * 3)
+    # judgements no non-negative weighting can follow: one line, no warning from the fit's long steps
+    contrary = tmp_path / "contrary.csv"
+    contrary.write_text(header + "0.9,0.7,0.8,0.9,b\n0.5,0.7,0.8,0.9,a\n0.9,0.2,0.1,0.9,b\n0.3,0.2,0.1,0.9,a\n")
+    assert main(["weights", "fit", str(contrary)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "no weighting over a coin toss" in err, err[:2000]

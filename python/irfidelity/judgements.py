@@ -87,8 +87,9 @@ def _item_vector(values: Mapping, components: tuple, where: str) -> tuple:
             raise FidelityError(f"{where} has no value for component {name!r}")
         value = values[name]
         if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
-                or not math.isfinite(value):
-            raise FidelityError(f"{where}: component {name} must be a finite number, got {value!r}")
+                or not 0 <= value <= 1:
+            raise FidelityError(f"{where}: component {name} must be a number in [0, 1] (a component's range), "
+                                f"got {value!r}")
         out.append(float(value))
     return tuple(out)
 
@@ -186,23 +187,24 @@ def _newton_step(gradient: np.ndarray, hessian: np.ndarray, v: np.ndarray) -> np
 def _minimize(objective: Objective, start: np.ndarray) -> np.ndarray:
     """``v >= 0`` minimising ``objective`` (projected Newton with Armijo backtracking)."""
     v, current = start, objective.value(start)
-    for _ in range(_MAX_ITERATIONS):
-        gradient, hessian = objective.derivatives(v)
-        projected = np.where(v > 0, gradient, np.minimum(gradient, 0.0))
-        if float(np.max(np.abs(projected))) * max(1.0, float(v.sum())) <= 1e-10 * (1.0 + abs(current)):
-            break
-        step, t = _newton_step(gradient, hessian, v), 1.0
-        while True:
-            trial = np.maximum(v + t * step, 0.0)
-            value = objective.value(trial)
-            if value <= current + 1e-4 * float(gradient @ (trial - v)) or t < 1e-12:
+    with np.errstate(over="ignore", invalid="ignore"):  # a step too long is not finite: it is shortened
+        for _ in range(_MAX_ITERATIONS):
+            gradient, hessian = objective.derivatives(v)
+            projected = np.where(v > 0, gradient, np.minimum(gradient, 0.0))
+            if float(np.max(np.abs(projected))) * max(1.0, float(v.sum())) <= 1e-10 * (1.0 + abs(current)):
                 break
-            t *= 0.5
-        if value > current or current - value <= 1e-15 * (1.0 + abs(current)):
-            if value <= current:
-                v = trial
-            break
-        v, current = trial, value
+            step, t = _newton_step(gradient, hessian, v), 1.0
+            while True:
+                trial = np.maximum(v + t * step, 0.0)
+                value = objective.value(trial) if np.isfinite(trial).all() else math.inf
+                if (math.isfinite(value) and value <= current + 1e-4 * float(gradient @ (trial - v))) or t < 1e-12:
+                    break
+                t *= 0.5
+            if not value <= current or current - value <= 1e-15 * (1.0 + abs(current)):
+                if value <= current:
+                    v = trial
+                break
+            v, current = trial, value
     return v
 
 
@@ -626,8 +628,8 @@ def _csv_number(path: str, line: int, column: str, text: str) -> float:
         value = float(text)
     except ValueError:
         raise _csv_error(path, line, column, f"{text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise _csv_error(path, line, column, f"{text!r} is not a finite number")
+    if not 0 <= value <= 1:
+        raise _csv_error(path, line, column, f"{text!r} is outside [0, 1], a component's range")
     return value
 
 
