@@ -284,3 +284,14 @@ def test_weights_fit_names_a_value_outside_the_components_range_and_stays_quiet(
     assert main(["weights", "fit", str(contrary)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "no weighting over a coin toss" in err, err[:2000]
+
+
+def test_rank_takes_the_decode_limit_and_budget_and_says_why_nothing_was_scored(capsys):
+    lepton = str(DATA / "thermal" / "cptv_v2_all100frames_uint16.tif")
+    assert main(["rank", lepton, lepton, lepton, "--names", "a,b", "--no-progress", "--max-pixels", "100"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "simulator 'a'" in err and "100 failed" in err, err
+    assert "exceeds the limit of 100 pixels; raise max_pixels (--max-pixels)" in err, err
+    assert main(["rank", lepton, lepton, lepton, "--names", "a,b", "--no-progress", "--max-memory", "100k"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "simulator 'a'" in err[0] and "memory budget of" in err[0] and "--max-memory" in err[0], err

@@ -158,9 +158,16 @@ def csv_paths(csv: str | os.PathLike | None, names: list) -> dict:
     return {n: os.path.join(text, f"{n}.csv") for n in names}
 
 
+def _numbers_of(name: str, report: SequenceReport) -> FrameNumbers:
+    try:
+        return frame_numbers(report)
+    except FidelityError as exc:
+        raise FidelityError(f"simulator {name!r}: {exc}") from None
+
+
 def _ranked_numbers(reports: Mapping[str, SequenceReport]) -> tuple[list, dict]:
     """The real frames every simulator scored, and each simulator's numbers on them."""
-    numbers = {name: frame_numbers(rep) for name, rep in reports.items()}
+    numbers = {name: _numbers_of(name, rep) for name, rep in reports.items()}
     if any(n.pool is None for n in numbers.values()):
         numbers = {name: frame_numbers(rep, exact=False) for name, rep in reports.items()}
     first = next(iter(numbers.values()))

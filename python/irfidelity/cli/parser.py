@@ -295,7 +295,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_score(sub)
     from .rank import add_rank, add_weights
 
-    add_rank(sub, {"bits": _positive_int, "peak": _peak, "bins": _bins, "positive_int": _positive_int})
+    add_rank(sub, {"bits": _positive_int, "peak": _peak, "bins": _bins, "positive_int": _positive_int, "size": _size})
     add_weights(sub)
     d = sub.add_parser(
         "demo", help="score a toy simulator on bundled real infrared data",

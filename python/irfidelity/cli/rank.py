@@ -66,6 +66,10 @@ def add_rank(sub: argparse._SubParsersAction, types: dict) -> None:
     r.add_argument("--resume", action="store_true", help="keep the frames already scored in --frames-csv")
     r.add_argument("--ci", action="store_true", help="also give each simulator's report its own intervals")
     r.add_argument("--workers", type=types["positive_int"], metavar="N", help="parallel workers")
+    r.add_argument("--max-memory", type=types["size"], metavar="SIZE",
+                   help="memory budget of the run, shared by the workers (as for score). Default: 2 GiB per pair")
+    r.add_argument("--max-pixels", type=types["positive_int"], metavar="N",
+                   help="decode frames of up to N pixels (default 67108864, one 8192 x 8192 frame)")
     r.add_argument("--no-progress", action="store_true", help="no progress display")
 
 
@@ -118,7 +122,8 @@ def rank_command(a: argparse.Namespace) -> Any:
         if not os.path.exists(path) and not any(ch in path for ch in "*?["):
             raise UsageError(f"{path}: no such file or directory")
     result = score_simulators(a.real, dict(zip(names, a.sims)), config=scoring_config(a, _CONFIG_FLAGS),
-                              workers=a.workers, progress=not a.no_progress, csv=a.frames_csv, resume=a.resume,
+                              workers=a.workers, max_memory=a.max_memory, progress=not a.no_progress,
+                              csv=a.frames_csv, resume=a.resume,
                               ci=a.ci and a.level, level=a.level, resamples=a.resamples,
                               correction="none" if a.no_correction else "holm", mask=a.mask, roi=a.roi)
     if a.json is not None:

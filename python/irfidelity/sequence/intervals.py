@@ -88,7 +88,9 @@ def frame_numbers(report: Any, exact: bool = True) -> FrameNumbers:
     """
     scored = [f for f in report.frames if not f.get("error") and f.get("fidelity") is not None]
     if not scored:
-        raise FidelityError("the report has no scored frame: no interval")
+        failed = [f for f in report.frames if f.get("error")]
+        why = f" ({len(failed)} failed; frame {failed[0]['index']}: {failed[0]['error']})" if failed else ""
+        raise FidelityError(f"the report has no scored frame{why}: no interval")
     names = [f["real"] if f.get("real") is not None else f["index"] for f in scored]
     curves = tuple(k for k in CURVES if k in report.components)
     rows = _pooled_rows(report, scored, curves) if exact else None
