@@ -334,3 +334,36 @@ def test_run_options_and_a_unit_as_in_score_sequence():
         for component, (lo, hi) in rep.ci.items():
             assert lo <= (rep.fidelity if component == "fidelity" else rep.components[component]) <= hi, component
         assert irf.SequenceReport.from_dict(rep.to_dict()).ci == rep.ci
+
+
+def test_the_real_recordings_plan_is_made_once_for_every_simulator(stacks, monkeypatch):
+    """The ceiling of consecutive real frames and the real camera's own transfer are computed
+    for the first simulator's plan and reused (irfidelity.reuse); the reports, the scene's
+    components among them, are those of separate runs."""
+    import irfidelity.sequence.plan as plan
+    import irfidelity.system.scene as scene
+
+    real, paths, _ = stacks
+    chosen = {name: paths[name] for name in ("fine", "mid", "coarse")}
+    options = dict(bits=14, peak="range", progress=False, workers=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", irf.FidelityWarning)
+        alone = {name: irf.score_sequence(real, path, **options) for name, path in chosen.items()}
+        calls = {"ceiling": 0, "spectra": 0}
+
+        def counted(name, function):
+            def wrapper(*args, **kwargs):
+                calls[name] += 1
+                return function(*args, **kwargs)
+            return wrapper
+
+        monkeypatch.setattr(plan, "sequence_ceiling", counted("ceiling", plan.sequence_ceiling))
+        monkeypatch.setattr(scene, "pair_spectra", counted("spectra", scene.pair_spectra))
+        shared = irf.score_simulators(real, chosen, resamples=99, **options)
+    assert calls["ceiling"] == 1
+    transfer_pairs = calls["spectra"] - 3 * scene.SEQUENCE_PAIRS  # each simulator's own pairs
+    assert transfer_pairs == scene.SEQUENCE_PAIRS, calls  # the real camera's own, once
+    for name, rep in shared.reports.items():
+        assert rep.fidelity == alone[name].fidelity and rep.components == alone[name].components
+        assert rep.metrics.get("mtf_ratio") == alone[name].metrics.get("mtf_ratio")
+        assert "mtf" in rep.components and "sitf" in rep.components

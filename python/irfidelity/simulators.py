@@ -26,6 +26,7 @@ from .config import ScoringConfig
 from .errors import FidelityError
 from .masks import MaskSpec
 from .ranking import Ranking, rank
+from .reuse import RealMemo
 from .schema import to_json
 from .sequence import SequenceReport, _pairing, with_intervals
 from .sequence.backends import engine_reads
@@ -229,14 +230,15 @@ def _once_each() -> Iterator[None]:
 
 
 def _prepare(real_seq: Any, sim: Any, name: str, cfg: ScoringConfig, run: RunOptions,
-             camera: CameraInputs, mask: MaskSpec) -> tuple:
-    """A simulator's sequence, pairing and plan (over ``mask``, resolved once for all)."""
+             camera: CameraInputs, mask: MaskSpec, memo: RealMemo) -> tuple:
+    """A simulator's sequence, pairing and plan (over ``mask``, resolved once for all; what is of
+    the real recording alone computed once for all, in ``memo``)."""
     sim_seq = temperature_sequence(as_sequence(sim, f"simulators[{name!r}]", cfg.sim_channel, run.max_pixels,
                                                run.max_bytes), "sim", cfg)
     if len(real_seq) == 0 or len(sim_seq) == 0:
         raise FidelityError(f"empty sequences ({name}): nothing to score")
     pairing = _pairing(real_seq, sim_seq, cfg)
-    return sim_seq, pairing, make_plan(real_seq, sim_seq, pairing, camera, cfg, mask)
+    return sim_seq, pairing, make_plan(real_seq, sim_seq, pairing, camera, cfg, mask, memo)
 
 
 def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any = None, real_sitf: Any = None,
@@ -311,11 +313,13 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
                                     "real", cfg)
     runs = {}
     region = MaskSpec(mask, roi)
+    memo = RealMemo()  # dropped once the plans are made: it holds the first real frame
     with _once_each():  # the real side's warnings (a PSNR peak, ...) come once, not per simulator
         for name, sim in sims.items():
             camera = CameraInputs(real_mtf, curves["sim_mtf"][name], real_sitf, curves["sim_sitf"][name],
                                   real_noise, curves["sim_noise"][name], real_mrtd, curves["sim_mrtd"][name])
-            runs[name] = _prepare(real_seq, sim, name, cfg, run, camera, region)
+            runs[name] = _prepare(real_seq, sim, name, cfg, run, camera, region, memo)
+    del memo
     shared = all(engine_reads(real_seq, sim_seq) for sim_seq, _, _ in runs.values())
 
     def options_for(name: str, backend: Any = None) -> RunOptions:

@@ -27,6 +27,7 @@ from ..fuzzy import Weights
 from ..masks import MaskSpec, ScoringMask
 from ..registration import DEFAULT_ORDER
 from ..results import recorded_warnings
+from ..reuse import RealMemo, computed
 from ..scoring import plan_with_scene, psnr_peak
 from ..stats import PairRequest, full_range, hist_params, peak_and_valid, real_range
 from .pairing import Pairing
@@ -170,6 +171,11 @@ def _first_readable(real: FrameSequence, pairing: Pairing) -> np.ndarray | None:
     return None
 
 
+def _first_pair(pairing: Pairing) -> int | None:
+    """The real index of the first pair with a real frame (what the first readable frame is sought from)."""
+    return next((r for r, _ in pairing.pairs if r is not None), None)
+
+
 def _registration(real: FrameSequence, sim: FrameSequence, pairing: Pairing, config: ScoringConfig,
                   mask: ScoringMask | None) -> Any:
     """With ``config.register``: the registration of the first pair whose frames both decode
@@ -223,11 +229,13 @@ def _ceiling(real: Any, camera: CameraInputs, compared: dict, image: tuple[str, 
 
 
 def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera: CameraInputs,
-              config: ScoringConfig, mask: MaskSpec | None = None) -> SequencePlan:
+              config: ScoringConfig, mask: MaskSpec | None = None, memo: RealMemo | None = None) -> SequencePlan:
     """Plan a sequence run (raises before any pair is scored when the plan cannot work).
 
     ``mask`` (a mask and/or ROI) is resolved against the first readable real frame's shape;
-    every pair, the registration found for all and the ceiling are computed over it."""
+    every pair, the registration found for all and the ceiling are computed over it. ``memo``
+    keeps what is of the real recording alone for the plans of other simulators against it
+    (:mod:`irfidelity.reuse`)."""
     given = camera.given()
     scene = scene_kinds(config, given, frames=True, real_noise_known=camera.real_noise is not None or len(real) > 1)
     weights, image, skipped = plan_with_scene(config, given, scene, have_images=True)
@@ -236,8 +244,9 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
                             "to compare curves alone, score a single pair without frames", option="weights")
     with recorded_warnings() as notes:
         fixed, fixed_metrics, inputs, compared = camera_components(camera, weights, config, scene=scene)
-        first = _first_readable(real, pairing)
-        scored = None if first is None or mask is None else mask.resolve(first.shape)
+        first = computed(memo, ("first", _first_pair(pairing)), lambda: _first_readable(real, pairing))
+        scored = None if first is None or mask is None else \
+            computed(memo, ("mask", first.shape), lambda: mask.resolve(first.shape))
         if scored is not None:
             inputs = {**inputs, "mask": scored.describe()}
             notes.append(scored.note())
@@ -246,7 +255,7 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
         if scene or any(weights[k] > 0 for k in ("mtf", "sitf")):
             found = sequence_estimate(real, sim, list(pairing.pairs), config, scene,
                                       mask=None if scored is None else scored.values, registration=registration,
-                                      real_noise=compared.get("real_noise", camera.real_noise))
+                                      real_noise=compared.get("real_noise", camera.real_noise), memo=memo)
             missing = {k: "no frame pair decodes" for k in scene} if found is None else found.missing
             if found is not None and found.transfer is not None:
                 fixed, fixed_metrics, transfer = {**fixed, **found.components}, {**fixed_metrics, **found.metrics}, \
@@ -258,7 +267,8 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
         peak = bins = hist_range = None
         levels = each = False
         ceiling = ceiling_source = None
-        scene_range = None if first is None else _scene_range(first, scored)
+        scene_range = None if first is None else computed(memo, ("scene_range", _first_pair(pairing)),
+                                                          lambda: _scene_range(first, scored))
         if dtype is not None:
             default_peak, valid = peak_and_valid(dtype, config.bits, None)
             if "psnr" in image and config.peak != "range":  # "range": each frame's own
@@ -266,8 +276,9 @@ def make_plan(real: FrameSequence, sim: FrameSequence, pairing: Pairing, camera:
             if "nmi" in image:
                 bins, levels, each, hist_range = hist_params(config.bins, config.hist_range, dtype,
                                                              full_range(dtype, config.bits, config.numeric_peak))
-            ceiling, ceiling_source = _ceiling(real, camera, compared, image, config, peak,
-                                               None if scored is None else scored.values)
+            ceiling, ceiling_source = computed(
+                memo, ("ceiling", image, peak),
+                lambda: _ceiling(real, camera, compared, image, config, peak, None if scored is None else scored.values))
             if ceiling_source == "noise3d":
                 inputs.setdefault("real_noise", describe_input(camera.real_noise))
     return SequencePlan(config=config, weights=weights, image=image, skipped=skipped, camera_components=fixed,

@@ -22,6 +22,7 @@ import numpy as np
 from ..tolerances import mu_of_ratio
 from .. import budget
 from ..errors import FidelityError
+from ..reuse import computed
 from .pair import aligned, cropped, real_noise_variance
 from .readings import REFERENCE_FREQUENCY
 from .result import Transfer, estimate
@@ -273,12 +274,13 @@ SEQUENCE_PAIRS = 8
 
 
 def sequence_estimate(real: Any, sim: Any, pairs: list, config: Any, kinds: tuple[str, ...], *, mask: Any = None,
-                      registration: Any = None, real_noise: Any = None) -> SceneEstimate | None:
+                      registration: Any = None, real_noise: Any = None, memo: Any = None) -> SceneEstimate | None:
     """The scene estimate of a sequence: the transfers of up to :data:`SEQUENCE_PAIRS` pairs
     spread over the run (``pairs``: (real index, sim index)), pooled; the real camera's noise
     from the next real frame of each (its temporal noise, half their difference spectrum), or
     its 3-D noise ``real_noise``; the real camera's own transfer from each real frame to the next
-    (its repeatability, :func:`graded_mismatch`). None when no pair decodes."""
+    (its repeatability, :func:`graded_mismatch`), kept in ``memo`` (a
+    :class:`~irfidelity.reuse.RealMemo`) for other simulators. None when no pair decodes."""
     usable = [(r, s) for r, s in pairs if r is not None and s is not None]
     if not usable:
         return None
@@ -288,7 +290,7 @@ def sequence_estimate(real: Any, sim: Any, pairs: list, config: Any, kinds: tupl
     pooled = own_pooled = None
     for r, s in (usable[i] for i in picks):
         try:
-            spectra, own = _pair_spectra(real, sim, r, s, config, mask, registration, real_noise is None)
+            spectra, own = _pair_spectra(real, sim, r, s, config, mask, registration, real_noise is None, memo)
         except FidelityError:
             continue  # an unreadable frame is the scoring's error row, not the transfer's
         if pooled is not None and not pooled.poolable(spectra):
@@ -318,7 +320,7 @@ def _no_tile(kinds: tuple[str, ...], exc: Exception) -> SceneEstimate:
 
 
 def _pair_spectra(real: Any, sim: Any, r: int, s: int, config: Any, mask: Any, registration: Any,
-                  with_next: bool) -> Any:
+                  with_next: bool, memo: Any = None) -> Any:
     """One pair's transfer sums, with the next real frame as the second real frame."""
     frames = {"real": np.asarray(real[r]), "sim": np.asarray(sim[s]), "mask": mask}
     if registration is not None and registration.model == "translation":
@@ -326,7 +328,8 @@ def _pair_spectra(real: Any, sim: Any, r: int, s: int, config: Any, mask: Any, r
     nxt = np.asarray(real[r + 1]) if r + 1 < len(real) else None
     if nxt is not None and nxt.shape != frames["real"].shape:
         nxt = None
-    own = None if nxt is None else pair_spectra({"real": frames["real"], "sim": nxt, "mask": mask}, config)
+    own = None if nxt is None else computed(  # the real camera's own: the same for every simulator
+        memo, ("own spectra", r), lambda: pair_spectra({"real": frames["real"], "sim": nxt, "mask": mask}, config))
     return pair_spectra(frames, config, real_ref=nxt if with_next else None), own
 
 
