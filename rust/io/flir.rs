@@ -397,9 +397,9 @@ pub(super) mod tests {
 
     #[test]
     fn lying_sizes_are_refused_before_allocating() {
-        let bytes = frame(false, &[(RAW_DATA, raw_record(16000, 16000, &[1, 2]))]);
+        let bytes = frame(false, &[(RAW_DATA, raw_record(8000, 8000, &[1, 2]))]);
         let m = FffFrame::parse(&bytes).unwrap().counts(&DecodeOptions::default()).unwrap_err();
-        assert!(m.contains("claims 16000 x 16000") && m.contains("truncated or corrupt raw-data record"), "{m}");
+        assert!(m.contains("claims 8000 x 8000") && m.contains("truncated or corrupt raw-data record"), "{m}");
         let bytes = frame(false, &[(RAW_DATA, raw_record(65535, 65535, &[1, 2]))]);
         let m = FffFrame::parse(&bytes).unwrap().counts(&DecodeOptions::default()).unwrap_err();
         assert!(m.contains("max_pixels"), "{m}");
