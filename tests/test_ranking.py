@@ -406,7 +406,7 @@ def test_fit_only_the_components_asked_for_and_deterministic_judges():
     ([], "no judgements"),
     ([({"psnr": 0.9}, {"psnr": 0.8}, "c")], "'a' or 'b'"),
     ([({"psnr": 0.9}, {"ssim": 0.8}, "a")], "share no component"),
-    ([({"psnr": 0.9}, {"psnr": float("nan")}, "a")], "finite"),
+    ([({"psnr": 0.9}, {"psnr": float("nan")}, "a")], r"a number in \[0, 1\]"),
     ([({"psnr": 0.9}, {"psnr": 0.8}, "a", "ann"), ({"psnr": 0.9}, {"psnr": 0.8}, "a")], "every judgement names"),
     ([({"psnr": 0.9}, {"psnr": 0.9}, "a")], "coin toss"),
     ([({"psnr": 0.9}, 3, "a")], "report"),
