@@ -19,7 +19,7 @@ Printed, each the best of ``--repeat`` runs after a warm-up, wall and CPU time:
   time the engine takes to score every real frame against itself (sum of squared errors
   only: two decodes and almost nothing else) on the same number of threads.
 
-Usage: ``python benches/bench_simulators.py [--frames N] [--repeat R] [--workers W]``
+Usage: ``python benches/bench_simulators.py [--frames N] [--repeat R] [--workers W] [--weights W|default]``
 (default 100 frames, 2 repeats, all cores). CPU time is what to compare when other processes
 share the machine; the ranking at the end uses the default 2000 resamples.
 """
@@ -96,9 +96,13 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=100)
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--weights", default=WEIGHTS, help=f"the scoring weights (default {WEIGHTS}; "
+                        "'default' for the scorer's, with mtf and sitf from the scene)")
     args = parser.parse_args()
     warnings.simplefilter("ignore", irf.FidelityWarning)
-    options = dict(weights=WEIGHTS, bits=14, progress=False, workers=args.workers)
+    options = dict(bits=14, progress=False, workers=args.workers)
+    if args.weights != "default":
+        options["weights"] = args.weights
     with tempfile.TemporaryDirectory() as tmp:
         dirs = write_workload(pathlib.Path(tmp), args.frames)
         sims = {name: dirs[name] for name in SIMULATORS}
