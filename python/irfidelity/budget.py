@@ -5,7 +5,9 @@ decoded or given), their float64 copies, registration, resampling, statistics, m
 report images. Every step plans its peak from the frame shape and checks it before
 allocating; over budget is an error naming the operation, the frame size, the bytes
 needed and the budget (:func:`check`, the same check and message as the Rust core's). A
-run's ``max_memory`` is divided among its workers (:func:`per_pair`).
+run's ``max_memory`` is divided among its workers (:func:`per_pair`). Before any budget, a
+decode refuses a frame of more than ``max_pixels`` pixels (:data:`DEFAULT_MAX_PIXELS`, or
+:func:`pixel_limit`'s for every decode within it).
 """
 
 from __future__ import annotations
@@ -20,8 +22,8 @@ from typing import Any, Iterator
 from . import _core
 from .errors import FidelityError
 
-__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_PIXELS", "BLOCK_PIXELS", "pixel_limit", "max_pixels", "resolve", "per_pair", "parse_size", "check", "nbytes", "cpu_workers",
-           "row_blocks"]
+__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_PIXELS", "BLOCK_PIXELS", "pixel_limit", "max_pixels", "resolve",
+           "per_pair", "parse_size", "check", "nbytes", "cpu_workers", "row_blocks"]
 
 #: The default per-pair budget, bytes (``rust/io/mod.rs``: 2 GiB).
 DEFAULT_MAX_BYTES: int = int(_core.default_max_bytes())

@@ -166,8 +166,9 @@ def load_frame(
         :func:`page_chain`), the pages before the break load as usual (page 0 too) and a page
         from the break on raises :class:`FrameError` naming where and why the chain breaks.
     max_pixels : int, optional
-        Refuse files whose header claims more pixels (default 16384 * 16384). Checked
-        before the pixel buffer is allocated.
+        Refuse files whose header claims more pixels (default: one 8192 x 8192 frame, or
+        the limit of an enclosing :func:`irfidelity.budget.pixel_limit`). Checked before the
+        pixel buffer is allocated.
     max_bytes : int, optional
         The decoding budget in bytes: everything the decode allocates (all channels of a
         block, samples, decompression scratch, metadata), planned from the headers before
