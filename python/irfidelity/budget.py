@@ -23,7 +23,7 @@ from . import _core
 from .errors import FidelityError
 
 __all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_PIXELS", "BLOCK_PIXELS", "pixel_limit", "max_pixels", "resolve",
-           "per_pair", "parse_size", "check", "nbytes", "cpu_workers", "row_blocks"]
+           "per_pair", "parse_size", "check", "check_float64_copy", "nbytes", "cpu_workers", "row_blocks"]
 
 #: The default per-pair budget, bytes (``rust/io/mod.rs``: 2 GiB).
 DEFAULT_MAX_BYTES: int = int(_core.default_max_bytes())
@@ -117,6 +117,13 @@ def check(operation: str, shape: tuple[int, ...], bytes_needed: float, max_bytes
     the bytes needed, the budget and how to raise it."""
     needed = min(int(math.ceil(bytes_needed)), _MOST)  # beyond counting is beyond any budget
     _core.check_budget(operation, (int(shape[0]), int(shape[1])), needed, resolve(max_bytes), kind)
+
+
+def check_float64_copy(operation: str, values: Any, max_bytes: int | None, held: int = 0) -> None:
+    """:func:`check` for making a float64 copy of ``values`` (a conversion to temperature) while
+    ``values`` and ``held`` more bytes (the pair's other frames) stay in memory."""
+    beside = " beside the pair's other frames" if held else ""
+    check(operation + beside, values.shape, held + values.nbytes + 8 * values.size, max_bytes)
 
 
 def row_blocks(shape: tuple[int, ...], pixels: int = BLOCK_PIXELS) -> list[slice]:

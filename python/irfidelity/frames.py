@@ -83,10 +83,9 @@ def _check_limit(path: str, name: str, value: Any) -> int | None:
     return int(value)
 
 
-def _load_npy(path: str, channel: str | None, page: int, max_pixels: int | None) -> np.ndarray:
+def _load_npy(path: str, channel: str | None, page: int, limit: int) -> np.ndarray:
     if channel is not None:
         raise FrameError(f"{path}: .npy files have no channels (got channel={channel!r})")
-    limit = default_max_pixels() if max_pixels is None else max_pixels
     try:
         mode = os.stat(path).st_mode
     except OSError as e:
@@ -261,8 +260,7 @@ def _in_unit(path: str, frame: np.ndarray, page: int, max_bytes: int | None, uni
         calibration = read_radiometry(path, page=page, max_bytes=max_bytes)
     except FrameError as exc:
         raise FrameError(f"{exc}; integer counts without one cannot become temperatures (unit={unit!r})") from None
-    # the counts and their float64 temperatures held together
-    budget.check(f"{path}: conversion to temperature", frame.shape, frame.nbytes + 8 * frame.size, max_bytes)
+    budget.check_float64_copy(f"{path}: conversion to temperature", frame, max_bytes)
     try:
         return np.asarray(calibration.temperature(frame, unit, **overrides), dtype=np.float64)
     except RangeError as exc:

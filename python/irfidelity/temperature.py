@@ -152,11 +152,11 @@ def frame_temperature(frame: Any, name: str, config: Any, path: str | None = Non
     values = np.asarray(frame)
     if values.dtype.kind == "f":
         if values.dtype != np.float64:
-            _check_conversion(f"{name}: conversion to float64 temperatures", values, max_bytes, held)
+            budget.check_float64_copy(f"{name}: conversion to float64 temperatures", values, max_bytes, held)
         return values.astype(np.float64, copy=False)
     if values.dtype.kind not in "ui":
         raise FidelityError(f"{name}: expected integer counts or float temperatures, got dtype {values.dtype}")
-    _check_conversion(f"{name}: conversion to temperature", values, max_bytes, held)
+    budget.check_float64_copy(f"{name}: conversion to temperature", values, max_bytes, held)
     overrides = {k: v for k, v in config.calibration.items() if k in CALIBRATION_FIELDS}
     why = "an array carries none" if path is None else "a .npy file carries none"
     try:
@@ -187,12 +187,6 @@ def to_temperature(frame: np.ndarray, source: Any, which: str, config: Any, max_
         path = os.fsdecode(os.fspath(source))
         return frame_temperature(frame, f"{which} {path}", config, path, max_bytes=max_bytes, held=held)
     return frame_temperature(frame, f"{which} frame", config, max_bytes=max_bytes, held=held)
-
-
-def _check_conversion(operation: str, values: np.ndarray, max_bytes: int | None, held: int) -> None:
-    """The counts, their float64 temperatures and ``held`` bytes beside them, within ``max_bytes``."""
-    beside = " beside the pair's other frames" if held else ""
-    budget.check(operation + beside, values.shape, held + values.nbytes + 8 * values.size, max_bytes)
 
 
 class TemperatureSequence(FrameSequence):

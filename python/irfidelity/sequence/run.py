@@ -119,7 +119,7 @@ def _resume(scorer: _Scorer, log: FrameLog, real: FrameSequence, sim: FrameSeque
 
 
 def _bounds(plan: SequencePlan, options: RunOptions) -> RecordBounds:
-    max_pixels = budget.max_pixels(options.max_pixels)
+    max_pixels = options.max_pixels  # resolved by RunOptions
     max_bytes = _core.default_max_bytes() if options.max_bytes is None else options.max_bytes
     return RecordBounds(plan, max_pixels, max_bytes)
 
