@@ -18,8 +18,9 @@ pub enum HistSpec {
     Levels,
 }
 
-/// Joint counts of (real bin, simulated bin).
-#[derive(Clone, Debug, PartialEq)]
+/// Joint counts of (real bin, simulated bin). Two joints are equal when they hold the same
+/// counts, whichever form holds them.
+#[derive(Clone, Debug)]
 pub enum Joint {
     /// `counts[r * bins + s]`; `offset` is added to a bin index to make it a key in the
     /// sparse domain (non-zero only for `levels` stored densely).
@@ -86,6 +87,42 @@ pub fn entropy<I: IntoIterator<Item = u64>>(counts: I, n: u64) -> f64 {
 /// Counts below this have their entropy term memoised (`entropy`).
 const MEMO: usize = 512;
 
+/// The column totals of sparse runs in column order (zeros where a column in between is
+/// empty, which [`entropy`] skips): counted into a table when the columns span few more
+/// than there are runs, else by sorting.
+fn column_counts(runs: &[(u64, u64)]) -> Vec<u64> {
+    let column = |k: u64| k & 0xFFFF_FFFF;
+    let Some((lo, hi)) = runs
+        .iter()
+        .map(|&(k, _)| column(k))
+        .fold(None, |span: Option<(u64, u64)>, s| Some(span.map_or((s, s), |(lo, hi)| (lo.min(s), hi.max(s)))))
+    else {
+        return Vec::new();
+    };
+    let span = (hi - lo) as usize + 1;
+    if span <= 2 * runs.len().max(512) {
+        let mut counts = vec![0u64; span];
+        for &(k, c) in runs {
+            counts[(column(k) - lo) as usize] += c;
+        }
+        return counts;
+    }
+    let mut cols: Vec<(u64, u64)> = runs.iter().map(|&(k, c)| (column(k), c)).collect();
+    cols.sort_unstable_by_key(|&(s, _)| s);
+    let mut counts: Vec<u64> = Vec::new();
+    let mut last = u64::MAX;
+    for (s, c) in cols {
+        match counts.last_mut() {
+            Some(total) if s == last => *total += c,
+            _ => {
+                counts.push(c);
+                last = s;
+            }
+        }
+    }
+    counts
+}
+
 /// Sort `keys`, and append their run-length counts to a new sorted run list.
 pub fn runs_from_keys(keys: &mut [u64]) -> Vec<(u64, u64)> {
     keys.sort_unstable();
@@ -123,9 +160,48 @@ pub fn merge_runs(a: &[(u64, u64)], b: &[(u64, u64)]) -> Vec<(u64, u64)> {
     out
 }
 
+impl PartialEq for Joint {
+    fn eq(&self, other: &Joint) -> bool {
+        match (self, other) {
+            (Joint::Dense { bins: b1, offset: o1, counts: c1 }, Joint::Dense { bins: b2, offset: o2, counts: c2 })
+                if b1 == b2 && o1 == o2 =>
+            {
+                c1 == c2
+            }
+            (Joint::Sparse(a), Joint::Sparse(b)) => a == b,
+            _ => self.to_runs() == other.to_runs(),
+        }
+    }
+}
+
 impl Joint {
     pub fn dense(bins: usize, offset: u64) -> Joint {
         Joint::Dense { bins, offset, counts: vec![0; bins * bins] }
+    }
+
+    /// A pass's `bins × bins` table of counts (row-major, `offset` as in [`Joint::Dense`]),
+    /// kept dense when at least a quarter of its cells are occupied, else as runs of the
+    /// occupied cells: a small frame fills few cells of a 256² table, and its runs take less
+    /// memory and give its entropies without a walk over every cell.
+    pub fn from_counts(bins: usize, offset: u64, counts: &[u32]) -> Joint {
+        const BLOCK: usize = 16; // cells tested together: most of a row is empty
+        let dense = || Joint::Dense { bins, offset, counts: counts.iter().map(|&c| c as u64).collect() };
+        let mut runs = Vec::new();
+        for (row, line) in counts.chunks_exact(bins.max(1)).enumerate() {
+            for (block, cells) in line.chunks(BLOCK).enumerate() {
+                if cells.iter().fold(0, |any, &c| any | c) == 0 {
+                    continue;
+                }
+                for (k, &c) in cells.iter().enumerate().filter(|(_, &c)| c > 0) {
+                    let col = (block * BLOCK + k) as u64;
+                    runs.push((pack(row as u64 + offset, col + offset), c as u64));
+                }
+            }
+            if runs.len() * 4 >= counts.len() {
+                return dense();
+            }
+        }
+        Joint::Sparse(runs) // row-major order is key order
     }
 
     /// Total count.
@@ -244,21 +320,9 @@ impl Joint {
                 if let Some((_, cc)) = cur {
                     row_counts.push(cc);
                 }
-                let mut cols: Vec<(u64, u64)> = runs.iter().map(|&(k, c)| (k & 0xFFFF_FFFF, c)).collect();
-                cols.sort_unstable_by_key(|&(s, _)| s);
-                let mut col_counts = Vec::new();
-                let mut last = u64::MAX;
-                for (s, c) in cols {
-                    if s == last {
-                        *col_counts.last_mut().unwrap() += c;
-                    } else {
-                        col_counts.push(c);
-                        last = s;
-                    }
-                }
                 Entropies {
                     h_real: entropy(row_counts, n),
-                    h_sim: entropy(col_counts, n),
+                    h_sim: entropy(column_counts(runs), n),
                     h_joint: entropy(runs.iter().map(|&(_, c)| c), n),
                 }
             }
@@ -390,5 +454,45 @@ mod tests {
         let m = d.merge(&sp);
         assert_eq!(m.total(), 12);
         assert_eq!(m.merge(&Joint::Sparse(vec![])).total(), 12);
+        assert_eq!(d, sp, "equal counts are equal joints, whichever form holds them");
+        assert_ne!(d, Joint::Sparse(vec![(pack(0, 0), 1)]));
+    }
+
+    #[test]
+    fn a_pass_table_is_kept_sparse_when_mostly_empty_with_the_same_entropies() {
+        // 40 bins, a band about the diagonal (sparse), then every cell filled (dense)
+        let bins = 40usize;
+        let mut state = 11u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 33) as u32
+        };
+        let mut band = vec![0u32; bins * bins];
+        for r in 0..bins {
+            for s in r.saturating_sub(1)..(r + 2).min(bins) {
+                band[r * bins + s] = 1 + next() % 50;
+            }
+        }
+        band[5 * bins + 39] = 3; // a lone cell past a block of empty ones
+        let full: Vec<u32> = (0..bins * bins).map(|_| 1 + next() % 50).collect();
+        for (counts, offset, sparse) in [(&band, 0u64, true), (&band, 7, true), (&full, 0, false)] {
+            let kept = Joint::from_counts(bins, offset, counts);
+            let dense = Joint::Dense { bins, offset, counts: counts.iter().map(|&c| c as u64).collect() };
+            assert_eq!(matches!(kept, Joint::Sparse(_)), sparse);
+            assert_eq!(kept.to_runs(), dense.to_runs());
+            assert_eq!(kept, dense);
+            assert_eq!(kept.entropies(), dense.entropies(), "the same terms in the same order");
+        }
+        // columns spread far apart are counted by sorting, with the same result
+        let spread =
+            Joint::Sparse(vec![(pack(0, 0), 2), (pack(0, 1 << 30), 3), (pack(1, 5), 1), (pack(2, 1 << 30), 4)]);
+        assert_eq!(
+            column_counts(match &spread {
+                Joint::Sparse(r) => r,
+                _ => unreachable!(),
+            }),
+            vec![2, 1, 7]
+        );
+        assert_eq!(Joint::from_counts(2, 0, &[0, 0, 0, 0]), Joint::Sparse(vec![]));
     }
 }

@@ -453,3 +453,27 @@ def test_a_defect_counts_the_pixels_that_carry_it(tmp_path, capsys):
     assert main(["score", str(tmp_path / "real.npy"), str(tmp_path / "sim.npy"), "--peak", "range"]) == 2
     err = capsys.readouterr().err
     assert "pass --nonfinite mask" in err and "nonfinite='mask'" not in err
+
+
+def test_a_sequence_frames_grades_equal_the_full_verdicts():
+    """The grader a sequence grades its frames with (no words) gives the fidelity, grades and
+    memberships of the full verdict, for random values at and around every cut."""
+    from irfidelity.scoring import score_components
+    from irfidelity.verdict import Grader
+
+    rng = np.random.default_rng(5)
+    cfg = irf.ScoringConfig(weights="mtf=0.2,sitf=0.1,psnr=0.3,nmi=0.2,ssim=0.2")
+    for ceiling in (None, {"nmi": 0.8, "ssim": 0.95}):
+        grader = Grader(cfg.weights, cfg, ceiling)
+        for _ in range(300):
+            scene_range = float(rng.choice([50.0, 305.0, 4000.0]))
+            cuts = {k: grader.cuts(k, 16383.0, scene_range)[0] for k in ("mtf", "sitf", "psnr", "nmi", "ssim")}
+            # a value at a cut, just below one, or anywhere
+            comps = {k: float(rng.choice([rng.choice(c), np.nextafter(rng.choice(c), 0) - 1e-9, rng.random()]))
+                     for k, c in cuts.items()}
+            metrics = {"psnr_peak": 16383.0, "mse": 1.0}
+            full = score_components(comps, metrics, cfg.weights, cfg, scene_range=scene_range, ceiling=ceiling)
+            lean = grader.summary(comps, metrics, scene_range)
+            assert lean == {k: full.to_dict()[k] for k in ("fidelity", "grade", "component_grades", "membership")}
+    with pytest.raises(FidelityError, match="no value"):
+        Grader(cfg.weights, cfg).summary({"psnr": 0.9}, {"psnr_peak": 255.0}, 100.0)

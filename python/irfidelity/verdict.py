@@ -20,10 +20,10 @@ from typing import Any, Mapping
 
 from .ceiling import CEILING_SOURCES
 from .errors import FidelityError
-from .fuzzy import COMPONENTS, Grading, Weights
+from .fuzzy import COMPONENTS, Grading, Weights, fidelity_sum
 from .tolerances import COMPONENT_OF, KINDS, component_cuts, mu_of_ratio
 
-__all__ = ["ComponentVerdict", "Verdict", "judge", "mu_ratio"]
+__all__ = ["ComponentVerdict", "Grader", "Verdict", "judge", "mu_ratio"]
 
 _TOLERANCE_OF = {component: name for name, component in COMPONENT_OF.items()}
 
@@ -305,11 +305,10 @@ class Verdict:
 
     def grading(self, weights: Weights) -> Grading:
         """The fuzzy evaluation these grades give: ``R`` one-hot, ``B`` the weight per grade."""
-        matrix = {k: {g: float(g == c.grade) for g in self.grades} for k, c in self.components.items()}
-        share = {g: math.fsum(weights[k] for k, c in self.components.items() if c.grade == g) for g in self.grades}
-        total = math.fsum(share.values()) or 1.0
-        return Grading(grades=self.grades, matrix=matrix, membership={g: v / total for g, v in share.items()},
-                       component_grades={k: c.grade for k, c in self.components.items()}, grade=self.grade)
+        grades = {k: c.grade for k, c in self.components.items()}
+        matrix = {k: {g: float(g == grade) for g in self.grades} for k, grade in grades.items()}
+        return Grading(grades=self.grades, matrix=matrix, membership=membership(grades, weights, self.grades),
+                       component_grades=grades, grade=self.grade)
 
     def to_dict(self) -> dict:
         return {"grade": self.grade, "decided_by": self.decided_by, "reason": self.reason,
@@ -375,11 +374,9 @@ def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: 
     >>> v.reason
     "poor: mtf set the grade — MTF50 33.3 % below the real camera's; the tolerance for fair is a mismatch of 20 %"
     """
-    names = _grade_names(config)
-    context = _Context(names, config, metrics, scene_range, ceiling, ceiling_source)
-    judged = {k: context.judge(k, float(components[k])) for k in COMPONENTS if k in components and weights[k] > 0}
-    if not judged:
-        raise FidelityError("no component with a positive weight to grade")
+    context = _Context(Grader(weights, config, ceiling), metrics, scene_range, ceiling_source)
+    names = context.grader.names
+    judged = {k: context.judge(k, float(components[k])) for k in context.grader.judged(components)}
     checks = {}
     if weights["noise"] <= 0 and isinstance(metrics.get("scene_noise_ratio"), (int, float)):
         ratio = float(metrics["scene_noise_ratio"])
@@ -397,26 +394,20 @@ def judge(components: Mapping[str, float], metrics: Mapping[str, Any], weights: 
 
 @dataclass(frozen=True)
 class _Context:
-    """What grading a component needs besides its value."""
+    """What grading a component in words needs besides its value."""
 
-    names: tuple
-    config: Any
+    grader: Grader
     metrics: Mapping[str, Any]
     scene_range: float | None
-    ceiling: Mapping[str, float] | None
     ceiling_source: str | None
 
     def judge(self, k: str, value: float, source: str | None = None) -> ComponentVerdict:
         """``k`` at ``value`` against its tolerance (:func:`judge`)."""
-        config, metrics = self.config, self.metrics
-        options = {"mtf": config.mtf_options, "sitf": config.sitf_options, "mrtd": config.mrtd_options}.get(k, {})
-        peak = metrics.get("psnr_peak")
-        roof = None if self.ceiling is None else self.ceiling.get(k)
-        cuts, basis = component_cuts(k, config.tolerances, alpha=float(options.get("alpha", 1.0)),
-                                     peak=None if peak is None else float(peak), scene_range=self.scene_range,
-                                     anchors=config.psnr_anchors, ceiling=roof)
-        met = [i for i, cut in enumerate(cuts) if value >= cut - _ROUNDING]
-        grade = self.names[met[0] if met else 3]
+        grader, metrics = self.grader, self.metrics
+        config, peak = grader.config, metrics.get("psnr_peak")
+        roof = None if grader.ceiling is None else grader.ceiling.get(k)
+        cuts, basis = grader.cuts(k, peak, self.scene_range)
+        grade = grader.names[grade_level(value, cuts)]
         span = self.scene_range if basis == "range" else (None if peak is None else float(peak))
         measured = {**metrics, "noise_source": "scene"} if source == "scene" else metrics
         measure, text = _measure(k, value, basis, measured, config, span, roof, self.ceiling_source)
@@ -424,6 +415,84 @@ class _Context:
         origin = source or metrics.get(f"{k}_source")
         return ComponentVerdict(k, value, grade, tuple(cuts), basis, measure, tuple(limits), text,
                                 source=origin if isinstance(origin, str) else None)
+
+
+def grade_level(value: float, cuts: tuple) -> int:
+    """The best grade (0 = the first, the strictest) whose cut ``value`` reaches; 3 when it
+    reaches none."""
+    for level, cut in enumerate(cuts):
+        if value >= cut - _ROUNDING:
+            return level
+    return 3
+
+
+def membership(component_grades: Mapping[str, str], weights: Mapping[str, float], names: tuple) -> dict:
+    """``B = K·R`` with ``R`` one-hot in each component's grade: the share of the weight in each
+    grade (sums to 1)."""
+    share = {g: math.fsum(weights[k] for k, grade in component_grades.items() if grade == g) for g in names}
+    total = math.fsum(share.values()) or 1.0
+    return {g: v / total for g, v in share.items()}
+
+
+class Grader:
+    """The grades of scores under one configuration, weights and ceiling, without the words.
+
+    Each component's cuts (:func:`irfidelity.tolerances.component_cuts`) are found once; the
+    PSNR's depend on the peak and the scene's range, and are kept for the last
+    :data:`_PSNR_CUTS_KEPT` of those. :func:`judge` grades with it and adds the words; a
+    sequence grades its frames with :meth:`summary` alone, which gives the same grades,
+    memberships and fidelity.
+    """
+
+    def __init__(self, weights: Weights, config: Any, ceiling: Mapping[str, float] | None = None):
+        self.names = _grade_names(config)
+        self.weights, self.config, self.ceiling = weights, config, ceiling
+        self.active = tuple(weights.active())
+        self._weight = {k: weights[k] for k in COMPONENTS}
+        self._cuts: dict[str, tuple[tuple, str]] = {}
+        self._psnr_cuts: dict[tuple, tuple[tuple, str]] = {}
+
+    def cuts(self, k: str, peak: Any, scene_range: float | None) -> tuple[tuple, str]:
+        """The cuts of ``k`` and their basis (``peak`` and ``scene_range`` matter to psnr only)."""
+        kept, key = (self._psnr_cuts, (peak, scene_range)) if k == "psnr" else (self._cuts, k)
+        found = kept.get(key)  # type: ignore[call-overload]
+        if found is not None:
+            return found
+        config = self.config
+        options = {"mtf": config.mtf_options, "sitf": config.sitf_options, "mrtd": config.mrtd_options}.get(k, {})
+        found = component_cuts(k, config.tolerances, alpha=float(options.get("alpha", 1.0)),
+                               peak=None if peak is None else float(peak), scene_range=scene_range,
+                               anchors=config.psnr_anchors, ceiling=None if self.ceiling is None else self.ceiling.get(k))
+        if len(kept) >= _PSNR_CUTS_KEPT:
+            kept.clear()
+        kept[key] = found  # type: ignore[index]
+        return found
+
+    def judged(self, components: Mapping[str, float]) -> list[str]:
+        """The components graded: those with a positive weight, in the paper's order."""
+        judged = [k for k in COMPONENTS if k in components and self._weight[k] > 0]
+        if not judged:
+            raise FidelityError("no component with a positive weight to grade")
+        return judged
+
+    def summary(self, components: Mapping[str, float], metrics: Mapping[str, Any],
+                scene_range: float | None = None) -> dict:
+        """``fidelity``, ``grade``, ``component_grades`` and ``membership`` of a score, as
+        :func:`irfidelity.scoring.score_components` gives them."""
+        peak, names, weight = metrics.get("psnr_peak"), self.names, self._weight
+        judged = self.judged(components)
+        if len(judged) != len(self.active):
+            fidelity_sum(self.weights, components)  # raises, naming the components without a value
+        values = [float(components[k]) for k in judged]
+        levels = [grade_level(v, self.cuts(k, peak, scene_range)[0]) for k, v in zip(judged, values)]
+        grades = {k: names[level] for k, level in zip(judged, levels)}
+        return {"fidelity": math.fsum(weight[k] * v for k, v in zip(judged, values)),
+                "grade": names[max(levels)], "component_grades": grades,
+                "membership": membership(grades, weight, names)}
+
+
+#: How many (peak, scene range) pairs a :class:`Grader` keeps the PSNR cuts of.
+_PSNR_CUTS_KEPT = 4096
 
 
 def _aside(checks: Mapping[str, ComponentVerdict], unassessed: Mapping[str, str]) -> str:

@@ -3,6 +3,7 @@
 
 use super::binning::HistPlan;
 use super::float::ChunkFloat;
+use super::scratch;
 use crate::hist;
 use crate::stats::IntSums;
 
@@ -21,7 +22,7 @@ pub(crate) struct Acc {
 impl Acc {
     pub(super) fn new(plan: Option<&HistPlan>) -> Acc {
         let dense = match plan.and_then(|p| p.dense_bins) {
-            Some(b) => vec![0; b * b],
+            Some(b) => scratch::zeroed_counts(b * b),
             None => Vec::new(),
         };
         Acc {
@@ -75,6 +76,12 @@ impl Acc {
             self.runs = hist::merge_runs(&self.runs, &other.runs);
         }
         self
+    }
+}
+
+impl Drop for Acc {
+    fn drop(&mut self) {
+        scratch::give_back_counts(std::mem::take(&mut self.dense));
     }
 }
 

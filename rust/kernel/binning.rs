@@ -5,6 +5,7 @@
 use super::range::{bulk, data_range, data_ranges, robust_range, Bulk};
 use super::request::{HistRequest, Request};
 use super::sample::Sample;
+use super::scratch;
 use crate::error::{Error, Result};
 use crate::hist::{HistSpec, DENSE_MAX_BINS, MAX_BINS};
 
@@ -110,6 +111,12 @@ impl Binner {
         // unlike floor(), is one instruction on baseline x86-64. The top edge goes in the last bin.
         let b = ((v - self.lo) * self.inv_width) as i64;
         b.clamp(0, self.bins as i64 - 1) as usize
+    }
+}
+
+impl Drop for Binner {
+    fn drop(&mut self) {
+        scratch::give_back_lut(std::mem::take(&mut self.lut));
     }
 }
 
@@ -275,7 +282,7 @@ fn make_int_binner<T: Sample>(bins: usize, edges: IntEdges) -> Binner {
     // levels): no division per entry. Bins above u16 (more than 65536 bins) use `IntEdges::bin`.
     let top = edges.top();
     let lut = if T::LUT > 0 && top <= u16::MAX as usize {
-        let mut lut = vec![0u16; T::LUT];
+        let mut lut = scratch::lut(T::LUT); // every entry is written below
         let mut k = 0usize;
         while k < T::LUT {
             let b = edges.bin(k as i64 + T::MIN);

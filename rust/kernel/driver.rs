@@ -144,10 +144,8 @@ fn finish<T: Sample>(n: usize, req: &Request, plan: Plan, mut acc: Acc, nonfinit
     out.sums = if T::IS_INT { Sums::Int(acc.int) } else { Sums::Float(float_sums(n, &plan, &mut acc)?) };
     if let Some(p) = plan.hist {
         let joint = match p.dense_bins {
-            Some(b) => {
-                Joint::Dense { bins: b, offset: p.offset, counts: acc.dense.iter().map(|&c| c as u64).collect() }
-            }
-            None => Joint::Sparse(acc.runs),
+            Some(b) => Joint::from_counts(b, p.offset, &acc.dense),
+            None => Joint::Sparse(std::mem::take(&mut acc.runs)),
         };
         out.hist = Some((p.spec, joint));
     }

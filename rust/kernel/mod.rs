@@ -8,7 +8,8 @@
 //! * `sample`: the pixel types ([`Sample`]); `request`: what to compute ([`Request`]);
 //! * `binning`: the histogram plan (bin edges, lookup tables, table layout); `range`: the
 //!   data range it may need;
-//! * `acc`: the per-worker accumulator; `dispatch`: each chunk through the AVX2 or portable
+//! * `acc`: the per-worker accumulator (its table, and the lookup tables, reused per thread:
+//!   `scratch`); `dispatch`: each chunk through the AVX2 or portable
 //!   copy of the loops, monomorphised per requested output;
 //! * `driver`: [`pair_stats`] — plan, fold the chunks, finish.
 
@@ -22,6 +23,7 @@ mod parallel;
 mod range;
 mod request;
 mod sample;
+mod scratch;
 
 pub(crate) use dispatch::use_avx2;
 pub use driver::pair_stats;

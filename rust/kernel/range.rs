@@ -104,9 +104,8 @@ const BULK_MARGIN: f64 = 1.0;
 /// starting every `stride` pixels, at most [`BULK_SAMPLES`] in all (every pixel of a small
 /// frame), as `value` gives them.
 fn bulk_sample<K>(len: usize, keep: impl Fn(usize) -> bool, value: impl Fn(usize) -> K) -> Vec<K> {
-    let stride = len.div_ceil(BULK_SAMPLES / BULK_RUN).max(BULK_RUN);
     let mut out = Vec::with_capacity(BULK_SAMPLES.min(len));
-    for start in (0..len).step_by(stride) {
+    for start in (0..len).step_by(bulk_stride(len)) {
         for i in start..(start + BULK_RUN).min(len) {
             if keep(i) {
                 out.push(value(i));
@@ -114,6 +113,21 @@ fn bulk_sample<K>(len: usize, keep: impl Fn(usize) -> bool, value: impl Fn(usize
         }
     }
     out
+}
+
+/// [`bulk_sample`] of a frame whose every pixel counts: the same pixels, copied run by run.
+fn whole_sample<T: Sample, K>(values: &[T], value: impl Fn(T) -> K) -> Vec<K> {
+    let len = values.len();
+    let mut out = Vec::with_capacity(BULK_SAMPLES.min(len));
+    for start in (0..len).step_by(bulk_stride(len)) {
+        out.extend(values[start..(start + BULK_RUN).min(len)].iter().map(|&v| value(v)));
+    }
+    out
+}
+
+/// How far apart [`bulk_sample`]'s runs start in a frame of `len` pixels.
+fn bulk_stride(len: usize) -> usize {
+    len.div_ceil(BULK_SAMPLES / BULK_RUN).max(BULK_RUN)
 }
 
 /// A frame's bulk: the 0.1 %, 50 % and 99.9 % quantiles of [`bulk_sample`]'s pixels among
@@ -124,7 +138,11 @@ fn bulk_sample<K>(len: usize, keep: impl Fn(usize) -> bool, value: impl Fn(usize
 pub(super) fn bulk<T: Sample>(values: &[T], other: Option<&[T]>, req: &Request, full: (f64, f64)) -> Option<Bulk> {
     let kept = |i: usize| req.mask.is_none_or(|m| m[i]);
     if T::IS_INT {
-        let sample = bulk_sample(values.len(), kept, |i| values[i].to_f64() as i64);
+        let level = |v: T| v.to_f64() as i64;
+        let sample = match req.mask {
+            None => whole_sample(values, level),
+            Some(_) => bulk_sample(values.len(), kept, |i| level(values[i])),
+        };
         let (lo, span) = (full.0 as i64, (full.1 - full.0) as usize);
         let ranks = if span < 1 << 20 { counted_quantiles(&sample, lo, span) } else { quantiles(&mut { sample }) };
         return ranks.map(|[a, m, b]| Bulk { low: a as f64, median: m as f64, high: b as f64 });

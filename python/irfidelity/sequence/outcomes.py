@@ -11,7 +11,8 @@ from typing import Any
 
 from ..errors import FidelityError
 from ..schema import registration_values
-from ..scoring import image_components, psnr_peak, score_components
+from ..fuzzy import ordered_components
+from ..scoring import image_components, psnr_peak
 from ..stats import PairStats
 from ..temperature import TemperatureErrors, temperature_scores
 from .entry import FrameEntry
@@ -61,8 +62,9 @@ def _frame_peak(plan: SequencePlan, outcome: Outcome, real_name: str) -> float |
 def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str | None) -> tuple[FrameEntry, PairStats | None]:
     """The report entry of one outcome, and the statistics to pool (None for a failure).
 
-    The components come from the same functions :func:`irfidelity.evaluate` uses, so a
-    frame's values equal those of evaluating the pair alone.
+    The components come from the same functions :func:`irfidelity.evaluate` uses, and the
+    grades from the same cuts (:class:`irfidelity.verdict.Grader`, without the verdict's
+    words), so a frame's values equal those of evaluating the pair alone.
     """
     if outcome.error is not None:
         return error_entry(outcome.index, real, sim, outcome.error), None
@@ -76,15 +78,15 @@ def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str
         if outcome.temperature is not None:
             comps, metrics = _with_temperature(comps, metrics, outcome.temperature, plan)
         extent = outcome.real_extent
-        score = score_components(comps | plan.camera_components, metrics | plan.camera_metrics, plan.weights,
-                                 plan.config, ceiling=plan.ceiling, ceiling_source=plan.ceiling_source,
-                                 scene_range=plan.scene_range if extent is None else extent[1] - extent[0])
+        comps, metrics = ordered_components(comps | plan.camera_components), metrics | plan.camera_metrics
+        graded = plan.grader.summary(comps, metrics, plan.scene_range if extent is None else extent[1] - extent[0])
     except FidelityError as exc:
         return error_entry(outcome.index, real, sim, str(exc)), None
     shape = outcome.shape
     registration = outcome.registration if outcome.registration is not None else plan.registration
     return FrameEntry(outcome.index, real, sim, rows=None if shape is None else int(shape[0]),
-                      cols=None if shape is None else int(shape[1]), dtype=outcome.dtype, **score.to_dict(),
+                      cols=None if shape is None else int(shape[1]), dtype=outcome.dtype, components=comps,
+                      metrics=metrics, **graded,
                       registration=None if registration is None else registration.to_dict()), stats
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -29,6 +30,7 @@ from ..registration import DEFAULT_ORDER
 from ..results import recorded_warnings
 from ..reuse import RealMemo, computed
 from ..scoring import plan_with_scene, psnr_peak
+from ..verdict import Grader
 from ..stats import PairRequest, full_range, hist_params, peak_and_valid, real_range
 from .pairing import Pairing
 
@@ -100,6 +102,11 @@ class SequencePlan:
     def mask_values(self) -> np.ndarray | None:
         """The mask every pair is scored over, as the engine takes it (bool, C-contiguous)."""
         return None if self.mask is None else self.mask.values
+
+    @cached_property
+    def grader(self) -> Grader:
+        """Grades every frame of the run (each component's cuts found once)."""
+        return Grader(self.weights, self.config, self.ceiling)
 
     @property
     def bin_label(self) -> Any:

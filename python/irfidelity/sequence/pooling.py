@@ -165,9 +165,13 @@ def frame_statistics(frames: list[dict]) -> dict:
     out: dict[str, Any] = {"fidelity": _percentiles([f["fidelity"] for f in scored]), "components": {},
                            "metrics": {}}
     for group in ("components", "metrics"):
-        keys = dict.fromkeys(k for f in scored for k, v in f[group].items() if isinstance(v, (int, float)))
-        for k in keys:
-            stats = _percentiles([f[group][k] for f in scored if isinstance(f[group].get(k), (int, float))])
+        columns: dict[str, list] = {}  # each number's values in frame order, keys in order of first use
+        for f in scored:
+            for k, v in f[group].items():
+                if isinstance(v, (int, float)):
+                    columns.setdefault(k, []).append(v)
+        for k, values in columns.items():
+            stats = _percentiles(values)
             if stats:
                 out[group][k] = stats
     return out
