@@ -368,7 +368,7 @@ def _is_tiff(path: str) -> bool:
     return path.lower().endswith(MULTIPAGE_EXTENSIONS)
 
 
-Entry = tuple[Union[str, None], int, str]  # (path, page, display name); path None for an array
+Entry = tuple[str | None, int, str]  # (path, page, display name); path None for an array
 
 
 class _Column(Sequence[Any]):

@@ -5,7 +5,7 @@ section whose data is absent is replaced by a note saying what is not shown and 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from datetime import datetime, timezone
+from datetime import datetime, UTC
 from typing import Any
 
 import numpy as np
@@ -68,7 +68,7 @@ def as_float(v: Any) -> float | None:
 def header(title: str, subtitle: str | None) -> Raw:
     from .. import __version__
 
-    when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    when = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     sub = f"<p class=\"sub\">{text(subtitle)}</p>" if subtitle else ""
     return Raw(f"<header><h1>{text(title)}</h1>{sub}<p class=\"sub\">irfidelity {text(__version__)}, {text(when)}"
                "</p></header>")
@@ -206,8 +206,8 @@ def mtf(curves: Mapping, metrics: Mapping) -> Raw:
                               "or --real-edge/--sim-edge)", anchor="mtf")
     notes = []
     entries = []
-    for (name, c, style, key), (x, y) in zip(
-        [("real", real_c, figures.REAL_STYLE, "mtf50_real"), ("simulated", sim_c, figures.SIM_STYLE, "mtf50_sim")], xy
+    for (name, style, key), (x, y) in zip(
+        [("real", figures.REAL_STYLE, "mtf50_real"), ("simulated", figures.SIM_STYLE, "mtf50_sim")], xy
     ):
         at = as_float(metrics.get(key))
         if at is None:
@@ -235,9 +235,8 @@ def sitf(curves: Mapping, metrics: Mapping) -> Raw:
                               "curves or CSV files; on the command line --real-sitf/--sim-sitf)", anchor="sitf")
     notes = []
     entries = []
-    for (name, c, style, key), (x, y) in zip(
-        [("real", real_c, figures.REAL_STYLE, "real_sitf_fit"), ("simulated", sim_c, figures.SIM_STYLE,
-                                                                   "sim_sitf_fit")], xy
+    for (name, style, key), (x, y) in zip(
+        [("real", figures.REAL_STYLE, "real_sitf_fit"), ("simulated", figures.SIM_STYLE, "sim_sitf_fit")], xy
     ):
         fit = _fit(curves.get(key))
         if fit is None:
