@@ -141,7 +141,8 @@ class Radiometry:
                 + ", ".join(CALIBRATION_FIELDS),
                 option=unknown[0],
             )
-        return dataclasses.replace(self, **overrides)
+        changes: dict[str, Any] = dict(overrides)  # calibration fields only (checked above)
+        return dataclasses.replace(self, **changes)
 
     def _convert(self, values: Any, unit: str, overrides: dict[str, float], to_temperature: bool) -> Any:
         if unit not in UNITS:

@@ -112,8 +112,8 @@ class Curve:
     def replace(self, **changes: Any) -> Curve:
         """A new curve with some of ``x``, ``y``, ``name``, ``x_unit``, ``y_unit``, ``meta`` changed
         (checked like any new curve)."""
-        fields = {"x": self.x, "y": self.y, "name": self.name, "x_unit": self.x_unit, "y_unit": self.y_unit,
-                  "meta": self.meta}
+        fields: dict[str, Any] = {"x": self.x, "y": self.y, "name": self.name, "x_unit": self.x_unit,
+                                  "y_unit": self.y_unit, "meta": self.meta}
         fields.update(changes)
         x, y = fields.pop("x"), fields.pop("y")
         return Curve(x, y, **fields)
