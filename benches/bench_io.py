@@ -25,9 +25,9 @@ from typing import Callable
 
 os.environ.setdefault("OPENCV_IO_ENABLE_OPENEXR", "1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from irfidelity.frames import load_frame, page_count  # noqa: E402
+from irfidelity.frames import load_frame, page_count
 
 DATA = Path(__file__).resolve().parent.parent / "tests" / "data"
 
@@ -71,7 +71,8 @@ def make_inputs(tmp: Path, width: int, height: int) -> list[dict]:
     else:
         import png as pypng
 
-        pypng.Writer(width, height, greyscale=True, bitdepth=16).write(open(png_path, "wb"), counts16.tolist())
+        with open(png_path, "wb") as fh:
+            pypng.Writer(width, height, greyscale=True, bitdepth=16).write(fh, counts16.tolist())
     cases.append({"name": f"PNG 16-bit {width}x{height}", "path": png_path, "kind": "png", "frames": 1})
 
     if OpenEXR is not None:

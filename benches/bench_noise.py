@@ -134,13 +134,13 @@ def in_memory(frames: int, rows: int, cols: int, repeat: int) -> None:
           "| numpy parts / irfidelity | max rel. diff of σ | pyradi |")
     print("|---|---|---|---|---|---|---|---|---|")
     for name, cube in (("uint16", cube16), ("float32", cube16.astype(np.float32))):
-        t_irf, ours = best_time(lambda: irfidelity_classical(cube), repeat)
-        t_pass, _ = best_time(lambda: noise_sums(cube), repeat)
-        t_means, means = best_time(lambda: numpy_means(cube), repeat)
-        t_parts, parts = best_time(lambda: numpy_parts(cube), max(1, repeat // 2))
+        t_irf, ours = best_time(lambda cube=cube: irfidelity_classical(cube), repeat)
+        t_pass, _ = best_time(lambda cube=cube: noise_sums(cube), repeat)
+        t_means, means = best_time(lambda cube=cube: numpy_means(cube), repeat)
+        t_parts, parts = best_time(lambda cube=cube: numpy_parts(cube), max(1, repeat // 2))
         py = "not installed"
         if pyradi_run is not None:
-            t_py, pyv = best_time(lambda: pyradi_run(cube), 1)
+            t_py, pyv = best_time(lambda cube=cube: pyradi_run(cube), 1)
             py = f"{t_py:.2f} s ({t_py / t_irf:.1f}x), max rel. diff {max_rel(ours, pyv):.1e}"
         print(f"| {name} | {t_irf:.3f} s | {t_pass:.3f} s | {t_parts:.2f} s | {t_means:.2f} s | **{t_means / t_irf:.1f}x** | "
               f"{t_parts / t_irf:.1f}x | {max(max_rel(ours, parts), max_rel(ours, means)):.1e} | {py} |")

@@ -33,9 +33,9 @@ import numpy as np
 from scipy import ndimage
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from _common import best  # noqa: E402
+from _common import best
 
-import irfidelity as irf  # noqa: E402
+import irfidelity as irf
 
 DATA = pathlib.Path(__file__).resolve().parents[1] / "tests" / "data"
 

@@ -330,7 +330,7 @@ def tiff(pages, big_endian=False, bigtiff=False) -> bytes:
         ifd_len = (8 if bigtiff else 2) + entry_len * len(entries) + (8 if bigtiff else 4)
         extra_pos = ifd_pos + ifd_len
         packed_values = []
-        for tag, kind, values in entries:
+        for _tag, kind, values in entries:
             packed_values.append(b"".join(struct.pack(e + fmt[kind], max(v, 0)) for v in values))
         data_pos = extra_pos + sum(len(p) for p in packed_values if len(p) > inline)
         ifd, extras = bytearray(), bytearray()

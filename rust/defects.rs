@@ -559,7 +559,7 @@ mod tests {
         assert_eq!(got.border.count, 26);
         assert_eq!(got.border.total, 26.0 * 4.0);
         assert_eq!(got.border.bounds, Some([0, 6, 0, 3]));
-        let wide = profile(&vec![0u16; 6 * 9], &vec![1u16; 6 * 9], None, (6, 9), ASKED).unwrap();
+        let wide = profile(&[0u16; 6 * 9], &[1u16; 6 * 9], None, (6, 9), ASKED).unwrap();
         assert_eq!(wide.border.count, 6 * 9 - 2 * 5); // the 2 × 5 interior is not
     }
 

@@ -428,7 +428,8 @@ impl Alignment {
             total += w;
         }
         let det = syy * sxx - syx * syx;
-        if !(det > 0.0) || !(total > 0.0) {
+        // NaN (a degenerate fit) is rejected with the non-positive
+        if det.is_nan() || det <= 0.0 || total.is_nan() || total <= 0.0 {
             return (self.shift, self.shift, 0.0);
         }
         let (ry, rx) = ((by * sxx - bx * syx) / det, (bx * syy - by * syx) / det);
@@ -443,7 +444,8 @@ impl Alignment {
             residual += w * miss * miss;
         }
         let variance = residual / (self.bins.len() as f64 - 2.0).max(1.0) * (syy + sxx) / det;
-        if !(variance.sqrt() <= MAX_LOCAL_ERROR) {
+        let error = variance.sqrt();
+        if error.is_nan() || error > MAX_LOCAL_ERROR {
             return (self.shift, self.shift, 0.0);
         }
         let significant = (ry * ry + rx * rx) > SIGNIFICANT * SIGNIFICANT * variance;

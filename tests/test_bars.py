@@ -628,7 +628,7 @@ def test_inverted_polarity_warns():
 
 def test_ctf_is_never_above_one():
     rng = np.random.default_rng(12)
-    for trial in range(30):
+    for _ in range(30):
         f = rng.uniform(0.03, 0.35)
         otf = gaussian_otf(rng.uniform(0.2, 1.5))
         image, _ = frame_for(f, otf, rng.uniform(0, 1), levels=(0.0, 10.0))

@@ -132,7 +132,7 @@ def test_no_command():
 def test_demo():
     p = run("demo", check_rc=0)
     assert "fidelity" in p.stdout and "Traceback" not in p.stderr
-    line = [l for l in p.stdout.splitlines() if l.startswith("fidelity")][0]
+    line = [s for s in p.stdout.splitlines() if s.startswith("fidelity")][0]
     fid = float(line.split()[1])
     assert 0 < fid < 1
     d = json.loads(run("demo", "--json", "-", check_rc=0).stdout)

@@ -398,7 +398,10 @@ def flir_file(path: Path, size: int, counts: np.ndarray | None) -> str:
     row = b"\0" + (bytes(2 * size) if counts is None else counts.astype("<u2").tobytes())
     z = zlib.compressobj(1)
     rows = b"".join(z.compress(row) for _ in range(size)) + z.flush()
-    chunk = lambda kind, data: struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
     png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", size, size, 16, 0, 0, 0, 0))
            + chunk(b"IDAT", rows) + chunk(b"IEND", b""))
     raw = struct.pack("<HHH", 2, size, size) + bytes(26) + png
@@ -457,7 +460,10 @@ def test_a_sequence_of_frames_beyond_the_pixel_limit_is_error_rows_under_a_cap(t
     """Two workers on two pairs of small files that decode to 16384 x 16384: error rows naming
     --max-pixels by default; with it raised, scored within the workers' budgets; never a signal."""
     rows = zlib.compress(bytes(16384 * (1 + 2 * 16384)), 1)
-    chunk = lambda kind, data: struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
     png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 16384, 16384, 16, 0, 0, 0, 0))
            + chunk(b"IDAT", rows) + chunk(b"IEND", b""))
     for side in ("real", "sim"):

@@ -85,8 +85,8 @@ def test_an_offset_copy_reads_one_and_a_few_extreme_pixels_do_not_stretch_the_bi
 
 def test_a_pure_offset_reads_one_where_shared_edges_read_its_phase(lepton):
     real = lepton[30]
-    each = [irf.nmi(real, real + d, hist_range="each").value for d in range(0, 12)]
-    data = [irf.nmi(real, real + d, hist_range="data").value for d in range(0, 12)]
+    each = [irf.nmi(real, real + d, hist_range="each").value for d in range(12)]
+    data = [irf.nmi(real, real + d, hist_range="data").value for d in range(12)]
     assert each == [1.0] * 12
     assert min(data) < 0.9  # the phase of the shared 2-level bins (the reason for "each")
     # a gain (about the median, the ranges overlapping) spreads the simulated frame over more

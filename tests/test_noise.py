@@ -646,7 +646,7 @@ def test_noise_component_in_evaluate_sequences_and_cli(tmp_path):
 
     stack = DATA / "ptw_lwir_all100frames_uint16.tif"
     frames = irf.FrameSequence(stack)
-    real_noise, sim_noise = np.stack([frames[i] for i in range(0, 40)]), np.stack([frames[i] for i in range(40, 80)])
+    real_noise, sim_noise = np.stack([frames[i] for i in range(40)]), np.stack([frames[i] for i in range(40, 80)])
     lepton = DATA / "cptv_v2_frame000.png", DATA / "cptv_v2_frame001.png"
     weights = "psnr=0.3,nmi=0.2,ssim=0.3,noise=0.2"
     rep = irf.evaluate(*lepton, real_noise=real_noise, sim_noise=sim_noise, weights=weights, bits=14)

@@ -361,7 +361,7 @@ def test_fit_accepts_reports_and_flags_inconsistent_experts():
     for name in ("ann", "bob", "cy", "dee"):
         rows += judged(rng, 50, expert=name)
     rows += [(a, b, "b" if p == "a" else "a", "eve") for a, b, p in judged(rng, 50)]  # contrarian
-    x, y, z = ({c: v for c, v in zip(PAPER_COMPONENTS, rng.uniform(0.4, 1.0, 5))} for _ in range(3))
+    x, y, z = (dict(zip(PAPER_COMPONENTS, rng.uniform(0.4, 1.0, 5))) for _ in range(3))
     rows += judged(rng, 47, expert="fay") + [(x, y, "a", "fay"), (y, z, "a", "fay"), (z, x, "a", "fay")]
     reports = [(SimpleNamespace(components=a), SimpleNamespace(components=b), p, e) for a, b, p, e in rows]
     fit = fit_weights(reports)

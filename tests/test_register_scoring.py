@@ -17,7 +17,7 @@ import pytest
 import scipy.ndimage as ndi
 
 import irfidelity as irf
-from irfidelity.errors import FidelityError, RangeError
+from irfidelity.errors import RangeError
 from irfidelity.report import render_pair_html
 from scene_off import NO_SCENE
 

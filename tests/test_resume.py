@@ -282,7 +282,7 @@ def test_the_engine_fingerprints_what_it_decoded(tmp_path):
     out = _core.score_pairs([str(png), str(stack), str(stack)], [str(stack)] * 3, [0, 1, 2], [3, 4, 5],
                             request=SequenceRequest(PairRequest(bins=None)), fingerprints=True)
     digests = dict(zip(map(str, (png, stack)), _core.file_digests([png, stack])))
-    for k, st, err, *_, fingerprints in out:
+    for k, _st, err, *_, fingerprints in out:
         assert err is None
         (rsize, rtime, rdigest), (ssize, stime, sdigest) = fingerprints
         real_path = str(png) if k == 0 else str(stack)

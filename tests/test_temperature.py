@@ -25,7 +25,7 @@ from irfidelity.cli import main
 from irfidelity.errors import FidelityError, FrameError
 from irfidelity.schema import csv_columns
 from irfidelity.temperature import DEFAULT_TOLERANCE, radiometry_component
-from test_radiometry import AX8, FFF_BE, FFF_LE, ZERO_C, thermimage_raw2temp
+from test_radiometry import AX8, FFF_LE, ZERO_C, thermimage_raw2temp
 
 DATA = pathlib.Path(__file__).parent / "data"
 LEPTON = DATA / "thermal" / "cptv_v2_frame000.png"

@@ -72,9 +72,12 @@ pub fn decode(data: &[u8]) {
     }
 }
 
+/// A block decoder's arguments: the block's bytes, sample sizes, selected channel, w, h.
+pub type Block<'a> = (&'a [u8], Vec<usize>, usize, usize, usize);
+
 /// A block decoder's input: w (1..=512), h (1..=64), channels as sample sizes (1..=6
 /// channels of 2 or 4 bytes), the selected channel, then the block's bytes.
-pub fn block(data: &[u8]) -> Option<(&[u8], Vec<usize>, usize, usize, usize)> {
+pub fn block(data: &[u8]) -> Option<Block<'_>> {
     let (head, body) = data.split_at_checked(4)?;
     let w = (head[0] as usize | (head[1] as usize & 1) << 8) + 1;
     let h = (head[1] as usize >> 1 & 63) + 1;

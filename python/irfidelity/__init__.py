@@ -11,8 +11,9 @@ module: :mod:`irfidelity.curves` (MTF, slanted edge, SiTF, curve similarity),
 (channels, pages), :mod:`irfidelity.schema` (the names and units of every output).
 """
 
-from . import curves, fuzzy
-from . import targets
+# the stages' modules, so `irfidelity.curves` etc. work after `import irfidelity`
+from . import curves, fuzzy  # noqa: F401
+from . import targets  # noqa: F401
 from .bar_frames import BarFrames
 from .config import ScoringConfig
 from .curves import Curve

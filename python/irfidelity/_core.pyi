@@ -1,7 +1,7 @@
 """Type stub of the Rust extension `irfidelity._core` (hand-written; keep in sync with rust/binding/)."""
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, final
 
 import numpy as np
@@ -135,9 +135,13 @@ def default_max_bytes() -> int: ...
 
 # ---- sequences (rust/binding/sequence.rs) ---------------------------------------------------
 
+#: A 2 x 3 affine matrix as the binding returns it: 6 floats, row-major, in a list (it takes
+#: any sequence of 6 floats).
+_Matrix = list[float]
+
 #: A pair's own registration (``request.register_each``): matrix (6 floats, row-major),
 #: method used, confidence, overlap, inverted.
-_PairRegistration = tuple[tuple[float, float, float, float, float, float], str, float, float, bool]
+_PairRegistration = tuple[_Matrix, str, float, float, bool]
 #: A file's fingerprint: size, modification time (ns), XXH3-64 of the bytes decoded.
 _FileFingerprint = tuple[int, int, int]
 #: ``(index, stats, error, shape, dtype, real extent, registration, fingerprints)``.
@@ -146,8 +150,8 @@ _PairOutcome = tuple[int, PairStats | None, str | None, tuple[int, int] | None, 
                     tuple[_FileFingerprint, _FileFingerprint] | None]
 
 def score_pairs(
-    real_paths: list[str | os.PathLike[str]],
-    sim_paths: list[str | os.PathLike[str]],
+    real_paths: Sequence[str | os.PathLike[str]],
+    sim_paths: Sequence[str | os.PathLike[str]],
     real_pages: list[int] | None = None,
     sim_pages: list[int] | None = None,
     *,
@@ -159,9 +163,9 @@ def score_pairs(
     mask: npt.NDArray[np.bool_] | None = None,
 ) -> list[_PairOutcome] | None: ...
 def score_shared(
-    real_paths: list[str | os.PathLike[str]],
+    real_paths: Sequence[str | os.PathLike[str]],
     real_pages: list[int],
-    sim_paths: list[str | os.PathLike[str]],
+    sim_paths: Sequence[str | os.PathLike[str]],
     sim_pages: list[int],
     owners: list[int],
     kinds: list[int],
@@ -183,7 +187,7 @@ def check_budget(
 
 # ---- file fingerprints (rust/binding/fingerprint.rs) -------------------------------------
 
-def file_digests(paths: list[str | os.PathLike[str]]) -> list[int | None]: ...
+def file_digests(paths: Sequence[str | os.PathLike[str]]) -> list[int | None]: ...
 
 # ---- SSIM maps (rust/binding/maps.rs) -------------------------------------------------------
 
@@ -252,7 +256,7 @@ def noise_sums_array(
     max_bytes: int | None = None,
 ) -> NoiseSums: ...
 def noise_sums_paths(
-    paths: list[str | os.PathLike[str]],
+    paths: Sequence[str | os.PathLike[str]],
     pages: list[int],
     *,
     channel: str | None = None,
@@ -273,8 +277,8 @@ REGISTRATION_MODELS: list[str]
 REGISTRATION_METHODS: list[str]
 
 def applied_matrix(
-    matrix: tuple[float, float, float, float, float, float],
-) -> tuple[float, float, float, float, float, float]: ...
+    matrix: Sequence[float],
+) -> _Matrix: ...
 
 def register_frames(
     real: npt.NDArray[Any],
@@ -285,10 +289,10 @@ def register_frames(
     mask: npt.NDArray[np.bool_] | None = None,
     *,
     max_bytes: int | None = None,
-) -> tuple[tuple[float, float, float, float, float, float], str, float, float, bool]: ...
+) -> _PairRegistration: ...
 def warp_frame(
     frame: npt.NDArray[Any],
-    matrix: tuple[float, float, float, float, float, float],
+    matrix: Sequence[float],
     order: int,
     shape: tuple[int, int],
     mask: npt.NDArray[np.bool_] | None = None,
@@ -301,14 +305,14 @@ def score_registered(
     request: PairRequest,
     *,
     search: tuple[str, str, float | None] | None = None,
-    matrix: tuple[float, float, float, float, float, float] | None = None,
+    matrix: Sequence[float] | None = None,
     order: int = 3,
     mask: npt.NDArray[np.bool_] | None = None,
     extent: bool = False,
     max_bytes: int | None = None,
 ) -> tuple[
     PairStats,
-    tuple[tuple[float, float, float, float, float, float], str, float, float, bool] | None,
+    _PairRegistration | None,
     tuple[float, float] | None,
     npt.NDArray[np.float64],
     npt.NDArray[np.bool_],

@@ -71,6 +71,7 @@ def score_registered(real: Any, sim: Any, request: PairRequest, *, model: str | 
         if mask.shape != r.shape:
             raise ShapeError(f"mask has shape {mask.shape}, frames have {r.shape}")
     if registration is None:
+        assert model is not None and method is not None  # given whenever no registration is
         search, matrix = (model, method, None), None
     else:
         if tuple(registration.shape) != r.shape:
@@ -92,5 +93,6 @@ def find_registration(real: np.ndarray, sim: np.ndarray, config: ScoringConfig, 
     within the memory budget ``max_bytes``."""
     from .registration import register
 
+    assert config.register is not None  # asked only when registering
     return register(real, sim, model=config.register, method=config.register_method,
                     mask=None if mask is None else np.asarray(mask, dtype=bool), max_bytes=max_bytes)

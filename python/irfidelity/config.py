@@ -16,7 +16,7 @@ import json
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 from .config_fields import (MISSING_MODES, NONFINITE_MODES, PAIRING_RULES, REGISTRATION_METHODS, REGISTRATION_MODELS,
                             ConfigError, bins_value, choice, curve_options, finite_numbers, grade_scale,
@@ -348,7 +348,7 @@ class ScoringConfig:
                 value = value.as_dict()
             elif isinstance(value, GradeScale):
                 value = {"grades": list(value.grades), "cuts": {k: list(v) for k, v in value.cuts.items()},
-                         "width": dict(value.width)}
+                         "width": dict(cast(Mapping[str, float], value.width))}  # a mapping since __post_init__
             elif isinstance(value, Tolerances):
                 value = value.to_dict()
             elif isinstance(value, tuple):

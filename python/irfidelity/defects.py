@@ -105,7 +105,7 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None) -> dict | None:
             rows, cols = np.unravel_index(flat[:carrying], real.shape)
             return _finding(len(values), count, share, rows, cols, _where(rows, cols))
     share = ring_total / total
-    if share > MOST and ring_count < 0.1 * count:
+    if share > MOST and ring_count < 0.1 * count and ring_box is not None:  # (a border with error has a box)
         rows, cols = np.array(ring_box[:2]), np.array(ring_box[2:])
         return _finding(ring_count, count, share, rows, cols, f"along the frame's border ({_BORDER} px wide)")
     return None
@@ -349,7 +349,7 @@ def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
         defect[c["rows"][0]:c["rows"][1] + 1, c["cols"][0]:c["cols"][1] + 1] |= box
     squares = lambda where: float(np.sum((sim[where].astype(np.float64) - real[where]) ** 2))  # noqa: E731
     for c in found:
-        box = (slice(c["rows"][0], c["rows"][1] + 1), slice(c["cols"][0], c["cols"][1] + 1))
-        c["share"] = squares(tuple(np.add(np.nonzero(far[box]), [[box[0].start], [box[1].start]]))) / total
+        span = (slice(c["rows"][0], c["rows"][1] + 1), slice(c["cols"][0], c["cols"][1] + 1))
+        c["share"] = squares(tuple(np.add(np.nonzero(far[span]), [[span[0].start], [span[1].start]]))) / total
     found.sort(key=lambda c: -c["share"])
     return Defects(defect, tuple(found), squares(defect) / total)

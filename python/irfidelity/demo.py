@@ -24,7 +24,7 @@ from __future__ import annotations
 import contextlib
 import math
 from importlib import resources
-from typing import Callable, Iterator
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -36,7 +36,7 @@ __all__ = ["gaussian_blur", "simulate_camera", "model_sitf", "load_demo_data", "
            "DEMO_MODEL"]
 
 #: Parameters of the demo's camera model (frame: Lepton counts; edge: 8-bit grey levels).
-DEMO_MODEL = {
+DEMO_MODEL: dict[str, Any] = {
     "frame": {"sigma": 1.0, "gain": 0.98, "offset": 45.0, "noise": 6.0, "bits": 14, "seed": 0},
     "edge": {"sigma": 0.8, "gain": 1.0, "offset": 0.0, "noise": 1.0, "bits": 8, "seed": 1},
     "sitf_band_um": (8.0, 12.0),

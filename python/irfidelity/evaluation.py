@@ -144,7 +144,7 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
             if _left_out_defects(sources) and regions is None:
                 real_scored, sim_scored, _, _ = scored_frames(sources, config, max_bytes)
                 st, span = masked_stats(real_scored, sim_scored, components, config, sources["mask"],
-                                        bits=None, peak=float(st.peak) if "psnr" in components else None)
+                                        bits=None, peak=_psnr_peak(st, components))
             if regions is None:
                 st = with_psnr_peak(st, span, components, config, "real frame")
             else:
@@ -164,6 +164,14 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
     return st, span
 
 
+def _psnr_peak(stats: _stats.PairStats, components: tuple) -> float | None:
+    """The statistics' PSNR peak when the psnr component is computed (they then have one)."""
+    if "psnr" not in components:
+        return None
+    assert stats.peak is not None
+    return float(stats.peak)
+
+
 def _ceiling(real_ref: Any, components: tuple, config: ScoringConfig, stats: _stats.PairStats,
              sources: dict, inputs: dict, max_bytes: int | None) -> dict:
     """The real-vs-real components with ``real_ref`` (:mod:`irfidelity.ceiling`)."""
@@ -172,7 +180,7 @@ def _ceiling(real_ref: Any, components: tuple, config: ScoringConfig, stats: _st
     ref = _load_ref(real_ref, config, sources, max_bytes)
     inputs["real_ref"] = describe_input(real_ref)
     sources["real_ref"] = ref  # each region's ceiling; dropped once the regions are scored
-    peak = float(stats.peak) if "psnr" in components else None
+    peak = _psnr_peak(stats, components)
     return pair_ceiling(sources["real"], ref, components, config, mask=sources.get("mask"), peak=peak)
 
 
@@ -195,7 +203,7 @@ def _noise_ceiling(real_noise: Any, components: tuple, config: ScoringConfig, st
     elif noise is None:
         noise = real_noise if isinstance(real_noise, Mapping) else as_noise(real_noise, "real", config)
     inputs.setdefault("real_noise", describe_input(real_noise))
-    peak = float(stats.peak) if "psnr" in components else None
+    peak = _psnr_peak(stats, components)
     return noise_ceiling(sources["real"], noise, components, config, mask=sources.get("mask"), peak=peak,
                          max_bytes=max_bytes)
 

@@ -18,7 +18,7 @@ import os
 import re
 import stat
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from typing import Any, NamedTuple, Union, overload
+from typing import Any, NamedTuple, Self, Union, overload
 
 import numpy as np
 
@@ -368,7 +368,7 @@ def _is_tiff(path: str) -> bool:
     return path.lower().endswith(MULTIPAGE_EXTENSIONS)
 
 
-Entry = tuple[Union[str, None], int, str]  # (path, page, display name); path None for an array
+Entry = tuple[str | None, int, str]  # (path, page, display name); path None for an array
 
 
 class _Column(Sequence[Any]):
@@ -485,7 +485,7 @@ class FrameSequence(Sequence[np.ndarray]):
             raise FrameError(f"{source!r}: not a directory, glob, file, list of paths or 3-D array")
 
     @classmethod
-    def _subset(cls, parent: FrameSequence, entries: list[Entry]) -> FrameSequence:
+    def _subset(cls, parent: FrameSequence, entries: list[Entry]) -> Self:
         new = cls.__new__(cls)
         new.channel = parent.channel
         new.max_pixels = parent.max_pixels

@@ -19,8 +19,8 @@ from __future__ import annotations
 import math
 import re
 import warnings
-from dataclasses import dataclass, field, fields
-from typing import Any, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Iterable, Mapping, cast
 
 import numpy as np
 
@@ -42,7 +42,7 @@ __all__ = [
 ]
 
 #: The paper's components, in its order f1..f5.
-PAPER_COMPONENTS = ("mtf", "sitf", "psnr", "nmi", "ssim")
+PAPER_COMPONENTS: tuple[str, ...] = ("mtf", "sitf", "psnr", "nmi", "ssim")
 
 #: Every component: the paper's five, then the opt-in ``noise``, ``radiometry`` and ``mrtd``
 #: (weight 0 by default).
@@ -584,7 +584,8 @@ class GradeScale:
         """Row of ``R`` for one component value: ``{grade: membership}`` (sums to 1)."""
         c = self.cuts[component]
         x = float(value)
-        ups = [1.0] + [_ramp_up(x, ci, self.width[component]) for ci in c] + [0.0]
+        width = cast(Mapping[str, float], self.width)  # one per component since __post_init__
+        ups = [1.0] + [_ramp_up(x, ci, width[component]) for ci in c] + [0.0]
         # ups[j] = membership in "grade j or better" counted from the worst; grade j (worst=0)
         worst_first = [ups[j] - ups[j + 1] for j in range(len(c) + 1)]
         return dict(zip(self.grades, reversed(worst_first)))

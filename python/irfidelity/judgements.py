@@ -300,7 +300,7 @@ def _experts(judgements: Judgements, weights: np.ndarray, prior: np.ndarray | No
         per_expert[name] = {"judgements": len(own.sign), "tau": float(np.mean(_concordance(own, weights))),
                             "held_out_accuracy": accuracy, "cyclic": cyclic}
         reasons = []
-        if _is_opposed(accuracy):
+        if accuracy is not None and _is_opposed(accuracy):
             reasons.append(_opposite_reason(accuracy))
         if cyclic:
             reasons.append(f"{cyclic} judgement(s) on a cycle of this expert's own preferences")
@@ -671,7 +671,7 @@ def read_judgements(path: str | os.PathLike) -> list[tuple]:
                 raise FidelityError(f"{name}: empty file; expected a header row a_<component>,...,preferred")
             components, has_expert = _csv_columns(name, header)
             index = {h.strip(): i for i, h in enumerate(header)}
-            out = []
+            out: list[tuple] = []
             for row in reader:
                 if any(cell.strip() for cell in row):
                     if len(out) == MAX_JUDGEMENTS:

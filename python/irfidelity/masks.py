@@ -121,7 +121,7 @@ class ScoringMask:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return tuple(self.values.shape)  # type: ignore[return-value]
+        return tuple(self.values.shape)
 
     def digest(self) -> str:
         """A digest of the shape and the values (what a resumed run must share)."""

@@ -21,7 +21,7 @@ from typing import Any, Union
 import numpy as np
 
 from . import _core
-from .errors import FidelityError, FrameError, RadiometryWarning, RangeError
+from .errors import FidelityError, RadiometryWarning, RangeError
 from .frames import FRAME_DTYPES
 
 __all__ = ["Radiometry", "read_radiometry", "RadiometryWarning", "CALIBRATION_FIELDS", "UNITS"]
@@ -141,7 +141,8 @@ class Radiometry:
                 + ", ".join(CALIBRATION_FIELDS),
                 option=unknown[0],
             )
-        return dataclasses.replace(self, **overrides)
+        changes: dict[str, Any] = dict(overrides)  # calibration fields only (checked above)
+        return dataclasses.replace(self, **changes)
 
     def _convert(self, values: Any, unit: str, overrides: dict[str, float], to_temperature: bool) -> Any:
         if unit not in UNITS:
@@ -264,7 +265,7 @@ def _date(value: tuple[int, int, int] | None) -> datetime.datetime | None:
     if value is None:
         return None
     seconds, millis, east = value
-    zone = datetime.timezone(datetime.timedelta(minutes=east)) if abs(east) < 24 * 60 else datetime.timezone.utc
+    zone = datetime.timezone(datetime.timedelta(minutes=east)) if abs(east) < 24 * 60 else datetime.UTC
     return datetime.datetime.fromtimestamp(seconds, zone) + datetime.timedelta(milliseconds=millis)
 
 

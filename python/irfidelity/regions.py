@@ -181,7 +181,7 @@ class Regions:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return tuple(self.labels.shape)  # type: ignore[return-value]
+        return tuple(self.labels.shape)
 
     def mask(self, label: int) -> np.ndarray:
         """The pixels of one region (bool, one byte a pixel)."""
@@ -228,7 +228,9 @@ def scored_mask(mask: Any, regions: Regions | None, shape: tuple[int, ...]) -> A
     if isinstance(mask, (str, os.PathLike)):
         from .masks import scoring_mask
 
-        mask = scoring_mask(mask, None, (int(shape[0]), int(shape[1]))).values
+        from_file = scoring_mask(mask, None, (int(shape[0]), int(shape[1])))
+        assert from_file is not None  # None only without a mask and a roi
+        mask = from_file.values
     if regions is None:
         return mask
     regions.check_shape(shape)

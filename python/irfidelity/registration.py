@@ -185,7 +185,7 @@ class Registration:
 
     def applied_matrix(self) -> np.ndarray:
         """The matrix :meth:`apply` uses: integer-snapped for near-whole-pixel translations."""
-        return np.reshape(_core.applied_matrix(tuple(float(v) for v in self.matrix.ravel())), (2, 3))
+        return np.asarray(_core.applied_matrix(tuple(float(v) for v in self.matrix.ravel()))).reshape(2, 3)
 
     # -- serialisation --------------------------------------------------------------
     def to_dict(self) -> dict:

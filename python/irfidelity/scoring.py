@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Mapping
 
 from .config import ScoringConfig
@@ -214,6 +214,7 @@ def psnr_peak(config: ScoringConfig, default_peak: float | None, scene_range: fl
                                 f"(its range is {scene_range!r})", option="peak")
         return float(scene_range)
     peak = config.peak if config.peak is not None else default_peak
+    assert not isinstance(peak, str)  # ScoringConfig allows no string but "range"
     if peak is None:
         raise FidelityError("PSNR of float frames needs a peak: a number (the largest possible value) or "
                             "'range' (the real frame's max − min)", option="peak")

@@ -274,8 +274,11 @@ class PairStats:
             raise FidelityError(f"max_cells must be a positive integer, got {max_cells!r}")
         if spec[0] == "levels" and self.level_origin is None:
             raise FidelityError("the grey level of these 'levels' statistics' first key is unknown (level_origin)")
-        counts, real_first, sim_first = self._raw.joint_histogram(int(max_cells))
+        table = self._raw.joint_histogram(int(max_cells))
+        assert table is not None  # None only without a histogram (spec None, refused above)
+        counts, real_first, sim_first = table
         if spec[0] == "levels":
+            assert self.level_origin is not None  # refused above
             real_edges = float(self.level_origin + real_first) + np.arange(counts.shape[0] + 1, dtype=np.float64)
             sim_edges = float(self.level_origin + sim_first) + np.arange(counts.shape[1] + 1, dtype=np.float64)
         elif spec[0] == "each":
@@ -364,6 +367,7 @@ def merge_all(stats: list[PairStats], *, histograms: bool = True) -> PairStats |
     if not stats:
         return None
     merged, _ = _core.merge_all([item._raw for item in stats], keep_hist=histograms)
+    assert merged is not None  # None only for an empty list
     first = stats[0]
     return PairStats(merged, peak=first.peak, bins=first.bins if merged.has_hist else None,
                      level_origin=first.level_origin)
@@ -454,7 +458,7 @@ def bins_value(bins: Any) -> int | str:
     command line's ``--bins`` make it."""
     if isinstance(bins, str) and bins == "levels":
         return bins
-    if isinstance(bins, numbers.Integral) and not isinstance(bins, bool) and 1 <= bins <= _core.MAX_HIST_BINS:
+    if isinstance(bins, numbers.Integral) and not isinstance(bins, bool) and 1 <= int(bins) <= _core.MAX_HIST_BINS:
         return int(bins)
     raise ConfigError("bins", f"expected an integer in 1..{_core.MAX_HIST_BINS} or 'levels'; got {reprlib.repr(bins)}")
 
@@ -606,7 +610,8 @@ def kernel_request(need: Iterable[str] | None, dtype: np.dtype, *, bins: int | s
 
 
 # Default PSNR peak per integer dtype (see peak_and_valid), for the single-metric fast path.
-_DEFAULT_PEAK = {np.dtype(t): peak_and_valid(np.dtype(t), None, None)[0] for t in (np.uint8, np.uint16, np.int16, np.uint32)}
+_DEFAULT_PEAK: dict[object, float] = {np.dtype(t): peak_and_valid(np.dtype(t), None, None)[0]
+                                      for t in (np.uint8, np.uint16, np.int16, np.uint32)}
 
 
 def mse(real, sim, *, mask=None) -> float:

@@ -82,7 +82,7 @@ class OTF:
         """The OTF at ``(fx, fy)`` cycles/pixel."""
         return self.radial(np.hypot(np.asarray(fx, dtype=np.float64), np.asarray(fy, dtype=np.float64)))
 
-    def __mul__(self, other: "OTF") -> "OTF":
+    def __mul__(self, other: OTF) -> OTF:
         """The cascade of two OTFs (their product)."""
         if not isinstance(other, OTF):
             return NotImplemented

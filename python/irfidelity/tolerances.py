@@ -226,10 +226,10 @@ def component_cuts(component: str, tolerances: Tolerances, *, alpha: float = 1.0
     name = next(n for n, c in COMPONENT_OF.items() if c == component)
     limits = tolerances.limits(name)
     if component in ("mtf", "sitf"):
-        return tuple(mu_of_ratio(1.0 - e) ** alpha for e in limits), "tolerance"  # type: ignore[return-value]
+        return tuple(mu_of_ratio(1.0 - e) ** alpha for e in limits), "tolerance"
     if component in ("noise", "mrtd"):
         exponent = alpha if component == "mrtd" else 1.0
-        return tuple(mu_of_ratio(1.0 / q) ** exponent for q in limits), "tolerance"  # type: ignore[return-value]
+        return tuple(mu_of_ratio(1.0 / q) ** exponent for q in limits), "tolerance"
     if component == "radiometry":
         from .temperature import radiometry_component
 

@@ -123,7 +123,7 @@ fn warp_frame<'py>(
     shape: (usize, usize),
     mask: Option<PyReadonlyArrayDyn<'py, bool>>,
     #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<bool>>)> {
+) -> PyResult<WarpedArrays<'py>> {
     let interp = Interp::from_order(order)
         .ok_or_else(|| crate::Error::Value(format!("order must be 1 (bilinear) or 3 (bicubic), got {order}")))
         .map_err(PyErr::from)?;
@@ -141,6 +141,9 @@ fn warp_frame<'py>(
     let valid = Array2::from_shape_vec(shape, valid).expect("warp returns rows × cols flags");
     Ok((values.into_pyarray(py), valid.into_pyarray(py)))
 }
+
+/// `warp_frame`'s values and validity flags.
+type WarpedArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<bool>>);
 
 /// [`register::warp`] on the array's own sample type, without the GIL.
 fn warped(

@@ -118,6 +118,7 @@ fn plane<'py>(py: Python<'py>, values: Vec<f64>, shape: (usize, usize)) -> PyRes
 /// `window_energy`, `skipped`).
 #[pyfunction]
 #[pyo3(signature = (real, sim, reference=None, mask=None, *, tile, step, groups, shift=(0.0, 0.0)))]
+#[allow(clippy::too_many_arguments)] // the Python function's arguments, one parameter each
 fn cross_spectra<'py>(
     py: Python<'py>,
     real: &Bound<'py, PyUntypedArray>,

@@ -21,6 +21,9 @@ fn band_rows(b: usize, rows: usize) -> (usize, usize) {
     (b * BAND_ROWS, ((b + 1) * BAND_ROWS).min(rows))
 }
 
+/// One band of each of two outputs, taken (once) by the thread that fills it.
+type BandPair<'a, A, B> = Mutex<Option<(&'a mut [A], &'a mut [B])>>;
+
 /// `f(first_row, values, flags)` on each band of two row-major outputs of `cols` columns.
 pub fn fill_bands<A: Send, B: Send>(
     a: &mut [A],
@@ -30,7 +33,7 @@ pub fn fill_bands<A: Send, B: Send>(
 ) {
     let cols = cols.max(1);
     let rows = a.len() / cols;
-    let parts: Vec<Mutex<Option<(&mut [A], &mut [B])>>> =
+    let parts: Vec<BandPair<'_, A, B>> =
         a.chunks_mut(BAND_ROWS * cols).zip(b.chunks_mut(BAND_ROWS * cols)).map(|p| Mutex::new(Some(p))).collect();
     let parallel = rows * cols >= PARALLEL_MIN_PIXELS;
     let _ = map_units::<(), std::convert::Infallible>(parts.len(), parallel, |i| {

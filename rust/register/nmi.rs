@@ -133,14 +133,12 @@ fn correlation_at(real: &Plane, sim: &Plane, matrix: &Affine) -> f64 {
     both.iter().map(|&i| (real.values[i] - mr) * (values[i] - ms)).sum::<f64>()
 }
 
+/// The coarse search's `((dy, dx)` in full-resolution pixels, confidence, rival shift`)`.
+type CoarseShift = ((f64, f64), f64, (isize, isize));
+
 /// Exhaustive integer-shift search on the coarse level: `((dy, dx)` in full-resolution
 /// pixels, confidence, rival shift`)`.
-fn coarse_search(
-    real: &Plane,
-    sim: &Plane,
-    start: &Affine,
-    max_shift: Option<f64>,
-) -> Result<((f64, f64), f64, (isize, isize))> {
+fn coarse_search(real: &Plane, sim: &Plane, start: &Affine, max_shift: Option<f64>) -> Result<CoarseShift> {
     let factor = coarse_factor(real.rows, real.cols);
     let (mut rc, mut sc) = (real.clone(), sim.clone());
     while rc.rows > real.rows / factor {

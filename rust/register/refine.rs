@@ -235,6 +235,8 @@ struct Sums {
 /// Normal equations of `G` geometric parameters (2: translation, 3: + rotation, 4: + scale)
 /// plus gain and offset, and their solution. The warped frame's gradient is taken by central
 /// differences on the fly. Bands of rows are summed apart and added in order.
+// the matrix loops index (row, column) as the formulas do; mirroring needs both at once
+#[allow(clippy::needless_range_loop)]
 fn solve_step<const G: usize>(
     real: &Plane,
     real_grad: &(Vec<f64>, Vec<f64>, Vec<bool>),
@@ -323,8 +325,8 @@ fn band_sums<const G: usize>(
             for a in 0..G + 2 {
                 let wa = weight * jac[a];
                 s.rhs[a] += wa * e;
-                for b in 0..=a {
-                    s.normal[a][b] += wa * jac[b];
+                for (n, &j) in s.normal[a][..=a].iter_mut().zip(&jac) {
+                    *n += wa * j;
                 }
             }
         }
@@ -334,6 +336,8 @@ fn band_sums<const G: usize>(
 
 /// Replace column/row `col` of the lower-triangular normal matrix (and `rhs`) by those of
 /// `col − mean·ones`, where `ones` is column `ones` (all 1).
+// `a` is the column index of the formula below; the rows `col` and `ones` are both read
+#[allow(clippy::needless_range_loop)]
 fn centre_column(normal: &mut [[f64; 6]; 6], rhs: &mut [f64; 6], col: usize, ones: usize, mean: f64) {
     let n = normal[ones][ones];
     // Σ(w − m)² = Σw² − 2mΣw + m²n, with Σw = m·n
@@ -354,7 +358,10 @@ fn cholesky_solve(a: &[[f64; 6]; 6], b: &[f64; 6], k: usize) -> Option<[f64; 6]>
         for j in 0..=i {
             let s = a[i][j] - (0..j).map(|m| l[i][m] * l[j][m]).sum::<f64>();
             if i == j {
-                if !(s > 1e-12 * a[i][i].abs()) {
+                // deliberate NaN handling: a NaN pivot (or diagonal) is not positive definite either
+                #[allow(clippy::neg_cmp_op_on_partial_ord)]
+                let not_positive = !(s > 1e-12 * a[i][i].abs());
+                if not_positive {
                     return None;
                 }
                 l[i][i] = s.sqrt();
@@ -402,6 +409,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::needless_range_loop)] // the normal matrix built and mirrored as in `solve_step`
     fn centring_the_gain_column_keeps_the_solution() {
         // 3 unknowns: one geometric, gain (column 1), offset (column 2)
         let rows: Vec<[f64; 3]> = (0..20).map(|i| [((i * 7) % 5) as f64 - 2.0, 100.0 + (i % 4) as f64, 1.0]).collect();

@@ -297,11 +297,11 @@ fn inside_row<T: Sample, K: Kernel<N>, const N: usize>(
     if lo >= hi {
         return (0, 0);
     }
-    for c in lo..hi {
+    for (c, slot) in (lo..hi).zip(&mut out[lo..hi]) {
         let ((ix, tx), (iy, ty)) = (split(x0 + a * c as f64), split(y0 + b * c as f64));
         let (wx, wy) = (K::weights(tx), K::weights(ty));
         let start = (iy + K::FIRST) as usize * src.cols + (ix + K::FIRST) as usize;
-        out[c] = block_sum(src, start, &wx, &wy);
+        *slot = block_sum(src, start, &wx, &wy);
     }
     ok[lo..hi].iter_mut().for_each(|f| *f = true);
     (lo, hi)

@@ -35,7 +35,7 @@ def message(exc: BaseException, a: argparse.Namespace | None = None) -> str:
 
 def warning_lines(caught: list, a: argparse.Namespace | None = None) -> list[str]:
     """The warnings for stderr, less those the summary on stdout already printed as notes."""
-    shown = getattr(a, "shown_notes", set())
+    shown: set[str] = getattr(a, "shown_notes", set())
     return [f"irfidelity: warning: {w.category.__name__}: {message(w.message, a)}" for w in caught
             if f"{w.category.__name__}: {w.message}" not in shown]
 

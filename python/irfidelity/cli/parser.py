@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import NoReturn
 
 from ..budget import parse_size
 from ..config import MISSING_MODES, NONFINITE_MODES, PAIRING_RULES, REGISTRATION_MODELS
@@ -48,7 +49,7 @@ def flag_for(option: str | None) -> str | None:
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, no usage dump
+    def error(self, message: str) -> NoReturn:  # one line, no usage dump
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 

@@ -72,7 +72,7 @@ def _levels(a: argparse.Namespace) -> tuple[float, float]:
     return (16384.0, 49152.0) if a.format == "png" else (0.0, 1.0)
 
 
-def _images(a: argparse.Namespace) -> list[tuple[str, float | None, object]]:
+def _images(a: argparse.Namespace) -> list[tuple[str, float | None, np.ndarray]]:
     """(file name, frequency, frame) of each image to write."""
     from .. import targets
     from ..image_writers import FORMATS
@@ -84,12 +84,14 @@ def _images(a: argparse.Namespace) -> list[tuple[str, float | None, object]]:
     if a.frequency is None:
         raise UsageError(f"--frequency: give the bar frequencies of the {a.kind} targets (cycles/pixel), e.g. "
                          f"0.05,0.1,0.2")
-    out = []
+    bars = KINDS[a.kind]
+    assert bars is not None  # an edge was returned above
+    out: list[tuple[str, float | None, np.ndarray]] = []
     for f in _numbers(a.frequency, "frequency"):
         if not 0 < f < 0.5:
             raise UsageError(f"--frequency {f:g}: expected a bar frequency in (0, 0.5) cycles/pixel; at or above "
                              f"the Nyquist frequency 0.5 the written image would alias the bars")
-        frame = targets.bar_target(f, shape, bars=KINDS[a.kind], orientation=a.orientation, phase=a.phase,
+        frame = targets.bar_target(f, shape, bars=bars, orientation=a.orientation, phase=a.phase,
                                    levels=levels, otf=otf)
         out.append((f"{a.kind.replace('-', '_')}_{f:g}{ext}", f, frame))
     return out

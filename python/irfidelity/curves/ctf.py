@@ -584,9 +584,9 @@ def _read_target(pixels: np.ndarray, f: float, *, roi: Any, orientation: str | N
     return _reading(signal, ctf, method, f, orientation, bars, geometry, region, level)
 
 
-def ctf_curve(frames: Any, *, frequencies: Sequence[float], rois: Any = None, orientation: str | None = None,
-              method: str = "modulation", bars: int = 4, unit: str = "cy/px", camera: CameraGeometry | None = None,
-              name: str | None = None, **options: Any) -> Curve:
+def ctf_curve(frames: Any, *, frequencies: Sequence[float] | np.ndarray, rois: Any = None,
+              orientation: str | None = None, method: str = "modulation", bars: int = 4, unit: str = "cy/px",
+              camera: CameraGeometry | None = None, name: str | None = None, **options: Any) -> Curve:
     """A CTF curve (or, with ``method="fundamental"``, an MTF curve) from bar targets at several
     frequencies.
 

@@ -109,22 +109,22 @@ class Curve:
                                 f"[{self.x[0]:g}, {self.x[-1]:g}] (no extrapolation)")
         return np.interp(q, self.x, self.y)
 
-    def replace(self, **changes: Any) -> "Curve":
+    def replace(self, **changes: Any) -> Curve:
         """A new curve with some of ``x``, ``y``, ``name``, ``x_unit``, ``y_unit``, ``meta`` changed
         (checked like any new curve)."""
-        fields = {"x": self.x, "y": self.y, "name": self.name, "x_unit": self.x_unit, "y_unit": self.y_unit,
-                  "meta": self.meta}
+        fields: dict[str, Any] = {"x": self.x, "y": self.y, "name": self.name, "x_unit": self.x_unit,
+                                  "y_unit": self.y_unit, "meta": self.meta}
         fields.update(changes)
         x, y = fields.pop("x"), fields.pop("y")
         return Curve(x, y, **fields)
 
-    def with_units(self, *, x_unit: Any = ..., y_unit: Any = ...) -> "Curve":
+    def with_units(self, *, x_unit: Any = ..., y_unit: Any = ...) -> Curve:
         """The same samples labelled with other units (no conversion); an omitted axis keeps its unit."""
         changes = {k: v for k, v in (("x_unit", x_unit), ("y_unit", y_unit)) if v is not ...}
         return self.replace(**changes)
 
     def to_units(self, *, x_unit: str | None = None, y_unit: str | None = None,
-                 camera: CameraGeometry | None = None) -> "Curve":
+                 camera: CameraGeometry | None = None) -> Curve:
         """The curve with its axes converted to ``x_unit`` / ``y_unit`` (None: leave the axis).
 
         See :func:`irfidelity.curves.units.convert` for what converts; spatial frequencies need
@@ -150,7 +150,7 @@ class Curve:
     @classmethod
     def from_csv(cls, path: str | os.PathLike[str], *, columns: Sequence[int | str] | None = None,
                  where: Mapping[int | str, float] | None = None, name: str | None = None,
-                 x_unit: str | None = None, y_unit: str | None = None) -> "Curve":
+                 x_unit: str | None = None, y_unit: str | None = None) -> Curve:
         """Read a curve from a text table (CSV, TSV or whitespace-separated).
 
         Blank lines and ``#`` comments are skipped; the first line is a header when any field

@@ -64,7 +64,7 @@ class Table:
                                     f"(column {self.column_name(i)})") from None
         return out
 
-    def select_rows(self, where: Mapping[int | str, float]) -> "Table":
+    def select_rows(self, where: Mapping[int | str, float]) -> Table:
         """The rows whose columns equal the given numbers (all conditions at once)."""
         rows = self.rows
         for spec, value in where.items():

@@ -298,7 +298,7 @@ class CameraGeometry:
         return {key: getattr(self, key) for key in _CONSTANTS}
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any] | None) -> "CameraGeometry":
+    def from_dict(cls, d: Mapping[str, Any] | None) -> CameraGeometry:
         """Inverse of :meth:`to_dict`; unknown keys are refused."""
         d = dict(d or {})
         unknown = set(d) - set(_CONSTANTS)

@@ -322,10 +322,14 @@ def noise3d(frames: Any, options: NoiseOptions | None = None, **keywords: Any) -
     warn_if_not_uniform(share, detrended=detrend == "plane")
 
     classical = {k: math.sqrt(comps.classical[k]) for k in PARTS}
+    ci: dict[str, tuple[float, float]] | None
     if corrected:
         variance = dict(comps.corrected)
         sigma = {k: math.sqrt(max(variance[k], 0.0)) for k in PARTS}
-        ci = {k: tuple(math.sqrt(b) for b in comps.interval(k, level)) for k in PARTS}
+        ci = {}
+        for k in PARTS:
+            lo, hi = comps.interval(k, level)
+            ci[k] = (math.sqrt(lo), math.sqrt(hi))
         total = math.sqrt(max(sum(variance.values()), 0.0))
     else:
         variance = dict(comps.classical)
@@ -341,8 +345,9 @@ def noise3d(frames: Any, options: NoiseOptions | None = None, **keywords: Any) -
         pairs = iter(()) if isinstance(frames, NoiseSums) else _temporal_pairs(frames, opts.spectra_pairs, roi,
                                                                                opts.channel)
         spec = pattern_spectra(_fixed_pattern(sums, detrend), pairs)
+    region = None if roi is None else (int(roi[0]), int(roi[1]), int(roi[2]), int(roi[3]))  # 4 bounds (noise_sums)
     return Noise3D(sigma=sigma, variance=variance, classical=classical, ci=ci, df=comps.df, total=total,
                    mean=float(dec["mean"]), frames=t, rows=v, cols=h, dtype=sums.dtype, corrected=corrected,
-                   confidence=level, detrend=detrend, roi=None if roi is None else tuple(int(x) for x in roi),
+                   confidence=level, detrend=detrend, roi=region,
                    netd=netd, netd_ci=netd_ci, sitf_slope=slope, uniformity=share, clipped=clipped,
                    spectra=spec, sums=sums)

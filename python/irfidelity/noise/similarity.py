@@ -221,7 +221,7 @@ def noise_similarity(real_noise: Any, sim_noise: Any, *, alpha: float = 1.0, bet
         mu = 1.0
     else:
         va, vb = va / scale, vb / scale
-        mu = float(min(1.0, 2 * (va @ vb) / (va @ va + vb @ vb)))
+        mu = min(1.0, float(2 * (va @ vb) / (va @ va + vb @ vb)))
     fixed = (_fixed_share(a) + _fixed_share(b)) / 2
     weights = {"fixed_row": fixed / 2, "fixed_col": fixed / 2,
                "temporal_row": (1 - fixed) / 2, "temporal_col": (1 - fixed) / 2}

@@ -214,7 +214,8 @@ def as_sequence(frames: Any, channel: str | None) -> FrameSequence:
 def _from_sequence(seq: FrameSequence, bits: int | None, roi: Region | None, workers: int, max_bytes: int | None,
                    planner: Planner | None = None) -> NoiseSums:
     sources = seq.sources
-    if any(path is None for path, _ in sources):
+    paths = [path for path, _ in sources if path is not None]
+    if len(paths) < len(sources):
         # a FrameSequence over an array
         return _from_array(np.stack([seq[i] for i in range(len(seq))]), bits, roi, workers, max_bytes, planner)
     first = seq[0]
@@ -224,10 +225,10 @@ def _from_sequence(seq: FrameSequence, bits: int | None, roi: Region | None, wor
     if planner is not None:
         planner(_region(roi, *first.shape), first.dtype)
     del first
-    if any(str(path).lower().endswith(".npy") for path, _ in sources):
+    if any(str(path).lower().endswith(".npy") for path in paths):
         return _chunked(seq, bits, roi, workers, max_bytes)
     budget = max_bytes if max_bytes is not None else seq.max_bytes
-    raw = _core.noise_sums_paths([p for p, _ in sources], [g for _, g in sources], channel=seq.channel,
+    raw = _core.noise_sums_paths(paths, [g for _, g in sources], channel=seq.channel,
                                  max_pixels=seq.max_pixels, max_bytes=resolve(budget), limits=limits, window=window,
                                  workers=workers)
     return NoiseSums(raw, bits=bits)

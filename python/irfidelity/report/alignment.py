@@ -50,7 +50,7 @@ def registration(d: Mapping, rows: list[dict]) -> Raw:
                f"{len(unsure)} with a confidence below {found.get('low_confidence')}.")
     spread = {k: found[k] for k in ("shift_dy", "shift_dx", "angle", "scale", "confidence", "overlap")
               if isinstance(found.get(k), Mapping)}
-    body = image(png, "each frame's registration over the sequence", caption=caption)
+    body: str = image(png, "each frame's registration over the sequence", caption=caption)
     body += paragraph("Spread over the frames:") + key_values(spread, header=("quantity", "value"))
     return section(title, body, anchor="registration")
 

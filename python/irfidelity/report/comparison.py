@@ -20,7 +20,7 @@ import numpy as np
 
 from ..fuzzy import COMPONENTS
 from . import figures, sections
-from .html import Raw, image, number, page, paragraph, section, table, text
+from .html import Raw, image, number, page, paragraph, section, table
 
 __all__ = ["render_comparison_html", "comparison_rows", "write_rows", "intervals_section"]
 

@@ -114,7 +114,7 @@ def section(title: str, body: str, *, anchor: str) -> Raw:
 class Missing(Raw):
     """A section left out: its note, with the section's title in ``.title``."""
 
-    title: str = ""
+    title: str = ""  # type: ignore[assignment]  # shadows str.title on purpose: the section's title
 
 
 def missing(title: str, why: str, *, anchor: str) -> Missing:

@@ -45,12 +45,12 @@ def _similarity(metrics: Mapping) -> dict[str, Any]:
 
 def _spectra_figure(curves: Mapping) -> Raw:
     """Row spectra of the fixed pattern and of the temporal noise, real against simulated."""
-    spectra = [getattr(curves.get(f"{who}_noise"), "spectra", None) for who in ("real", "sim")]
-    if any(s is None for s in spectra):
+    real_s, sim_s = (getattr(curves.get(f"{who}_noise"), "spectra", None) for who in ("real", "sim"))
+    if real_s is None or sim_s is None:
         return Raw("")
     entries = []
     for kind in ("fixed_row", "temporal_row"):
-        for name, s, style in zip(("real", "simulated"), spectra, (figures.REAL_STYLE, figures.SIM_STYLE)):
+        for name, s, style in zip(("real", "simulated"), (real_s, sim_s), (figures.REAL_STYLE, figures.SIM_STYLE)):
             y = getattr(s, kind)
             if y is not None:
                 entries.append({"name": f"{kind.replace('_', ' ')}, {name}", "x": s.freq_row, "y": y,

@@ -336,7 +336,7 @@ def _difference_section(real, sim, mask) -> Raw:
     shown_mask = None if mask is None else figures.display(mask)[0]
     shown = _difference(figures.display(real)[0], figures.display(sim)[0], shown_mask)
     limit = figures.difference_limit(shown)
-    body = panels([(figures.raster(shown, "RdBu_r", -limit, limit, shown_from=real.shape),
+    body: str = panels([(figures.raster(shown, "RdBu_r", -limit, limit, shown_from=real.shape),
                     "signed difference simulated minus real", "simulated − real")], single=True)
     body += colour_bar(figures.colour_stops("RdBu_r"), _ticks(-limit, limit, 0.0), "simulated − real (grey levels)")
     caption = (f"Red: simulator brighter, blue: darker; scale ±{limit:.4g} (99.5th percentile of |difference|, "
@@ -435,7 +435,7 @@ def _ssim_section(d, real, sim, mask, given, peak, max_bytes) -> Raw:
             extra += f"; MS-SSIM not computed: {exc}. " if "max_bytes" in str(exc) else ". "
         extra += where
     lo = figures.ssim_range(values)
-    body = panels([(figures.raster(values, "cividis", lo, 1.0, outline=border, shown_from=shown_from),
+    body: str = panels([(figures.raster(values, "cividis", lo, 1.0, outline=border, shown_from=shown_from),
                     "windowed SSIM map", "local SSIM")], single=True)
     body += colour_bar(figures.colour_stops("cividis"), _ticks(lo, 1.0), "local SSIM (1 = locally identical)")
     caption = (extra + "The paper's component f5 is the global SSIM of the whole frame; this windowed map shows "

@@ -5,7 +5,7 @@ section whose data is absent is replaced by a note saying what is not shown and 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from datetime import datetime, timezone
+from datetime import datetime, UTC
 from typing import Any
 
 import numpy as np
@@ -68,7 +68,7 @@ def as_float(v: Any) -> float | None:
 def header(title: str, subtitle: str | None) -> Raw:
     from .. import __version__
 
-    when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    when = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     sub = f"<p class=\"sub\">{text(subtitle)}</p>" if subtitle else ""
     return Raw(f"<header><h1>{text(title)}</h1>{sub}<p class=\"sub\">irfidelity {text(__version__)}, {text(when)}"
                "</p></header>")
@@ -123,7 +123,7 @@ def components(d: Mapping, *, metrics_key: str = "metrics") -> Raw:
         raw = _raw_metrics(name, metrics) if name in comps else text(f"skipped: {skipped.get(name, 'not computed')}")
         rows.append([Raw(f"<b>{text(name)}</b>"), weights.get(name), comps.get(name), contribution,
                      grades.get(name), raw])
-    body = [table(["component", "weight k", "value f", "k·f", "grade", "raw metrics"], rows)]
+    body: list[str] = [table(["component", "weight k", "value f", "k·f", "grade", "raw metrics"], rows)]
     requested = mapping(mapping(d, "config"), "weights")
     if requested and requested != weights:
         body.append(paragraph("Configured weights (before renormalising over the computed components):"))
@@ -136,11 +136,11 @@ def components(d: Mapping, *, metrics_key: str = "metrics") -> Raw:
 
 def settings(d: Mapping, *extra: tuple[str, Mapping]) -> Raw:
     """What produced the numbers: the settings/configuration, the inputs, the grading matrix."""
-    parts = []
+    parts: list[str] = []
     if d.get("irfidelity"):
         parts.append(paragraph(f"Made by irfidelity {d['irfidelity']}."))
     for key, title in (("config", "Configuration"), ("inputs", "Inputs")):
-        block = mapping(d, key)
+        block: Mapping = mapping(d, key)
         if block:
             parts.append(f"<h3>{text(title)}</h3>" + key_values(block))
     for title, block in extra:
@@ -199,15 +199,15 @@ def mtf(curves: Mapping, metrics: Mapping) -> Raw:
     """Both MTF curves overlaid, MTF50 marked."""
     title = "MTF curves (component f1)"
     real_c, sim_c = curves.get("real_mtf"), curves.get("sim_mtf")
-    xy = [curve_xy(real_c), curve_xy(sim_c)]
-    if any(v is None for v in xy):
+    real_xy, sim_xy = curve_xy(real_c), curve_xy(sim_c)
+    if real_xy is None or sim_xy is None:
         return missing(title, "no MTF curves were given (real_mtf= and sim_mtf= of evaluate or score_sequence: "
                               "curves, CSV files or slanted-edge images; on the command line --real-mtf/--sim-mtf "
                               "or --real-edge/--sim-edge)", anchor="mtf")
     notes = []
     entries = []
-    for (name, c, style, key), (x, y) in zip(
-        [("real", real_c, figures.REAL_STYLE, "mtf50_real"), ("simulated", sim_c, figures.SIM_STYLE, "mtf50_sim")], xy
+    for (name, style, key), (x, y) in zip(
+        [("real", figures.REAL_STYLE, "mtf50_real"), ("simulated", figures.SIM_STYLE, "mtf50_sim")], (real_xy, sim_xy)
     ):
         at = as_float(metrics.get(key))
         if at is None:
@@ -229,15 +229,15 @@ def sitf(curves: Mapping, metrics: Mapping) -> Raw:
     """Both SiTF curves with their fitted linear portions and slopes."""
     title = "SiTF curves (component f2)"
     real_c, sim_c = curves.get("real_sitf"), curves.get("sim_sitf")
-    xy = [curve_xy(real_c), curve_xy(sim_c)]
-    if any(v is None for v in xy):
+    real_xy, sim_xy = curve_xy(real_c), curve_xy(sim_c)
+    if real_xy is None or sim_xy is None:
         return missing(title, "no SiTF curves were given (real_sitf= and sim_sitf= of evaluate or score_sequence: "
                               "curves or CSV files; on the command line --real-sitf/--sim-sitf)", anchor="sitf")
     notes = []
     entries = []
-    for (name, c, style, key), (x, y) in zip(
-        [("real", real_c, figures.REAL_STYLE, "real_sitf_fit"), ("simulated", sim_c, figures.SIM_STYLE,
-                                                                   "sim_sitf_fit")], xy
+    for (name, style, key), (x, y) in zip(
+        [("real", figures.REAL_STYLE, "real_sitf_fit"), ("simulated", figures.SIM_STYLE, "sim_sitf_fit")],
+        (real_xy, sim_xy),
     ):
         fit = _fit(curves.get(key))
         if fit is None:

@@ -148,7 +148,7 @@ def _failed_indices(d: Mapping, rows: list[dict]) -> list[int]:
 
 def frame_components(row: Mapping) -> dict[str, float]:
     """A frame's components: its ``components`` mapping and any ``f_<name>`` values."""
-    out = {}
+    out: dict[str, Any] = {}
     comps = row.get("components")
     if isinstance(comps, Mapping):
         out.update(comps)
@@ -198,8 +198,8 @@ def _distribution(rows: list[dict]) -> Raw:
 
 def _worst(rows: list[dict], worst: int, load: Callable | None, thumbnails: int, max_bytes: int | None) -> Raw:
     title = "Worst frames"
-    scored = [(sections.as_float(r.get("fidelity")), i) for i, r in enumerate(rows) if not r.get("error")]
-    scored = [(f, i) for f, i in scored if f is not None and np.isfinite(f)]
+    fidelities = [(sections.as_float(r.get("fidelity")), i) for i, r in enumerate(rows) if not r.get("error")]
+    scored = [(f, i) for f, i in fidelities if f is not None and np.isfinite(f)]
     if not scored or worst < 1:
         return missing(title, "no per-frame fidelity", anchor="worst")
     scored.sort(key=lambda p: p[0])
@@ -212,7 +212,7 @@ def _worst(rows: list[dict], worst: int, load: Callable | None, thumbnails: int,
         comps = frame_components(r)
         body_rows.append([_index(r, pos), r.get("real"), r.get("sim"), r.get("fidelity"),
                           *(comps.get(n) for n in names), *(sections.mapping(r, "metrics").get(k) for k in extra)])
-    body = table(header, body_rows)
+    body: str = table(header, body_rows)
     if load is not None and thumbnails > 0:
         body += _thumbnails(picked[:thumbnails], load, max_bytes)
     return section(title, body, anchor="worst")
@@ -243,7 +243,7 @@ def _failed(d: Mapping, rows: list[dict]) -> Raw:
     if not indices:
         return missing(title, "every frame was scored" if rows else "the report lists no frames", anchor="failed")
     body_rows = [[i, r.get("real"), r.get("sim"), r.get("error")] for i, r in errs[:MAX_FAILED_ROWS]]
-    body = paragraph(f"{len(indices)} frames could not be scored; every other frame was.")
+    body: str = paragraph(f"{len(indices)} frames could not be scored; every other frame was.")
     body += table(["index", "real", "sim", "error"], body_rows)
     if len(errs) > MAX_FAILED_ROWS:
         body += paragraph(f"… and {len(errs) - MAX_FAILED_ROWS} more (see the CSV's error column).")
@@ -255,7 +255,7 @@ def _failed(d: Mapping, rows: list[dict]) -> Raw:
 def _frame_stats(d: Mapping) -> Raw:
     title = "Per-frame statistics"
     nested = sections.mapping(d, "frame_stats")
-    stats = {"fidelity": nested.get("fidelity")} if isinstance(nested.get("fidelity"), Mapping) else {}
+    stats: dict[str, Any] = {"fidelity": nested.get("fidelity")} if isinstance(nested.get("fidelity"), Mapping) else {}
     stats.update({f"f {k}": v for k, v in sections.mapping(nested, "components").items()})
     stats.update(sections.mapping(nested, "metrics"))
     if not stats:

@@ -55,7 +55,7 @@ def temperatures(d: Mapping, real: np.ndarray, sim: np.ndarray, mask: np.ndarray
     if errors.size == 0:
         return missing("Temperatures", "no pixel pair with finite temperatures", anchor="temperatures")
     lo, hi = figures.frame_range(real_c, sim_c)
-    body = panels([(figures.raster(real_c, "inferno", lo, hi), "real frame in degrees Celsius", "real (°C)"),
+    body: str = panels([(figures.raster(real_c, "inferno", lo, hi), "real frame in degrees Celsius", "real (°C)"),
                    (figures.raster(sim_c, "inferno", lo, hi), "simulated frame in degrees Celsius", "simulated (°C)")])
     body += colour_bar(figures.colour_stops("inferno"), _ticks(lo, hi), "temperature (°C, one scale for both)")
     limit = figures.difference_limit(diff)

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -54,16 +54,20 @@ def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
     """(path, page) of every frame when the Rust engine can decode them all, else None."""
     if not seq.is_files:
         return None
-    entries = seq.entries
-    if any(str(p).lower().endswith(".npy") for p, _, _ in entries):
-        return None
-    return [(p, page) for p, page, _ in entries]
+    sources = []
+    for p, page, _ in seq.entries:
+        if p is None or str(p).lower().endswith(".npy"):  # (a sequence of files has a path for each frame)
+            return None
+        sources.append((p, page))
+    return sources
 
 
 class RustEngine:
     def __init__(self, real: FrameSequence, sim: FrameSequence, plan: SequencePlan, options: RunOptions,
                  fingerprint: bool = False):
-        self.real, self.sim = _file_sources(real), _file_sources(sim)
+        real_files, sim_files = _file_sources(real), _file_sources(sim)
+        assert real_files is not None and sim_files is not None  # chosen only when engine_reads(real, sim)
+        self.real, self.sim = real_files, sim_files
         self.plan, self.options, self.fingerprint = plan, options, fingerprint
 
     def _outcomes(self, todo: Todo, rows: list) -> list[Outcome]:
@@ -100,6 +104,7 @@ def score_chunk(real_paths: list, sim_paths: list, real_pages: list, sim_pages: 
 
     out = core.score_pairs(real_paths, sim_paths, real_pages, sim_pages, request=request, workers=workers,
                            fingerprints=fingerprints, mask=mask)
+    assert out is not None  # returned when no on_result takes them
     return [(k, None if st is None else st.to_bytes(), *rest) for k, st, *rest in out]
 
 

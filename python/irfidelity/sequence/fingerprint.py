@@ -23,7 +23,7 @@ import numpy as np
 
 from .. import _core
 from ..errors import FidelityError
-from ..frames import FrameSequence
+from ..frames import Entry, FrameSequence
 
 __all__ = ["Fingerprints", "array_fingerprint", "file_fingerprint"]
 
@@ -32,6 +32,13 @@ def array_fingerprint(frame: np.ndarray) -> list:
     """``[dtype, shape, blake2b]`` of the array scored."""
     frame = np.ascontiguousarray(frame)
     return [frame.dtype.name, list(frame.shape), hashlib.blake2b(frame.data, digest_size=16).hexdigest()]
+
+
+def _path(entry: Entry) -> str:
+    """The file of an entry of a sequence of files (each has one)."""
+    path = entry[0]
+    assert path is not None
+    return path
 
 
 def file_fingerprint(path: Any, page: int, size: int | None, mtime_ns: int | None, digest: int | None) -> list:
@@ -65,17 +72,17 @@ class Fingerprints:
         if index is None:
             return None
         seq, entries = self.sides[side]
-        path, page, _ = entries[index]
         if self.arrays:
             try:
                 return array_fingerprint(seq[index])
             except FidelityError:
                 return None
-        return file_fingerprint(path, page, *self.cache[path])
+        path = _path(entries[index])
+        return file_fingerprint(path, entries[index][1], *self.cache[path])
 
     def of_pairs(self, pairs: list[tuple[int | None, int | None]]) -> list[dict]:
         """``{"real": ..., "sim": ...}`` for each pair (JSON-ready)."""
         if not self.arrays:
-            self._files([self.sides[side][1][i][0] for r, s in pairs for side, i in (("real", r), ("sim", s))
+            self._files([_path(self.sides[side][1][i]) for r, s in pairs for side, i in (("real", r), ("sim", s))
                          if i is not None])
         return [{"real": self._frame("real", r), "sim": self._frame("sim", s)} for r, s in pairs]

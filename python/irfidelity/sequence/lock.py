@@ -41,7 +41,7 @@ class Lock:
             self.fh: IO[str] | None = None
             return
         for _ in range(_ATTEMPTS):
-            fh = open(path, "a+")
+            fh = open(path, "a+")  # noqa: SIM115 (held, locked, until release())
             try:
                 fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError:

@@ -87,9 +87,10 @@ class FrameLog:
             if not (resume and os.path.exists(path)):
                 with open(path, "w", newline="", encoding="utf-8") as fh:
                     fh.write(csv_line(columns))
-            self.csv = open(path, "a", newline="", encoding="utf-8")
-            self.records = open(self.side, "ab")
-            self.reader = open(self.side, "rb")
+            # held open for the run, closed by close()
+            self.csv = open(path, "a", newline="", encoding="utf-8")  # noqa: SIM115
+            self.records = open(self.side, "ab")  # noqa: SIM115
+            self.reader = open(self.side, "rb")  # noqa: SIM115
         except BaseException:
             self.close()
             raise

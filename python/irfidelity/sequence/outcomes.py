@@ -72,6 +72,7 @@ def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str
         return error_entry(outcome.index, real, sim, f"{real}: frame type {outcome.dtype} differs from the "
                            f"sequence's {plan.dtype.name} (its first readable real frame); store every frame "
                            f"in one sample type"), None
+    assert outcome.stats is not None  # an outcome without an error has statistics
     try:
         stats = outcome.stats.with_peak(_frame_peak(plan, outcome, str(real)))
         comps, metrics = image_components(stats, plan.image, plan.config)

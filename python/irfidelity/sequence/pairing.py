@@ -126,9 +126,10 @@ def pair_frames(real: FrameSequence, sim: FrameSequence, rule: str) -> Pairing:
     if len(real) != len(sim):
         raise FidelityError(f"the real sequence has {len(real)} frames and the simulated sequence {len(sim)}, "
                             f"and they cannot be paired by name; give sequences of equal length", option="pair_by")
-    notes = ("paired by position: the frame names do not match (by file name, frame number or page)",) \
+    by_position: tuple[str, ...] = \
+        ("paired by position: the frame names do not match (by file name, frame number or page)",) \
         if named and rule == "auto" else ()
-    return Pairing(tuple((i, i) for i in range(len(real))), "order", notes)
+    return Pairing(tuple((i, i) for i in range(len(real))), "order", by_position)
 
 
 def _names_text(names: list[str]) -> str:

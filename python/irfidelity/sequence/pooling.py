@@ -41,7 +41,8 @@ outside the frames' fidelities by at most those components' weighted spread over
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import Any, Literal
 
 import numpy as np
 
@@ -110,7 +111,7 @@ class Pool:
             return plan.peak
         return psnr_peak(plan.config, plan.default_peak, self.scene_range(), where="the real sequence")
 
-    def result(self, frames: list[dict]) -> tuple[Score | None, dict]:
+    def result(self, frames: Sequence[Mapping]) -> tuple[Score | None, dict]:
         """The pooled score (None when no frame was scored) and how it was pooled."""
         plan = self.plan
         scored = [f for f in frames if f["error"] is None]
@@ -135,7 +136,7 @@ class Pool:
         return score, pooling
 
 
-def pixel_mean(frames: list[dict], group: str, key: str) -> float:
+def pixel_mean(frames: Sequence[Mapping], group: str, key: str) -> float:
     """``Σ N_i·x_i / Σ N_i`` of value ``frames[i][group][key]`` weighted by the frame's pixel pairs
     ``N_i`` (``metrics["n"]``): an exact sum (:func:`math.fsum`) rounded once, kept within
     ``[min, max]`` of the frames' values against that rounding."""
@@ -150,7 +151,7 @@ def _percentiles(values: list[float]) -> dict:
     a = a[~np.isnan(a)]
     if a.size == 0:
         return {}
-    method = "linear" if np.all(np.isfinite(a)) else "nearest"
+    method: Literal["linear", "nearest"] = "linear" if np.all(np.isfinite(a)) else "nearest"
     ps = np.percentile(a, _PERCENTILES, method=method)
     out = {"mean": float(np.mean(a))}
     out.update({f"p{q}": float(v) for q, v in zip(_PERCENTILES, ps)})
@@ -158,7 +159,7 @@ def _percentiles(values: list[float]) -> dict:
     return out
 
 
-def frame_statistics(frames: list[dict]) -> dict:
+def frame_statistics(frames: Sequence[Mapping]) -> dict:
     """Mean, percentiles, min and max over the scored frames of the fidelity, each component
     and each metric: ``{"fidelity": {...}, "components": {name: {...}}, "metrics": {name: {...}}}``."""
     scored = [f for f in frames if f["error"] is None]
@@ -177,7 +178,7 @@ def frame_statistics(frames: list[dict]) -> dict:
     return out
 
 
-def registration_summary(plan: SequencePlan, frames: list[dict]) -> dict | None:
+def registration_summary(plan: SequencePlan, frames: Sequence[Mapping]) -> dict | None:
     """``report.registration`` of a sequence: the one registration applied to every pair
     (:meth:`~irfidelity.Registration.to_dict`), or with ``register_each`` the spread of the frames' own —
     ``model``, ``method`` (asked), ``frames`` registered, ``unsure`` (indices below

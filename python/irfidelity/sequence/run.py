@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
-from typing import Callable
+from typing import Callable, Sequence
 
 from .. import _core, budget
 from ..errors import FidelityError
@@ -30,9 +30,9 @@ from .sources import FramePairs
 __all__ = ["RunOptions", "execute"]
 
 
-def _log_settings(plan: SequencePlan, pairing: Pairing, real_names: list[str], sim_names: list[str],
+def _log_settings(plan: SequencePlan, pairing: Pairing, real_names: Sequence[str], sim_names: Sequence[str],
                   columns: list[str]) -> dict:
-    def name(names: list[str], index: int | None) -> str | None:
+    def name(names: Sequence[str], index: int | None) -> str | None:
         return None if index is None else names[index]
 
     text = "\n".join(f"{name(real_names, r)}\t{name(sim_names, s)}" for r, s in pairing.pairs)
@@ -47,7 +47,7 @@ class _Scorer:
     pooled later from its record (``deferred``), so waiting frames hold no statistics.
     """
 
-    def __init__(self, plan: SequencePlan, pairing: Pairing, real_names: list[str], sim_names: list[str],
+    def __init__(self, plan: SequencePlan, pairing: Pairing, real_names: Sequence[str], sim_names: Sequence[str],
                  log: FrameLog | None, progress: Progress, columns: list[str]):
         self.plan, self.pairing, self.log, self.progress, self.columns = plan, pairing, log, progress, columns
         self.real_names, self.sim_names = real_names, sim_names
@@ -102,6 +102,7 @@ def _record(outcome: Outcome, stats: PairStats | None) -> bytes | None:
     backend could not fingerprint what it scored: the frame is scored again)."""
     if stats is None or outcome.inputs is None:
         return None
+    assert outcome.shape is not None  # a scored frame has a shape
     meta = {"inputs": outcome.inputs, "shape": list(outcome.shape), "dtype": outcome.dtype,
             "extent": None if outcome.real_extent is None else list(outcome.real_extent),
             "registration": None if outcome.registration is None else outcome.registration.to_dict(),
@@ -120,6 +121,7 @@ def _resume(scorer: _Scorer, log: FrameLog, real: FrameSequence, sim: FrameSeque
 
 def _bounds(plan: SequencePlan, options: RunOptions) -> RecordBounds:
     max_pixels = options.max_pixels  # resolved by RunOptions
+    assert max_pixels is not None
     max_bytes = _core.default_max_bytes() if options.max_bytes is None else options.max_bytes
     return RecordBounds(plan, max_pixels, max_bytes)
 
@@ -132,6 +134,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
     real_names, sim_names = real.names, sim.names
     log = None
     if options.csv is not None:
+        assert isinstance(options.csv, str)  # RunOptions made it one
         log = FrameLog(options.csv, columns, _log_settings(plan, pairing, real_names, sim_names, columns),
                        options.resume, _bounds(plan, options).run, len(pairing.pairs))
     total = len(pairing.pairs)

@@ -95,7 +95,7 @@ class SharedRun:
         def one(name: str) -> None:
             try:
                 results[name] = runs[name]()
-            except BaseException as exc:  # noqa: BLE001 (re-raised by the calling thread)
+            except BaseException as exc:  # every exception: re-raised by the calling thread
                 errors[name] = exc
             finally:
                 self.arrive(name, None)
@@ -110,7 +110,7 @@ class SharedRun:
             members = [m for m in self.arrived.values() if m is not None]
             if members:
                 self._score(members)
-        except BaseException as exc:  # noqa: BLE001 (re-raised below, once every run has ended)
+        except BaseException as exc:  # every exception: re-raised below, once every run has ended
             stop = exc
         for member in self.arrived.values():
             if member is not None:

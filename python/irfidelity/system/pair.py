@@ -149,8 +149,8 @@ def transfer(real: Any, sim: Any, *, mask: Any = None, roi: Any = None, real_ref
     (1967); the "two-image" on-orbit MTF method of remote sensing (e.g. Helder et al.,
     Remote Sens. Environ. 88 (2003)).
     """
-    loaded = [_frame(real, "real", channel, max_bytes), _frame(sim, "sim", channel, max_bytes),
-              None if real_ref is None else _frame(real_ref, "real_ref", channel, max_bytes)]
+    loaded: list[Any] = [_frame(real, "real", channel, max_bytes), _frame(sim, "sim", channel, max_bytes),
+                         None if real_ref is None else _frame(real_ref, "real_ref", channel, max_bytes)]
     if unit is not None:
         _in_unit(loaded, (real, sim, real_ref), unit, max_bytes)
     frames, ref = loaded[:2], loaded[2]

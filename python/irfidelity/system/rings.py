@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, overload
 
 import numpy as np
 
@@ -124,7 +124,13 @@ class RingSums:
 
     def only(self, keep: np.ndarray) -> RingSums:
         """The sums of the groups ``keep`` marks."""
-        pick = lambda x: None if x is None else x[keep]  # noqa: E731
+        @overload
+        def pick(x: np.ndarray) -> np.ndarray: ...
+        @overload
+        def pick(x: None) -> None: ...
+        def pick(x: np.ndarray | None) -> np.ndarray | None:
+            return None if x is None else x[keep]
+
         return RingSums(pick(self.real), pick(self.sim), pick(self.cross), pick(self.noise),
                         (pick(self.horizontal[0]), pick(self.horizontal[1])),
                         (pick(self.vertical[0]), pick(self.vertical[1])), self.count, self.tiles[keep])
@@ -133,6 +139,10 @@ class RingSums:
         """Row 0 the sums of every group; then, for each group with tiles, the sums without it."""
         used = np.flatnonzero(self.tiles > 0)
 
+        @overload
+        def rows(x: np.ndarray) -> np.ndarray: ...
+        @overload
+        def rows(x: None) -> None: ...
         def rows(x: np.ndarray | None) -> np.ndarray | None:
             if x is None:
                 return None

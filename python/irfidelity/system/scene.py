@@ -153,8 +153,10 @@ def graded_mismatch(kind: str, t: Transfer, ceiling: Transfer | None) -> float |
     if kind == "sitf":
         if t.gain is None or not t.gain > 0:
             return None if t.gain is None else 1.0
-        own, perfect = (0.0, None) if ceiling is None or not (ceiling.gain or 0) > 0 else (
-            _gain_mismatch(ceiling.gain), (ceiling.gain_err or 0.0) / ceiling.gain)
+        if ceiling is None or ceiling.gain is None or not ceiling.gain > 0:
+            own, perfect = 0.0, None
+        else:
+            own, perfect = _gain_mismatch(ceiling.gain), (ceiling.gain_err or 0.0) / ceiling.gain
         relative = (t.gain_err or 0.0) / t.gain
         return max(0.0, _doubted(_gain_mismatch(t.gain), relative, perfect) - own)
     if t.noise_ratio is None or not t.noise_ratio > 0:
