@@ -426,7 +426,7 @@ def grade_level(value: float, cuts: tuple) -> int:
     return 3
 
 
-def membership(component_grades: Mapping[str, str], weights: Mapping[str, float], names: tuple) -> dict:
+def membership(component_grades: Mapping[str, str], weights: Weights | Mapping[str, float], names: tuple) -> dict:
     """``B = K·R`` with ``R`` one-hot in each component's grade: the share of the weight in each
     grade (sums to 1)."""
     share = {g: math.fsum(weights[k] for k, grade in component_grades.items() if grade == g) for g in names}
@@ -454,8 +454,8 @@ class Grader:
 
     def cuts(self, k: str, peak: Any, scene_range: float | None) -> tuple[tuple, str]:
         """The cuts of ``k`` and their basis (``peak`` and ``scene_range`` matter to psnr only)."""
-        kept, key = (self._psnr_cuts, (peak, scene_range)) if k == "psnr" else (self._cuts, k)
-        found = kept.get(key)  # type: ignore[call-overload]
+        psnr_key = (peak, scene_range)
+        found = self._psnr_cuts.get(psnr_key) if k == "psnr" else self._cuts.get(k)
         if found is not None:
             return found
         config = self.config
@@ -463,9 +463,12 @@ class Grader:
         found = component_cuts(k, config.tolerances, alpha=float(options.get("alpha", 1.0)),
                                peak=None if peak is None else float(peak), scene_range=scene_range,
                                anchors=config.psnr_anchors, ceiling=None if self.ceiling is None else self.ceiling.get(k))
-        if len(kept) >= _PSNR_CUTS_KEPT:
-            kept.clear()
-        kept[key] = found  # type: ignore[index]
+        if k != "psnr":
+            self._cuts[k] = found
+        else:
+            if len(self._psnr_cuts) >= _PSNR_CUTS_KEPT:
+                self._psnr_cuts.clear()
+            self._psnr_cuts[psnr_key] = found
         return found
 
     def judged(self, components: Mapping[str, float]) -> list[str]:
