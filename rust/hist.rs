@@ -1,7 +1,7 @@
 //! Joint grey-level histograms (shared edges, or each frame's own), and their Shannon entropies
 //! (paper eqs. 7–8). One representation serves every dtype and binning mode:
-//! a dense `bins × bins` table when that is small, otherwise a sorted run list of
-//! packed `(row_bin << 32) | col_bin` keys. Marginals always come from the joint.
+//! a dense `bins × bins` table when that is small and a quarter full, otherwise a sorted run
+//! list of packed `(row_bin << 32) | col_bin` keys. Marginals always come from the joint.
 
 use crate::error::{Error, Result};
 

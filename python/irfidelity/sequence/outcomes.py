@@ -68,9 +68,9 @@ def frame_entry(plan: SequencePlan, outcome: Outcome, real: str | None, sim: str
     """
     if outcome.error is not None:
         return error_entry(outcome.index, real, sim, outcome.error), None
-    if plan.dtype is not None and outcome.dtype != plan.dtype.name:
+    if plan.dtype_name is not None and outcome.dtype != plan.dtype_name:
         return error_entry(outcome.index, real, sim, f"{real}: frame type {outcome.dtype} differs from the "
-                           f"sequence's {plan.dtype.name} (its first readable real frame); store every frame "
+                           f"sequence's {plan.dtype_name} (its first readable real frame); store every frame "
                            f"in one sample type"), None
     assert outcome.stats is not None  # an outcome without an error has statistics
     try:

@@ -104,6 +104,11 @@ class SequencePlan:
         return None if self.mask is None else self.mask.values
 
     @cached_property
+    def dtype_name(self) -> str | None:
+        """The name of the sample type every frame must have (None when no frame is readable)."""
+        return None if self.dtype is None else self.dtype.name
+
+    @cached_property
     def grader(self) -> Grader:
         """Grades every frame of the run (each component's cuts found once)."""
         return Grader(self.weights, self.config, self.ceiling)

@@ -92,7 +92,7 @@ class Resumer:
     def __init__(self, plan: SequencePlan, pairing: Pairing, log: FrameLog, fingerprints: Fingerprints,
                  bounds: RecordBounds):
         self.plan, self.pairing, self.log, self.fingerprints, self.bounds = plan, pairing, log, fingerprints, bounds
-        self.dtype = None if plan.dtype is None else plan.dtype.name
+        self.dtype = plan.dtype_name
         self.make = _expected_make(plan) if plan.dtype is not None else None
         self.unusable = log.foreign  # records that could not be used
         self.why = "no frame of this run has its index" if log.foreign else None  # why the first could not
