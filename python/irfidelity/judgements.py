@@ -39,7 +39,7 @@ from typing import Any, Iterable, Mapping, Sequence
 import numpy as np
 
 from .errors import FidelityError, JudgementWarning
-from .fuzzy import COMPONENTS, PAPER_COMPONENTS, AHPResult, Weights, ahp
+from .weights import COMPONENTS, PAPER_COMPONENTS, AHPResult, Weights, ahp
 
 __all__ = ["fit_weights", "FittedWeights", "combine_ahp", "CombinedAHP", "read_judgements"]
 
