@@ -29,6 +29,7 @@ import numpy as np
 from . import stats as _stats
 from .config import ScoringConfig
 from .errors import FidelityError
+from .image_components import image_components
 
 __all__ = ["CEILING_COMPONENTS", "CEILING_PAIRS", "CEILING_SOURCES", "pair_ceiling", "ceiling_peak",
            "sequence_ceiling", "relative_to"]
@@ -61,8 +62,6 @@ def pair_ceiling(real: np.ndarray, real_ref: np.ndarray, components: tuple[str, 
     >>> round(c["ssim"], 3), round(c["nmi"], 3)
     (0.965, 0.477)
     """
-    from .scoring import image_components
-
     wanted = tuple(k for k in CEILING_COMPONENTS if k in components)
     r, ref = np.asarray(real), np.asarray(real_ref)
     if r.shape != ref.shape:

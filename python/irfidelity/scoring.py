@@ -5,7 +5,8 @@ Shared by :func:`irfidelity.evaluate` (one pair) and :func:`irfidelity.score_seq
 
 * :func:`plan_components` decides what to compute before anything is read (a component with
   weight 0, or without inputs, is not computed; docs/design.md, "plan only what is needed");
-* :func:`image_components` turns a :class:`~irfidelity.PairStats` into f3..f5 (eqs. 5–14);
+* :func:`image_components` turns a :class:`~irfidelity.PairStats` into f3..f5 (eqs. 5–14;
+  :mod:`irfidelity.image_components`);
 * :func:`score_components` adds eq. (15) and the fuzzy grade: a :class:`Score`;
 * :func:`psnr_peak` resolves the configured peak for a frame and warns when it pins f3.
 """
@@ -20,6 +21,7 @@ from typing import Any, Mapping
 from .config import ScoringConfig
 from .errors import FidelityError, PeakWarning
 from .fuzzy import COMPONENTS, PAPER_COMPONENTS, Grading, Weights, fidelity_sum, ordered_components
+from .image_components import image_components
 from .normalize import normalize_psnr
 from .schema import CURVE_COMPONENTS, IMAGE_COMPONENTS
 from .verdict import Verdict, judge
@@ -104,38 +106,6 @@ def plan_components(weights: Weights, missing: str, *, have_images: bool, have_m
                             f"({', '.join(dict.fromkeys(_INPUTS[k] for k in absent))})", option="weights")
     effective = Weights.normalized(**kept) if absent else weights
     return effective, tuple(k for k in IMAGE_COMPONENTS if effective[k] > 0), skipped
-
-
-# --------------------------------------------------------------------------- image components
-def image_components(stats: Any, components: tuple[str, ...], config: ScoringConfig) -> tuple[dict, dict]:
-    """Components f3 (normalised PSNR), f4 (NMI), f5 (max(SSIM, 0)) from a PairStats.
-
-    Only ``components`` are computed (and only their raw metrics reported), so ``stats``
-    need only hold what the plan asked for.
-
-    Returns
-    -------
-    (components, metrics)
-        ``{"psnr"|"nmi"|"ssim": f}`` and the raw values (:data:`irfidelity.schema.METRICS`)
-        with ``n``, ``masked`` and ``nonfinite``.
-    """
-    comps: dict[str, float] = {}
-    mets: dict[str, Any] = {"n": int(stats.n), "masked": int(stats.masked), "nonfinite": int(stats.nonfinite)}
-    if "psnr" in components:
-        db = stats.psnr()
-        mets.update(mse=float(stats.mse()), psnr_db=float(db), psnr_peak=float(stats.peak))
-        comps["psnr"] = float(normalize_psnr(db, anchors=config.psnr_anchors))
-    if "nmi" in components:
-        v = stats.nmi()
-        mets.update(nmi=float(v.value), mi=float(v.mi), h_real=float(v.h_real), h_sim=float(v.h_sim),
-                    h_joint=float(v.h_joint))
-        comps["nmi"] = float(v.value)
-    if "ssim" in components:
-        s = stats.ssim(*config.ssim_exponents)
-        mets.update(ssim=float(s.value), ssim_luminance=float(s.luminance), ssim_contrast=float(s.contrast),
-                    ssim_structure=float(s.structure))
-        comps["ssim"] = max(float(s.value), 0.0)
-    return comps, mets
 
 
 # --------------------------------------------------------------------------- the verdict
