@@ -23,7 +23,9 @@ from typing import Any, NamedTuple, Self, Union, overload
 import numpy as np
 
 from . import _core, budget
+from .decoding import FRAME_DTYPES, check_limit, check_page
 from .errors import FidelityError, FrameError, RangeError
+from .radiometry import UNITS, read_radiometry
 
 __all__ = ["load_frame", "FrameSequence", "list_channels", "page_count", "page_chain", "PageChain", "natural_key",
            "display_name"]
@@ -35,9 +37,6 @@ FRAME_EXTENSIONS = (".exr", ".png", ".tif", ".tiff", ".npy", ".fff", ".seq")
 
 #: Extensions of files that may hold several frames (pages), each a frame of a sequence.
 MULTIPAGE_EXTENSIONS = (".tif", ".tiff", ".seq", ".csq")
-
-#: dtypes a frame may have (the dtypes the metrics accept).
-FRAME_DTYPES = tuple(np.dtype(t) for t in _core.SUPPORTED_DTYPES)
 
 
 @functools.lru_cache(maxsize=64)
@@ -60,27 +59,9 @@ def _is_npy(path: str) -> bool:
     return path.lower().endswith(".npy")
 
 
-_LARGEST = 2**63 - 1  # what the decoders count in
-
-
-def _check_page(path: str, page: Any) -> int:
-    if isinstance(page, bool) or not isinstance(page, (int, np.integer)) or not 0 <= page <= _LARGEST:
-        raise FrameError(f"{path}: page must be an integer in 0..2^63-1, got {page!r}", option="page")
-    return int(page)
-
-
 def default_max_bytes() -> int:
     """The default decoding budget of one frame, in bytes (every allocation of a decode)."""
     return int(_core.default_max_bytes())
-
-
-def _check_limit(path: str, name: str, value: Any) -> int | None:
-    """A decoding limit (``max_pixels``, ``max_bytes``): None or an integer in 1..2^63-1."""
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= _LARGEST:
-        raise FrameError(f"{path}: {name} must be an integer in 1..2^63-1, got {value!r}", option=name)
-    return int(value)
 
 
 def _load_npy(path: str, channel: str | None, page: int, limit: int) -> np.ndarray:
@@ -226,9 +207,9 @@ def load_frame(
         raise FrameError(f"{path!r}: not a path") from None
     if isinstance(spath, bytes):
         spath = os.fsdecode(spath)
-    page = _check_page(spath, page)
-    max_pixels = budget.max_pixels(_check_limit(spath, "max_pixels", max_pixels))
-    max_bytes = _check_limit(spath, "max_bytes", max_bytes)
+    page = check_page(spath, page)
+    max_pixels = budget.max_pixels(check_limit(spath, "max_pixels", max_pixels))
+    max_bytes = check_limit(spath, "max_bytes", max_bytes)
     if channel is not None and not isinstance(channel, str):
         raise FrameError(f"{spath}: channel must be a string, got {channel!r}")
     if _is_npy(spath):
@@ -243,8 +224,6 @@ def load_frame(
 def _in_unit(path: str, frame: np.ndarray, page: int, max_bytes: int | None, unit: str | None,
              overrides: dict[str, float]) -> np.ndarray:
     """A loaded frame in a temperature unit (``load_frame``'s ``unit``)."""
-    from .radiometry import UNITS, read_radiometry
-
     if unit not in UNITS:
         given = f"got {unit!r}" if unit is not None else f"calibration overrides ({', '.join(overrides)}) need one"
         raise FidelityError(f"{path}: unit must be 'C' or 'K'; {given}", option="unit")

@@ -21,8 +21,8 @@ from typing import Any, Union
 import numpy as np
 
 from . import _core
+from .decoding import FRAME_DTYPES, check_limit, check_page
 from .errors import FidelityError, RadiometryWarning, RangeError
-from .frames import FRAME_DTYPES
 
 __all__ = ["Radiometry", "read_radiometry", "RadiometryWarning", "CALIBRATION_FIELDS", "UNITS"]
 
@@ -304,11 +304,9 @@ def read_radiometry(path: PathLike, *, page: int = 0, max_bytes: int | None = No
     >>> cal.camera_model, round(cal.emissivity, 2), cal.object_distance
     ('FLIR AX8', 0.95, 1.0)
     """
-    from .frames import _check_limit, _check_page
-
     spath = os.fspath(path)
-    page = _check_page(spath, page)
-    budget = _check_limit(spath, "max_bytes", max_bytes)
+    page = check_page(spath, page)
+    budget = check_limit(spath, "max_bytes", max_bytes)
     record = dict(_core.read_camera_info(spath, page, max_bytes=budget))
     record["date"] = _date(record["date"])
     return Radiometry(**record, source=spath)
