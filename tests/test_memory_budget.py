@@ -448,7 +448,7 @@ def test_scoring_in_temperature_at_8k_peaks_at_its_plan(tmp_path: Path) -> None:
     rec = run_child(cap=int(1.9 * GIB), frames=False, op="evaluate_paths", real=real, sim=sim,
                     kwargs={"unit": "C", "max_bytes": budget_bytes})
     assert rec["kind"] == "ok" and 0 < rec["fidelity"] <= 1, rec
-    plan = 2 * 8 * BIG * BIG + 3 * BIG * BIG  # evaluation.SCORING_BYTES
+    plan = 2 * 8 * BIG * BIG + 3 * BIG * BIG  # budget.SCORING_BYTES
     assert abs(rec["maxrss"] - plan) <= 0.1 * plan and rec["maxrss"] <= budget_bytes, (rec["maxrss"], plan)
     rec = run_child(cap=int(1.9 * GIB), frames=False, op="cli",
                     argv=["score", real, sim, "--unit", "C", "--max-memory", "1100M"])

@@ -22,8 +22,9 @@ from typing import Any, Iterator
 from . import _core
 from .errors import FidelityError
 
-__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_PIXELS", "BLOCK_PIXELS", "pixel_limit", "max_pixels", "resolve",
-           "per_pair", "parse_size", "check", "check_float64_copy", "nbytes", "cpu_workers", "row_blocks"]
+__all__ = ["DEFAULT_MAX_BYTES", "DEFAULT_MAX_PIXELS", "BLOCK_PIXELS", "SCORING_BYTES", "WIDENED_BYTES", "pixel_limit",
+           "max_pixels", "resolve", "per_pair", "parse_size", "check", "check_float64_copy", "nbytes", "cpu_workers",
+           "row_blocks"]
 
 #: The default per-pair budget, bytes (``rust/io/mod.rs``: 2 GiB).
 DEFAULT_MAX_BYTES: int = int(_core.default_max_bytes())
@@ -36,6 +37,12 @@ _PIXEL_LIMIT: contextvars.ContextVar[int | None] = contextvars.ContextVar("irfid
 #: Pixels per block of a pass that works a block of rows at a time instead of on frame-sized
 #: temporaries (8 MiB of float64).
 BLOCK_PIXELS = 1 << 20
+
+#: Bytes a pixel that scoring a pair holds besides its frames: the masks of the real frame's
+#: range (finite values, and those within the mask); float16 frames add their float32 copies
+#: in the kernel (:data:`WIDENED_BYTES`).
+SCORING_BYTES = 3
+WIDENED_BYTES = 8
 
 _UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
 _MOST = (1 << 64) - 1

@@ -25,6 +25,7 @@ from .ceiling import relative_to
 from .defects import concentrated_error, find_defects
 from .camera import CameraInputs, camera_components, camera_source, describe_input
 from .alignment import score_registered
+from .budget import SCORING_BYTES, WIDENED_BYTES
 from .config import ScoringConfig
 from .errors import FidelityError, NoiseWarning, RangeError, ShapeError
 from .frames import dtype_name
@@ -36,12 +37,6 @@ from .temperature import TemperatureErrors, scoring_config, temperature_scores, 
 from .system.scene import SceneEstimate, scene_estimate, scene_kinds, unassessed
 
 __all__ = ["evaluate", "SCORING_BYTES"]
-
-#: Bytes a pixel that scoring a pair holds besides its frames: the masks of the real frame's
-#: range (finite values, and those within the mask); float16 frames add their float32 copies
-#: in the kernel (:data:`WIDENED_BYTES`).
-SCORING_BYTES = 3
-WIDENED_BYTES = 8
 
 
 def _load(x: Any, which: str, channel: str | None, max_bytes: int | None) -> np.ndarray:

@@ -272,10 +272,8 @@ def masked_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
 def _check_budget(regions: Regions, sources: Mapping[str, Any], widened: bool, max_bytes: int | None) -> None:
     """The plan of scoring the regions: what the pair holds, the label image, one region's mask,
     the real frame as float64 (registered pairs) and the statistics' masks."""
-    from .evaluation import SCORING_BYTES
-
     held = budget.nbytes(*(sources.get(k) for k in ("real", "sim", "sim_unregistered", "mask")), regions.labels)
-    per_pixel = 1 + SCORING_BYTES + (8 if widened else 0)
+    per_pixel = 1 + budget.SCORING_BYTES + (budget.WIDENED_BYTES if widened else 0)
     budget.check("scoring regions", regions.shape, held + per_pixel * regions.labels.size, max_bytes)
 
 
