@@ -31,8 +31,7 @@ from .sequence import SequenceReport, score_sequence
 from .simulators import SimulatorComparison, score_simulators
 from .stats import PairStats, mse, nmi, pair_stats, psnr, ssim
 from .system import Transfer, transfer
-
-__version__ = "0.2.0"
+from ._version import __version__  # noqa: F401
 
 __all__ = [
     # scoring

@@ -21,6 +21,7 @@ from .config import ScoringConfig
 from .errors import FidelityError
 from .fuzzy import COMPONENTS, PAPER_COMPONENTS, Weights
 from . import readback
+from ._version import __version__
 from .readback import Fields, check_json, shared_fields
 from .schema import from_json, to_json
 
@@ -55,12 +56,6 @@ def recorded_warnings() -> Iterator[list[str]]:
     for w in caught:
         notes.append(f"{w.category.__name__}: {w.message}")
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-
-
-def version() -> str:
-    from . import __version__
-
-    return __version__
 
 
 _RAW = {
@@ -209,7 +204,7 @@ class ReportBase:
     metrics: dict = field(default_factory=dict)
     skipped: dict = field(default_factory=dict)
     config: ScoringConfig = field(default_factory=ScoringConfig)
-    version: str = field(default_factory=version)
+    version: str = __version__
     notes: list = field(default_factory=list)
     inputs: dict = field(default_factory=dict)
     registration: dict | None = None

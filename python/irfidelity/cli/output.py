@@ -14,7 +14,7 @@ from typing import Any
 from ..errors import FidelityError
 from ..regions import region_columns, region_values
 from ..schema import csv_columns
-from .parser import flag_for
+from .flags import flag_for
 
 __all__ = ["UsageError", "write_outputs", "write_json", "message", "warning_lines"]
 

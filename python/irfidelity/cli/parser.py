@@ -6,46 +6,24 @@ from __future__ import annotations
 import argparse
 from typing import NoReturn
 
+from .._version import __version__
 from ..budget import parse_size
 from ..config import MISSING_MODES, NONFINITE_MODES, PAIRING_RULES, REGISTRATION_MODELS
 from ..curves.table import parse_columns, parse_where
 from ..errors import ConfigError, FidelityError
+from ..image_writers import FORMATS
 from ..registration import DEFAULT_METHOD, METHODS
 from ..stats import HIST_RANGES, bins_value
+from .flags import CALIBRATION_FLAGS
+from .rank import add_rank, add_weights
+from .targets import KINDS
 
-__all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "EXIT_NOT_ACCEPTED", "flag_for",
-           "CALIBRATION_FLAGS"]
+__all__ = ["build_parser", "EXIT_OK", "EXIT_USAGE", "EXIT_FAILED_FRAMES", "EXIT_NOT_ACCEPTED"]
 
 #: Exit statuses: 0 scored (and accepted, with ``--spec``); 2 bad usage or input (1 is Python's
 #: own for an uncaught error, 130 an interrupt); 3 a sequence finished but some frames failed;
 #: 4 scored, but not accepted by the ``--spec`` acceptance specification.
 EXIT_OK, EXIT_USAGE, EXIT_FAILED_FRAMES, EXIT_NOT_ACCEPTED = 0, 2, 3, 4
-
-#: Options whose command-line name is not ``--`` + the option name with dashes.
-_FLAGS = {"real": "REAL", "sim": "SIM", "real_mtf": "--real-mtf/--real-edge", "sim_mtf": "--sim-mtf/--sim-edge",
-          "real_mrtd": "--real-bars", "sim_mrtd": "--sim-bars",
-          "psnr_anchors": "--config", "ssim_exponents": "--config", "grades": "--config",
-          "mtf_options": "--config", "sitf_options": "--config", "mrtd_options": "--config",
-          "transfer_options": "--config", "tolerances": "--tolerance",
-          "register": "--register", "client": "--workers", "chunk_size": "--workers", "relative_humidity": "--humidity",
-          "max_bytes": "--max-memory"}
-
-#: Flags that override one calibration field (``ScoringConfig.calibration``): flag dest -> (field,
-#: metavar, help).
-CALIBRATION_FLAGS = {
-    "emissivity": ("emissivity", "E", "the object's emissivity, in (0, 1]"),
-    "reflected_temperature": ("reflected_temperature", "DEGC", "reflected apparent temperature, °C"),
-    "atmospheric_temperature": ("atmospheric_temperature", "DEGC", "air temperature, °C"),
-    "object_distance": ("object_distance", "M", "distance to the object, metres"),
-    "humidity": ("relative_humidity", "PERCENT", "relative humidity, percent"),
-}
-
-
-def flag_for(option: str | None) -> str | None:
-    """The command-line flag (or argument) that sets an API option."""
-    if option is None:
-        return None
-    return _FLAGS.get(option, "--" + option.replace("_", "-"))
 
 
 class _Parser(argparse.ArgumentParser):
@@ -286,16 +264,12 @@ def _add_score(sub: argparse._SubParsersAction) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .. import __version__
-
     p = _Parser(prog="irfidelity",
                 description="Fidelity of an infrared camera simulator against the real camera "
                             "(fuzzy-logic framework, Acta Photonica Sinica 41(5):547, 2012).")
     p.add_argument("--version", action="version", version=f"irfidelity {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     _add_score(sub)
-    from .rank import add_rank, add_weights
-
     add_rank(sub, {"bits": _positive_int, "peak": _peak, "bins": _bins, "positive_int": _positive_int, "size": _size})
     add_weights(sub)
     d = sub.add_parser(
@@ -316,9 +290,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _add_targets(sub: argparse._SubParsersAction) -> None:
-    from ..image_writers import FORMATS
-    from .targets import KINDS
-
     t = sub.add_parser(
         "targets", help="write bar-target or slanted-edge images",
         description="Write ideal four-bar or three-bar targets (7:1 bars; one image per frequency, listed in "

@@ -14,7 +14,7 @@ from ..frames import MULTIPAGE_EXTENSIONS, FrameSequence, page_chain
 from ..fuzzy import Weights
 from ..tolerances import parse_tolerance
 from .output import UsageError, write_outputs
-from .parser import CALIBRATION_FLAGS
+from .flags import CALIBRATION_FLAGS
 from .regions import pair_flags, region_flags, tolerance_flags
 
 __all__ = ["score_command"]

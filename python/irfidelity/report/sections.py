@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from .._version import __version__
 from ..ceiling import CEILING_SOURCES
 from ..errors import FidelityError
 from . import figures
@@ -66,8 +67,6 @@ def as_float(v: Any) -> float | None:
 
 
 def header(title: str, subtitle: str | None) -> Raw:
-    from .. import __version__
-
     when = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     sub = f"<p class=\"sub\">{text(subtitle)}</p>" if subtitle else ""
     return Raw(f"<header><h1>{text(title)}</h1>{sub}<p class=\"sub\">irfidelity {text(__version__)}, {text(when)}"
