@@ -6,6 +6,7 @@ use numpy::{
 };
 use pyo3::prelude::*;
 
+use super::detached;
 use super::dtypes::{contiguous, mask_samples, pair_shape, unsupported_dtype};
 use super::stats::readonly;
 use crate::defects::{profile, Profile, Question};
@@ -38,7 +39,7 @@ fn error_profile<'py>(
     let dtype = real.dtype();
     let Profile { total, count, largest, border, top } =
         with_frame_dtype!(py, &dtype, |T| typed::<T>(py, (real, sim), mask, shape, question))
-            .unwrap_or_else(|| Err(unsupported_dtype("real", &dtype)))?;
+            .unwrap_or_else(|| Err(unsupported_dtype("real", &dtype).into()))?;
     let top = top.map(|squares| {
         let (values, index): (Vec<f64>, Vec<i64>) = squares.into_iter().map(|(v, i)| (v, i as i64)).unzip();
         (values.into_pyarray(py), index.into_pyarray(py))
@@ -54,27 +55,28 @@ fn typed<T: numpy::Element + Sample>(
     mask: Option<&[bool]>,
     shape: (usize, usize),
     question: Question,
-) -> crate::Result<Profile> {
+) -> PyResult<Profile> {
     let Ok(real_array) = real.cast::<PyArrayDyn<T>>() else {
-        return Err(crate::Error::Value("internal: real frame dtype".into()));
+        return Err(crate::Error::Value("internal: real frame dtype".into()).into());
     };
     let real_view = readonly(real_array)?;
     let r = contiguous(&real_view, "the real frame")?;
     if let Ok(sim) = sim.cast::<PyArrayDyn<T>>() {
         let sim = readonly(sim)?;
         let s = contiguous(&sim, "the simulated frame")?;
-        return py.detach(|| profile(r, s, mask, shape, question));
+        return detached(py, || profile(r, s, mask, shape, question));
     }
     if let Ok(sim) = sim.cast::<PyArrayDyn<f64>>() {
         let sim = readonly(sim)?;
         let s = contiguous(&sim, "the simulated frame")?;
-        return py.detach(|| profile(r, s, mask, shape, question));
+        return detached(py, || profile(r, s, mask, shape, question));
     }
     Err(crate::Error::Shape(format!(
         "sim: dtype {} with a {} real frame: expected the real frame's dtype or float64",
         sim.dtype(),
         real.dtype()
-    )))
+    ))
+    .into())
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

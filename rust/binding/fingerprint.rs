@@ -10,8 +10,8 @@ use crate::fingerprint::file_digest;
 /// XXH3-64 of each file's bytes; None for a file that cannot be read (its frame fails
 /// on its own when decoded).
 #[pyfunction]
-fn file_digests(py: Python<'_>, paths: Vec<PathBuf>) -> Vec<Option<u64>> {
-    py.detach(|| paths.par_iter().map(|p| file_digest(p).ok()).collect())
+fn file_digests(py: Python<'_>, paths: Vec<PathBuf>) -> PyResult<Vec<Option<u64>>> {
+    super::detached(py, || Ok(paths.par_iter().map(|p| file_digest(p).ok()).collect()))
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -8,7 +8,7 @@ use numpy::ndarray::Array2;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 
-use super::args;
+use super::{args, detached};
 use crate::io::{self, DecodeOptions, Frame, FrameData};
 
 fn to_array<'py>(py: Python<'py>, f: Frame, name: &str) -> PyResult<Bound<'py, PyAny>> {
@@ -51,7 +51,7 @@ fn load_frame<'py>(
         max_pixels: max_pixels.unwrap_or(io::DEFAULT_MAX_PIXELS),
         max_bytes: max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES),
     };
-    let frame = py.detach(|| io::decode_frame(&path, &opts))?;
+    let frame = detached(py, || io::decode_frame(&path, &opts))?;
     to_array(py, frame, &path.display().to_string())
 }
 
@@ -59,7 +59,7 @@ fn load_frame<'py>(
 /// None)`; 1 page for EXR and PNG.
 #[pyfunction]
 fn page_chain(py: Python<'_>, path: PathBuf) -> PyResult<(usize, Option<String>)> {
-    let chain = py.detach(|| io::page_chain(&path))?;
+    let chain = detached(py, || io::page_chain(&path))?;
     Ok((chain.pages, chain.broken))
 }
 
@@ -73,7 +73,7 @@ fn tiff_ifds_read() -> u64 {
 /// Selectable channel names of a frame file.
 #[pyfunction]
 fn list_channels(py: Python<'_>, path: PathBuf) -> PyResult<Vec<String>> {
-    Ok(py.detach(|| io::list_channels(&path))?)
+    detached(py, || io::list_channels(&path))
 }
 
 /// The default pixel limit (8192 x 8192).

@@ -6,9 +6,9 @@ use numpy::ndarray::Array2;
 use numpy::{PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
-use super::args;
 use super::dtypes::pair_shape;
 use super::register::nbytes;
+use super::{args, detached};
 use crate::maps::{self, SsimParams};
 use crate::Error;
 
@@ -71,7 +71,7 @@ fn ssim_map<'py>(
         Ok((PyArray2::from_owned_array(py, map), m.mean))
     };
     with_frame_dtype!(py, real.dtype(), |T| on_slices::<T, _>(real, sim, |r, s| {
-        finish(py.detach(|| maps::ssim_map(r, s, rows, cols, &params, valid, step))?)
+        finish(detached(py, || maps::ssim_map(r, s, rows, cols, &params, valid, step))?)
     }))
     .flatten()
     .unwrap_or_else(|| Err(unsupported(real, sim)))
@@ -104,7 +104,7 @@ fn ms_ssim(
         .holding(nbytes(&[real, sim]))
         .check(max_bytes.unwrap_or(crate::io::DEFAULT_MAX_BYTES), Error::Value)?;
     with_frame_dtype!(py, real.dtype(), |T| on_slices::<T, _>(real, sim, |r, s| {
-        let m = py.detach(|| maps::ms_ssim(r, s, rows, cols, &params, valid, scales))?;
+        let m = detached(py, || maps::ms_ssim(r, s, rows, cols, &params, valid, scales))?;
         Ok((m.value, m.weights, m.ssim, m.cs))
     }))
     .flatten()

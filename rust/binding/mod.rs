@@ -1,7 +1,8 @@
 //! The PyO3 module `irfidelity._core`. Each concern has its own file (`stats`, `io`, …) with
 //! a `register` function; this file owns the module and the single mapping of
 //! [`crate::Error`] kinds to the Python exception classes of `irfidelity.errors`, so `?`
-//! turns a core error into the matching Python exception.
+//! turns a core error into the matching Python exception, and [`detached`], the one way a
+//! binding runs core work without the GIL.
 
 use pyo3::prelude::*;
 
@@ -38,6 +39,17 @@ impl From<crate::Error> for PyErr {
             Error::Value(m) => FidelityError::new_err(m),
         }
     }
+}
+
+/// Run `f` with the GIL released, then raise a signal that arrived meanwhile (Ctrl-C:
+/// `KeyboardInterrupt`, before the result is handed to Python) or else `f`'s error as its
+/// Python exception (the mapping above). Panics are not caught here: a refused allocation is
+/// turned into an error inside `f` by the operation's `budget::guard`, a decoder's panic by
+/// `io`'s own `catch_unwind`; any other panic reaches PyO3's boundary (`PanicException`).
+pub(crate) fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> crate::Result<T> + Send) -> PyResult<T> {
+    let result = py.detach(f);
+    py.check_signals()?;
+    Ok(result?)
 }
 
 #[pymodule]

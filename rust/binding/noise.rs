@@ -8,8 +8,8 @@ use numpy::{IntoPyArray, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
-use super::args;
 use super::dtypes::{contiguous, unsupported_dtype};
+use super::{args, detached};
 use crate::budget;
 use crate::io::{self, DecodeOptions};
 use crate::noise::{self, FrameSample, NoiseSums, PassOptions, Window, PARTS};
@@ -49,7 +49,7 @@ impl PyNoiseSums {
     }
     /// `{"mean", "ss": {part: float}, "ss_total"}`: sums of squares of the seven parts.
     fn decomposition<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = py.detach(|| budget::guard("the 3-D noise decomposition", Error::Value, || self.inner.finish()))?;
+        let d = detached(py, || budget::guard("the 3-D noise decomposition", Error::Value, || self.inner.finish()))?;
         let out = PyDict::new(py);
         out.set_item("mean", d.mean)?;
         let ss = PyDict::new(py);
@@ -63,7 +63,7 @@ impl PyNoiseSums {
     /// Integer frames: `{part: N²·SS, ..., "total": N²·SS_total}` as exact Python ints; None
     /// for float frames.
     fn exact_ss<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let d = py.detach(|| budget::guard("the 3-D noise decomposition", Error::Value, || self.inner.finish()))?;
+        let d = detached(py, || budget::guard("the 3-D noise decomposition", Error::Value, || self.inner.finish()))?;
         let Some(exact) = d.exact else { return Ok(None) };
         let from_bytes = py.import("builtins")?.getattr("int")?.getattr("from_bytes")?;
         let out = PyDict::new(py);
@@ -74,23 +74,24 @@ impl PyNoiseSums {
     }
     /// Per-pixel temporal mean, shape (rows, cols).
     fn pixel_mean<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v = py.detach(|| budget::guard("the temporal-mean frame", Error::Value, || Ok(self.inner.pixel_mean())))?;
+        let v =
+            detached(py, || budget::guard("the temporal-mean frame", Error::Value, || Ok(self.inner.pixel_mean())))?;
         to_array2(py, v, (self.inner.rows, self.inner.cols))
     }
     /// Per-pixel temporal population variance, shape (rows, cols).
     fn pixel_var<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let v =
-            py.detach(|| budget::guard("the temporal-variance frame", Error::Value, || Ok(self.inner.pixel_var())))?;
+            detached(py, || budget::guard("the temporal-variance frame", Error::Value, || Ok(self.inner.pixel_var())))?;
         to_array2(py, v, (self.inner.rows, self.inner.cols))
     }
     /// Mean of every row of every frame, shape (frames, rows).
     fn row_means<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v = py.detach(|| self.inner.row_means());
+        let v = detached(py, || Ok(self.inner.row_means()))?;
         to_array2(py, v, (self.inner.frames, self.inner.rows))
     }
     /// Mean of every column of every frame, shape (frames, cols).
     fn col_means<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v = py.detach(|| self.inner.col_means());
+        let v = detached(py, || Ok(self.inner.col_means()))?;
         to_array2(py, v, (self.inner.frames, self.inner.cols))
     }
     /// `{"min", "max"}` and for integer frames `{"lo", "hi", "at_lo", "at_hi"}`.
@@ -110,14 +111,14 @@ impl PyNoiseSums {
     /// The sums of `self`'s frames followed by `other`'s.
     fn merge(&self, py: Python<'_>, other: &PyNoiseSums) -> PyResult<PyNoiseSums> {
         let (a, b) = (&self.inner, &other.inner);
-        Ok(PyNoiseSums { inner: py.detach(|| a.merge(b))? })
+        Ok(PyNoiseSums { inner: detached(py, || a.merge(b))? })
     }
     fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
         PyBytes::new(py, &self.inner.to_bytes())
     }
     #[staticmethod]
     fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<PyNoiseSums> {
-        Ok(PyNoiseSums { inner: py.detach(|| NoiseSums::from_bytes(data))? })
+        Ok(PyNoiseSums { inner: detached(py, || NoiseSums::from_bytes(data))? })
     }
 }
 
@@ -154,7 +155,7 @@ fn noise_sums_array(
     let pass = with_frame_dtype!(py, &dt, |T| {
         let arr = cube.extract::<PyReadonlyArrayDyn<'_, T>>()?;
         let data = contiguous(&arr, "the cube")?;
-        py.detach(|| noise::noise_sums_from_array(T::samples(data), frames, rows, cols, &opts))?
+        detached(py, || noise::noise_sums_from_array(T::samples(data), frames, rows, cols, &opts))?
     });
     match pass {
         Some(sums) => Ok(PyNoiseSums { inner: sums }),
@@ -192,7 +193,7 @@ fn noise_sums_paths(
         max_bytes: max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES),
         page: 0,
     };
-    let sums = py.detach(|| noise::noise_sums_from_paths(frames, &decode, &opts))?;
+    let sums = detached(py, || noise::noise_sums_from_paths(frames, &decode, &opts))?;
     Ok(PyNoiseSums { inner: sums })
 }
 

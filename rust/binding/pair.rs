@@ -7,6 +7,7 @@ use numpy::{IntoPyArray, PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUn
 use pyo3::prelude::*;
 
 use super::args::{self, PairRequest};
+use super::detached;
 use super::dtypes::{contiguous, mask_samples, pair_shape, unsupported_dtype};
 use super::register::{mask_bytes, nbytes, registration_tuple, RegistrationTuple};
 use super::stats::PyPairStats;
@@ -67,7 +68,7 @@ fn score_registered<'py>(
     let scored =
         with_frame_dtype!(py, &dtype, |T| score_typed::<T>(py, (real, sim), shape, mask, &warp, &kreq, extent));
     let Aligned { registration, stats, extent, sim, scored } =
-        scored.unwrap_or_else(|| Err(unsupported_dtype("real", &dtype)))?;
+        scored.unwrap_or_else(|| Err(unsupported_dtype("real", &dtype).into()))?;
     let frame = |e: numpy::ndarray::ShapeError| Error::Value(format!("internal: warp shape: {e}"));
     let sim = Array2::from_shape_vec(shape, sim).map_err(frame)?;
     let scored = Array2::from_shape_vec(shape, scored).map_err(frame)?;
@@ -86,10 +87,10 @@ fn score_typed<T: numpy::Element + Sample>(
     warp: &Warp,
     kreq: &Request<'_>,
     extent: bool,
-) -> crate::Result<Aligned> {
+) -> PyResult<Aligned> {
     let Ok(sim) = sim.extract::<PyReadonlyArrayDyn<'_, T>>() else {
         let message = format!("real and simulated frames differ in dtype: {} vs {}", real.dtype(), sim.dtype());
-        return Err(Error::Shape(message));
+        return Err(Error::Shape(message).into());
     };
     let real = real.extract::<PyReadonlyArrayDyn<'_, T>>().map_err(|e| Error::Value(format!("internal: {e}")))?;
     let pair = PairSlices {
@@ -102,7 +103,7 @@ fn score_typed<T: numpy::Element + Sample>(
         Warp::Each(_) => ("registration and scoring of a frame pair", Error::Registration),
         Warp::Fixed(_) => ("resampling and scoring of a frame pair", Error::Value),
     };
-    py.detach(|| crate::budget::guard(operation, kind, || warp.score_pair(&pair, kreq, extent)))
+    detached(py, || crate::budget::guard(operation, kind, || warp.score_pair(&pair, kreq, extent)))
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -8,8 +8,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use pyo3::IntoPyObject;
 
-use super::args;
 use super::dtypes::unsupported_dtype;
+use super::{args, detached};
 use crate::io::{self, DecodeOptions};
 use crate::radiometry::{self, Calibration, Converted, Sample, Unit};
 
@@ -24,7 +24,7 @@ fn read_camera_info<'py>(
     #[pyo3(from_py_with = args::max_bytes)] max_bytes: Option<u64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let opts = DecodeOptions { page, max_bytes: max_bytes.unwrap_or(io::DEFAULT_MAX_BYTES), ..Default::default() };
-    let c = py.detach(|| io::read_camera_info(&path, &opts))?;
+    let c = detached(py, || io::read_camera_info(&path, &opts))?;
     let d = c.calibration.into_pyobject(py)?;
     d.set_item("camera_model", c.camera_model)?;
     d.set_item("camera_serial", c.camera_serial)?;
@@ -58,7 +58,7 @@ fn apply<'py, T: numpy::Element + Sample>(
         .try_readonly()
         .map_err(|e| crate::Error::Value(format!("the array is being written elsewhere: {e}")))?;
     let slice = array.as_slice().map_err(|e| crate::Error::Value(format!("internal: array not C-contiguous: {e}")))?;
-    let out = py.detach(|| convert(slice, calibration, unit))?;
+    let out = detached(py, || convert(slice, calibration, unit))?;
     let shaped = numpy::ndarray::ArrayD::from_shape_vec(values.shape(), out.values)
         .map_err(|e| crate::Error::Value(format!("internal: {e}")))?;
     Ok((shaped.into_pyarray(py).into_any(), out.outside, out.nonfinite))

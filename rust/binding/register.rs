@@ -9,8 +9,8 @@ use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2, PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
-use super::args;
 use super::dtypes::{mask_samples, pair_shape, unsupported_dtype};
+use super::{args, detached};
 use crate::budget;
 use crate::register::{self, Affine, Frame, Interp, Method, Model, Options, Source};
 use crate::Error;
@@ -90,15 +90,13 @@ fn register_frames(
     register::register_plan((rows, cols), &opts)
         .holding(nbytes(&[real, sim]) + mask_bytes(mask))
         .check(max_bytes.unwrap_or(crate::io::DEFAULT_MAX_BYTES), Error::Registration)?;
-    let reg = with_samples!(py, real, "real", |real| with_samples!(py, sim, "simulated", |sim| py
-        .detach(|| {
-            budget::guard("registration", Error::Registration, || {
-                let real = Frame::new(real, rows, cols, mask, "real")?;
-                let sim = Frame::new(sim, rows, cols, mask, "simulated")?;
-                register::register_frames(&real, &sim, &opts)
-            })
+    let reg = with_samples!(py, real, "real", |real| with_samples!(py, sim, "simulated", |sim| detached(py, || {
+        budget::guard("registration", Error::Registration, || {
+            let real = Frame::new(real, rows, cols, mask, "real")?;
+            let sim = Frame::new(sim, rows, cols, mask, "simulated")?;
+            register::register_frames(&real, &sim, &opts)
         })
-        .map_err(PyErr::from)))?;
+    })))?;
     Ok(registration_tuple(&reg))
 }
 
@@ -158,7 +156,7 @@ fn warped(
     with_samples!(py, frame, "simulated", |data| {
         let src = Source { data, rows, cols, valid: mask };
         let resample = || Ok(register::warp(&src, to_source, interp, shape.0, shape.1, f64::NAN));
-        Ok(py.detach(|| budget::guard("resampling", Error::Value, resample))?)
+        detached(py, || budget::guard("resampling", Error::Value, resample))
     })
 }
 

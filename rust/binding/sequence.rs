@@ -250,7 +250,7 @@ fn merge_all(
     keep_hist: bool,
 ) -> PyResult<(Option<PyPairStats>, bool)> {
     let inner: Vec<&crate::stats::PairStats> = stats.iter().map(|p| &p.inner).collect();
-    let merged = py.detach(|| {
+    let merged = super::detached(py, || {
         if keep_hist {
             sequence::merge_all(inner.iter().copied())
         } else {

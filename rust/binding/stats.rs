@@ -11,6 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
 use super::args::{self, PairRequest};
+use super::detached;
 use super::dtypes::{pair_shape, shape_text, supported_dtypes, unsupported_dtype};
 use crate::hist::{Entropies, HistSpec, JointTable};
 use crate::stats::{self, Request, Sample, Sums};
@@ -85,18 +86,18 @@ impl PyPairStats {
         self.inner.centred()
     }
     /// `(h_real, h_sim, h_joint)` in bits, or None without a histogram.
-    fn entropies(&self, py: Python<'_>) -> Option<(f64, f64, f64)> {
+    fn entropies(&self, py: Python<'_>) -> PyResult<Option<(f64, f64, f64)>> {
         // Not `get_or_init`: a second thread would wait on it holding the GIL, which the
         // first needs back after computing without it. Two threads may both compute (same
         // value); the first to finish keeps it.
         let e = match self.entropies.get() {
             Some(e) => *e,
             None => {
-                let e = py.detach(|| self.inner.entropies());
+                let e = detached(py, || Ok(self.inner.entropies()))?;
                 *self.entropies.get_or_init(|| e)
             }
         };
-        e.map(|e| (e.h_real, e.h_sim, e.h_joint))
+        Ok(e.map(|e| (e.h_real, e.h_sim, e.h_joint)))
     }
     /// `(mse, moments, centred, entropies)`: what every image metric reads, in one call (each
     /// None when not computed).
@@ -104,8 +105,8 @@ impl PyPairStats {
     fn summary(
         &self,
         py: Python<'_>,
-    ) -> (Option<f64>, Option<Moments>, Option<(f64, f64, f64)>, Option<(f64, f64, f64)>) {
-        (self.mse(), self.moments(), self.centred(), self.entropies(py))
+    ) -> PyResult<(Option<f64>, Option<Moments>, Option<(f64, f64, f64)>, Option<(f64, f64, f64)>)> {
+        Ok((self.mse(), self.moments(), self.centred(), self.entropies(py)?))
     }
     /// `("levels",)`, `("bins", bins, lo, width)` or `("each", bins, real_lo, real_width,
     /// sim_lo, sim_width)`, or None.
@@ -125,7 +126,7 @@ impl PyPairStats {
     /// `crate::hist::JointTable`), or None without a histogram.
     fn joint_histogram<'py>(&self, py: Python<'py>, max_cells: usize) -> PyResult<Option<JointCounts<'py>>> {
         let Some((spec, joint)) = &self.inner.hist else { return Ok(None) };
-        let table = py.detach(|| JointTable::of(spec, joint, max_cells))?;
+        let table = detached(py, || JointTable::of(spec, joint, max_cells))?;
         // counts of pixels: far below 2^63
         let counts: Vec<i64> = table.counts.into_iter().map(|c| c as i64).collect();
         let counts = numpy::ndarray::Array2::from_shape_vec((table.rows, table.cols), counts)
@@ -148,7 +149,7 @@ impl PyPairStats {
     }
     fn merge(&self, py: Python<'_>, other: &PyPairStats) -> PyResult<PyPairStats> {
         let (a, b) = (&self.inner, &other.inner);
-        let merged = py.detach(|| a.merge(b))?;
+        let merged = detached(py, || a.merge(b))?;
         Ok(PyPairStats::new(merged))
     }
     fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
@@ -168,7 +169,7 @@ fn frame_stats(
     real: &Bound<'_, PyUntypedArray>,
     sim: &Bound<'_, PyUntypedArray>,
     req: &Request<'_>,
-) -> Option<crate::Result<stats::PairStats>> {
+) -> Option<PyResult<stats::PairStats>> {
     with_frame_dtype!(py, real.dtype(), |T| typed_stats::<T>(py, real, sim, req))
 }
 
@@ -177,13 +178,13 @@ fn typed_stats<T: numpy::Element + Sample>(
     real: &Bound<'_, PyUntypedArray>,
     sim: &Bound<'_, PyUntypedArray>,
     req: &Request<'_>,
-) -> crate::Result<stats::PairStats> {
+) -> PyResult<stats::PairStats> {
     let (Ok(r), Ok(s)) = (real.cast::<PyArrayDyn<T>>(), sim.cast::<PyArrayDyn<T>>()) else {
-        return Err(dtype_mismatch(real, sim));
+        return Err(dtype_mismatch(real, sim).into());
     };
     let (r, s) = (readonly(r)?, readonly(s)?);
     let (rs, ss) = (slice(&r)?, slice(&s)?);
-    py.detach(|| stats::pair_stats(rs, ss, req))
+    detached(py, || stats::pair_stats(rs, ss, req))
 }
 
 fn dtype_mismatch(real: &Bound<'_, PyUntypedArray>, sim: &Bound<'_, PyUntypedArray>) -> crate::Error {

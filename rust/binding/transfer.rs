@@ -10,6 +10,7 @@ use numpy::{
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use super::detached;
 use super::dtypes::{contiguous, mask_samples, pair_shape, unsupported_dtype};
 use super::stats::readonly;
 use crate::kernel::Sample;
@@ -38,9 +39,9 @@ fn typed<R: numpy::Element + Sample>(
     mask: Option<&[bool]>,
     shape: (usize, usize),
     pass: &Pass,
-) -> crate::Result<Output> {
+) -> PyResult<Output> {
     let Ok(real) = real.cast::<PyArrayDyn<R>>() else {
-        return Err(Error::Value("internal: real frame dtype".into()));
+        return Err(Error::Value("internal: real frame dtype".into()).into());
     };
     let real_view = readonly(real)?;
     let real = contiguous(&real_view, "the real frame")?;
@@ -67,18 +68,19 @@ fn typed<R: numpy::Element + Sample>(
     if let Ok(sim) = sim.cast::<PyArrayDyn<R>>() {
         let view = readonly(sim)?;
         let sim = contiguous(&view, "the simulated frame")?;
-        return py.detach(|| run(Frames { real, sim, reference, mask, shape }, pass));
+        return detached(py, || run(Frames { real, sim, reference, mask, shape }, pass));
     }
     if let Ok(sim) = sim.cast::<PyArrayDyn<f64>>() {
         let view = readonly(sim)?;
         let sim = contiguous(&view, "the simulated frame")?;
-        return py.detach(|| run(Frames { real, sim, reference, mask, shape }, pass));
+        return detached(py, || run(Frames { real, sim, reference, mask, shape }, pass));
     }
     Err(Error::Shape(format!(
         "sim: dtype {} with a {} real frame: expected the real frame's dtype or float64",
         sim.dtype(),
         real_view.dtype()
-    )))
+    ))
+    .into())
 }
 
 fn dispatch(
@@ -95,8 +97,8 @@ fn dispatch(
     }
     let mask = mask_samples(mask.as_ref(), shape)?;
     let dtype = frames.0.dtype();
-    Ok(with_frame_dtype!(py, &dtype, |T| typed::<T>(py, frames, mask, shape, &pass))
-        .unwrap_or_else(|| Err(unsupported_dtype("real", &dtype)))?)
+    with_frame_dtype!(py, &dtype, |T| typed::<T>(py, frames, mask, shape, &pass))
+        .unwrap_or_else(|| Err(unsupported_dtype("real", &dtype).into()))
 }
 
 fn cube<'py>(py: Python<'py>, values: Vec<f64>, shape: (usize, usize, usize)) -> PyResult<Bound<'py, PyArray3<f64>>> {
