@@ -18,11 +18,16 @@ selector byte (decode options, see ``fuzz/src/lib.rs``) followed by a file:
   run of frames; hostile: a raw image claiming 65535², zeroed and short records, absurd Planck
   constants, 100,000 directory entries, a bad version, trailing junk;
 * radiometric JPEG: the same frames in FLIR APP1 segments, reordered, missing, none;
+* JPEG-LS streams (``jpegls_stream``): flat images coded by hand in every header variant (8 and
+  16 bits, NEAR, restart markers, an LSE preset, comment and SPIFF segments); hostile: 65535²,
+  zero lines, a mapping table, bad thresholds, NEAR 255, three components, cut short, restart
+  markers out of order; and, when imagecodecs is installed, CharLS-coded noise, gradients and
+  plateaus at 8, 12 and 16 bits, lossless and NEAR 2;
 
 plus the small real files of ``tests/data``. Block seeds (``exr_piz_block``, ``exr_zip_block``)
 are the real PIZ and ZIP blocks of the EXR files in ``tests/data``, behind the 4-byte block
 header ``fuzz/src/lib.rs`` reads (width, height, channel sizes, selected channel).
-Standard library only; deterministic.
+Standard library only (imagecodecs optional, above); deterministic.
 """
 
 from __future__ import annotations
@@ -541,6 +546,94 @@ def rjpeg_seeds() -> dict[str, bytes]:
     return seeds
 
 
+# -------------------------------------------------------------------------------- JPEG-LS
+
+
+def jls_bits(bits: list[int]) -> bytes:
+    """Bits packed most significant first, a 0 bit stuffed after every 0xFF (T.87 §9.1)."""
+    out, byte, count = bytearray(), 0, 0
+    for bit in bits:
+        byte, count = byte << 1 | bit, count + 1
+        if count == (7 if out and out[-1] == 0xFF else 8):
+            out.append(byte)
+            byte, count = 0, 0
+    if count or out.endswith(b"\xff"):  # pad with zeros; an 0xFF is always followed by a stuffed 0 bit
+        out.append(byte << ((7 if out and out[-1] == 0xFF else 8) - count))
+    return bytes(out)
+
+
+def jls_flat(w: int, h: int, precision: int = 16, near: int = 0, preset: bytes = b"", restart: int = 0,
+             extra: bytes = b"") -> bytes:
+    """A JPEG-LS stream of a w x h image of zeros: every line one run to its end (the run mode's
+    codes for ``w`` samples, RUNindex carried from line to line), hand-coded."""
+    j = [0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 9, 10, 11, 12, 13, 14, 15]
+    scans, index = [], 0
+    for first in range(0, h, restart or h):
+        bits, index = [], 0  # a restart interval starts afresh
+        for _ in range(first, min(h, first + (restart or h))):
+            left = w
+            while left >= 1 << j[index]:
+                bits.append(1)
+                left -= 1 << j[index]
+                index = min(index + 1, 31)
+            if left:
+                bits.append(1)
+        scans.append(jls_bits(bits))
+    body = b"".join(scan + (bytes([0xFF, 0xD0 + k % 8]) if k + 1 < len(scans) else b"") for k, scan in enumerate(scans))
+    sof = b"\xff\xf7" + struct.pack(">HBHHB", 11, precision, h, w, 1) + b"\x01\x11\x00"
+    sos = b"\xff\xda" + struct.pack(">HBBBBBB", 8, 1, 1, 0, near, 0, 0)
+    dri = b"\xff\xdd\x00\x04" + struct.pack(">H", restart) if restart else b""
+    lse = b"\xff\xf8" + struct.pack(">H", 2 + len(preset)) + preset if preset else b""
+    return b"\xff\xd8" + extra + sof + lse + dri + sos + body + b"\xff\xd9"
+
+
+def jpegls_seeds() -> dict[str, bytes]:
+    """Hand-coded flat images with every header variant; hostile headers; and, when imagecodecs
+    (CharLS) is installed, coded images of noise and gradients at several precisions and NEARs."""
+    seeds = {
+        "flat_16bit": jls_flat(40, 9),
+        "flat_8bit": jls_flat(17, 5, precision=8),
+        "flat_2bit": jls_flat(3, 3, precision=2),
+        "flat_long_line": jls_flat(5000, 2),
+        "flat_near3": jls_flat(33, 4, near=3),
+        "flat_restarts": jls_flat(30, 20, restart=3),
+        "flat_preset": jls_flat(20, 4, preset=struct.pack(">BHHHHH", 1, 40000, 5, 9, 30, 40)),
+        "flat_comment_spiff": jls_flat(20, 4, extra=b"\xff\xfe\x00\x05abc" + b"\xff\xe8\x00\x04sp"),
+        # hostile
+        "huge_claim": jls_flat(8, 1)[:7] + struct.pack(">HH", 65535, 65535) + jls_flat(8, 1)[11:],
+        "zero_lines": jls_flat(8, 1)[:7] + struct.pack(">H", 0) + jls_flat(8, 1)[9:],
+        "mapping_table": jls_flat(8, 2, preset=struct.pack(">BBH", 2, 1, 2) + bytes(8)),
+        "bad_thresholds": jls_flat(8, 2, preset=struct.pack(">BHHHHH", 1, 0, 900, 3, 2, 1)),
+        "huge_near": jls_flat(8, 2, near=255),
+        "three_components": jls_flat(8, 2)[:11] + b"\x03" + jls_flat(8, 2)[12:],
+        "truncated": jls_flat(400, 30)[:20],
+        "restart_out_of_order": jls_flat(30, 20, restart=3).replace(b"\xff\xd1", b"\xff\xd5", 1),
+    }
+    try:
+        import imagecodecs
+    except ImportError:
+        return seeds
+    for name, image in coded_images().items():
+        for near in (0, 2):
+            seeds[f"charls_{name}_near{near}"] = bytes(imagecodecs.jpegls_encode(image, level=near or None))
+    return seeds
+
+
+def coded_images():
+    """Small images for CharLS to code (numpy comes with imagecodecs)."""
+    import numpy as np
+
+    rng = np.random.default_rng(39)
+    y, x = np.mgrid[0:24, 0:37]
+    return {
+        "noise16": rng.integers(0, 1 << 16, (24, 37)).astype(np.uint16),
+        "noise12": rng.integers(0, 1 << 12, (24, 37)).astype(np.uint16),
+        "noise8": rng.integers(0, 256, (24, 37)).astype(np.uint8),
+        "gradient": (9000 + 30 * y + 7 * x).astype(np.uint16),
+        "plateaus": np.where(rng.random((24, 37)) < 0.2, 6000 + rng.integers(0, 3, (24, 37)) * 250, 6000).astype(np.uint16),
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "seeds")
@@ -554,6 +647,7 @@ def main() -> None:
         "decode_fff": fff_seeds(),
         "decode_rjpeg": rjpeg_seeds(),
         "temperatures_fff": {**fff_seeds(), **rjpeg_seeds()},
+        "jpegls_stream": jpegls_seeds(),
     }
     for target, seeds in targets.items():
         d = args.out / target

@@ -7,7 +7,7 @@
 //! each record tells its own by its first 16-bit word, 2. The raw-data record holds the
 //! counts as raw 16-bit samples (in the record's byte order), as a PNG (whose 16-bit samples
 //! FLIR writes in the record's byte order, not PNG's big-endian one), as a TIFF, or as
-//! JPEG-LS (FLIR CSQ files, not supported). Radiometric JPEGs carry one such frame in APP1
+//! JPEG-LS (FLIR CSQ recordings; `jpegls/`). Radiometric JPEGs carry one such frame in APP1
 //! segments (`rjpeg.rs`), SEQ files a run of them (`seq.rs`).
 //!
 //! The layout follows ExifTool's FLIR tables (`Image::ExifTool::FLIR`).
@@ -202,12 +202,8 @@ impl<'a> FffFrame<'a> {
             }
         } else if image.starts_with(b"II*\0") || image.starts_with(b"MM\0*") {
             embedded(raster::decode_tiff(Cursor::new(image), &inner(o, held)?, None), "TIFF")?
-        } else if image.starts_with(&[0xFF, 0xD8]) {
-            return Err(
-                "the raw frame is JPEG-LS coded (a FLIR CSQ file): irfidelity cannot decode CSQ, as no \
-                        well-kept pure-Rust JPEG-LS decoder exists (convert the CSQ to SEQ or TIFF with FLIR's tools)"
-                    .to_string(),
-            );
+        } else if super::jpegls::is_jpeg(image) {
+            jpegls(image, held, o)?
         } else {
             raw16(image, (cols, rows), big, held, o)?
         };
@@ -251,6 +247,14 @@ fn record_order(rec: &[u8], what: &str) -> Result<bool, Reason> {
 fn inner(o: &DecodeOptions, held: u64) -> Result<DecodeOptions, Reason> {
     check_budget(Some(held), || format!("the {held} bytes of FLIR data"), o.max_bytes)?;
     Ok(DecodeOptions { channel: None, page: 0, max_pixels: o.max_pixels, max_bytes: o.max_bytes - held })
+}
+
+/// JPEG-LS coded counts (FLIR CSQ), decoded within the budget left beside the FLIR data.
+fn jpegls(image: &[u8], held: u64, o: &DecodeOptions) -> Result<Frame, Reason> {
+    let budget = inner(o, held)?;
+    let decoded = super::jpegls::decode(image, budget.max_pixels, budget.max_bytes)
+        .map_err(|reason| format!("the raw-data record's JPEG-LS image: {reason}"))?;
+    Ok(Frame { rows: decoded.rows, cols: decoded.cols, data: FrameData::U16(decoded.samples) })
 }
 
 /// An embedded PNG or TIFF must be one 16-bit grey channel.

@@ -1,6 +1,6 @@
-//! The EXR block decoders on their own, for the fuzz targets (feature `fuzzing`, off in
-//! every normal build): fuzzing a block decoder through whole files spends most runs on
-//! headers.
+//! The EXR block decoders and the JPEG-LS decoder on their own, for the fuzz targets
+//! (feature `fuzzing`, off in every normal build): fuzzing a block decoder through whole files
+//! spends most runs on headers.
 
 use half::f16;
 
@@ -25,4 +25,11 @@ pub fn zip_block(data: &[u8], sizes: &[usize], selected: usize, w: usize, h: usi
         2 => zip::decode_channel::<f16>(data, bytes_per_pixel, offset, w, h).map(|v| v.len()),
         _ => zip::decode_channel::<f32>(data, bytes_per_pixel, offset, w, h).map(|v| v.len()),
     }
+}
+
+/// Decode one JPEG-LS stream with irfidelity's own decoder (`rust/io/jpegls`), within
+/// `max_pixels` and `max_bytes`. Returns (cols, rows, the samples decoded), or the decoder's
+/// reason for refusing the stream.
+pub fn jpegls(data: &[u8], max_pixels: u64, max_bytes: u64) -> Result<(usize, usize, usize), String> {
+    super::jpegls::decode(data, max_pixels, max_bytes).map(|image| (image.cols, image.rows, image.samples.len()))
 }

@@ -31,6 +31,7 @@ use tiff_pages::FileKey;
 
 mod exr;
 mod flir;
+mod jpegls;
 #[cfg(feature = "fuzzing")]
 pub mod fuzzing;
 mod piz;
