@@ -123,6 +123,24 @@ impl<'a> Bits<'a> {
         }
     }
 
+    /// A Golomb code of order `k` (`k` ≤ 32) whose unary prefix is below `escape`, when the
+    /// whole code is in the cache: `(prefix << k) | the k bits after it`. `None` otherwise
+    /// (the caller reads it with [`Bits::zeros`] and [`Bits::read`]); nothing is consumed then.
+    #[inline]
+    pub(super) fn short_code(&mut self, k: u32, escape: u32) -> Option<u32> {
+        if self.valid < 32 {
+            self.fill();
+        }
+        let prefix = self.cache.leading_zeros();
+        let len = prefix + 1 + k;
+        if prefix >= escape || len > self.valid || len >= 64 {
+            return None;
+        }
+        let suffix = ((self.cache << (prefix + 1)) >> 1 >> (63 - k)) as u32;
+        self.skip(len);
+        Some(prefix << k | suffix)
+    }
+
     /// Whether reading went past the end of the data: the scan is truncated or corrupt.
     pub(super) fn overran(&self) -> bool {
         self.padding > u64::from(self.valid)

@@ -6,6 +6,9 @@
 //! last entries hold the edge values the standard defines; a restart interval starts as a scan
 //! does, with the line above all zero and every context reset.
 
+use std::cell::RefCell;
+use std::rc::Rc;
+
 use super::bits::Bits;
 use super::Reason;
 
@@ -79,8 +82,47 @@ fn corrupt(what: &str) -> Reason {
     format!("corrupt JPEG-LS data ({what})")
 }
 
-/// The gradient quantisation table (T.87 §A.3.3) for `coding`.
-pub(super) fn quantisation(coding: &Coding) -> Vec<i8> {
+/// Why a scan's data is corrupt: a byte wide, so the per-sample results stay in a register.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Corrupt {
+    LongCode,
+    LargeOrder,
+    BeyondRange,
+    Overflow,
+    LongRun,
+}
+
+impl Corrupt {
+    fn reason(self) -> Reason {
+        corrupt(match self {
+            Corrupt::LongCode => "a code longer than LIMIT",
+            Corrupt::LargeOrder => "a Golomb order beyond 24",
+            Corrupt::BeyondRange => "an error beyond RANGE",
+            Corrupt::Overflow => "a context's error sum overflows",
+            Corrupt::LongRun => "a run past the end of its line",
+        })
+    }
+}
+
+/// The gradient quantisation table for `coding`, kept per thread: a recording's frames share
+/// their coding parameters, and the table (up to 128 KiB) costs more to build than a small
+/// frame to decode.
+fn quantisation(coding: &Coding) -> Rc<[i8]> {
+    thread_local! {
+        static KEPT: RefCell<Option<(Coding, Rc<[i8]>)>> = const { RefCell::new(None) };
+    }
+    KEPT.with_borrow_mut(|kept| match kept {
+        Some((c, table)) if c == coding => table.clone(),
+        _ => {
+            let table: Rc<[i8]> = quantisation_table(coding).into();
+            *kept = Some((*coding, table.clone()));
+            table
+        }
+    })
+}
+
+/// The gradient quantisation table (T.87 §A.3.3) for `coding`: Q(D) at D + MAXVAL.
+fn quantisation_table(coding: &Coding) -> Vec<i8> {
     let Coding { maxval, near, t1, t2, t3, .. } = *coding;
     let q = |d: i32| -> i8 {
         match d {
@@ -126,7 +168,7 @@ pub(super) fn decode(
                 // zero bits read past the end make a corrupt-looking code: name the cause
                 return Err(format!("truncated JPEG-LS data: it ends in line {row} of {rows}"));
             }
-            decoded?;
+            decoded.map_err(Corrupt::reason)?;
             for (o, &v) in out[row * cols..(row + 1) * cols].iter_mut().zip(&current[1..=cols]) {
                 *o = v as u16; // within 0..=maxval <= 65535
             }
@@ -171,29 +213,39 @@ impl<'a, 'b> Decoder<'a, 'b> {
     }
 
     /// Decode one line into `current[1..=cols]`; `above` is the line above.
-    fn line(&mut self, above: &mut [i32], current: &mut [i32]) -> Result<(), Reason> {
+    fn line(&mut self, above: &mut [i32], current: &mut [i32]) -> Result<(), Corrupt> {
         let cols = current.len() - 2;
         above[cols + 1] = above[cols];
         current[0] = above[1];
         let mut x = 1;
+        // Rc, Rb, Rd roll along the line above; Ra is the sample just decoded
+        let (mut ra, mut rc, mut rb) = (current[0], above[0], above[1]);
         while x <= cols {
-            let (ra, rb, rc, rd) = (current[x - 1], above[x], above[x - 1], above[x + 1]);
+            let rd = above[x + 1];
             let q = (self.quantise(rd - rb) * 9 + self.quantise(rb - rc)) * 9 + self.quantise(rc - ra);
             if q != 0 {
-                current[x] = self.regular(q, ra, rb, rc)?;
+                ra = self.regular(q, ra, rb, rc)?;
+                current[x] = ra;
                 x += 1;
+                (rc, rb) = (rb, rd);
             } else {
                 x = self.run(above, current, x)?;
+                if x <= cols {
+                    (ra, rc, rb) = (current[x - 1], above[x - 1], above[x]);
+                }
             }
         }
         Ok(())
     }
 
     /// A Golomb-coded mapped error of order `k`, at most `limit` bits long (T.87 §A.5.3).
-    #[inline]
-    fn mapped_error(&mut self, k: u32, limit: u32) -> Result<i32, Reason> {
+    #[inline(always)]
+    fn mapped_error(&mut self, k: u32, limit: u32) -> Result<i32, Corrupt> {
         let escape = limit - self.qbpp - 1;
-        let prefix = self.bits.zeros(escape).ok_or_else(|| corrupt("a code longer than LIMIT"))?;
+        if let Some(code) = self.bits.short_code(k, escape) {
+            return Ok(code as i32);
+        }
+        let prefix = self.bits.zeros(escape).ok_or(Corrupt::LongCode)?;
         Ok(if prefix < escape {
             ((prefix << k) | self.bits.read(k)) as i32
         } else {
@@ -203,19 +255,19 @@ impl<'a, 'b> Decoder<'a, 'b> {
 
     /// A sample in the regular mode (T.87 §A.4–A.6) in context `q` (signed).
     #[inline]
-    fn regular(&mut self, q: i32, ra: i32, rb: i32, rc: i32) -> Result<i32, Reason> {
+    fn regular(&mut self, q: i32, ra: i32, rb: i32, rc: i32) -> Result<i32, Corrupt> {
         let sign = if q < 0 { -1 } else { 1 };
         let index = q.unsigned_abs() as usize;
         let Context { a, b, c, n } = self.contexts[index];
         let predicted = (median_edge(ra, rb, rc) + sign * c).clamp(0, self.coding.maxval);
-        let k = golomb_order(n, a).ok_or_else(|| corrupt("a Golomb order beyond 24"))?;
+        let k = golomb_order(n, a).ok_or(Corrupt::LargeOrder)?;
         let mapped = self.mapped_error(k, self.limit)?;
         let mut error = (mapped >> 1) ^ -(mapped & 1);
         if self.coding.near == 0 && k == 0 && 2 * b <= -n {
             error = !error;
         }
         if error.abs() > self.range {
-            return Err(corrupt("an error beyond RANGE"));
+            return Err(Corrupt::BeyondRange);
         }
         self.update(index, error)?;
         Ok(self.reconstruct(predicted + sign * error * (2 * self.coding.near + 1)))
@@ -223,13 +275,13 @@ impl<'a, 'b> Decoder<'a, 'b> {
 
     /// Context `index` after an error (T.87 §A.6.1, A.6.2).
     #[inline]
-    fn update(&mut self, index: usize, error: i32) -> Result<(), Reason> {
+    fn update(&mut self, index: usize, error: i32) -> Result<(), Corrupt> {
         let (near, reset) = (self.coding.near, self.coding.reset);
         let ctx = &mut self.contexts[index];
         ctx.b += error * (2 * near + 1);
         ctx.a += error.abs();
         if ctx.a >= MAX_SUM || ctx.b.abs() >= MAX_SUM {
-            return Err(corrupt("a context's error sum overflows"));
+            return Err(Corrupt::Overflow);
         }
         if ctx.n == reset {
             ctx.a >>= 1;
@@ -264,7 +316,7 @@ impl<'a, 'b> Decoder<'a, 'b> {
 
     /// The run mode from `x` (T.87 §A.7): a run of Ra, then, unless the line ends, a run
     /// interruption sample. Returns the next x.
-    fn run(&mut self, above: &[i32], current: &mut [i32], x: usize) -> Result<usize, Reason> {
+    fn run(&mut self, above: &[i32], current: &mut [i32], x: usize) -> Result<usize, Corrupt> {
         let cols = current.len() - 2;
         let ra = current[x - 1];
         let remaining = cols + 1 - x;
@@ -280,7 +332,7 @@ impl<'a, 'b> Decoder<'a, 'b> {
     }
 
     /// The length of a run, at most `remaining` (T.87 §A.7.1.2).
-    fn run_length(&mut self, remaining: usize) -> Result<usize, Reason> {
+    fn run_length(&mut self, remaining: usize) -> Result<usize, Corrupt> {
         let mut length = 0;
         while self.bits.bit() {
             let full = 1usize << J[self.run_index];
@@ -295,26 +347,26 @@ impl<'a, 'b> Decoder<'a, 'b> {
         }
         length += self.bits.read(J[self.run_index]) as usize;
         if length > remaining {
-            return Err(corrupt("a run past the end of its line"));
+            return Err(Corrupt::LongRun);
         }
         Ok(length)
     }
 
     /// The sample interrupting a run (T.87 §A.7.2); `ra` is the run's value, `rb` the sample above.
-    fn interruption(&mut self, ra: i32, rb: i32) -> Result<i32, Reason> {
+    fn interruption(&mut self, ra: i32, rb: i32) -> Result<i32, Corrupt> {
         let near = self.coding.near;
         let kind = i32::from((ra - rb).abs() <= near);
         let (predicted, sign) = if kind == 1 { (ra, 1) } else { (rb, if rb >= ra { 1 } else { -1 }) };
         let RunContext { a, n, nn } = self.run_contexts[kind as usize];
         let temp = a + (n >> 1) * kind;
-        let k = golomb_order(n, temp).ok_or_else(|| corrupt("a Golomb order beyond 24"))?;
+        let k = golomb_order(n, temp).ok_or(Corrupt::LargeOrder)?;
         let mapped = self.mapped_error(k, self.limit - J[self.run_index] - 1)?;
         let t = mapped + kind;
         let map = t & 1;
         let magnitude = (t + map) / 2;
         let error = if (k != 0 || 2 * nn >= n) == (map == 1) { -magnitude } else { magnitude };
         if magnitude > self.range {
-            return Err(corrupt("an error beyond RANGE"));
+            return Err(Corrupt::BeyondRange);
         }
         let ctx = &mut self.run_contexts[kind as usize];
         if error < 0 {
@@ -322,7 +374,7 @@ impl<'a, 'b> Decoder<'a, 'b> {
         }
         ctx.a += (mapped + 1 - kind) >> 1;
         if ctx.a >= MAX_SUM {
-            return Err(corrupt("a context's error sum overflows"));
+            return Err(Corrupt::Overflow);
         }
         if ctx.n == self.coding.reset {
             ctx.a >>= 1;
@@ -337,7 +389,13 @@ impl<'a, 'b> Decoder<'a, 'b> {
 /// The Golomb order k: the least with N·2^k ≥ A (T.87 §A.5.1); `None` beyond `MAX_K`.
 #[inline]
 fn golomb_order(n: i32, a: i32) -> Option<u32> {
-    (0..=MAX_K).find(|&k| i64::from(n) << k >= i64::from(a))
+    let (n, a) = (n as u32, a as u32); // N ≥ 1, 0 < A < MAX_SUM
+    if n >= a {
+        return Some(0);
+    }
+    let k = n.leading_zeros() - a.leading_zeros(); // N·2^k has A's top bit; below 2^25, no overflow
+    let k = if n << k < a { k + 1 } else { k };
+    (k <= MAX_K).then_some(k)
 }
 
 /// The median edge detector (T.87 §A.4.1).
