@@ -39,6 +39,7 @@ mod raster;
 mod rjpeg;
 mod seq;
 mod tiff_pages;
+mod unread;
 mod zip;
 
 pub use flir::CameraInfo;
@@ -168,6 +169,9 @@ pub(crate) enum Format {
     Flir,
     /// JPEG: read only when radiometric (FLIR segments)
     Jpeg,
+    /// Possibly an InfiRay IRG file, whose header (of this many bytes) is checked before it is
+    /// refused (`unread.rs`)
+    Irg(usize),
 }
 
 fn sniff(head: &[u8]) -> Option<Format> {
@@ -186,7 +190,7 @@ fn sniff(head: &[u8]) -> Option<Format> {
     } else if head.starts_with(&[0xFF, 0xD8, 0xFF]) {
         Some(Format::Jpeg)
     } else {
-        None
+        unread::irg_header_len(head).map(Format::Irg)
     }
 }
 
@@ -276,8 +280,14 @@ enum OpOut {
     Radiometry(Box<CameraInfo>),
 }
 
-/// Run `op` on a stream; `key` identifies the file it reads (the TIFF page cache's key).
-fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>, key: Option<&FileKey>) -> std::result::Result<OpOut, Reason> {
+/// Run `op` on a stream named `name`; `key` identifies the file it reads (the TIFF page
+/// cache's key).
+fn run_op<R: BufRead + Seek>(
+    mut reader: R,
+    name: &str,
+    op: &Op<'_>,
+    key: Option<&FileKey>,
+) -> std::result::Result<OpOut, Reason> {
     let mut head = [0u8; 8];
     let mut got = 0;
     while got < head.len() {
@@ -293,10 +303,16 @@ fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>, key: Option<&FileKey>) 
         if got == 0 {
             "empty file (not an EXR, PNG or TIFF image)".to_string()
         } else {
-            "unsupported file format (not an OpenEXR, PNG, TIFF or radiometric FLIR image by its magic bytes)"
-                .to_string()
+            unread::unknown_format(name)
         }
     })?;
+    if let Format::Irg(header_len) = format {
+        return Err(if unread::is_irg(&mut reader, header_len) {
+            unread::Unread::InfiRayIrg.reason()
+        } else {
+            unread::unknown_format(name)
+        });
+    }
     if let Op::Decode(o) = op {
         if o.page != 0 && format != Format::Tiff && format != Format::Flir {
             return Err(format!("page {} out of range (only TIFF and FLIR SEQ files have several pages)", o.page));
@@ -327,6 +343,7 @@ fn run_op<R: BufRead + Seek>(mut reader: R, op: &Op<'_>, key: Option<&FileKey>) 
         (Format::Exr | Format::Png | Format::Tiff, Op::Radiometry(_)) => {
             Err("no radiometric calibration: only FLIR files (FFF, SEQ, radiometric JPEG) carry one".to_string())
         }
+        (Format::Irg(_), _) => unreachable!("an IRG file is refused above"),
     }
 }
 
@@ -385,7 +402,7 @@ fn run_on_path(path: &Path, op: Op<'_>) -> Result<OpOut> {
     let file = open_regular(path).map_err(|reason| frame_err(&name, reason))?;
     let key = file.metadata().map(|meta| FileKey::of(path, &meta)).ok();
     let reader = BufReader::with_capacity(buffer_size(&file), file);
-    guarded(&name, || run_op(reader, &op, key.as_ref()))
+    guarded(&name, || run_op(reader, &name, &op, key.as_ref()))
 }
 
 /// Decode one frame (one channel of one page) of an OpenEXR, PNG or TIFF file, or the raw counts of
@@ -409,7 +426,7 @@ pub fn decode_frame(path: &Path, opts: &DecodeOptions) -> Result<Frame> {
 
 /// Decode one frame from an in-memory file; `name` is used in error messages.
 pub fn decode_bytes(bytes: &[u8], name: &str, opts: &DecodeOptions) -> Result<Frame> {
-    match guarded(name, || run_op(Cursor::new(bytes), &Op::Decode(opts), None))? {
+    match guarded(name, || run_op(Cursor::new(bytes), name, &Op::Decode(opts), None))? {
         OpOut::Frame(f) => Ok(f),
         _ => unreachable!("decode returns a frame"),
     }
@@ -427,7 +444,7 @@ pub fn read_camera_info(path: &Path, opts: &DecodeOptions) -> Result<CameraInfo>
 /// The calibration of a radiometric FLIR frame held in memory (`name` names it in errors), as
 /// [`read_camera_info`] reads it from a file.
 pub fn read_camera_info_bytes(bytes: &[u8], name: &str, opts: &DecodeOptions) -> Result<CameraInfo> {
-    match guarded(name, || run_op(Cursor::new(bytes), &Op::Radiometry(opts), None))? {
+    match guarded(name, || run_op(Cursor::new(bytes), name, &Op::Radiometry(opts), None))? {
         OpOut::Radiometry(c) => Ok(*c),
         _ => unreachable!("read_camera_info returns a calibration"),
     }

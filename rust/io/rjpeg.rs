@@ -2,11 +2,14 @@
 //! visible JPEG image carries one FLIR FFF frame split over APP1 segments, each starting with
 //! `"FLIR\0"`, a version byte, the segment's index and the last index. The segments are read
 //! from the markers before the image data (only their lengths are read for the others) and
-//! joined in index order into the FFF frame, which `flir.rs` reads.
+//! joined in index order into the FFF frame, which `flir.rs` reads. A JPEG without them, or
+//! whose FLIR segments hold no FFF frame, is checked for the thermal formats irfidelity does
+//! not read (`unread.rs`), so that its refusal names the format.
 
 use std::io::{BufRead, Seek, SeekFrom};
 
 use super::flir::{CameraInfo, FffFrame};
+use super::unread::{has_hikmicro_block, is_research_studio, segment_head_len, JpegSigns, Unread};
 use super::{check_budget, DecodeOptions, Frame, Reason};
 
 /// Bytes before a segment's share of the FFF frame: "FLIR\0", version, index, last index.
@@ -48,14 +51,28 @@ fn next_marker<R: BufRead + Seek>(reader: &mut R, at: u64) -> Result<Option<u8>,
     }
 }
 
-/// The FLIR segments of a JPEG, in file order; their data at most `max_bytes` in all.
-fn flir_segments<R: BufRead + Seek>(reader: &mut R, max_bytes: u64) -> Result<Vec<Segment>, Reason> {
+/// A marker segment with a length, as [`walk_segments`] meets it.
+#[derive(Clone, Copy)]
+struct Header {
+    marker: u8,
+    /// bytes of its body (after the length)
+    body: u64,
+    /// where the segment starts, for errors
+    at: u64,
+}
+
+/// Walk a JPEG's marker segments up to its image data (start of scan) or its end, calling
+/// `visit` at the start of each segment's body: `visit` reads what it wants of the body (at
+/// most all of it) and returns how many bytes it read; the rest is skipped.
+fn walk_segments<R: BufRead + Seek>(
+    reader: &mut R,
+    mut visit: impl FnMut(Header, &mut R) -> Result<u64, Reason>,
+) -> Result<(), Reason> {
     let mut soi = [0u8; 2];
     reader.read_exact(&mut soi).map_err(|e| read_err(e, 0))?;
     if soi != [0xFF, 0xD8] {
         return Err("not a JPEG file".to_string());
     }
-    let (mut segments, mut held) = (Vec::new(), 0u64);
     let mut at = 2u64;
     while let Some(marker) = next_marker(reader, at)? {
         if marker == SOS || marker == EOI {
@@ -70,33 +87,62 @@ fn flir_segments<R: BufRead + Seek>(reader: &mut R, max_bytes: u64) -> Result<Ve
         let body = u64::from(u16::from_be_bytes(len))
             .checked_sub(2)
             .ok_or_else(|| format!("corrupt JPEG file: the segment at byte {at} has a length below 2"))?;
-        let mut head = [0u8; SEGMENT_HEADER];
-        let flir = marker == APP1 && body >= SEGMENT_HEADER as u64 && {
-            reader.read_exact(&mut head).map_err(|e| read_err(e, at))?;
-            head.starts_with(b"FLIR\0")
-        };
-        if flir {
-            held += body;
-            check_budget(Some(held), || format!("the FLIR segments ({held} bytes so far)"), max_bytes)?;
-            let mut data = vec![0u8; (body as usize) - SEGMENT_HEADER];
-            reader.read_exact(&mut data).map_err(|e| read_err(e, at))?;
-            segments.push(Segment { index: head[6], last: head[7], data });
-        } else {
-            let skip = body - if marker == APP1 && body >= SEGMENT_HEADER as u64 { SEGMENT_HEADER as u64 } else { 0 };
-            reader.seek(SeekFrom::Current(skip as i64)).map_err(|e| read_err(e, at))?;
-        }
+        let read = visit(Header { marker, body, at }, reader)?;
+        reader.seek(SeekFrom::Current((body - read) as i64)).map_err(|e| read_err(e, at))?;
         at = reader.stream_position().map_err(|e| read_err(e, at))?;
     }
+    Ok(())
+}
+
+/// The FLIR segments of a JPEG, in file order; their data at most `max_bytes` in all.
+fn flir_segments<R: BufRead + Seek>(reader: &mut R, max_bytes: u64) -> Result<Vec<Segment>, Reason> {
+    let (mut segments, mut held) = (Vec::new(), 0u64);
+    walk_segments(reader, |Header { marker, body, at }, reader| {
+        if marker != APP1 || body < SEGMENT_HEADER as u64 {
+            return Ok(0);
+        }
+        let mut head = [0u8; SEGMENT_HEADER];
+        reader.read_exact(&mut head).map_err(|e| read_err(e, at))?;
+        if !head.starts_with(b"FLIR\0") {
+            return Ok(SEGMENT_HEADER as u64);
+        }
+        held += body;
+        check_budget(Some(held), || format!("the FLIR segments ({held} bytes so far)"), max_bytes)?;
+        let mut data = vec![0u8; (body as usize) - SEGMENT_HEADER];
+        reader.read_exact(&mut data).map_err(|e| read_err(e, at))?;
+        segments.push(Segment { index: head[6], last: head[7], data });
+        Ok(body)
+    })?;
     Ok(segments)
+}
+
+/// Why a JPEG without FLIR segments is refused: the thermal format its other segments (or the
+/// data after its image) name, else that it is no radiometric JPEG.
+fn not_flir<R: BufRead + Seek>(reader: &mut R) -> Reason {
+    let mut signs = JpegSigns::default();
+    let walked = reader.rewind().is_ok()
+        && walk_segments(reader, |Header { marker, body, at }, reader| {
+            let want = body.min(segment_head_len(marker) as u64);
+            let mut head = vec![0u8; want as usize];
+            reader.read_exact(&mut head).map_err(|e| read_err(e, at))?;
+            signs.note(marker, &head);
+            Ok(want)
+        })
+        .is_ok();
+    let format = signs.format().or_else(|| (walked && has_hikmicro_block(reader)).then_some(Unread::HikmicroJpeg));
+    match format {
+        Some(format) => format.reason(),
+        None => "a JPEG without FLIR segments: not a radiometric JPEG of the FLIR kind (FLIR, DJI Zenmuse \
+                 XT2/XT-R), and irfidelity reads no other JPEG (its 8-bit colours are not camera counts)"
+            .to_string(),
+    }
 }
 
 /// The FFF frame the JPEG's FLIR segments hold, joined in index order.
 pub(super) fn fff_frame<R: BufRead + Seek>(mut reader: R, max_bytes: u64) -> Result<Vec<u8>, Reason> {
     let mut segments = flir_segments(&mut reader, max_bytes)?;
     let Some(first) = segments.first() else {
-        return Err("a JPEG without FLIR segments: not a radiometric JPEG (FLIR or DJI), and irfidelity reads no \
-                    other JPEG (its 8-bit colours are not camera counts)"
-            .to_string());
+        return Err(not_flir(&mut reader));
     };
     let last = first.last;
     if let Some(s) = segments.iter().find(|s| s.last != last) {
@@ -113,7 +159,11 @@ pub(super) fn fff_frame<R: BufRead + Seek>(mut reader: R, max_bytes: u64) -> Res
             "corrupt or truncated radiometric JPEG: FLIR segments 0..={last} are each expected once, found {found:?}"
         ));
     }
-    Ok(segments.into_iter().flat_map(|s| s.data).collect())
+    let data: Vec<u8> = segments.into_iter().flat_map(|s| s.data).collect();
+    if is_research_studio(&data) {
+        return Err(Unread::ResearchStudioJpeg.reason());
+    }
+    Ok(data)
 }
 
 /// The raw counts of a radiometric JPEG.
@@ -168,5 +218,45 @@ mod tests {
         let mut cut = jpeg(&[segment(0, 0, &[7; 1000])]);
         cut.truncate(500);
         assert!(fff_frame(Cursor::new(cut), 1 << 20).unwrap_err().contains("truncated JPEG"));
+    }
+
+    /// A segment of any marker holding `body`.
+    fn app(marker: u8, body: &[u8]) -> Vec<u8> {
+        let mut s = vec![0xFF, marker];
+        s.extend(((body.len() + 2) as u16).to_be_bytes());
+        s.extend(body);
+        s
+    }
+
+    fn refusal(file: Vec<u8>) -> String {
+        fff_frame(Cursor::new(file), 1 << 20).unwrap_err()
+    }
+
+    #[test]
+    fn jpegs_of_unread_thermal_formats_are_named() {
+        let exif = app(APP1, &crate::io::unread::tests::exif_with_make("DJI", false));
+        let mut params = vec![0u8; 128];
+        params[..4].copy_from_slice(&[0xaa, 0x55, 0x12, 0x06]);
+        let dji = jpeg(&[exif.clone(), app(0xE3, &[0x12; 300]), app(0xE4, &params)]);
+        assert!(refusal(dji).starts_with("a DJI R-JPEG of the H20T"));
+        let dji_without_params = jpeg(&[exif, app(0xE3, &[0x12; 300])]);
+        assert!(refusal(dji_without_params).contains("without FLIR segments"));
+
+        let infiray = jpeg(&[app(0xE2, b"\x01\x00\x00\x00IJPEG\0\0\0\0\0")]);
+        assert!(refusal(infiray).starts_with("an InfiRay radiometric JPEG"));
+
+        let mut hikmicro = jpeg(&[]);
+        hikmicro.extend(b"\xFF\xD8\xFF\xE0\x00\x02\xFF\xD9HDRI");
+        hikmicro.extend([0u8; 64]);
+        assert!(refusal(hikmicro).starts_with("a HIKMICRO radiometric JPEG"));
+        let mut hdri_not_after_eoi = jpeg(&[]);
+        hdri_not_after_eoi.extend(b"\0HDRI");
+        assert!(refusal(hdri_not_after_eoi).contains("without FLIR segments"));
+    }
+
+    #[test]
+    fn flir_segments_holding_a_research_studio_file_are_named() {
+        let ats = jpeg(&[segment(0, 1, b"\0\0\0\x10FLIR ATS"), segment(1, 1, b"-US File\0\0FOV")]);
+        assert!(refusal(ats).starts_with("a FLIR Research Studio radiometric JPEG"));
     }
 }

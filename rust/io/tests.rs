@@ -437,3 +437,33 @@ fn a_panic_in_a_guarded_decode_is_a_frame_error_naming_where() {
     });
     assert!(matches!(outer, Err(Error::Frame(m)) if m.starts_with("outer: decoder failed (a decoder bug at ")));
 }
+
+/// A 128-byte InfiRay IRG header with first word `first`, followed by some data.
+fn irg(first: [u8; 2], end: [u8; 2]) -> Vec<u8> {
+    let mut file = vec![0u8; 256];
+    file[..4].copy_from_slice(&[first[0], first[1], 0x80, 0x00]);
+    file[126..128].copy_from_slice(&end);
+    file
+}
+
+#[test]
+fn unread_formats_are_refused_by_name() {
+    let msg = |bytes: &[u8], name: &str| match decode_bytes(bytes, name, &DecodeOptions::default()) {
+        Err(Error::Frame(m)) => m,
+        other => panic!("expected a FrameError, got {other:?}"),
+    };
+    for first in [[0xca, 0xac], [0xba, 0xab], [0xb0, 0x0b]] {
+        let m = msg(&irg(first, [0xac, 0xca]), "x.bin");
+        assert!(m.starts_with("x.bin: an InfiRay IRG file: irfidelity does not read it; "), "{m}");
+    }
+    let not_irg = msg(&irg([0xca, 0xac], [0, 0]), "x.bin");
+    assert!(not_irg.starts_with("x.bin: unsupported file format") && !not_irg.contains("IRG"), "{not_irg}");
+    // no established signature: named by the extension
+    let p200 = msg(&irg([0x04, 0xa0], [0, 0]), "IMG_0001.irg");
+    assert!(p200.contains("by its extension .irg, an InfiRay IRG file"), "{p200}");
+    let ats = msg(b"\x01\x02\x03\x04 some FLIR recording", "Rec-0018.ats");
+    assert!(ats.contains("by its extension .ats, a FLIR ATS recording"), "{ats}");
+    // the refusal comes before the page check
+    let page = DecodeOptions { page: 1, ..Default::default() };
+    assert!(decode_bytes(&irg([0xca, 0xac], [0xac, 0xca]), "x", &page).is_err_and(|e| e.to_string().contains("IRG")));
+}
