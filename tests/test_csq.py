@@ -19,7 +19,7 @@ import pytest
 import irfidelity as irf
 from flir_records import CAMERA_INFO, Frame, jpegls
 from irfidelity.cli import main
-from irfidelity.errors import FrameError
+from irfidelity.errors import FrameError, ShortRecordingWarning
 from test_radiometry import FFF_LE, thermimage_raw2temp
 
 WEIGHTS = "psnr=0.3,nmi=0.2,ssim=0.3,radiometry=0.2"
@@ -99,6 +99,17 @@ def test_a_csq_scores_against_simulated_kelvin_frames(tmp_path):
     assert [float(r["temperature_bias"]) for r in rows] == pytest.approx([0, 0.1, 0.2, 0.3], abs=1e-9)
 
 
+def test_simulators_rank_against_a_csq(tmp_path):
+    path, _ = recording(tmp_path, 4)
+    kelvin = np.stack([irf.load_frame(path, page=k, unit="K") for k in range(4)])
+    rng = np.random.default_rng(39)
+    sims = {"close": kelvin + rng.normal(0, 0.05, kelvin.shape), "far": kelvin + 1.5 + rng.normal(0, 0.5, kelvin.shape)}
+    with pytest.warns(ShortRecordingWarning):  # four frames: the ranking says its intervals are too sure
+        result = irf.score_simulators(path, sims, unit="K", weights=WEIGHTS, progress=False, workers=2)
+    assert result.order == ["close", "far"]
+    assert result.reports["far"].metrics["temperature_bias"] == pytest.approx(1.5, abs=0.05)
+
+
 def test_a_damaged_frame_is_an_error_row_and_the_others_stay_paired(tmp_path, capsys):
     path, _ = recording(tmp_path, 5, damaged={3})
     with pytest.raises(FrameError, match=r"recording.csq.*frame 3: .*JPEG-LS.*truncated"):
@@ -125,3 +136,19 @@ def test_other_jpeg_processes_in_a_raw_record_are_named(tmp_path, capsys):
     assert main(["score", str(path), str(path)]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "not JPEG-LS" in err, err
+
+
+def test_a_recording_cut_short_keeps_its_whole_frames(tmp_path):
+    path, _ = recording(tmp_path, 5)
+    whole = path.read_bytes()
+    path.write_bytes(whole[: len(whole) - 1000])  # the last frame cut short, as a stopped recording
+    chain = irf.frames.page_chain(path)
+    assert chain.pages == 4 and "frame 4 (at byte" in chain.broken and "truncated FLIR file" in chain.broken
+    with pytest.raises(FrameError, match="frame 4 .at byte"):
+        irf.frames.page_count(path)
+    np.testing.assert_array_equal(irf.load_frame(path, page=3), frame_counts(3))
+    kelvin = np.stack([irf.load_frame(path, page=k, unit="K") for k in range(4)])
+    sims = np.concatenate([kelvin, kelvin[:1]]) + 0.1 * np.arange(5)[:, None, None]
+    report = irf.score_sequence(path, sims, unit="K", weights=WEIGHTS, progress=False, workers=2)
+    assert report.failed == [4] and "truncated FLIR file" in report.frames[4]["error"]
+    assert [f["metrics"]["temperature_bias"] for f in report.frames[:4]] == pytest.approx([0, 0.1, 0.2, 0.3], abs=1e-9)

@@ -234,7 +234,7 @@ def _in_unit(path: str, frame: np.ndarray, page: int, max_bytes: int | None, uni
         return frame
     if _is_npy(path):
         raise FrameError(f"{path}: integer counts without a radiometric calibration cannot become temperatures "
-                         f"(unit={unit!r}): only FLIR files (FFF, SEQ, radiometric JPEG) carry one")
+                         f"(unit={unit!r}): only FLIR files (FFF, SEQ, CSQ, radiometric JPEG) carry one")
     try:
         calibration = read_radiometry(path, page=page, max_bytes=max_bytes)
     except FrameError as exc:
@@ -262,10 +262,11 @@ def list_channels(path: PathLike) -> list[str]:
 class PageChain(NamedTuple):
     """The pages of a frame file (:func:`page_chain`)."""
 
-    #: Pages that can be found: a TIFF's pages up to the end of its chain or to where it breaks.
+    #: Pages that can be found: a TIFF's pages (a FLIR recording's frames) up to the end of the
+    #: chain or to where it breaks.
     pages: int
-    #: Why a TIFF's chain of pages breaks after ``pages`` pages (naming the file, the page and
-    #: the reason), or None when nothing is missing.
+    #: Why the chain of pages breaks after ``pages`` pages (naming the file, the page and the
+    #: reason), or None when nothing is missing.
     broken: str | None
 
 
@@ -277,18 +278,20 @@ def page_chain(path: PathLike) -> PageChain:
     its end -- the file is truncated (``"truncated at page k: ..."``), a directory points back
     to an earlier one (``"the IFD chain loops back at page k: ..."``) or into the header, or
     there are more than 10 million pages -- the pages before the break can still be read,
-    and ``broken`` says why page ``k = pages`` and any after it cannot.
+    and ``broken`` says why page ``k = pages`` and any after it cannot. A FLIR recording (SEQ,
+    CSQ) is its frames one after another: a recording cut short or with a damaged frame header
+    breaks the same way (``"frame k (at byte b): ..."``).
 
     Parameters
     ----------
     path : str or os.PathLike
-        A TIFF, OpenEXR, PNG or ``.npy`` file.
+        A TIFF, FLIR (FFF, SEQ, CSQ), OpenEXR, PNG or ``.npy`` file.
 
     Returns
     -------
     PageChain
         ``(pages, broken)``: 1 page for EXR and PNG, the first axis of a 3-D ``.npy``
-        (else 1); ``broken`` is None unless a TIFF's chain breaks.
+        (else 1); ``broken`` is None unless a TIFF's chain or a FLIR recording's frames break.
 
     Raises
     ------

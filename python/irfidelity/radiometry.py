@@ -270,7 +270,7 @@ def _date(value: tuple[int, int, int] | None) -> datetime.datetime | None:
 
 
 def read_radiometry(path: PathLike, *, page: int = 0, max_bytes: int | None = None) -> Radiometry:
-    """The radiometric calibration of a FLIR file: FFF, SEQ (frame ``page``), or radiometric JPEG.
+    """The radiometric calibration of a FLIR file: FFF, SEQ or CSQ (frame ``page``), or radiometric JPEG.
 
     Parameters
     ----------

@@ -3,7 +3,7 @@
 With ``config.unit`` (``"K"`` or ``"C"``) both frames are scored as temperatures
 (``docs/radiometry.md``, "Scoring in a unit"):
 
-* a radiometric file (FLIR FFF, SEQ, radiometric JPEG) is converted with its own calibration,
+* a radiometric file (FLIR FFF, SEQ, CSQ, radiometric JPEG) is converted with its own calibration,
   the overrides of ``config.calibration`` (``emissivity``, ``reflected_temperature``, ...)
   replacing the file's values;
 * a float frame (a simulator's EXR) is taken as already in the unit;
@@ -172,7 +172,7 @@ def frame_temperature(frame: Any, name: str, config: Any, path: str | None = Non
         raise FrameError(f"{name}: {exc}") from None
     if converted is None:
         raise FrameError(f"{name}: integer counts ({values.dtype}) without a radiometric calibration ({why}) cannot be "
-                         f"scored in {config.unit}: give a radiometric file (FLIR FFF, SEQ, radiometric JPEG), float "
+                         f"scored in {config.unit}: give a radiometric file (FLIR FFF, SEQ, CSQ, radiometric JPEG), float "
                          f"temperatures, or a calibration (the Planck constants {', '.join(PLANCK_FIELDS)}, or a "
                          f"linear gain and offset)", option="calibration")
     return converted

@@ -1,7 +1,7 @@
 //! Frame decoding: OpenEXR (`exr` crate), PNG (`image` crate) and TIFF (`tiff` crate),
-//! and the raw counts and calibration of radiometric FLIR files (FFF, SEQ, radiometric JPEG:
-//! `flir.rs`, `seq.rs`, `rjpeg.rs`), as plain Rust with no Python types, so the sequence
-//! engine can decode frames from its own threads.
+//! and the raw counts and calibration of radiometric FLIR files (FFF, SEQ, CSQ, radiometric
+//! JPEG: `flir.rs`, `seq.rs`, `rjpeg.rs`, with CSQ's JPEG-LS in `jpegls/`), as plain Rust with
+//! no Python types, so the sequence engine can decode frames from its own threads.
 //!
 //! * [`decode_frame`] decodes one 2-D frame (one channel, one page) in the file's own
 //!   sample type ([`FrameData`]); float16 stays float16.
@@ -31,9 +31,9 @@ use tiff_pages::FileKey;
 
 mod exr;
 mod flir;
-mod jpegls;
 #[cfg(feature = "fuzzing")]
 pub mod fuzzing;
+mod jpegls;
 mod piz;
 mod raster;
 mod rjpeg;
@@ -331,8 +331,8 @@ fn run_op<R: BufRead + Seek>(
             raster::tiff_page_chain(reader, key).map(|(pages, broken)| OpOut::Pages(pages, broken))
         }
         (Format::Flir, Op::Decode(o)) => seq::decode(reader, o).map(OpOut::Frame),
-        (Format::Flir, Op::Channels) => seq::page_count(reader).map(|_| OpOut::Channels(vec!["Y".to_string()])),
-        (Format::Flir, Op::Pages) => seq::page_count(reader).map(|n| OpOut::Pages(n, None)),
+        (Format::Flir, Op::Channels) => seq::page_chain(reader).map(|_| OpOut::Channels(vec!["Y".to_string()])),
+        (Format::Flir, Op::Pages) => seq::page_chain(reader).map(|(pages, broken)| OpOut::Pages(pages, broken)),
         (Format::Flir, Op::Radiometry(o)) => seq::camera_info(reader, o).map(|c| OpOut::Radiometry(Box::new(c))),
         (Format::Jpeg, Op::Decode(o)) => rjpeg::decode(reader, o).map(OpOut::Frame),
         (Format::Jpeg, Op::Channels) => {
@@ -341,7 +341,7 @@ fn run_op<R: BufRead + Seek>(
         (Format::Jpeg, Op::Pages) => rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Pages(1, None)),
         (Format::Jpeg, Op::Radiometry(o)) => rjpeg::camera_info(reader, o).map(|c| OpOut::Radiometry(Box::new(c))),
         (Format::Exr | Format::Png | Format::Tiff, Op::Radiometry(_)) => {
-            Err("no radiometric calibration: only FLIR files (FFF, SEQ, radiometric JPEG) carry one".to_string())
+            Err("no radiometric calibration: only FLIR files (FFF, SEQ, CSQ, radiometric JPEG) carry one".to_string())
         }
         (Format::Irg(_), _) => unreachable!("an IRG file is refused above"),
     }
@@ -463,7 +463,8 @@ pub struct PageChain {
 }
 
 /// The pages of a frame file, in one pass over a TIFF's IFD chain (kept for decoding its
-/// pages). An error when not even the first page can be found.
+/// pages) or a FLIR recording's frame headers, and where and why the chain breaks when it does.
+/// An error when not even the first page can be found.
 pub fn page_chain(path: &Path) -> Result<PageChain> {
     match run_on_path(path, Op::Pages)? {
         OpOut::Pages(pages, broken) => {
@@ -473,9 +474,9 @@ pub fn page_chain(path: &Path) -> Result<PageChain> {
     }
 }
 
-/// Number of pages: the IFD count of a TIFF, 1 for EXR and PNG. A TIFF whose IFD chain
-/// breaks before its end is an error naming where and why ([`page_chain`] gives the pages
-/// before the break).
+/// Number of pages: the IFD count of a TIFF, the frame count of a FLIR recording, 1 for EXR
+/// and PNG. A chain that breaks before its end is an error naming where and why
+/// ([`page_chain`] gives the pages before the break).
 pub fn page_count(path: &Path) -> Result<usize> {
     let chain = page_chain(path)?;
     match chain.broken {

@@ -3,7 +3,9 @@
 //!
 //! Each frame's length follows from its header and record directory (`flir::frame_len`), so
 //! the frames are found by one pass over headers and directories only; the next frame must
-//! start where the previous one ends. That index is kept per file (process-wide, a few files),
+//! start where the previous one ends. Where that fails (a recording cut short, a damaged
+//! header) the frames before stay readable and the break is reported, as for a TIFF's
+//! broken IFD chain ([`page_chain`]). That index is kept per file (process-wide, a few files),
 //! so reading a sequence page by page costs one pass, not one per page. A frame is then read
 //! whole into memory (checked against the decoding budget) and decoded by `flir.rs`.
 
@@ -55,17 +57,42 @@ fn frame_span<R: Read + Seek>(reader: &mut R, start: u64, file_len: u64, k: usiz
     Ok(Span { start, len })
 }
 
-/// The frames of the file, up to frame `last` (all of them when `None`).
-fn index<R: Read + Seek>(reader: &mut R, last: Option<usize>) -> Result<Vec<Span>, Reason> {
+/// The frames found in a file, and why the walk stopped before the end of the file when it
+/// did (a recording cut short, a damaged header): the frames before stay readable.
+#[derive(Debug, Clone, PartialEq)]
+struct Index {
+    spans: Vec<Span>,
+    broken: Option<Reason>,
+}
+
+impl Index {
+    /// Frame `page`'s span, or why there is none.
+    fn span(&self, page: usize) -> Result<Span, Reason> {
+        match (self.spans.get(page), &self.broken) {
+            (Some(span), _) => Ok(*span),
+            (None, Some(why)) => Err(why.clone()),
+            (None, None) => Err(out_of_range(page, self.spans.len())),
+        }
+    }
+}
+
+/// The frames of the file, up to frame `last` (all of them when `None`). An error when not
+/// even frame 0 is found.
+fn index<R: Read + Seek>(reader: &mut R, last: Option<usize>) -> Result<Index, Reason> {
     let file_len = reader.seek(SeekFrom::End(0)).map_err(|e| read_err(e, 0))?;
     let mut spans: Vec<Span> = Vec::new();
     let mut start = 0;
     while start < file_len && last.is_none_or(|l| spans.len() <= l) {
-        let span = frame_span(reader, start, file_len, spans.len())?;
-        start += span.len;
-        spans.push(span);
+        match frame_span(reader, start, file_len, spans.len()) {
+            Ok(span) => {
+                start += span.len;
+                spans.push(span);
+            }
+            Err(why) if spans.is_empty() => return Err(why),
+            Err(why) => return Ok(Index { spans, broken: Some(why) }),
+        }
     }
-    Ok(spans)
+    Ok(Index { spans, broken: None })
 }
 
 /// Frame `span` read into memory, within the budget.
@@ -83,8 +110,7 @@ fn out_of_range(page: usize, frames: usize) -> Reason {
 
 /// Frame `page` of the file as FFF bytes, walking the headers from the start.
 fn frame_bytes<R: Read + Seek>(mut reader: R, o: &DecodeOptions) -> Result<Vec<u8>, Reason> {
-    let spans = index(&mut reader, Some(o.page))?;
-    let span = *spans.get(o.page).ok_or_else(|| out_of_range(o.page, spans.len()))?;
+    let span = index(&mut reader, Some(o.page))?.span(o.page)?;
     read_frame(&mut reader, span, o.page, o.max_bytes)
 }
 
@@ -108,36 +134,36 @@ fn in_frame(page: usize, reason: Reason) -> Reason {
     }
 }
 
-/// The number of frames.
-pub(super) fn page_count<R: Read + Seek>(mut reader: R) -> Result<usize, Reason> {
-    Ok(index(&mut reader, None)?.len())
+/// The number of whole frames before any break, and why the frames break when they do.
+pub(super) fn page_chain<R: Read + Seek>(mut reader: R) -> Result<(usize, Option<Reason>), Reason> {
+    let index = index(&mut reader, None)?;
+    Ok((index.spans.len(), index.broken))
 }
 
 /// Indexes of recently read files, shared by all threads.
-static INDEXES: Mutex<Vec<(FileKey, Arc<Vec<Span>>)>> = Mutex::new(Vec::new());
+static INDEXES: Mutex<Vec<(FileKey, Arc<Index>)>> = Mutex::new(Vec::new());
 const INDEXES_KEPT: usize = 8;
 
 /// The frame index of the file at `path`, from the cache or by one pass.
-fn cached_index(path: &Path, file: &mut BufReader<File>) -> Result<Arc<Vec<Span>>, Reason> {
+fn cached_index(path: &Path, file: &mut BufReader<File>) -> Result<Arc<Index>, Reason> {
     let meta = file.get_ref().metadata().map_err(|e| format!("cannot stat: {e}"))?;
     let key = FileKey::of(path, &meta);
     let lock = || INDEXES.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-    if let Some((_, spans)) = lock().iter().find(|(k, _)| *k == key) {
-        return Ok(spans.clone());
+    if let Some((_, index)) = lock().iter().find(|(k, _)| *k == key) {
+        return Ok(index.clone());
     }
-    let spans = Arc::new(index(file, None)?);
+    let index = Arc::new(index(file, None)?);
     let mut kept = lock();
     kept.retain(|(k, _)| *k != key);
-    kept.insert(0, (key, spans.clone()));
+    kept.insert(0, (key, index.clone()));
     kept.truncate(INDEXES_KEPT);
-    Ok(spans)
+    Ok(index)
 }
 
 /// Decode frame `o.page` of the FLIR file at `path`, with the file's cached frame index.
 pub(super) fn decode_cached(path: &Path, o: &DecodeOptions) -> Result<Frame, Reason> {
     let mut file = BufReader::with_capacity(1 << 16, super::open_regular(path)?);
-    let spans = cached_index(path, &mut file)?;
-    let span = *spans.get(o.page).ok_or_else(|| out_of_range(o.page, spans.len()))?;
+    let span = cached_index(path, &mut file)?.span(o.page)?;
     let bytes = read_frame(&mut file, span, o.page, o.max_bytes)?;
     FffFrame::parse(&bytes)?.counts(o).map_err(|reason| in_frame(o.page, reason))
 }
@@ -161,17 +187,23 @@ mod tests {
         let one = flir::tests::frame(true, &[(1, raw(2, 2, 7))]);
         let two = flir::tests::frame(false, &[(1, raw(3, 1, 9))]);
         let seq = [one.clone(), two.clone(), one.clone()].concat();
-        assert_eq!(page_count(Cursor::new(&seq)).unwrap(), 3);
+        assert_eq!(page_chain(Cursor::new(&seq)).unwrap(), (3, None));
         let page = |k| decode(Cursor::new(&seq), &DecodeOptions { page: k, ..Default::default() });
         assert_eq!(page(1).unwrap().data, super::super::FrameData::U16(vec![9; 3]));
         assert_eq!(page(2).unwrap(), page(0).unwrap());
         assert!(page(3).unwrap_err().contains("page 3 out of range (3 frames)"));
         let mut cut = seq.clone();
         cut.truncate(seq.len() - 1);
-        assert!(page_count(Cursor::new(&cut)).unwrap_err().contains("frame 2"));
+        let (whole, why) = page_chain(Cursor::new(&cut)).unwrap();
+        assert_eq!(whole, 2, "the frames before the cut stay readable");
+        assert!(why.unwrap().contains("truncated FLIR file"));
+        let cut_page = |k| decode(Cursor::new(&cut), &DecodeOptions { page: k, ..Default::default() });
+        assert_eq!(cut_page(1).unwrap(), page(1).unwrap());
+        assert!(cut_page(2).unwrap_err().contains("frame 2 (at byte"));
+        assert!(page_chain(Cursor::new(&cut[..10])).is_err(), "not even frame 0: an error");
         let mut junk = seq.clone();
         junk.extend(b"trailing bytes that are no frame, long enough for a header: ..........................");
-        let m = page_count(Cursor::new(&junk)).unwrap_err();
+        let m = page_chain(Cursor::new(&junk)).unwrap().1.unwrap();
         assert!(m.contains("frame 3 (at byte") && m.contains("no FFF header"), "{m}");
     }
 }

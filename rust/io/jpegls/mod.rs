@@ -99,7 +99,13 @@ pub(crate) fn decode(bytes: &[u8], max_pixels: u64, max_bytes: u64) -> Result<Im
 }
 
 /// The image of the scan starting at `data`.
-fn decode_scan(data: &[u8], frame: FrameHeader, coding: Coding, restart: usize, max_bytes: u64) -> Result<Image, Reason> {
+fn decode_scan(
+    data: &[u8],
+    frame: FrameHeader,
+    coding: Coding,
+    restart: usize,
+    max_bytes: u64,
+) -> Result<Image, Reason> {
     let FrameHeader { bits, cols, rows } = frame;
     let samples = (cols * rows) as u64; // both below 2^16
     let scratch = 2 * (cols as u64 + 2) * 4 + 2 * coding.maxval as u64 + 1; // two lines, the quantisation table
@@ -220,7 +226,10 @@ fn coding(bits: u32, near: i32, preset: Preset) -> Result<Coding, Reason> {
         return Err(format!("corrupt JPEG-LS stream: MAXVAL {maxval} does not fit {bits} bits"));
     }
     if near > (maxval / 2).min(255) {
-        return Err(format!("corrupt JPEG-LS stream: NEAR {near} is beyond {} for MAXVAL {maxval}", (maxval / 2).min(255)));
+        return Err(format!(
+            "corrupt JPEG-LS stream: NEAR {near} is beyond {} for MAXVAL {maxval}",
+            (maxval / 2).min(255)
+        ));
     }
     let (t1, t2, t3) = default_thresholds(maxval, near);
     let pick = |given: i32, default: i32| if given == 0 { default } else { given };

@@ -39,7 +39,8 @@ impl Coding {
 }
 
 /// Run lengths: a run-length code's order per RUNindex (T.87 §A.7.1.1, J).
-const J: [u32; 32] = [0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 9, 10, 11, 12, 13, 14, 15];
+const J: [u32; 32] =
+    [0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 9, 10, 11, 12, 13, 14, 15];
 const MIN_C: i32 = -128;
 const MAX_C: i32 = 127;
 /// Largest Golomb order accepted: beyond it A and N describe no valid stream.
@@ -141,15 +142,14 @@ fn quantisation_table(coding: &Coding) -> Vec<i8> {
 }
 
 /// Decode the scan in `data` (from just after its SOS segment) into `out` (`rows` lines of
-/// `cols` samples), with a restart marker every `restart` lines (0: none). Returns the offset
-/// in `data` at which the scan's bits end: the next marker lies at or after it.
+/// `cols` samples), with a restart marker every `restart` lines (0: none).
 pub(super) fn decode(
     data: &[u8],
     (cols, rows): (usize, usize),
     coding: Coding,
     restart: usize,
     out: &mut [u16],
-) -> Result<usize, Reason> {
+) -> Result<(), Reason> {
     let quantised = quantisation(&coding);
     let (qbpp, limit) = coding.code_sizes();
     let interval = if restart == 0 { rows } else { restart };
@@ -176,13 +176,14 @@ pub(super) fn decode(
         }
         start += decoder.bits.position();
     }
-    Ok(start)
+    Ok(())
 }
 
 /// The offset just after the `k`-th restart marker (from 1; RST0 to RST7 in turn), the next
 /// marker at or after `from`.
 fn restart_marker(data: &[u8], from: usize, k: usize) -> Result<usize, Reason> {
-    let at = super::next_marker(data, from).ok_or_else(|| format!("truncated JPEG-LS data: restart marker {k} is missing"))?;
+    let at = super::next_marker(data, from)
+        .ok_or_else(|| format!("truncated JPEG-LS data: restart marker {k} is missing"))?;
     let expected = 0xD0 + ((k - 1) % 8) as u8;
     match data[at + 1] {
         code if code == expected => Ok(at + 2),
