@@ -174,7 +174,7 @@ def estimate(spectra: TransferSpectra, *, real_variance: float | None = None, no
                      REFERENCE_FREQUENCY if reference_frequency is None else float(reference_frequency), changed)
 
 
-def _displacements(spectra: TransferSpectra) -> tuple[tuple[float, float], float | None]:
+def displacements(spectra: TransferSpectra) -> tuple[tuple[float, float], float | None]:
     """The pair's displacement (the tiles' own, weighted by their cross power; the block-mean
     spectrum's when no tile had one) and the tiles' RMS spread about it (None without tiles)."""
     if spectra.shifts is None:
@@ -230,7 +230,7 @@ def _assemble(spectra: TransferSpectra, geometry: Geometry, rows: RingSums,
                      f"disagree with the rest: an object moved or changed) and are left out")
     mean_real, mean_sim = spectra.sum_real / spectra.pixels, spectra.sum_sim / spectra.pixels
     along = {name: ratio(*getattr(rows, name))[0][k] / scale for name in ("horizontal", "vertical")}
-    shift, spread = _displacements(spectra)
+    shift, spread = displacements(spectra)
     return Transfer(frequency=frequency, mtf_ratio=values[0], mtf_ratio_err=error, **along,
                     coherence=np.clip(coherence, -1.0, 1.0), snr=snr,
                     band=(float(frequency[trusted][0]), float(frequency[trusted][-1])) if trusted.any() else None,
