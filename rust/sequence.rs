@@ -687,9 +687,10 @@ pub fn effective_workers(workers: usize) -> usize {
 }
 
 /// Finished outcomes that may wait in a [`PairStream`]'s queue, per worker: enough for the
-/// workers to go on while Python turns a batch into report rows (about 0.1 ms an outcome,
-/// while a worker scores a 160 × 120 pair in about 0.2 ms). An outcome holds statistics, not
-/// frames: its joint histogram at most (512 KiB for 256 bins, less when mostly empty).
+/// workers to go on while Python turns a batch into report rows, which on small frames takes
+/// about as long as scoring them (docs/performance.md, many small frames). An outcome holds
+/// statistics, not frames: its joint histogram at most (512 KiB for 256 bins, less when
+/// mostly empty).
 pub const QUEUE_PER_WORKER: usize = 16;
 
 /// A sequence being scored on background threads (see [`stream_pairs`]). Iterating it
