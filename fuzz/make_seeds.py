@@ -499,6 +499,8 @@ def flir_small_frames() -> dict[str, bytes]:
         "png_rgb": fff([(1, raw_record(w, h, png(w, h, 8, 2, png_rows(w, h, 8, 2))))]),
         "tiff": fff([(1, raw_record(w, h, tiff_image))]),
         "csq_jpegls": fff([(1, raw_record(w, h, b"\xff\xd8\xff\xf7" + bytes(40)))]),
+        "csq_flat": fff([(1, raw_record(w, h, jls_flat(w, h))), (0x20, cam)]),
+        "csq_flat_restarts": fff([(1, raw_record(w, h, jls_flat(w, h, restart=2)))]),
         # hostile
         "huge_claim": fff([(1, raw_record(65535, 65535, le))]),
         "zeroed_raw": fff([(1, bytes(32) + le)]),
@@ -511,6 +513,8 @@ def flir_small_frames() -> dict[str, bytes]:
         "dims_mismatch": fff([(1, raw_record(w + 1, h, png(w, h, 16, 0, be_rows), ">"))]),
     }
     frames["seq"] = frames["raw_le"] + frames["raw_be_dir"] + frames["png_swapped"]
+    frames["csq"] = frames["csq_flat"] * 3
+    frames["csq_cut"] = (frames["csq_flat"] * 3)[:-20]
     frames["seq_junk"] = frames["raw_le"] + b"FFF\0" + bytes(70)
     return frames
 
