@@ -31,15 +31,15 @@ import time
 
 os.environ.setdefault("RAYON_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tests"))
-import imagecodecs  # noqa: E402
-from _common import best  # noqa: E402
-from flir_records import Frame, jpegls  # noqa: E402
+import imagecodecs
+from _common import best
+from flir_records import Frame, jpegls
 
-import irfidelity as irf  # noqa: E402
+import irfidelity as irf
 
 SOURCE = pathlib.Path(__file__).resolve().parent.parent / "tests" / "data" / "radiometric" / "flirpy_frame_000000.fff"
 GOAL = 1.5  # irfidelity's time / CharLS's, at most
