@@ -346,13 +346,21 @@ def _pair_spectra(real: Any, sim: Any, r: int, s: int, config: Any, mask: Any, r
     if math.hypot(*displacements(own)[0]) <= STILL_SHIFT:
         return pair_spectra(frames, config, real_ref=nxt), own
     spectra = pair_spectra(frames, config)  # the scene moved: the difference of the frames aligned
-    return replace(spectra, difference=aligned_difference(own) if own.poolable(spectra) else None), own
+    difference = aligned_difference(own, spectra.tiles) if own.poolable(spectra) else None
+    return replace(spectra, difference=difference), own
 
 
-def aligned_difference(own: Any) -> np.ndarray:
+def aligned_difference(own: Any, tiles: np.ndarray) -> np.ndarray | None:
     """Σ|R − R′|² of two real frames of a moving scene with the displacement between them taken
-    out: ``own`` are their transfer sums, whose cross-spectra are aligned tile by tile."""
-    return np.maximum(own.real + own.sim - 2.0 * own.cross.real, 0.0)
+    out, for ``tiles`` tiles per group: ``own`` are the two frames' transfer sums, whose
+    cross-spectra are aligned tile by tile. The camera's noise is the same over the frame, and
+    ``own`` may have left out tiles that saw the scene change, so the difference is taken per
+    tile over all of ``own``'s and counted for the pair's tiles. None when ``own`` kept no tile."""
+    kept = int(own.tiles.sum())
+    if kept == 0:
+        return None
+    per_tile = np.maximum(own.real + own.sim - 2.0 * own.cross.real, 0.0).sum(axis=0) / kept
+    return np.asarray(tiles, dtype=np.float64)[:, None, None] * per_tile
 
 
 def _merged(a: Any, b: Any) -> Any:
