@@ -16,12 +16,11 @@ use scan::Coding;
 
 use super::{check_budget, check_size, frame_buffer, Reason};
 
-/// A decoded image: `rows` lines of `cols` samples of `bits` bits.
+/// A decoded image: `rows` lines of `cols` samples.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Image {
     pub cols: usize,
     pub rows: usize,
-    pub bits: u32,
     pub samples: Vec<u16>,
 }
 
@@ -106,14 +105,14 @@ fn decode_scan(
     restart: usize,
     max_bytes: u64,
 ) -> Result<Image, Reason> {
-    let FrameHeader { bits, cols, rows } = frame;
+    let FrameHeader { cols, rows, .. } = frame;
     let samples = (cols * rows) as u64; // both below 2^16
     let scratch = 2 * (cols as u64 + 2) * 4 + 2 * coding.maxval as u64 + 1; // two lines, the quantisation table
     let what = || format!("a {cols} x {rows} JPEG-LS image");
     check_budget(Some(2 * samples + scratch), what, max_bytes)?;
     let mut out = frame_buffer(cols * rows, 0u16)?;
     scan::decode(data, (cols, rows), coding, restart, &mut out)?;
-    Ok(Image { cols, rows, bits, samples: out })
+    Ok(Image { cols, rows, samples: out })
 }
 
 /// The marker segment at `at`: its code, its body and where the next one starts.
