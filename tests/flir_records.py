@@ -58,13 +58,6 @@ class Frame:
     def record(self, kind: int) -> bytes:
         return next(r for e, r in self.records if self.kind(e) == kind)
 
-    def raw_size(self) -> tuple[int, int]:
-        """The raw image's (rows, cols), from its record's header."""
-        record = self.record(RAW_DATA)
-        order = "<" if record[:2] == b"\x02\x00" else ">"
-        cols, rows = struct.unpack_from(order + "HH", record, 2)
-        return rows, cols
-
     def to_bytes(self) -> bytes:
         order = ">" if self.big else "<"
         header = bytearray(self.header)

@@ -10,7 +10,6 @@ the sizes and parameters.
 
 from __future__ import annotations
 
-import pathlib
 import struct
 
 import imagecodecs
@@ -20,19 +19,13 @@ import pytest
 import irfidelity as irf
 from flir_records import Frame, jpegls, with_restarts
 from irfidelity.errors import FrameError
-
-FFF_BE = pathlib.Path(__file__).parent / "data" / "radiometric" / "flirpy_frame_000000.fff"
+from test_radiometry import FFF_BE, _fff
 
 
 def fff(stream: bytes, shape: tuple[int, int]) -> bytes:
     """A little-endian FFF frame whose raw-data record holds ``stream``."""
     rows, cols = shape
-    record = struct.pack("<HHH", 2, cols, rows) + bytes(26) + stream
-    header = bytearray(64)
-    header[:4] = b"FFF\0"
-    header[20:32] = struct.pack("<III", 100, 64, 1)
-    entry = struct.pack("<HHIIII", 1, 2, 100, 1, 96, len(record)) + bytes(12)
-    return bytes(header) + entry + record
+    return _fff(struct.pack("<HHH", 2, cols, rows) + bytes(26) + stream)
 
 
 def decoded(tmp_path, stream: bytes, shape: tuple[int, int], **options) -> np.ndarray:
