@@ -126,7 +126,11 @@ impl<A: Sample, B: Sample> Pair<'_, A, B> {
             }
             if let (Some(real), Some(sim)) = (A::as_u16(real), B::as_f64(sim)) {
                 // SAFETY: as above.
-                return unsafe { avx2::sums_u16_f64(real, sim, mask) };
+                return unsafe { avx2::sums_f64(real, sim, mask) };
+            }
+            if let (Some(real), Some(sim)) = (A::as_f64(real), B::as_f64(sim)) {
+                // SAFETY: as above.
+                return unsafe { avx2::sums_f64(real, sim, mask) };
             }
         }
         self.sums((a, b))
@@ -336,14 +340,38 @@ mod avx2 {
         sums
     }
 
-    /// [`Sums`](super::Sums) of a uint16 frame against a float64 one over `mask` (all pixels
-    /// when None), four pixels per step: a pixel counts when the mask keeps it and the float64
-    /// value is finite (the uint16 one always is); the squares are those of [`super::square`].
+    /// Real frames [`sums_f64`] reads four values at a time, as float64.
+    pub(super) trait RealLanes: crate::kernel::Sample {
+        /// # Safety
+        /// The CPU supports AVX2 and `p` points at four readable values.
+        unsafe fn load4(p: *const Self) -> __m256d;
+    }
+
+    impl RealLanes for u16 {
+        #[inline(always)]
+        unsafe fn load4(p: *const u16) -> __m256d {
+            // SAFETY: the caller's contract: four u16 (8 bytes) at p
+            unsafe { _mm256_cvtepi32_pd(_mm_cvtepu16_epi32(_mm_loadl_epi64(p as *const __m128i))) }
+        }
+    }
+
+    impl RealLanes for f64 {
+        #[inline(always)]
+        unsafe fn load4(p: *const f64) -> __m256d {
+            // SAFETY: the caller's contract: four f64 at p
+            unsafe { _mm256_loadu_pd(p) }
+        }
+    }
+
+    /// [`Sums`](super::Sums) of a uint16 or float64 frame (a registered pair's real frame, a
+    /// frame in temperature) against a float64 one over `mask` (all pixels when None), four
+    /// pixels per step: a pixel counts when the mask keeps it and its float values are finite;
+    /// the squares are those of [`super::square`].
     ///
     /// # Safety
     /// The CPU supports AVX2 (the loads stay within the slices for any lengths).
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn sums_u16_f64(r: &[u16], s: &[f64], mask: Option<&[bool]>) -> Sums {
+    pub(super) unsafe fn sums_f64<R: RealLanes>(r: &[R], s: &[f64], mask: Option<&[bool]>) -> Sums {
         let n = r.len().min(s.len()).min(mask.map_or(usize::MAX, <[bool]>::len));
         let full = n / 4 * 4;
         let (infinity, magnitude) = (_mm256_set1_pd(f64::INFINITY), _mm256_set1_pd(f64::from_bits(!(1u64 << 63))));
@@ -351,11 +379,15 @@ mod avx2 {
         let mut count = _mm256_setzero_si256();
         let mut i = 0;
         while i < full {
-            // SAFETY: 4 x u16, 4 x f64 and 4 x bool loads at i with i + 4 <= full <= every length
-            let x = _mm256_cvtepi32_pd(_mm_cvtepu16_epi32(_mm_loadl_epi64(r.as_ptr().add(i) as *const __m128i)));
+            // SAFETY: 4 x R, 4 x f64 and 4 x bool loads at i with i + 4 <= full <= every length
+            let x = R::load4(r.as_ptr().add(i));
             let y = _mm256_loadu_pd(s.as_ptr().add(i));
-            // |y| < ∞ is false for ±∞ and NaN
-            let mut keep = _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(y, magnitude), infinity);
+            // |v| < ∞ is false for ±∞ and NaN
+            let finite = |v: __m256d| _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(v, magnitude), infinity);
+            let mut keep = finite(y);
+            if !R::IS_INT {
+                keep = _mm256_and_pd(keep, finite(x));
+            }
             if let Some(m) = mask {
                 let bytes = (m.as_ptr().add(i) as *const u32).read_unaligned();
                 let kept =

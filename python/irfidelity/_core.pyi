@@ -48,6 +48,7 @@ __all__ = [
     "score_registered",
     "score_shared",
     "ssim_map",
+    "temperature_errors",
     "tiff_ifds_read",
     "warp_frame",
 ]
@@ -130,6 +131,13 @@ def read_camera_info(
 def radiometric_conversion(
     values: npt.NDArray[Any], calibration: Any, unit: str, inverse: bool
 ) -> tuple[npt.NDArray[np.float64], int, int]: ...
+def temperature_errors(
+    real: npt.NDArray[np.float64],
+    sim: npt.NDArray[np.float64],
+    mask: npt.NDArray[np.bool_] | None = None,
+    *,
+    tolerance: float,
+) -> tuple[int, float, float, float, int]: ...
 def default_max_pixels() -> int: ...
 def default_max_bytes() -> int: ...
 

@@ -31,7 +31,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from . import budget
+from . import _core, budget
 from .config_fields import ConfigError
 from .errors import FidelityError, FrameError, RangeError
 from .frames import FrameSequence
@@ -254,26 +254,16 @@ class TemperatureErrors:
     @classmethod
     def of_frames(cls, real: Any, sim: Any, *, tolerance: float, unit: str, mask: Any = None) -> TemperatureErrors:
         """The errors over the pixel pairs where ``mask`` is true and both values are finite,
-        taken a block of rows at a time: no frame-sized temporary."""
+        in one pass (``_core.temperature_errors``): no frame-sized temporary for frames that
+        are float64 already."""
         real, sim = np.broadcast_arrays(np.atleast_1d(real), np.atleast_1d(sim))
-        keep_all = None if mask is None else np.broadcast_to(np.asarray(mask, dtype=bool), real.shape)
-        n, sums, squares, magnitudes, within = 0, [], [], [], 0
-        for block in budget.row_blocks(real.shape):
-            diff = np.subtract(sim[block], real[block], dtype=np.float64)
-            keep = np.isfinite(diff)
-            if keep_all is not None:
-                keep &= keep_all[block]
-            d = diff.ravel() if keep.all() else diff[keep]
-            n += int(d.size)
-            sums.append(float(np.sum(d)))
-            squares.append(float(np.sum(np.square(d))))
-            magnitude = np.abs(d, out=d)
-            magnitudes.append(float(np.sum(magnitude)))
-            within += int(np.count_nonzero(magnitude <= tolerance))
+        real, sim = (np.ascontiguousarray(x, dtype=np.float64) for x in (real, sim))
+        kept = None if mask is None else np.ascontiguousarray(np.broadcast_to(np.asarray(mask, dtype=bool), real.shape))
+        n, total, squares, magnitudes, within = _core.temperature_errors(real, sim, kept, tolerance=float(tolerance))
         if n == 0:
             raise FidelityError("no pixel pair with finite temperatures on both sides to compare", option="mask")
-        return cls(n=n, bias=math.fsum(sums) / n, rmse=math.sqrt(math.fsum(squares) / n), mae=math.fsum(magnitudes) / n,
-                   within=within, tolerance=float(tolerance), unit=unit)
+        return cls(n=n, bias=total / n, rmse=math.sqrt(squares / n), mae=magnitudes / n, within=within,
+                   tolerance=float(tolerance), unit=unit)
 
     def to_dict(self) -> dict[str, Any]:
         """The fields, JSON-ready (a resumable run's record keeps them); :meth:`from_dict` inverts it."""

@@ -3,12 +3,15 @@
 
 use std::path::PathBuf;
 
-use numpy::{IntoPyArray, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
+use numpy::{
+    IntoPyArray, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArray,
+    PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use pyo3::IntoPyObject;
 
-use super::dtypes::unsupported_dtype;
+use super::dtypes::{contiguous, unsupported_dtype};
 use super::{args, detached};
 use crate::io::{self, DecodeOptions};
 use crate::radiometry::{self, Calibration, Converted, Sample, Unit};
@@ -87,8 +90,27 @@ fn radiometric_conversion<'py>(
     .unwrap_or_else(|| Err(unsupported(values)))
 }
 
+/// `temperature_errors(real, sim, mask=None, *, tolerance)` -> `(n, Σd, Σd², Σ|d|, within)` of
+/// `d = sim − real` over the pairs `mask` keeps whose difference is finite (float64 arrays of
+/// one size, C-contiguous; `crate::radiometry::error_sums`), without the GIL.
+#[pyfunction]
+#[pyo3(signature = (real, sim, mask=None, *, tolerance))]
+fn temperature_errors(
+    py: Python<'_>,
+    real: PyReadonlyArrayDyn<'_, f64>,
+    sim: PyReadonlyArrayDyn<'_, f64>,
+    mask: Option<PyReadonlyArrayDyn<'_, bool>>,
+    tolerance: f64,
+) -> PyResult<(u64, f64, f64, f64, u64)> {
+    let (r, s) = (contiguous(&real, "the real temperatures")?, contiguous(&sim, "the simulated temperatures")?);
+    let m = mask.as_ref().map(|m| contiguous(m, "the mask")).transpose()?;
+    let e = detached(py, || radiometry::error_sums(r, s, m, tolerance))?;
+    Ok((e.n, e.sum, e.squares, e.magnitudes, e.within))
+}
+
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_camera_info, m)?)?;
+    m.add_function(wrap_pyfunction!(temperature_errors, m)?)?;
     m.add_function(wrap_pyfunction!(radiometric_conversion, m)?)?;
     Ok(())
 }

@@ -23,7 +23,10 @@ use rayon::prelude::*;
 
 use crate::{Error, Result};
 
+mod errors;
 mod math;
+
+pub use errors::{error_sums, ErrorSums};
 
 /// 0 °C in kelvin.
 pub const ZERO_CELSIUS: f64 = 273.15;
