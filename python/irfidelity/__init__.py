@@ -110,4 +110,5 @@ if not TYPE_CHECKING:
 
 
 def __dir__() -> list[str]:
+    """The top level and the stages' modules (what tab completion and help() show)."""
     return sorted([*__all__, "__version__", *_SUBMODULES])
