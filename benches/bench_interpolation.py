@@ -40,10 +40,11 @@ WHOLE = (3.0, -2.0)  # the whole-pixel part of every shift (dy, dx)
 MARGIN = 8
 
 
-def translation(dy: float, dx: float) -> irf.Registration:
+def translation(dy: float, dx: float) -> irf.registration.Registration:
     """A registration holding a known translation (simulated → real: ``real(p + d) = sim(p)``)."""
-    return irf.Registration.from_dict({"model": "translation", "method": "phase", "confidence": 1.0, "overlap": 1.0,
-                                       "matrix": [[1, 0, dx], [0, 1, dy]], "shape": list(SHAPE)})
+    return irf.registration.Registration.from_dict({"model": "translation", "method": "phase", "confidence": 1.0,
+                                                    "overlap": 1.0, "matrix": [[1, 0, dx], [0, 1, dy]],
+                                                    "shape": list(SHAPE)})
 
 
 def view(scene: np.ndarray, dy: float, dx: float) -> np.ndarray:
@@ -51,7 +52,7 @@ def view(scene: np.ndarray, dy: float, dx: float) -> np.ndarray:
     return ndi.shift(scene, (-dy, -dx), order=5, mode="reflect")
 
 
-def warped(reg: irf.Registration, sim: np.ndarray, how: str) -> tuple[np.ndarray, np.ndarray]:
+def warped(reg: irf.registration.Registration, sim: np.ndarray, how: str) -> tuple[np.ndarray, np.ndarray]:
     """The simulated frame on the real frame's pixels: ``how`` = "bilinear", "bicubic" (never
     snapped, unlike ``Registration.apply``) or "whole pixel" (the shift rounded)."""
     m = reg.matrix
@@ -62,8 +63,8 @@ def warped(reg: irf.Registration, sim: np.ndarray, how: str) -> tuple[np.ndarray
 
 
 def metrics(real: np.ndarray, sim: np.ndarray, valid: np.ndarray, peak: float) -> np.ndarray:
-    return np.array([irf.psnr(real, sim, peak=peak, mask=valid), irf.ssim(real, sim, mask=valid).value,
-                     irf.nmi(real, sim, mask=valid).value])
+    return np.array([irf.stats.psnr(real, sim, peak=peak, mask=valid), irf.stats.ssim(real, sim, mask=valid).value,
+                     irf.stats.nmi(real, sim, mask=valid).value])
 
 
 def measure(noise: float, seed: int = 7) -> list[dict]:

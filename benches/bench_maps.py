@@ -86,16 +86,16 @@ def main():
         print(f"\nround {rnd + 1}")
         print(f"{'case':<34}{'irfidelity ms':>15}{'peer ms':>11}{'ratio':>9}{'|mean diff|':>14}")
         for name, r, s, peak in cases():
-            ours = irf.ssim_map(r, s, peak=peak)
+            ours = irf.maps.ssim_map(r, s, peak=peak)
             # scikit-image filters float32 in float32: its reference value is on float64 frames
             ref_mean, _ = skimage_map(r.astype(np.float64), s.astype(np.float64), peak)
             agreement = max(agreement, abs(ours.mean - ref_mean))
             # the lambdas are timed below, within this iteration: they see this case's r, s, peak
-            rows = [(f"ssim_map {name}", lambda: irf.ssim_map(r, s, peak=peak),  # noqa: B023
+            rows = [(f"ssim_map {name}", lambda: irf.maps.ssim_map(r, s, peak=peak),  # noqa: B023
                      lambda: skimage_map(r, s, peak), abs(ours.mean - ref_mean))]  # noqa: B023
             scales = irf.maps._core.max_scales(*r.shape, 11)
-            ms = irf.ms_ssim(r, s, peak=peak)
-            rows.append((f"ms_ssim {name} ({scales} scales)", lambda: irf.ms_ssim(r, s, peak=peak),  # noqa: B023
+            ms = irf.maps.ms_ssim(r, s, peak=peak)
+            rows.append((f"ms_ssim {name} ({scales} scales)", lambda: irf.maps.ms_ssim(r, s, peak=peak),  # noqa: B023
                          lambda: scipy_ms_ssim(r, s, peak, scales),  # noqa: B023
                          abs(ms - scipy_ms_ssim(r, s, peak, scales))))
             for label, fast, peer, diff in rows:

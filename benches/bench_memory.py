@@ -56,9 +56,9 @@ try:
     elif job["op"] == "evaluate registered":
         irf.evaluate(real, sim, register="translation")
     elif job["op"] == "ssim_map":
-        irf.ssim_map(real, sim)
+        irf.maps.ssim_map(real, sim)
     elif job["op"] == "noise3d (8 frames)":
-        irf.noise3d(job["png"], workers=job["workers"])
+        irf.noise.noise3d(job["png"], workers=job["workers"])
     elif job["op"] == "to_html":
         report = irf.evaluate(real, sim)
         peak = max(peak, status("VmHWM:"))

@@ -90,7 +90,7 @@ def numpy_means(cube: np.ndarray) -> dict[str, float]:
 
 
 def irfidelity_classical(cube: np.ndarray) -> dict[str, float]:
-    return irf.noise3d(cube, corrected=False, spectra=False, saturated="ignore").sigma
+    return irf.noise.noise3d(cube, corrected=False, spectra=False, saturated="ignore").sigma
 
 
 def pyradi_peer():
@@ -156,7 +156,7 @@ import sys, time
 import irfidelity as irf
 from irfidelity.noise import noise_sums
 t0 = time.perf_counter()
-n = irf.noise3d(sys.argv[1], saturated="ignore")
+n = irf.noise.noise3d(sys.argv[1], saturated="ignore")
 dt = time.perf_counter() - t0
 print(n.frames, dt, {PEAK}, n.sigma["tvh"], n.sigma["vh"])
 """

@@ -27,7 +27,7 @@ DATA = Path(__file__).resolve().parent.parent / "tests" / "data" / "radiometric"
 ZERO_C = 273.15
 
 
-def numpy_model(cal: irf.Radiometry):
+def numpy_model(cal: irf.radiometry.Radiometry):
     """The FLIR model reduced to per-frame constants, then applied with numpy (°C and inverse)."""
     ta = cal.atmospheric_temperature
     h2o = cal.relative_humidity / 100 * np.exp(1.5587 + 0.06939 * ta - 0.00027816 * ta**2 + 0.00000068455 * ta**3)

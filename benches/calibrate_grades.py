@@ -45,7 +45,7 @@ def main() -> None:
             for seed in range(args.seeds):
                 noise = np.random.default_rng(seed).normal(0.0, span / 10 ** (db / 20), real.shape)
                 sim = real + noise
-                nmi, ssim = irf.nmi(real, sim).value, irf.ssim(real, sim).value
+                nmi, ssim = irf.stats.nmi(real, sim).value, irf.stats.ssim(real, sim).value
                 values.setdefault(("nmi", db), []).append(nmi)
                 values.setdefault(("ssim", db), []).append(ssim)
                 if seed == 0:

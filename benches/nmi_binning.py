@@ -29,7 +29,7 @@ def offsets() -> None:
     for name, path in FRAMES.items():
         real = irf.load_frame(path)
         for binning in BINNINGS:
-            values = [irf.nmi(real, real + d, hist_range=binning).value for d in (0, 1, 2, 3, 5, 10, 20)]
+            values = [irf.stats.nmi(real, real + d, hist_range=binning).value for d in (0, 1, 2, 3, 5, 10, 20)]
             print(f"  {name:<15} {binning:<5} " + " ".join(f"{v:.4f}" for v in values))
 
 
@@ -41,7 +41,7 @@ def hot_pixels() -> None:
     hot.flat[rng.choice(hot.size, 9, replace=False)] = 65535
     print("NMI of the Duo Pro R frame against a noisy copy, clean and with 9 pixels at 65535:")
     for binning in BINNINGS:
-        clean, spoilt = (irf.nmi(real, s, hist_range=binning).value for s in (sim, hot))
+        clean, spoilt = (irf.stats.nmi(real, s, hist_range=binning).value for s in (sim, hot))
         print(f"  {binning:<5} clean {clean:.4f}, 9 hot pixels {spoilt:.4f}")
 
 
@@ -50,7 +50,7 @@ def independent() -> None:
     a, b = (np.rint(2700 + 40 * rng.standard_normal((120, 160))).astype(np.uint16) for _ in range(2))
     print("NMI of two independent 14-bit frames (the finite-sample floor):")
     for binning in BINNINGS:
-        print(f"  {binning:<5} {irf.nmi(a, b, hist_range=binning).value:.4f}")
+        print(f"  {binning:<5} {irf.stats.nmi(a, b, hist_range=binning).value:.4f}")
 
 
 if __name__ == "__main__":

@@ -96,8 +96,9 @@ def corner_error(found: np.ndarray, truth: np.ndarray, shape) -> float:
 
 def registered(sim: np.ndarray, matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``sim`` resampled onto the real frame's pixels by ``matrix`` (irfidelity's bicubic warp)."""
-    reg = irf.Registration.from_dict({"model": "similarity", "method": "phase", "matrix": np.asarray(matrix).tolist(),
-                                      "confidence": 1.0, "overlap": 1.0, "shape": list(sim.shape)})
+    reg = irf.registration.Registration.from_dict({"model": "similarity", "method": "phase",
+                                                   "matrix": np.asarray(matrix).tolist(), "confidence": 1.0,
+                                                   "overlap": 1.0, "shape": list(sim.shape)})
     return reg.apply(sim)
 
 
@@ -129,7 +130,7 @@ def shift_matrix(dy, dx):
 def irf_method(model, method):
     def run(real, sim):
         with warnings.catch_warnings():
-            warnings.simplefilter("ignore", irf.RegistrationWarning)
+            warnings.simplefilter("ignore", irf.registration.RegistrationWarning)
             return irf.register(real, sim, model=model, method=method).matrix
     return run
 

@@ -6,7 +6,7 @@ for every metric of the framework on a suite of stiff and extreme frame pairs.
 
 Implementations
 ---------------
-irfidelity: the default mode (``irf.mse / psnr / ssim / nmi``, which for integer frames
+irfidelity: the default mode (``irf.stats.mse / psnr / ssim / nmi``, which for integer frames
 is the exact integer path, for float frames the float64 centred path), NMI with the
 default 256 bins and with ``bins="levels"``, and the masked path (an all-true ``mask``:
 chunks centred on their own means and merged with Chan's update); and the peers: scikit-image
@@ -231,15 +231,15 @@ def _nmi_from_h(hr, hs, hj):
 
 
 def impl_irf_mse(c):
-    return {"mse": irf.mse(c["r"], c["s"])}
+    return {"mse": irf.stats.mse(c["r"], c["s"])}
 
 
 def impl_irf_psnr(c):
-    return {"psnr": irf.psnr(c["r"], c["s"], peak=c["peak"])}
+    return {"psnr": irf.stats.psnr(c["r"], c["s"], peak=c["peak"])}
 
 
 def impl_irf_ssim(c):
-    v = irf.ssim(c["r"], c["s"])
+    v = irf.stats.ssim(c["r"], c["s"])
     return {"ssim_l": v.luminance, "ssim_c": v.contrast, "ssim_s": v.structure}
 
 
@@ -256,7 +256,7 @@ impl_irf_masked.metrics = ("mse", "psnr", "ssim_l", "ssim_c", "ssim_s")
 
 def _irf_nmi(bins):
     def f(c):
-        v = irf.nmi(c["r"], c["s"], bins=bins)
+        v = irf.stats.nmi(c["r"], c["s"], bins=bins)
         return {"h_real": v.h_real, "h_sim": v.h_sim, "h_joint": v.h_joint, "nmi": v.value}
 
     return f

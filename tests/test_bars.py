@@ -475,7 +475,7 @@ def test_mrtd_with_3d_noise_components():
     t, v, h = 40, 48, 64
     cube = (1000 + rng.normal(0, 2, (1, v, h)) + rng.normal(0, 1.5, (1, 1, h)) + rng.normal(0, 1.0, (t, 1, h))
             + rng.normal(0, 3, (t, v, h)))
-    noise = irf.noise3d(cube, corrected=False, spectra=False)
+    noise = irf.noise.noise3d(cube, corrected=False, spectra=False)
     m = gauss_mtf_curve()
     plain = mrtd(m, netd=0.05, frame_rate=30)
     with_noise = mrtd(m, netd=0.05, noise=noise, frame_rate=30)

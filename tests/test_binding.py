@@ -42,10 +42,10 @@ def _memmap_unaligned(a: np.ndarray, path) -> np.ndarray:
 
 def _metrics(real, sim) -> dict:
     return {
-        "mse": irf.mse(real, sim),
-        "psnr": irf.psnr(real, sim, peak=4000.0),
-        "ssim": irf.ssim(real, sim),
-        "nmi": irf.nmi(real, sim),
+        "mse": irf.stats.mse(real, sim),
+        "psnr": irf.stats.psnr(real, sim, peak=4000.0),
+        "ssim": irf.stats.ssim(real, sim),
+        "nmi": irf.stats.nmi(real, sim),
         "pair_stats": irf.pair_stats(real, sim, peak=4000.0),
         "masked": irf.pair_stats(real, sim, peak=4000.0, mask=real > 1000),
     }
@@ -67,7 +67,7 @@ def test_unaligned_frames_score_as_aligned_ones(dtype, tmp_path):
 def test_unaligned_frames_bypass_the_fast_path_only():
     real, sim = _pair(np.uint16)
     assert _core.plain_mse(_unaligned(real), _unaligned(sim)) is None  # the general path copies
-    assert _core.plain_mse(real, sim) == irf.mse(real, sim)
+    assert _core.plain_mse(real, sim) == irf.stats.mse(real, sim)
 
 
 def test_frames_in_different_orders_pair_pixel_by_pixel():

@@ -153,7 +153,7 @@ def test_levels_nmi_equals_sklearn():
     rng = np.random.default_rng(4)
     r = rng.integers(1000, 1400, size=(64, 80)).astype(np.uint16)
     s = (r // 3 + rng.integers(0, 5, size=r.shape)).astype(np.uint16)
-    got = irf.nmi(r, s, bins="levels").value
+    got = irf.stats.nmi(r, s, bins="levels").value
     want = normalized_mutual_info_score(r.ravel(), s.ravel())
     assert got == pytest.approx(want, abs=1e-12)
 
@@ -162,7 +162,7 @@ def test_levels_wide_span_sparse_path_equals_sklearn():
     rng = np.random.default_rng(5)
     r = rng.integers(0, 65536, size=(50, 60)).astype(np.uint16)  # span > 512: sparse keys
     s = (r // 7).astype(np.uint16)
-    got = irf.nmi(r, s, bins="levels")
+    got = irf.stats.nmi(r, s, bins="levels")
     assert got.value == pytest.approx(normalized_mutual_info_score(r.ravel(), s.ravel()), abs=1e-12)
 
 
@@ -188,7 +188,7 @@ def test_binned_nmi_equals_histogram2d_integer_edges():
     span = int(max(r.max(), s.max())) - lo + 1
     width = -(-span // bins)  # ceil: a bin is a whole number of grey levels
     want = _nmi_from_hist2d(r, s, bins, lo - 0.5, width)  # half-level edges: integers fall inside
-    assert irf.nmi(r, s, bins=bins, hist_range="data").value == pytest.approx(want, abs=1e-12)
+    assert irf.stats.nmi(r, s, bins=bins, hist_range="data").value == pytest.approx(want, abs=1e-12)
 
 
 def test_binned_nmi_float_equals_histogram2d():
@@ -197,14 +197,14 @@ def test_binned_nmi_float_equals_histogram2d():
     s = r + rng.normal(scale=0.3, size=r.shape)
     lo, hi = min(r.min(), s.min()), max(r.max(), s.max())
     want = _nmi_from_hist2d(r, s, 32, lo, (hi - lo) / 32)
-    assert irf.nmi(r, s, bins=32, hist_range="data").value == pytest.approx(want, abs=1e-9)
+    assert irf.stats.nmi(r, s, bins=32, hist_range="data").value == pytest.approx(want, abs=1e-9)
 
 
 def test_span_within_bins_equals_levels():
     rng = np.random.default_rng(8)
     r = rng.integers(100, 300, size=(40, 40)).astype(np.uint16)
     s = rng.integers(150, 340, size=(40, 40)).astype(np.uint16)
-    assert irf.nmi(r, s, bins=256).value == pytest.approx(irf.nmi(r, s, bins="levels").value, abs=1e-14)
+    assert irf.stats.nmi(r, s, bins=256).value == pytest.approx(irf.stats.nmi(r, s, bins="levels").value, abs=1e-14)
 
 
 # --- docs/design.md §4 conventions -----------------------------------------------------------
@@ -223,7 +223,7 @@ def test_values_above_bits_are_an_error_naming_value_and_position():
     r = np.zeros((4, 6), dtype=np.uint16)
     s = r.copy()
     s[2, 3] = 4096
-    with pytest.raises(irf.RangeError, match=r"sim frame: value 4096 at \(row 2, col 3\)"):
+    with pytest.raises(irf.errors.RangeError, match=r"sim frame: value 4096 at \(row 2, col 3\)"):
         irf.pair_stats(r, s, bits=12)
     irf.pair_stats(r, s, bits=13)  # fits
 
@@ -231,19 +231,19 @@ def test_values_above_bits_are_an_error_naming_value_and_position():
 def test_negative_int16_with_bits_is_an_error():
     r = np.zeros((2, 2), dtype=np.int16)
     r[1, 0] = -1
-    with pytest.raises(irf.RangeError, match="-1"):
+    with pytest.raises(irf.errors.RangeError, match="-1"):
         irf.pair_stats(r, np.zeros_like(r), bits=14)
 
 
 def test_ssim_limits():
     z = np.zeros((5, 5), dtype=np.uint8)
-    got = irf.ssim(z, z)  # both means 0, both sigma 0
+    got = irf.stats.ssim(z, z)  # both means 0, both sigma 0
     assert (got.luminance, got.contrast, got.structure, got.value) == (1.0, 1.0, 1.0, 1.0)
     a = np.full((5, 5), 7, dtype=np.uint8)
     b = np.arange(25, dtype=np.uint8).reshape(5, 5)
-    one = irf.ssim(a, b)  # exactly one sigma 0
+    one = irf.stats.ssim(a, b)  # exactly one sigma 0
     assert one.structure == 0.0 and one.contrast == 0.0 and one.value == 0.0
-    two = irf.ssim(a, np.full((5, 5), 9, dtype=np.uint8))  # two different constants
+    two = irf.stats.ssim(a, np.full((5, 5), 9, dtype=np.uint8))  # two different constants
     assert two.contrast == 1.0 and two.structure == 1.0
     assert two.luminance == pytest.approx(2 * 7 * 9 / (49 + 81))
 
@@ -251,7 +251,7 @@ def test_ssim_limits():
 def test_anticorrelated_fractional_gamma_keeps_sign():
     r = np.arange(100, dtype=np.float64).reshape(10, 10)
     s = 200.0 - r
-    got = irf.ssim(r, s, gamma=0.5)
+    got = irf.stats.ssim(r, s, gamma=0.5)
     assert got.structure == pytest.approx(-1.0, abs=1e-15)
     assert got.value < 0 and not math.isnan(got.value)
     assert got.value == pytest.approx(got.luminance * got.contrast * -1.0)
@@ -263,16 +263,16 @@ def test_nmi_constant_frames():
     a = np.full((8, 8), 3, dtype=np.uint8)
     b = np.full((8, 8), 200, dtype=np.uint8)
     c = np.arange(64, dtype=np.uint8).reshape(8, 8)
-    assert irf.nmi(a, b).value == 1.0  # both constant: a one-to-one relation
-    assert irf.nmi(a, c).value == 0.0  # one constant
-    assert irf.nmi(c, 255 - c).value == pytest.approx(1.0)  # negative image: NMI 1, not equality
+    assert irf.stats.nmi(a, b).value == 1.0  # both constant: a one-to-one relation
+    assert irf.stats.nmi(a, c).value == 0.0  # one constant
+    assert irf.stats.nmi(c, 255 - c).value == pytest.approx(1.0)  # negative image: NMI 1, not equality
 
 
 def test_float_frames_need_a_peak_for_psnr():
     r = np.ones((3, 3), dtype=np.float32)
     with pytest.raises(irf.FidelityError, match="peak"):
-        irf.psnr(r, r * 2)
-    assert irf.psnr(r, r * 2, peak=1.0) == pytest.approx(0.0, abs=1e-12)
+        irf.stats.psnr(r, r * 2)
+    assert irf.stats.psnr(r, r * 2, peak=1.0) == pytest.approx(0.0, abs=1e-12)
 
 
 def test_nonfinite_raise_and_mask():
@@ -280,7 +280,7 @@ def test_nonfinite_raise_and_mask():
     s = r.copy()
     s[1, 2] = np.nan
     s[3, 3] = np.inf
-    with pytest.raises(irf.RangeError, match=r"2 in the simulated frame; first at \(row 1, col 2\)"):
+    with pytest.raises(irf.errors.RangeError, match=r"2 in the simulated frame; first at \(row 1, col 2\)"):
         irf.pair_stats(r, s, peak=1.0)
     st = irf.pair_stats(r, s, peak=1.0, nonfinite="mask")
     assert (st.n, st.nonfinite) == (14, 2)
@@ -289,15 +289,15 @@ def test_nonfinite_raise_and_mask():
 
 def test_shape_and_dtype_mismatch():
     a = np.zeros((3, 4), dtype=np.uint16)
-    with pytest.raises(irf.ShapeError, match=r"\(3, 4\) vs \(4, 3\)"):
+    with pytest.raises(irf.errors.ShapeError, match=r"\(3, 4\) vs \(4, 3\)"):
         irf.pair_stats(a, a.T.copy())
-    with pytest.raises(irf.ShapeError, match="uint16 vs uint8"):
+    with pytest.raises(irf.errors.ShapeError, match="uint16 vs uint8"):
         irf.pair_stats(a, a.astype(np.uint8))
-    with pytest.raises(irf.ShapeError, match="2-D"):
+    with pytest.raises(irf.errors.ShapeError, match="2-D"):
         irf.pair_stats(a.ravel(), a.ravel())
-    with pytest.raises(irf.ShapeError, match="int64"):
+    with pytest.raises(irf.errors.ShapeError, match="int64"):
         irf.pair_stats(a.astype(np.int64), a.astype(np.int64))
-    with pytest.raises(irf.ShapeError, match="mask"):
+    with pytest.raises(irf.errors.ShapeError, match="mask"):
         irf.pair_stats(a, a, mask=np.ones((2, 2), bool))
 
 
@@ -364,7 +364,7 @@ def test_merge_equals_concatenation_and_pickles():
     assert top.merge(bottom) == whole
     assert pickle.loads(pickle.dumps(whole)) == whole
     lv = irf.pair_stats(r[:33], s[:33], bins="levels").merge(irf.pair_stats(r[33:], s[33:], bins="levels"))
-    assert lv.nmi().value == pytest.approx(irf.nmi(r, s, bins="levels").value, abs=1e-14)
+    assert lv.nmi().value == pytest.approx(irf.stats.nmi(r, s, bins="levels").value, abs=1e-14)
     # "data" ranges differ between parts: histograms cannot be pooled, and the error says why
     with pytest.raises(irf.FidelityError, match="different edges"):
         irf.pair_stats(r[:33], s[:33]).merge(irf.pair_stats(r[33:] // 2, s[33:] // 2))
@@ -470,7 +470,7 @@ for dt in (np.uint8, np.uint16, np.int16, np.uint32, np.float16, np.float32, np.
         s = np.clip(r.astype(np.int64) + rng.integers(-9, 10, r.shape), info.min, info.max).astype(dt)
         st = irf.pair_stats(r, s, bins="levels" if dt == np.uint16 else 256)
     out.append(st._raw.to_bytes().hex())
-    out.append(float(irf.mse(r, s)).hex())  # the SSE-only pass (explicit AVX2 for floats)
+    out.append(float(irf.stats.mse(r, s)).hex())  # the SSE-only pass (explicit AVX2 for floats)
 # float binning at the clamps: a narrow explicit range, values far outside it (beyond any
 # int32 bin number), a run length that leaves a remainder
 for dt in (np.float32, np.float64):
@@ -505,7 +505,7 @@ for dt in (np.float16, np.float32, np.float64):
     s = (r.astype(np.float64) * 0.97 + rng.normal(0, 40, r.shape)).astype(dt)
     for _ in range(3):  # repeated: the sharing of chunks differs from call to call
         out.append(irf.pair_stats(r, s, peak=2e4)._raw.to_bytes().hex())
-        out.append(float(irf.mse(r, s)).hex())
+        out.append(float(irf.stats.mse(r, s)).hex())
     mask = rng.random(r.shape) < 0.9
     out.append(irf.pair_stats(r, s, peak=2e4, mask=mask)._raw.to_bytes().hex())
     t = r.copy()
@@ -524,7 +524,7 @@ sys.stdout.write("\n".join(out))
 
 @pytest.mark.parametrize("dtype", INT_DTYPES + FLOAT_DTYPES)
 def test_single_metric_fast_path_equals_the_general_path(dtype):
-    # irf.mse / irf.psnr take plain arrays straight to the kernel; every other input goes
+    # irf.stats.mse / irf.stats.psnr take plain arrays straight to the kernel; every other input goes
     # through pair_stats. Both must give the same numbers and the same errors.
     rng = np.random.default_rng(5)
     if np.dtype(dtype).kind == "f":
@@ -538,48 +538,49 @@ def test_single_metric_fast_path_equals_the_general_path(dtype):
         peak = None
     general = irf.pair_stats(r, s, need=("mse",))
     assert _core.plain_mse(r, s) == general.mse()
-    assert irf.mse(r, s) == general.mse()
-    assert irf.psnr(r, s, peak=peak) == irf.pair_stats(r, s, peak=peak, need=("psnr",)).psnr()
-    # irf.ssim likewise (moments only), also with exponents
+    assert irf.stats.mse(r, s) == general.mse()
+    assert irf.stats.psnr(r, s, peak=peak) == irf.pair_stats(r, s, peak=peak, need=("psnr",)).psnr()
+    # irf.stats.ssim likewise (moments only), also with exponents
     assert _core.plain_moments(r, s).moments() == irf.pair_stats(r, s, need=("ssim",))._raw.moments()
     for abg in ((1.0, 1.0, 1.0), (0.5, 2.0, 1.5)):
-        assert irf.ssim(r, s, alpha=abg[0], beta=abg[1], gamma=abg[2]) == irf.pair_stats(r, s, need=("ssim",)).ssim(*abg)
+        expected = irf.pair_stats(r, s, need=("ssim",)).ssim(*abg)
+        assert irf.stats.ssim(r, s, alpha=abg[0], beta=abg[1], gamma=abg[2]) == expected
     assert _core.plain_moments(np.asfortranarray(r), np.asfortranarray(s)) is None
     fr, fs = np.asfortranarray(r), np.asfortranarray(s)  # float sums follow the memory order
-    assert irf.ssim(fr, fs) == irf.pair_stats(fr, fs, need=("ssim",)).ssim()
+    assert irf.stats.ssim(fr, fs) == irf.pair_stats(fr, fs, need=("ssim",)).ssim()
     # not plain: Fortran order, strided views, big-endian, lists -> general path, same value
     assert _core.plain_mse(np.asfortranarray(r), np.asfortranarray(s)) is None
-    assert irf.mse(np.asfortranarray(r), np.asfortranarray(s)) == general.mse()
-    assert irf.mse(r[::2], s[::2]) == irf.pair_stats(r[::2].copy(), s[::2].copy(), need=("mse",)).mse()
+    assert irf.stats.mse(np.asfortranarray(r), np.asfortranarray(s)) == general.mse()
+    assert irf.stats.mse(r[::2], s[::2]) == irf.pair_stats(r[::2].copy(), s[::2].copy(), need=("mse",)).mse()
     big = r.astype(r.dtype.newbyteorder(">")), s.astype(s.dtype.newbyteorder(">"))
     if r.dtype.itemsize > 1:  # one byte has no byte order
         assert _core.plain_mse(*big) is None
-    assert irf.mse(*big) == general.mse()
+    assert irf.stats.mse(*big) == general.mse()
     assert _core.plain_mse(r.tolist(), s.tolist()) is None
 
 
 def test_single_metric_fast_path_errors():
     r = np.zeros((4, 5), np.uint16)
-    with pytest.raises(irf.ShapeError, match="differ in shape"):
-        irf.mse(r, np.zeros((5, 4), np.uint16))
-    with pytest.raises(irf.ShapeError, match="differ in dtype"):
-        irf.mse(r, np.zeros((4, 5), np.uint8))
-    with pytest.raises(irf.ShapeError, match="2-D"):
-        irf.mse(np.zeros(5, np.uint16), np.zeros(5, np.uint16))
+    with pytest.raises(irf.errors.ShapeError, match="differ in shape"):
+        irf.stats.mse(r, np.zeros((5, 4), np.uint16))
+    with pytest.raises(irf.errors.ShapeError, match="differ in dtype"):
+        irf.stats.mse(r, np.zeros((4, 5), np.uint8))
+    with pytest.raises(irf.errors.ShapeError, match="2-D"):
+        irf.stats.mse(np.zeros(5, np.uint16), np.zeros(5, np.uint16))
     f = np.ones((4, 5), np.float32)
     g = f.copy()
     g[2, 3] = np.nan
-    with pytest.raises(irf.RangeError):
-        irf.mse(f, g)
-    with pytest.raises(irf.RangeError, match="NaN"):
-        irf.ssim(f, g)
-    assert irf.ssim(f, g, nonfinite="mask").value == 1.0  # the NaN pair masked: identical frames
-    with pytest.raises(irf.ShapeError, match="differ in shape"):
-        irf.ssim(r, np.zeros((5, 4), np.uint16))
+    with pytest.raises(irf.errors.RangeError):
+        irf.stats.mse(f, g)
+    with pytest.raises(irf.errors.RangeError, match="NaN"):
+        irf.stats.ssim(f, g)
+    assert irf.stats.ssim(f, g, nonfinite="mask").value == 1.0  # the NaN pair masked: identical frames
+    with pytest.raises(irf.errors.ShapeError, match="differ in shape"):
+        irf.stats.ssim(r, np.zeros((5, 4), np.uint16))
     with pytest.raises(irf.FidelityError, match="peak"):
-        irf.psnr(f, f)
+        irf.stats.psnr(f, f)
     with pytest.raises(irf.FidelityError, match="peak"):
-        irf.psnr(f, f + 1, peak=-1.0)
+        irf.stats.psnr(f, f + 1, peak=-1.0)
 
 
 def test_entropies_from_many_threads_at_once():

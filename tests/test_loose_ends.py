@@ -1,5 +1,5 @@
 """Loose ends a new user hit (issue 26), each with its regression test: bits and a numeric peak
-compose; irf.psnr takes peak="range"; mtf_from_edge takes a path; per-side edge channels; CLI
+compose; irf.stats.psnr takes peak="range"; mtf_from_edge takes a path; per-side edge channels; CLI
 messages name flags, not keyword arguments; the report's notes say what to pass."""
 
 from __future__ import annotations
@@ -51,14 +51,14 @@ def test_bits_and_a_numeric_peak_compose():
     assert (cfg.bits, cfg.peak) == (12, 100.0)
     rep = irf.evaluate(real, sim, config=cfg, weights="psnr=1")
     assert rep.metrics["psnr_peak"] == 100.0
-    assert rep.metrics["psnr_db"] == pytest.approx(irf.psnr(real, sim, peak=100))
-    assert irf.psnr(real, sim, bits=12, peak=100) == pytest.approx(irf.psnr(real, sim, peak=100))
+    assert rep.metrics["psnr_db"] == pytest.approx(irf.stats.psnr(real, sim, peak=100))
+    assert irf.stats.psnr(real, sim, bits=12, peak=100) == pytest.approx(irf.stats.psnr(real, sim, peak=100))
     too_big = real.copy()
     too_big[5, 7] = 4096  # bits still bounds the values
     with pytest.raises(RangeError, match="4096"):
         irf.evaluate(too_big, sim, bits=12, peak=100, weights="psnr=1")
     with pytest.raises(RangeError):
-        irf.psnr(too_big, sim, bits=12, peak=100)
+        irf.stats.psnr(too_big, sim, bits=12, peak=100)
 
 
 def test_bits_bound_the_full_histogram_range_when_a_peak_is_given():
@@ -74,7 +74,7 @@ def test_bits_and_peak_in_a_sequence():
     stack_r, stack_s = np.stack([real, real]), np.stack([sim, sim])
     rep = irf.score_sequence(stack_r, stack_s, bits=12, peak=100, progress=False, weights="psnr=1")
     assert rep.metrics["psnr_peak"] == 100.0
-    assert rep.metrics["psnr_db"] == pytest.approx(irf.psnr(real, sim, peak=100))
+    assert rep.metrics["psnr_db"] == pytest.approx(irf.stats.psnr(real, sim, peak=100))
 
 
 def test_cli_peak_and_bits(capsys):
@@ -91,9 +91,9 @@ def test_cli_peak_and_bits(capsys):
 def test_psnr_range_matches_evaluate():
     real, sim = frames()
     expected = irf.evaluate(real, sim, peak="range", weights="psnr=1").metrics["psnr_db"]
-    assert irf.psnr(real, sim, peak="range") == pytest.approx(expected, rel=1e-12)
+    assert irf.stats.psnr(real, sim, peak="range") == pytest.approx(expected, rel=1e-12)
     span = float(real.max()) - float(real.min())
-    assert irf.psnr(real, sim, peak="range") == pytest.approx(irf.psnr(real, sim, peak=span), rel=1e-12)
+    assert irf.stats.psnr(real, sim, peak="range") == pytest.approx(irf.stats.psnr(real, sim, peak=span), rel=1e-12)
 
 
 def test_psnr_range_counts_the_masked_pixels_only():
@@ -101,20 +101,21 @@ def test_psnr_range_counts_the_masked_pixels_only():
     mask = np.zeros(real.shape, bool)
     mask[10:30, 5:50] = True
     span = float(real[mask].max()) - float(real[mask].min())
-    assert irf.psnr(real, sim, peak="range", mask=mask) == pytest.approx(irf.psnr(real, sim, peak=span, mask=mask))
+    assert irf.stats.psnr(real, sim, peak="range", mask=mask) == pytest.approx(
+        irf.stats.psnr(real, sim, peak=span, mask=mask))
     expected = irf.evaluate(real, sim, peak="range", mask=mask, weights="psnr=1").metrics["psnr_db"]
-    assert irf.psnr(real, sim, peak="range", mask=mask) == pytest.approx(expected, rel=1e-12)
+    assert irf.stats.psnr(real, sim, peak="range", mask=mask) == pytest.approx(expected, rel=1e-12)
 
 
 def test_psnr_range_on_float_frames_and_errors():
     real, sim = (f.astype(np.float32) / 7 for f in frames())
-    assert irf.psnr(real, sim, peak="range") == pytest.approx(
-        irf.psnr(real, sim, peak=float(real.max()) - float(real.min())), rel=1e-9)
+    assert irf.stats.psnr(real, sim, peak="range") == pytest.approx(
+        irf.stats.psnr(real, sim, peak=float(real.max()) - float(real.min())), rel=1e-9)
     with pytest.raises(FidelityError, match="more than one value") as info:
-        irf.psnr(np.ones((8, 8)), np.zeros((8, 8)), peak="range")
+        irf.stats.psnr(np.ones((8, 8)), np.zeros((8, 8)), peak="range")
     assert info.value.option == "peak"
     with pytest.raises(FidelityError, match="a positive number or 'range'"):
-        irf.psnr(real, sim, peak="max")
+        irf.stats.psnr(real, sim, peak="max")
 
 
 # --------------------------------------------------------------------------- edges
@@ -188,7 +189,7 @@ def test_cli_names_the_frame_channel_flag(capsys):
 def test_dtype_advice_in_the_api_and_the_cli(tmp_path, capsys):
     real, sim = frames()
     with pytest.raises(ShapeError, match=r"sim\.astype\(real\.dtype\)"):
-        irf.psnr(real, sim.astype(np.float32), peak=100)
+        irf.stats.psnr(real, sim.astype(np.float32), peak=100)
     np.save(tmp_path / "real.npy", real)
     np.save(tmp_path / "sim.npy", sim.astype(np.float32))
     rc, _, err = cli(capsys, "score", str(tmp_path / "real.npy"), str(tmp_path / "sim.npy"), "--peak", "100")

@@ -50,15 +50,16 @@ try:
             out["html"] = len(page)
             out["ssim_mean"] = "Mean SSIM" in page
     elif op == "ssim_map":
-        m = irf.ssim_map(real, sim, bits=12, **kw)
+        m = irf.maps.ssim_map(real, sim, bits=12, **kw)
         out["mean"], out["shape"] = m.mean, list(m.map.shape)
     elif op == "apply":
-        reg = irf.Registration.from_dict({"model": "translation", "method": "phase", "confidence": 1.0,
-                                          "overlap": 1.0, "matrix": [[1, 0, 2.5], [0, 1, -1.5]], "shape": [n, n]})
+        reg = irf.registration.Registration.from_dict({"model": "translation", "method": "phase", "confidence": 1.0,
+                                                       "overlap": 1.0, "matrix": [[1, 0, 2.5], [0, 1, -1.5]],
+                                                       "shape": [n, n]})
         values, valid = reg.apply(sim, **kw)
         out["valid"] = int(valid.sum())
     elif op == "noise3d":
-        nz = irf.noise3d(job["paths"], **kw)
+        nz = irf.noise.noise3d(job["paths"], **kw)
         out["sigma"] = nz.sigma
     elif op == "load":
         out["shape"] = list(irf.load_frame(job["path"], **kw).shape)
@@ -229,9 +230,9 @@ def test_over_budget_errors_name_the_step_everywhere() -> None:
     with pytest.raises(RegistrationError, match=r"registration \(rigid, method phase\) of 64 x 80 pixel frames"):
         irf.register(real, sim, model="rigid", method="phase", max_bytes=tiny)
     with pytest.raises(FidelityError, match=r"the SSIM map of 64 x 80"):
-        irf.ssim_map(real, sim, bits=12, max_bytes=tiny)
+        irf.maps.ssim_map(real, sim, bits=12, max_bytes=tiny)
     with pytest.raises(FidelityError, match=r"MS-SSIM of 64 x 80"):
-        irf.ms_ssim(real, sim, bits=12, max_bytes=tiny)
+        irf.maps.ms_ssim(real, sim, bits=12, max_bytes=tiny)
     with pytest.raises(FidelityError, match=r"scoring a frame pair of 64 x 80"):
         irf.evaluate(real, sim, bits=12, max_bytes=tiny)
     reg = irf.register(real, sim)
@@ -278,7 +279,7 @@ def test_budget_does_not_change_the_answers() -> None:
 
 def test_sampled_ssim_map_equals_the_displayed_part_of_the_map() -> None:
     real, sim = smooth_pair(131, 97)
-    whole = irf.ssim_map(real, sim, bits=12)
+    whole = irf.maps.ssim_map(real, sim, bits=12)
     for step in (1, 2, 3, 7, 40):
         part = sampled_ssim_map(real, sim, step, peak=4095.0)
         assert np.array_equal(part.map, whole.map[::step, ::step]), step
@@ -321,8 +322,9 @@ def test_noise_pass_takes_fewer_workers_and_frames_when_the_budget_asks(tmp_path
     assert irf.noise.noise_sums(floats, workers=2).to_bytes() == irf.noise.noise_sums(floats, workers=2,
                                                                                       max_bytes=100 * pixels).to_bytes()
     with pytest.raises(FidelityError, match=r"spectra \(spectra=False needs less\)"):
-        irf.noise3d(frames, max_bytes=60 * pixels)
-    assert irf.noise3d(frames, spectra=False, max_bytes=60 * pixels).sigma == irf.noise3d(frames, spectra=False).sigma
+        irf.noise.noise3d(frames, max_bytes=60 * pixels)
+    limited = irf.noise.noise3d(frames, spectra=False, max_bytes=60 * pixels)
+    assert limited.sigma == irf.noise.noise3d(frames, spectra=False).sigma
 
 
 # ------------------------------------------------------------------ a run's budget

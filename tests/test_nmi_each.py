@@ -73,20 +73,20 @@ def test_an_offset_copy_reads_one_and_a_few_extreme_pixels_do_not_stretch_the_bi
     one bin (NMI 0)."""
     rng = np.random.default_rng(11)
     real = rng.normal(300.0, 4.0, (96, 128)).astype(np.float32)
-    assert irf.nmi(real, real - 100, hist_range="each").value == 1.0
+    assert irf.stats.nmi(real, real - 100, hist_range="each").value == 1.0
     sim = real + rng.normal(0.0, 2.0, real.shape).astype(np.float32)
-    clean = irf.nmi(real, sim, hist_range="each").value
+    clean = irf.stats.nmi(real, sim, hist_range="each").value
     hot = sim.copy()
     hot.flat[rng.choice(hot.size, 9, replace=False)] = np.finfo(np.float32).max
     # they land in the top bin, and widen the bins by at most their share of a bulk span
-    assert irf.nmi(real, hot, hist_range="each").value == pytest.approx(clean, abs=0.05)
-    assert irf.nmi(real, hot, hist_range="data").value < 0.01
+    assert irf.stats.nmi(real, hot, hist_range="each").value == pytest.approx(clean, abs=0.05)
+    assert irf.stats.nmi(real, hot, hist_range="data").value < 0.01
 
 
 def test_a_pure_offset_reads_one_where_shared_edges_read_its_phase(lepton):
     real = lepton[30]
-    each = [irf.nmi(real, real + d, hist_range="each").value for d in range(12)]
-    data = [irf.nmi(real, real + d, hist_range="data").value for d in range(12)]
+    each = [irf.stats.nmi(real, real + d, hist_range="each").value for d in range(12)]
+    data = [irf.stats.nmi(real, real + d, hist_range="data").value for d in range(12)]
     assert each == [1.0] * 12
     assert min(data) < 0.9  # the phase of the shared 2-level bins (the reason for "each")
     # a gain (about the median, the ranges overlapping) spreads the simulated frame over more
@@ -96,7 +96,7 @@ def test_a_pure_offset_reads_one_where_shared_edges_read_its_phase(lepton):
     spread = irf.pair_stats(real, tripled, hist_range="each")
     counts, real_edges, sim_edges = spread.joint_histogram()
     assert np.diff(real_edges)[0] == np.diff(sim_edges)[0] == np.ceil((np.ptp(tripled) + 1) / 256)
-    assert spread.nmi().value == pytest.approx(irf.nmi(real, tripled, hist_range="data").value, abs=0.02)
+    assert spread.nmi().value == pytest.approx(irf.stats.nmi(real, tripled, hist_range="data").value, abs=0.02)
 
 
 def test_masks_and_nonfinite_values_set_each_frames_range():
@@ -133,7 +133,7 @@ def test_the_scorer_takes_each_and_the_others(lepton):
     assert irf.evaluate(real, sim, **options).config.hist_range == "each"  # the default
     for hist_range in ("each", "data", "full", (2000, 4000)):
         rep = irf.evaluate(real, sim, hist_range=hist_range, **options)
-        want = irf.nmi(real, sim, bits=14, hist_range=hist_range).value
+        want = irf.stats.nmi(real, sim, bits=14, hist_range=hist_range).value
         assert rep.components["nmi"] == pytest.approx(want, abs=1e-12), hist_range
     with pytest.raises(ConfigError, match="'each', 'data', 'full' or \\(lo, hi\\)"):
         irf.ScoringConfig(hist_range="own")

@@ -54,7 +54,7 @@ CHILD = textwrap.dedent(
         elif job["op"] == "nmi":
             import irfidelity as irf
             r, s = (np.array(a, dtype=job["dtype"]) for a in job["frames"])
-            got = irf.nmi(r, s, hist_range=tuple(job["range"]), bins=job["bins"])
+            got = irf.stats.nmi(r, s, hist_range=tuple(job["range"]), bins=job["bins"])
             rec.update(kind="ok", value=[got.value, got.h_real, got.h_sim, got.h_joint])
     except FrameError as e:
         rec.update(kind="frame_error", message=str(e))
@@ -428,7 +428,7 @@ def test_huge_integer_hist_range_is_binned_exactly(dtype: str, rng: tuple[float,
 def test_integer_hist_range_beyond_2_to_100_is_a_clear_error() -> None:
     r = np.zeros((4, 4), np.uint16)
     with pytest.raises(irf.FidelityError, match="hist_range"):
-        irf.nmi(r, r, hist_range=(-1e300, 1e3))
+        irf.stats.nmi(r, r, hist_range=(-1e300, 1e3))
 
 
 NARROW = [(0.0, 0.0), (5.0, 5.0), (2.0, 5.0), (10.0, 12.0), (0.0, 200.0), (-3.0, 3.0), (250.0, 255.0), (100.0, 355.0)]
@@ -442,8 +442,8 @@ def test_narrow_integer_range_uses_edge_bins_like_floats(dtype, lo: float, hi: f
     rng = np.random.default_rng(11)
     r = rng.integers(0, 256, size=(40, 50)).astype(dtype)
     s = ((r.astype(np.int64) * 7 + 3) % 256).astype(dtype)
-    got = irf.nmi(r, s, hist_range=(lo, hi), bins=256)
-    want = irf.nmi(r.astype(np.float64), s.astype(np.float64), hist_range=(lo, hi), bins=256)
+    got = irf.stats.nmi(r, s, hist_range=(lo, hi), bins=256)
+    want = irf.stats.nmi(r.astype(np.float64), s.astype(np.float64), hist_range=(lo, hi), bins=256)
     assert got.value == pytest.approx(want.value, abs=1e-12)
     assert got.h_real == pytest.approx(want.h_real, abs=1e-12)
     # the partition itself: levels clipped to [lo, hi], one bin each
@@ -455,8 +455,8 @@ def test_narrow_integer_range_uses_edge_bins_like_floats(dtype, lo: float, hi: f
 
 def test_zero_width_integer_range_matches_floats() -> None:
     r = np.arange(100, dtype=np.uint16).reshape(10, 10)
-    got = irf.nmi(r, r[::-1], hist_range=(0, 0))
-    want = irf.nmi(r.astype(np.float32), r[::-1].astype(np.float32), hist_range=(0, 0))
+    got = irf.stats.nmi(r, r[::-1], hist_range=(0, 0))
+    want = irf.stats.nmi(r.astype(np.float32), r[::-1].astype(np.float32), hist_range=(0, 0))
     assert got.value == want.value
     assert got.h_real == 0.0 and got.h_joint == 0.0
 

@@ -115,10 +115,10 @@ def pyradi_formulas(cube: np.ndarray) -> dict[str, float]:
     return {k: float(np.std(im, ddof=1)) for k, im in ims.items()}
 
 
-def quiet_noise3d(*args, **kwargs) -> irf.Noise3D:
+def quiet_noise3d(*args, **kwargs) -> irf.noise.Noise3D:
     with warnings.catch_warnings():
         warnings.simplefilter("error", NoiseWarning)
-        return irf.noise3d(*args, **kwargs)
+        return irf.noise.noise3d(*args, **kwargs)
 
 
 # --------------------------------------------------------------------------- exact decomposition
@@ -147,7 +147,7 @@ def test_each_part_alone_is_found_exactly_and_the_others_are_exactly_zero(part):
         assert exact[k] == ss[k] * n * n, k
         assert (exact[k] == 0) == (k != part), k
     assert exact["total"] == total * n * n
-    n3d = irf.noise3d(cube, corrected=False, spectra=False)
+    n3d = irf.noise.noise3d(cube, corrected=False, spectra=False)
     assert n3d.sigma[part] == pytest.approx(math.sqrt(ss[part] / n), rel=1e-15)
     assert n3d.total == pytest.approx(math.sqrt(total / n), rel=1e-15)
 
@@ -200,8 +200,8 @@ def test_float64_frames_on_a_large_offset_give_every_sigma_to_1e_6(offset):
                                    shape)
     ss, total, mean = exact_parts(cube)
     reference = anova({k: float(ss[k]) for k in PARTS}, *shape)
-    n = irf.noise3d(cube, spectra=False)
-    classical = irf.noise3d(cube, corrected=False, spectra=False)
+    n = irf.noise.noise3d(cube, spectra=False)
+    classical = irf.noise.noise3d(cube, corrected=False, spectra=False)
     for k in PARTS:
         assert reference.corrected[k] > 0.05, k  # every corrected part well away from 0
         assert n.sigma[k] == pytest.approx(math.sqrt(reference.corrected[k]), rel=1e-6), (offset, k)
@@ -220,8 +220,8 @@ def test_merge_over_frame_ranges_equals_one_pass_and_pickles():
     np.testing.assert_array_equal(merged.row_means(), whole.row_means())
     np.testing.assert_array_equal(merged.pixel_var(), whole.pixel_var())
     assert merged.to_bytes() == whole.to_bytes()
-    a = irf.noise3d(merged)
-    b = irf.noise3d(cube, spectra=False)
+    a = irf.noise.noise3d(merged)
+    b = irf.noise.noise3d(cube, spectra=False)
     assert a.sigma == b.sigma and a.ci == b.ci
     floats = cube.astype(np.float32) / 7
     fw = noise_sums(floats).decomposition()
@@ -266,8 +266,8 @@ def test_streamed_from_files_equals_from_the_array(tmp_path):
     floats = cube.astype(np.float32) * 0.37
     tifffile.imwrite(tmp_path / "floats.tif", floats)
     assert noise_sums(tmp_path / "floats.tif").to_bytes() == noise_sums(floats).to_bytes()
-    a = irf.noise3d(tmp_path / "stack.tif")
-    b = irf.noise3d(cube)
+    a = irf.noise.noise3d(tmp_path / "stack.tif")
+    b = irf.noise.noise3d(cube)
     assert a.sigma == b.sigma
     np.testing.assert_array_equal(a.spectra.temporal_row, b.spectra.temporal_row)
 
@@ -294,7 +294,7 @@ def test_roi_equals_the_cropped_cube(tmp_path):
 def test_classical_equals_numpy_and_pyradi_formulas():
     rng = np.random.default_rng(21)
     cube = 500 + random_effects(rng, {k: 1.0 + i for i, k in enumerate(PARTS)}, (9, 13, 11))
-    n3d = irf.noise3d(cube, corrected=False, spectra=False)
+    n3d = irf.noise.noise3d(cube, corrected=False, spectra=False)
     parts = numpy_parts(cube)
     pyradi = pyradi_formulas(cube)
     for k, p in parts.items():
@@ -324,7 +324,7 @@ def test_corrected_estimates_are_unbiased_and_classical_ones_are_not():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NoiseWarning)  # random row offsets may line up
         for _ in range(150):
-            n3d = irf.noise3d(random_effects(rng, sigma, (t, v, h)), spectra=False)
+            n3d = irf.noise.noise3d(random_effects(rng, sigma, (t, v, h)), spectra=False)
             for k in PARTS:
                 corr[k].append(n3d.variance[k])
                 clas[k].append(n3d.classical[k] ** 2)
@@ -350,7 +350,7 @@ def test_intervals_cover_components_that_are_zero():
     rng = np.random.default_rng(77)
     covered = {k: 0 for k in PARTS if k != "tvh"}
     for _ in range(100):
-        n3d = irf.noise3d(random_effects(rng, {"tvh": 1.0}, (8, 8, 8)), spectra=False)
+        n3d = irf.noise.noise3d(random_effects(rng, {"tvh": 1.0}, (8, 8, 8)), spectra=False)
         for k in covered:
             covered[k] += n3d.ci[k][0] == 0.0
     assert min(covered.values()) >= 90, covered
@@ -395,15 +395,15 @@ def test_anova_identity_matches_the_documented_estimators():
 def test_netd_is_the_temporal_random_part_over_the_sitf_slope():
     rng = np.random.default_rng(3)
     cube = 2000 + random_effects(rng, {"tvh": 4.0, "vh": 2.0}, (10, 20, 20))
-    n3d = irf.noise3d(cube, sitf=-8.0, spectra=False)
+    n3d = irf.noise.noise3d(cube, sitf=-8.0, spectra=False)
     assert n3d.netd == pytest.approx(n3d.sigma["tvh"] / 8.0)
     assert n3d.netd_ci[0] < n3d.netd < n3d.netd_ci[1]
     fit = irf.curves.sitf_fit(irf.Curve(np.arange(10.0), 3.0 * np.arange(10.0) + 5))
-    assert irf.noise3d(cube, sitf=fit, spectra=False).netd == pytest.approx(n3d.sigma["tvh"] / 3.0)
-    assert irf.noise3d(cube, spectra=False).netd is None
+    assert irf.noise.noise3d(cube, sitf=fit, spectra=False).netd == pytest.approx(n3d.sigma["tvh"] / 3.0)
+    assert irf.noise.noise3d(cube, spectra=False).netd is None
     for bad in (0.0, math.nan, "steep"):
         with pytest.raises(FidelityError):
-            irf.noise3d(cube, sitf=bad, spectra=False)
+            irf.noise.noise3d(cube, sitf=bad, spectra=False)
 
 
 def test_spectra_hold_the_patterns_power_where_it_is():
@@ -412,7 +412,7 @@ def test_spectra_hold_the_patterns_power_where_it_is():
     cols = np.arange(h)
     stripes = 3.0 * np.cos(2 * np.pi * 0.25 * cols)            # fixed column pattern at 0.25 cy/px
     cube = 100 + stripes[None, None, :] + rng.normal(0, 1.0, (t, v, h))
-    n3d = irf.noise3d(cube)
+    n3d = irf.noise.noise3d(cube)
     sp = n3d.spectra
     fixed = n3d.fixed_pattern
     assert sp.fixed_row.sum() == pytest.approx(float((fixed ** 2).mean()), rel=1e-12)
@@ -429,7 +429,7 @@ def test_spectra_hold_the_patterns_power_where_it_is():
     inner = sp.temporal_row[1:-1]
     assert inner.std() / inner.mean() < 0.2
     assert sp.temporal_2d.shape == (v, h) and sp.fixed_2d.shape == (v, h)
-    assert irf.noise3d(noise_sums(cube)).spectra.temporal_row is None
+    assert irf.noise.noise3d(noise_sums(cube)).spectra.temporal_row is None
 
 
 def _blurred(rng, shape):
@@ -444,32 +444,32 @@ def test_noise_similarity_levels_and_shapes():
     rng = np.random.default_rng(10)
     shape = (16, 48, 48)
     base = {"v": 1.0, "vh": 1.5, "tvh": 2.0}
-    real = irf.noise3d(300 + random_effects(rng, base, shape))
-    twin = irf.noise3d(300 + random_effects(rng, base, shape))
-    same = irf.noise_similarity(real, twin)
+    real = irf.noise.noise3d(300 + random_effects(rng, base, shape))
+    twin = irf.noise.noise3d(300 + random_effects(rng, base, shape))
+    same = irf.noise.noise_similarity(real, twin)
     assert same.value > 0.95 and same.mu > 0.97 and same.rho > 0.97
-    assert irf.noise_similarity(real, real).value == pytest.approx(1.0)
+    assert irf.noise.noise_similarity(real, real).value == pytest.approx(1.0)
     # every level doubled: mu = 2·2/(1 + 4) exactly, shapes unchanged
-    single = irf.noise3d(300 + random_effects(np.random.default_rng(10), base, shape))
-    double = irf.noise3d(600 + 2 * random_effects(np.random.default_rng(10), base, shape))
-    sim = irf.noise_similarity(single, double)
+    single = irf.noise.noise3d(300 + random_effects(np.random.default_rng(10), base, shape))
+    double = irf.noise.noise3d(600 + 2 * random_effects(np.random.default_rng(10), base, shape))
+    sim = irf.noise.noise_similarity(single, double)
     assert sim.mu == pytest.approx(0.8, rel=1e-9)
     assert sim.rho == pytest.approx(1.0, abs=1e-12)
     # white vs correlated temporal noise of about the same level: the shape term drops
-    corr = irf.noise3d(300 + random_effects(rng, {"v": 1.0, "vh": 1.5}, shape) + 2.0 * _blurred(rng, shape))
-    diff = irf.noise_similarity(real, corr)
+    corr = irf.noise.noise3d(300 + random_effects(rng, {"v": 1.0, "vh": 1.5}, shape) + 2.0 * _blurred(rng, shape))
+    diff = irf.noise.noise_similarity(real, corr)
     assert diff.overlap["temporal_row"] < 0.9 and diff.rho < same.rho - 0.05
     # temperature units: a simulator with twice the gain and twice the SiTF slope matches
-    real_k = irf.noise3d(300 + random_effects(np.random.default_rng(10), base, shape), sitf=1.0)
-    sim_k = irf.noise3d(600 + 2 * random_effects(np.random.default_rng(10), base, shape), sitf=2.0)
-    assert irf.noise_similarity(real_k, sim_k).mu == pytest.approx(1.0)
-    assert irf.noise_similarity(real_k, sim_k).units == "temperature"
+    real_k = irf.noise.noise3d(300 + random_effects(np.random.default_rng(10), base, shape), sitf=1.0)
+    sim_k = irf.noise.noise3d(600 + 2 * random_effects(np.random.default_rng(10), base, shape), sitf=2.0)
+    assert irf.noise.noise_similarity(real_k, sim_k).mu == pytest.approx(1.0)
+    assert irf.noise.noise_similarity(real_k, sim_k).units == "temperature"
     with pytest.raises(FidelityError, match="SiTF"):
-        irf.noise_similarity(real_k, twin)
+        irf.noise.noise_similarity(real_k, twin)
     with pytest.raises(FidelityError, match="spectra"):
-        irf.noise_similarity(real, irf.noise3d(noise_sums(np.stack([np.ones((4, 4)), np.zeros((4, 4))]))))
+        irf.noise.noise_similarity(real, irf.noise.noise3d(noise_sums(np.stack([np.ones((4, 4)), np.zeros((4, 4))]))))
     with pytest.raises(FidelityError, match="corrected"):
-        irf.noise_similarity(real, irf.noise3d(300 + random_effects(rng, base, shape), corrected=False))
+        irf.noise.noise_similarity(real, irf.noise.noise3d(300 + random_effects(rng, base, shape), corrected=False))
     assert json.dumps(same.to_dict())
     metrics = same.metrics()
     assert list(metrics) == [key for key, _, _ in NOISE_METRICS]
@@ -480,30 +480,30 @@ def test_noise_similarity_levels_and_shapes():
 
 def test_noise_similarity_of_frames_of_different_sizes():
     rng = np.random.default_rng(4)
-    a = irf.noise3d(random_effects(rng, {"tvh": 1.0, "vh": 0.5}, (10, 40, 60)))
-    b = irf.noise3d(random_effects(rng, {"tvh": 1.0, "vh": 0.5}, (10, 33, 51)))
-    assert irf.noise_similarity(a, b).value > 0.93
+    a = irf.noise.noise3d(random_effects(rng, {"tvh": 1.0, "vh": 0.5}, (10, 40, 60)))
+    b = irf.noise.noise3d(random_effects(rng, {"tvh": 1.0, "vh": 0.5}, (10, 33, 51)))
+    assert irf.noise.noise_similarity(a, b).value > 0.93
 
 
 # --------------------------------------------------------------------------- bad input
 def test_fewer_than_two_frames_rows_or_columns():
     with pytest.raises(ShapeError, match="at least 2 frames"):
-        irf.noise3d(np.ones((1, 5, 5), np.uint16))
+        irf.noise.noise3d(np.ones((1, 5, 5), np.uint16))
     with pytest.raises(ShapeError, match="at least 2 x 2"):
-        irf.noise3d(np.ones((5, 1, 5), np.uint16))
+        irf.noise.noise3d(np.ones((5, 1, 5), np.uint16))
     with pytest.raises(ShapeError, match="3 x 3"):
-        irf.noise3d(np.ones((5, 2, 5), np.uint16), detrend="plane")
+        irf.noise.noise3d(np.ones((5, 2, 5), np.uint16), detrend="plane")
     with pytest.raises(ShapeError):
-        irf.noise3d(np.ones((5, 5), np.uint16))
+        irf.noise.noise3d(np.ones((5, 5), np.uint16))
     with pytest.raises(ShapeError):
-        irf.noise3d(np.ones((3, 4, 4), np.int64))
+        irf.noise.noise3d(np.ones((3, 4, 4), np.int64))
 
 
 def test_frames_of_different_shapes_or_dtypes_name_the_file(tmp_path):
     tifffile.imwrite(tmp_path / "a.tif", np.ones((4, 4), np.uint16))
     tifffile.imwrite(tmp_path / "c.tif", np.ones((5, 4), np.uint16))
     with pytest.raises(ShapeError, match=r"c\.tif: frame of 5 x 4"):
-        irf.noise3d([tmp_path / "a.tif", tmp_path / "a.tif", tmp_path / "c.tif"])
+        irf.noise.noise3d([tmp_path / "a.tif", tmp_path / "a.tif", tmp_path / "c.tif"])
     tifffile.imwrite(tmp_path / "b.tif", np.ones((4, 4), np.uint8))
     with pytest.raises(ShapeError, match="b.tif"):
         noise_sums([tmp_path / "a.tif", tmp_path / "b.tif"])
@@ -519,15 +519,15 @@ def test_nan_inf_and_values_above_bits_are_errors_with_positions():
     cube[2, 3, 1] = np.nan
     cube[2, 4, 4] = np.inf
     with pytest.raises(RangeError, match=r"frame 2: 2 non-finite.*row 3, column 1"):
-        irf.noise3d(cube)
+        irf.noise.noise3d(cube)
     ints = np.full((3, 4, 4), 100, np.uint16)
     ints[1, 2, 3] = 4096
     with pytest.raises(RangeError, match="frame 1.*row 2, column 3"):
-        irf.noise3d(ints, bits=12)
+        irf.noise.noise3d(ints, bits=12)
     with pytest.raises(FidelityError, match="bits"):
-        irf.noise3d(np.zeros_like(cube), bits=12)
+        irf.noise.noise3d(np.zeros_like(cube), bits=12)
     with pytest.raises(RangeError, match="too large"):
-        irf.noise3d(np.full((3, 3, 3), 1e200))
+        irf.noise.noise3d(np.full((3, 3, 3), 1e200))
 
 
 def test_clipped_samples_warn_or_raise_with_counts():
@@ -536,10 +536,10 @@ def test_clipped_samples_warn_or_raise_with_counts():
     at_hi = int((cube == 4095).sum())
     assert at_hi > 0
     with pytest.warns(NoiseWarning, match=f"{at_hi} samples at the saturation level 4095"):
-        n3d = irf.noise3d(cube, bits=12, spectra=False)
+        n3d = irf.noise.noise3d(cube, bits=12, spectra=False)
     assert n3d.clipped == {"lo": 0, "hi": 4095, "at_lo": 0, "at_hi": at_hi}
     with pytest.raises(RangeError, match="saturation"):
-        irf.noise3d(cube, bits=12, saturated="raise")
+        irf.noise.noise3d(cube, bits=12, saturated="raise")
     quiet_noise3d(cube, bits=12, saturated="ignore", spectra=False)
     assert quiet_noise3d(cube, spectra=False).clipped["at_hi"] == 0  # 65535 is never reached
 
@@ -550,7 +550,7 @@ def test_a_gradient_warns_and_plane_detrending_removes_it():
     ramp = 0.5 * np.arange(v)[:, None] + 0.3 * np.arange(h)[None, :]
     base = random_effects(rng, {"v": 1.0, "h": 0.8, "vh": 1.2, "tvh": 2.0}, (t, v, h))
     with pytest.warns(NoiseWarning, match="detrend='plane'"):
-        tilted = irf.noise3d(1000 + ramp + base, spectra=False)
+        tilted = irf.noise.noise3d(1000 + ramp + base, spectra=False)
     plain = quiet_noise3d(1000 + base, spectra=False)
     detrended = quiet_noise3d(1000 + ramp + base, detrend="plane", spectra=False)
     assert tilted.sigma["v"] > 3 * plain.sigma["v"]
@@ -567,7 +567,7 @@ def test_an_object_warns_and_a_region_avoids_it():
     disc = 40.0 * ((yy - 20) ** 2 + (xx - 30) ** 2 < 10 ** 2)
     cube = 500 + disc + random_effects(rng, {"vh": 1.0, "tvh": 2.0}, (t, v, h))
     with pytest.warns(NoiseWarning, match="roi="):
-        irf.noise3d(cube, spectra=False)
+        irf.noise.noise3d(cube, spectra=False)
     quiet_noise3d(cube, roi=(32, 48, 0, 48), spectra=False)
 
 
@@ -576,9 +576,9 @@ def test_bad_options_are_errors():
     for kwargs in ({"detrend": "quadratic"}, {"confidence": 1.0}, {"confidence": "high"}, {"corrected": 1},
                    {"saturated": "clip"}, {"spectra_pairs": 0}, {"workers": 0}, {"bits": 2.5}):
         with pytest.raises(FidelityError):
-            irf.noise3d(cube, **kwargs)
+            irf.noise.noise3d(cube, **kwargs)
     with pytest.raises(FidelityError, match="roi"):
-        irf.noise3d(noise_sums(cube), roi=(0, 2, 0, 2))
+        irf.noise.noise3d(noise_sums(cube), roi=(0, 2, 0, 2))
 
 
 # --------------------------------------------------------------------------- real recordings
@@ -607,7 +607,7 @@ def test_lwir_recording_is_near_uniform_and_dominated_by_random_temporal_noise()
 
 def test_mwir_recording_has_dominant_row_structure():
     with pytest.warns(NoiseWarning, match="gradient"):
-        n3d = irf.noise3d(MWIR)
+        n3d = irf.noise.noise3d(MWIR)
     ranked = sorted(n3d.sigma, key=n3d.sigma.get, reverse=True)
     assert ranked[:2] == ["v", "vh"]
     detrended = quiet_noise3d(MWIR, detrend="plane")
@@ -617,12 +617,12 @@ def test_mwir_recording_has_dominant_row_structure():
     sp = detrended.spectra
     assert sp.fixed_col[-1] > 10 * np.median(sp.fixed_col)
     lwir = quiet_noise3d(LWIR)
-    assert irf.noise_similarity(lwir, detrended).value < 0.2
+    assert irf.noise.noise_similarity(lwir, detrended).value < 0.2
 
 
 def test_blackbody_frames_warn_about_the_object_and_its_aperture_is_uniform():
     with pytest.warns(NoiseWarning, match="large-scale structure"):
-        irf.noise3d(BB150)
+        irf.noise.noise3d(BB150)
     # the central 30 x 30 pixels of the source: its emitter still has a gradient across it
     aperture = quiet_noise3d(BB150, roi=(85, 115, 132, 162), detrend="plane")
     assert aperture.frames == 2 and aperture.rows == aperture.cols == 30

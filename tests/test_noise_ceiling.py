@@ -105,7 +105,7 @@ def test_second_frame_differs_by_noise3d_parts_times_root_two(scene):
     cube = np.stack([second_frame(a, QUIET, CONFIG, seed=s) for s in range(40)])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NoiseWarning)  # the scene is the fixed pattern here
-        measured = irf.noise3d(cube, confidence=0.99)
+        measured = irf.noise.noise3d(cube, confidence=0.99)
     expected = {"t": math.sqrt(2) * QUIET["t"], **{p: math.sqrt(1 + kappa) * QUIET[p] for p in ("tv", "th", "tvh")}}
     for part, value in expected.items():
         low, high = measured.ci[part]
@@ -128,7 +128,7 @@ def test_real_recording_on_a_real_pair():
     # the pair's (NMI falls by ~0.01 for 10 % more noise here), SSIM and PSNR both 1 to 4 places.
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NoiseWarning)
-        noise = irf.noise3d(LWIR_UNIFORM)
+        noise = irf.noise.noise3d(LWIR_UNIFORM)
     real, other = (irf.load_frame(p) for p in BB150)
     measured = pair_ceiling(real, other, COMPONENTS, irf.ScoringConfig())
     derived = noise_ceiling(real, noise, COMPONENTS, irf.ScoringConfig())

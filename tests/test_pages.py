@@ -141,14 +141,14 @@ def test_a_looping_ifd_chain_is_read_up_to_the_loop(tmp_path):
 def test_noise3d_of_a_truncated_stack_names_the_file_and_the_break(truncated, tmp_path):
     cut, _, found = truncated  # cut inside page found - 1's pixels: that page fails first
     with pytest.raises(FrameError, match=rf"^{cut}: page {found - 1}: truncated or corrupt TIFF file"):
-        irf.noise3d(cut)
+        irf.noise.noise3d(cut)
     whole = tmp_path / "whole50.tif"
     write_stack(whole, frames(50))
     at = ifds(whole)[30][0]
     short = tmp_path / "short.tif"
     short.write_bytes(whole.read_bytes()[: at + 6])  # every page before page 30 is whole
     with pytest.raises(FrameError, match=rf"^{short}: truncated at page 30: its IFD at byte {at} \(.* the 30 page"):
-        irf.noise3d(short)
+        irf.noise.noise3d(short)
 
 
 def test_a_stack_costs_one_walk_over_its_chain(tmp_path):

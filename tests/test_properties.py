@@ -90,7 +90,7 @@ def test_identity_is_one(pair):
     assert (m["ssim_luminance"], m["ssim_contrast"], m["ssim_structure"], m["ssim"]) == (1.0, 1.0, 1.0, 1.0)
     assert m["nmi"] == 1.0
     if r.dtype.kind in "ui":
-        assert irf.nmi(r, r.copy(), bins="levels").value == 1.0
+        assert irf.stats.nmi(r, r.copy(), bins="levels").value == 1.0
 
 
 # --------------------------------------------------------------------------- bounds
@@ -185,7 +185,7 @@ def test_layout_independence(pair):
 @given(int_pair(max_side=32))
 def test_levels_nmi_equals_sklearn(pair):
     r, s = pair
-    got = irf.nmi(r, s, bins="levels")
+    got = irf.stats.nmi(r, s, bins="levels")
     ref = sklearn_metrics.normalized_mutual_info_score(r.ravel(), s.ravel(), average_method="arithmetic")
     # sklearn returns 1.0 when both labelings are constant, and so does irfidelity (docs/design.md §4);
     # when exactly one is constant sklearn's MI is 0 → 0, as ours.
@@ -216,10 +216,10 @@ def test_binned_nmi_equals_histogram2d_with_integer_level_edges(pair, bins):
     width = -(-levels // bins)  # ceil(span / bins) whole grey levels, starting at the data min
     nb = -(-levels // width)
     edges = lo - 0.5 + width * np.arange(nb + 1, dtype=np.float64)
-    got = irf.nmi(r, s, bins=bins, hist_range="data")
+    got = irf.stats.nmi(r, s, bins=bins, hist_range="data")
     assert got.value == pytest.approx(_hist2d_nmi(r, s, edges), abs=1e-12)
     if levels <= bins:  # a pair spanning at most `bins` levels is binned exactly
-        assert got.value == pytest.approx(irf.nmi(r, s, bins="levels").value, abs=1e-15)
+        assert got.value == pytest.approx(irf.stats.nmi(r, s, bins="levels").value, abs=1e-15)
 
 
 @SETTINGS
@@ -230,7 +230,7 @@ def test_an_offset_reads_nmi_one_on_the_default_binning(pair, offset, bins):
     info = np.iinfo(r.dtype)
     s = r.astype(np.int64) + offset
     assume(s.min() >= info.min and s.max() <= info.max)
-    assert irf.nmi(r, s.astype(r.dtype), bins=bins).value == 1.0
+    assert irf.stats.nmi(r, s.astype(r.dtype), bins=bins).value == 1.0
 
 
 @SETTINGS
@@ -246,5 +246,5 @@ def test_float_binned_nmi_equals_histogram2d(pair, bins):
     pos = np.concatenate([(r64.ravel() - lo) / width, (s64.ravel() - lo) / width])
     frac = np.abs(pos - np.round(pos))
     assume(not np.any((frac < 1e-9) & (np.round(pos) > 0) & (np.round(pos) < bins)))
-    got = irf.nmi(r, s, bins=bins, hist_range="data")
+    got = irf.stats.nmi(r, s, bins=bins, hist_range="data")
     assert got.value == pytest.approx(_hist2d_nmi(r64, s64, edges), abs=1e-12)

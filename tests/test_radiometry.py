@@ -160,7 +160,7 @@ def dataclass_error():
 # ----------------------------------------------------------------------------------- conversion
 
 
-def thermimage_raw2temp(raw, cal: irf.Radiometry):
+def thermimage_raw2temp(raw, cal: irf.radiometry.Radiometry):
     """The published FLIR model, term by term in numpy float64 (°C)."""
     e, od, w = cal.emissivity, cal.object_distance, cal.window_transmission
     ta = cal.atmospheric_temperature
@@ -180,10 +180,10 @@ def thermimage_raw2temp(raw, cal: irf.Radiometry):
     return cal.planck_b / np.log(cal.planck_r1 / (cal.planck_r2 * (obj + cal.planck_o)) + cal.planck_f) - ZERO_C
 
 
-README_CAL = irf.Radiometry(planck_r1=21106.77, planck_r2=0.012545258, planck_b=1501, planck_f=1, planck_o=-7340,
-                            emissivity=0.95, object_distance=1, reflected_temperature=20,
-                            atmospheric_temperature=20, window_temperature=20, window_transmission=0.96,
-                            relative_humidity=50)
+README_CAL = irf.radiometry.Radiometry(planck_r1=21106.77, planck_r2=0.012545258, planck_b=1501, planck_f=1,
+                                       planck_o=-7340, emissivity=0.95, object_distance=1, reflected_temperature=20,
+                                       atmospheric_temperature=20, window_temperature=20, window_transmission=0.96,
+                                       relative_humidity=50)
 
 
 def test_thermimage_worked_value():

@@ -298,7 +298,7 @@ def test_noise_interval_through_the_metric_agrees_with_the_analytic_one():
     real = 3000 + 300 * np.sin(x / 5.0) * np.cos(y / 7.0) + rng.normal(0, 2, (64, 64))
     sim = real + 20 * np.cos(x / 3.0)
     peak = 600.0
-    mc = noise_interval(real, sim, 2.0, lambda r, s: irf.psnr(r, s, peak=peak), draws=400, rng=1)
+    mc = noise_interval(real, sim, 2.0, lambda r, s: irf.stats.psnr(r, s, peak=peak), draws=400, rng=1)
     analytic = psnr_noise_interval(float(np.mean((real - sim) ** 2)), real.size, 2.0, peak=peak)
     width_mc = mc.ci["value"][1] - mc.ci["value"][0]
     width_analytic = analytic.ci["psnr_db"][1] - analytic.ci["psnr_db"][0]

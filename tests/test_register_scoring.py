@@ -73,7 +73,7 @@ def test_registration_restores_the_score_of_a_displaced_simulated_frame():
 def test_the_image_statistics_are_those_of_the_overlap_exactly():
     real, _, moved = simulated_views()
     rep = quiet_evaluate(real, moved, bits=16, register="translation")
-    reg = irf.Registration.from_dict(rep.registration)
+    reg = irf.registration.Registration.from_dict(rep.registration)
     aligned, valid = reg.apply(moved)
     assert not valid.all() and np.isnan(aligned[~valid]).all()  # a border outside the overlap
     st = irf.pair_stats(real.astype(np.float64), aligned, peak=65535.0, mask=valid)
@@ -114,7 +114,7 @@ def test_bit_depth_is_checked_before_registration():
 def test_an_ambiguous_pair_is_an_error_not_an_identity():
     x = np.arange(128)
     bars = [np.tile(1000 + 200 * (0.5 - np.abs(((x - shift) / 8.0) % 1.0 - 0.5)), (96, 1)) for shift in (0.0, -3.0)]
-    with pytest.raises(irf.RegistrationError, match="ambiguous"):  # periodic bars: every period matches
+    with pytest.raises(irf.errors.RegistrationError, match="ambiguous"):  # periodic bars: every period matches
         quiet_evaluate(*bars, peak=1000.0, register="translation")
 
 
@@ -135,7 +135,7 @@ def test_a_sequence_is_registered_once_and_every_pair_scored_as_evaluate_scores_
         first = quiet_evaluate(real, moved, bits=16, register="rigid", **NO_SCENE,
                                **({} if peak is None else {"peak": peak}))
         assert from_files.registration == from_arrays.registration == first.registration
-        reg = irf.Registration.from_dict(first.registration)
+        reg = irf.registration.Registration.from_dict(first.registration)
         for i, s in enumerate(sims):
             aligned, valid = reg.apply(s)
             st = irf.pair_stats(real.astype(np.float64), aligned, peak=65535.0, mask=valid)
@@ -152,7 +152,7 @@ def test_a_sequence_is_registered_once_and_every_pair_scored_as_evaluate_scores_
 def test_a_sequence_whose_first_pair_cannot_be_registered_fails_before_scoring():
     x = np.arange(128)
     bars = [np.tile(1000 + 200 * (0.5 - np.abs(((x - shift) / 8.0) % 1.0 - 0.5)), (96, 1)) for shift in (0.0, -3.0)]
-    with pytest.raises(irf.RegistrationError, match=r"registering the first readable pair \(\[0\] and \[0\]\)"):
+    with pytest.raises(irf.errors.RegistrationError, match=r"registering the first readable pair \(\[0\] and \[0\]\)"):
         irf.score_sequence(np.stack([bars[0]] * 2), np.stack([bars[1]] * 2), peak=1000.0, register="translation",
                            progress=False)
 

@@ -15,7 +15,8 @@ import scipy.ndimage as ndi
 from skimage.registration import phase_cross_correlation
 
 import irfidelity as irf
-from irfidelity import FidelityError, RegistrationError, RegistrationWarning, ShapeError
+from irfidelity.errors import FidelityError, RegistrationError, ShapeError
+from irfidelity.registration import RegistrationWarning
 
 THERMAL = Path(__file__).parent / "data" / "thermal"
 
@@ -232,8 +233,9 @@ def test_nan_and_masked_pixels_are_excluded(lepton):
 
 
 def test_apply_returns_the_mask_of_computable_pixels(lepton):
-    reg = irf.Registration.from_dict({"model": "translation", "method": "phase", "matrix": [[1, 0, 2.5], [0, 1, -1.25]],
-                                      "confidence": 1.0, "overlap": 0.9, "shape": list(lepton.shape)})
+    reg = irf.registration.Registration.from_dict({"model": "translation", "method": "phase",
+                                                   "matrix": [[1, 0, 2.5], [0, 1, -1.25]], "confidence": 1.0,
+                                                   "overlap": 0.9, "shape": list(lepton.shape)})
     sim = lepton.copy()
     sim[50, 80] = np.nan
     for order in (1, 3):
@@ -254,20 +256,21 @@ def test_apply_returns_the_mask_of_computable_pixels(lepton):
 
 
 def test_apply_snaps_near_whole_pixel_translations(lepton):
-    reg = irf.Registration.from_dict({"model": "translation", "method": "phase", "matrix": [[1, 0, 3.008], [0, 1, -1.0]],
-                                      "confidence": 1.0, "overlap": 0.9, "shape": list(lepton.shape)})
+    reg = irf.registration.Registration.from_dict({"model": "translation", "method": "phase",
+                                                   "matrix": [[1, 0, 3.008], [0, 1, -1.0]], "confidence": 1.0,
+                                                   "overlap": 0.9, "shape": list(lepton.shape)})
     out, valid = reg.apply(lepton)
     assert np.array_equal(out[valid], np.roll(lepton, (-1, 3), axis=(0, 1))[valid])
     assert valid.sum() == (lepton.shape[0] - 1) * (lepton.shape[1] - 3)
     assert irf.registration.INTEGER_SNAP < 0.02  # docs/registration.md: snapping more biases PSNR
-    nudged = irf.Registration.from_dict({**reg.to_dict(), "matrix": [[1, 0, 3.03], [0, 1, -1.0]]})
+    nudged = irf.registration.Registration.from_dict({**reg.to_dict(), "matrix": [[1, 0, 3.03], [0, 1, -1.0]]})
     out, valid = nudged.apply(lepton)
     assert not np.array_equal(out[valid], np.roll(lepton, (-1, 3), axis=(0, 1))[valid])
 
 
 def test_registration_round_trips_through_a_dict(lepton):
     reg = irf.register(lepton, ndi.shift(lepton, (1.2, -0.7), order=3, mode="nearest"))
-    again = irf.Registration.from_dict(reg.to_dict())
+    again = irf.registration.Registration.from_dict(reg.to_dict())
     assert np.array_equal(again.matrix, reg.matrix) and again.shift == reg.shift and again.method == reg.method
 
 

@@ -23,7 +23,7 @@ import pytest
 import scipy.ndimage as ndi
 
 import irfidelity as irf
-from irfidelity import RegistrationError
+from irfidelity.errors import RegistrationError
 
 THERMAL = Path(__file__).parent / "data" / "thermal"
 
@@ -119,7 +119,7 @@ def test_subnormal_frames_register_and_the_metrics_say_why_they_refuse(pairs):
     real, sim, _ = pairs["translation"]
     peak = float(real.max())
     tiny_real, tiny_sim = scaled(real, np.float64, 1e-308, peak), scaled(sim, np.float64, 1e-308, peak)
-    with pytest.raises(irf.RangeError) as err:
+    with pytest.raises(irf.errors.RangeError) as err:
         irf.evaluate(tiny_real, tiny_sim, register="translation")
     message = str(err.value)
     assert "underflow" in message and "rescale" in message, message

@@ -90,7 +90,7 @@ def test_pair_report_has_every_section_and_is_self_contained(tmp_path):
     for metric in ("psnr_db", "mtf50_real", "sitf_slope_sim", "h_joint", "ssim_structure"):
         assert metric in text
     # the windowed SSIM mean of the frames, with the report's bits
-    assert f"{irf.ssim_map(p['real'], p['sim'], bits=14).mean:.6g}" in text
+    assert f"{irf.maps.ssim_map(p['real'], p['sim'], bits=14).mean:.6g}" in text
     assert write_html(page, tmp_path / "r.html") == page
     assert (tmp_path / "r.html").read_text(encoding="utf-8") == page
 
@@ -194,7 +194,7 @@ def test_registration_and_given_maps():
     report = dict(p["report"])
     report["registration"] = {"model": "translation", "method": "phase", "matrix": [[1, 0, 2.5], [0, 1, -1.25]],
                               "shift": [1.25, -2.5], "confidence": 0.93, "overlap": 0.97}
-    m = irf.ssim_map(p["real"], p["sim"], bits=14)
+    m = irf.maps.ssim_map(p["real"], p["sim"], bits=14)
     page = render_pair_html(report, real=p["real"], sim=p["sim"], ssim=m,
                             joint_histogram=irf.pair_stats(p["real"], p["sim"], bins="levels").joint_histogram())
     shown = section_ids(page)
@@ -272,7 +272,8 @@ def test_noise_section_shows_both_cameras_parts_and_spectra():
     real = (base + rng.normal(0, 2.0, size=(24, 40, 48))).round().astype(np.uint16)
     sim = (base + rng.normal(0, 5.0, size=(24, 40, 48))).round().astype(np.uint16)
     weights = irf.Weights(mtf=0, sitf=0, psnr=0.3, nmi=0.2, ssim=0.3, noise=0.2)
-    real_noise, sim_noise = irf.noise3d(real, bits=16, spectra=True), irf.noise3d(sim, bits=16, spectra=True)
+    real_noise = irf.noise.noise3d(real, bits=16, spectra=True)
+    sim_noise = irf.noise.noise3d(sim, bits=16, spectra=True)
     report = irf.evaluate(real[0], sim[0], bits=16, weights=weights, real_noise=real_noise, sim_noise=sim_noise)
     page = report.to_html()
     assert section_ids(page).get("noise") is True

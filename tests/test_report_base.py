@@ -172,14 +172,14 @@ def test_noise_options_or_keywords_give_the_same_measurement():
 
     rng = np.random.default_rng(2)
     cube = np.round(1000 + rng.normal(0, 3, (1, 24, 1)) + rng.normal(0, 2, (12, 24, 20))).astype(np.uint16)
-    by_keywords = irf.noise3d(cube, bits=12, detrend="plane", spectra_pairs=4)
-    by_object = irf.noise3d(cube, NoiseOptions(bits=12, detrend="plane", spectra_pairs=4))
+    by_keywords = irf.noise.noise3d(cube, bits=12, detrend="plane", spectra_pairs=4)
+    by_object = irf.noise.noise3d(cube, NoiseOptions(bits=12, detrend="plane", spectra_pairs=4))
     assert by_object.sigma == by_keywords.sigma and by_object.ci == by_keywords.ci
     with pytest.raises(FidelityError, match="bits given twice"):
-        irf.noise3d(cube, NoiseOptions(bits=12), bits=12)
+        irf.noise.noise3d(cube, NoiseOptions(bits=12), bits=12)
     with pytest.raises(FidelityError, match="options must be a NoiseOptions"):
-        irf.noise3d(cube, {"bits": 12})
+        irf.noise.noise3d(cube, {"bits": 12})
     with pytest.raises(TypeError, match="'colour'"):
-        irf.noise3d(cube, colour=1)
+        irf.noise.noise3d(cube, colour=1)
     with pytest.raises(FidelityError, match="confidence must lie in"):
         NoiseOptions(confidence=1.5)

@@ -102,7 +102,7 @@ def test_the_peak_range_is_that_of_the_pixels_scored(tmp_path, moving_view, each
     for source in ((tmp_path / "real", tmp_path / "sim"), (real, np.stack(sims))):
         rep = quietly(irf.score_sequence, *source, **options)
         for i in (0, 3):
-            reg = irf.Registration.from_dict(rep.frames[i]["registration"])
+            reg = irf.registration.Registration.from_dict(rep.frames[i]["registration"])
             assert not reg.apply(sims[i])[1][:2].any()  # the hot border is not scored
             alone = quietly(irf.evaluate, real[i], sims[i], register="translation", bits=16, peak="range", **NO_SCENE)
             if each:

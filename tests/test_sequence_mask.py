@@ -168,12 +168,12 @@ def test_registration_is_searched_and_scored_within_the_mask(lepton, each):
     mask[:5] = False
     mask[46:60, 74:90] = False  # the defects, where they are in both frames
     config = CONFIG.replace(register="translation", register_each=each, bins=64, **NO_SCENE)
-    with pytest.raises(irf.RegistrationError):  # the defects mislead the registration
+    with pytest.raises(irf.errors.RegistrationError):  # the defects mislead the registration
         _quiet(irf.evaluate, real[0], shifted[0], config=config)
     rep = _quiet(score_sequence, real, shifted, config=config, run=QUIET, mask=mask)
     assert not rep.failed
     for i in (0, FRAMES - 1):
-        reg = irf.Registration.from_dict(rep.frames[i]["registration"] if each else rep.registration)
+        reg = irf.registration.Registration.from_dict(rep.frames[i]["registration"] if each else rep.registration)
         assert reg.shift == pytest.approx((-2, 3), abs=0.05)
         # scored: the real pixels within the mask covered by unmasked simulated pixels
         assert rep.frames[i]["metrics"]["n"] == np.count_nonzero(reg.apply(shifted[i], mask=mask)[1] & mask)

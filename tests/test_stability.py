@@ -16,7 +16,7 @@ import pytest
 
 import irfidelity as irf
 from irfidelity.normalize import normalize_psnr
-from irfidelity import FidelityError, RangeError
+from irfidelity.errors import FidelityError, RangeError
 
 mpmath.mp.dps = 60
 
@@ -110,7 +110,7 @@ def check_against_exact(r, s, *, peak=None, tol=1e-14, levels=None):
     if levels or len(set(np.asarray(r).ravel().tolist()) | set(np.asarray(s).ravel().tolist())) <= 256:
         # every distinct value is then its own bin for integer frames
         if r.dtype.kind in "ui":
-            v = irf.nmi(r, s, bins="levels")
+            v = irf.stats.nmi(r, s, bins="levels")
             assert float(abs(v.value - exact_nmi(r, s))) <= 1e-13
     return st, ex
 
@@ -165,9 +165,9 @@ def test_one_frame_constant_the_other_not():
     nm = st.nmi()
     assert nm.value == 0.0 and nm.h_real == 0.0 and nm.h_sim == 4.0
     # and the other way round
-    sm2 = irf.ssim(s, r)
+    sm2 = irf.stats.ssim(s, r)
     assert (sm2.contrast, sm2.structure) == (0.0, 0.0)
-    assert irf.nmi(s, r).value == 0.0
+    assert irf.stats.nmi(s, r).value == 0.0
 
 
 # --------------------------------------------------------------------------- tiny shapes
@@ -199,7 +199,7 @@ def test_empty_and_fully_masked_are_clear_errors():
             f()
     e = np.zeros((0, 5), U16)
     with pytest.raises(FidelityError):
-        irf.mse(e, e)
+        irf.stats.mse(e, e)
 
 
 # --------------------------------------------------------------------------- 16-bit extremes
@@ -335,13 +335,13 @@ def test_float32_at_1e6_offset_sigma_1e2():
     srs = Fraction(int((kr * ks).sum()) * n - sr * ss, n)
     root = mpmath.sqrt(_mp(srr * sss))
     c_ref, s_ref = 2 * root / _mp(srr + sss), _mp(srs) / root
-    sm = irf.ssim(r, s)
+    sm = irf.stats.ssim(r, s)
     assert abs(sm.contrast - c_ref) < 1e-9
     assert abs(sm.structure - s_ref) < 1e-9
     mr, ms = Fraction(10**6) + Fraction(sr, 16 * n), Fraction(10**6) + Fraction(ss, 16 * n)
     assert rel(sm.luminance, _mp(2 * mr * ms / (mr * mr + ms * ms))) < 1e-15
     mse_ref = Fraction(int(((kr - ks) ** 2).sum()), 256 * n)
-    assert rel(irf.mse(r, s), _mp(mse_ref)) < 1e-15
+    assert rel(irf.stats.mse(r, s), _mp(mse_ref)) < 1e-15
     # the naive float32 one-pass formula is useless here (documented in docs/numerics.md)
     r32 = r.ravel()
     naive = np.mean(r32 * r32, dtype=np.float32) - np.mean(r32, dtype=np.float32) ** 2
@@ -418,16 +418,16 @@ def test_float64_subnormals_are_a_clear_error():
     tiny = 5e-324
     r = np.array([[tiny, 2 * tiny]])
     s = np.array([[2 * tiny, tiny]])
-    with pytest.raises(irf.RangeError, match="rescale"):
+    with pytest.raises(irf.errors.RangeError, match="rescale"):
         irf.pair_stats(r, s, peak=1e-300)
     # the PSNR-only pass checks too (it looks for the largest value only when the squares
     # sum to almost nothing), also on frames long enough for the vector loop
     big_r, big_s = np.tile(r, (40, 50)), np.tile(s, (40, 50))
     for a, b in ((r, s), (big_r, big_s)):
-        with pytest.raises(irf.RangeError, match="rescale"):
-            irf.mse(a, b)
+        with pytest.raises(irf.errors.RangeError, match="rescale"):
+            irf.stats.mse(a, b)
     # identical normal frames: squares sum to 0, no error
-    assert irf.mse(np.ldexp(big_r, 1100), np.ldexp(big_r, 1100)) == 0.0
+    assert irf.stats.mse(np.ldexp(big_r, 1100), np.ldexp(big_r, 1100)) == 0.0
     # rescaled by an exact power of two, the same frames are fine and exact
     st = irf.pair_stats(np.ldexp(r, 1100), np.ldexp(s, 1100), peak=1.0)
     m = st.metrics()
@@ -452,7 +452,7 @@ def test_nonfinite_raise_names_count_and_position():
     msg = str(exc.value)
     assert "2 in the real frame" in msg and "1 in the simulated frame" in msg
     assert "row 1, col 3" in msg and "nonfinite='mask'" in msg
-    for f in (irf.mse, irf.ssim):
+    for f in (irf.stats.mse, irf.stats.ssim):
         with pytest.raises(RangeError):
             f(r, s)
 
@@ -485,7 +485,7 @@ def test_negative_floats():
     s = r * 0.9 - 3
     check_against_exact(r, s, peak=100.0, tol=1e-14)
     # means of opposite sign: luminance is negative (eq. 11), SSIM stays in [-1, 1]
-    sm = irf.ssim(r, -r)
+    sm = irf.stats.ssim(r, -r)
     assert sm.luminance == -1.0 and sm.structure == -1.0 and -1 <= sm.value <= 1
 
 
@@ -494,14 +494,14 @@ def test_negative_floats():
 def test_anticorrelated_fractional_gamma_is_sign_preserving(gamma):
     r = np.arange(64, dtype=U16).reshape(8, 8)
     s = (63 - r).astype(U16)  # same mean, s = −1 exactly
-    sm = irf.ssim(r, s, gamma=gamma)
+    sm = irf.stats.ssim(r, s, gamma=gamma)
     assert (sm.luminance, sm.contrast, sm.structure) == (1.0, 1.0, -1.0)
     assert sm.value == -1.0  # sign(s)·|s|^γ = −1 for every γ, even γ = 2 (docs/design.md §4)
     # partially anti-correlated: value = −|s|^γ, real and finite
     rng = np.random.default_rng(5)
     noisy = np.clip(s.astype(np.int64) + rng.integers(-20, 21, s.shape), 0, 200).astype(U16)
     st, ex = check_against_exact(r, noisy)
-    v = irf.ssim(r, noisy, gamma=gamma)
+    v = irf.stats.ssim(r, noisy, gamma=gamma)
     want = ex["l"] * ex["c"] * (-(abs(ex["s"]) ** gamma))
     assert ex["s"] < 0 and abs(v.value - want) < 1e-13
 
@@ -514,7 +514,7 @@ def test_contrast_exactly_zero_with_one_constant_frame():
     r = np.full((4, 4), 65535, U16)
     s = r.copy()
     s[2, 3] = 65534
-    sm = irf.ssim(r, s)
+    sm = irf.stats.ssim(r, s)
     assert sm.contrast == 0.0 and sm.structure == 0.0
 
 
@@ -523,12 +523,12 @@ def test_small_luminance_and_contrast_keep_relative_accuracy():
     r = np.array([[1, 1], [1, 2]], np.uint32)
     s = r * np.uint32(10**9)
     ex = exact_moments(r, s)
-    sm = irf.ssim(r, s)
+    sm = irf.stats.ssim(r, s)
     assert rel(sm.luminance, ex["l"]) < 1e-14
     r = np.array([[0, 1], [0, 1]], np.uint32)
     s = r * np.uint32(10**8)
     ex = exact_moments(r, s)
-    assert rel(irf.ssim(r, s).contrast, ex["c"]) < 1e-14
+    assert rel(irf.stats.ssim(r, s).contrast, ex["c"]) < 1e-14
 
 
 # --------------------------------------------------------------------------- curves

@@ -161,7 +161,7 @@ def test_user_calibrations():
                           weights=WEIGHTS)
     assert linear.metrics["temperature_rmse"] < 1e-9 and linear.components["radiometry"] == pytest.approx(1.0)
     planck = {k: getattr(irf.read_radiometry(FFF_LE), k) for k in irf.radiometry.CALIBRATION_FIELDS[:5]}
-    own = irf.Radiometry(**planck)
+    own = irf.radiometry.Radiometry(**planck)
     expected = thermimage_raw2temp(counts.astype(np.float64) + 15000, own)
     rep = irf.evaluate((counts + 15000).astype(np.uint16), expected, unit="C", calibration=planck, weights=WEIGHTS)
     assert rep.metrics["temperature_rmse"] < 1e-4
@@ -218,7 +218,7 @@ def test_non_finite_temperatures_are_not_silent():
     real = scene()
     sim = real.copy()
     sim[3, 4] = np.nan
-    with pytest.raises(irf.RangeError, match="NaN"):
+    with pytest.raises(irf.errors.RangeError, match="NaN"):
         irf.evaluate(real, sim, unit="K")
     rep = irf.evaluate(real, sim, unit="K", nonfinite="mask", weights=WEIGHTS)
     assert rep.metrics["n"] == real.size - 1

@@ -45,7 +45,7 @@ BINS_CALLS = {
     "ScoringConfig": lambda bins: irf.ScoringConfig(bins=bins),
     "evaluate": lambda bins: irf.evaluate(*frames(), bins=bins, weights="nmi=1"),
     "pair_stats": lambda bins: irf.pair_stats(*frames(), bins=bins),
-    "nmi": lambda bins: irf.nmi(*frames(), bins=bins),
+    "nmi": lambda bins: irf.stats.nmi(*frames(), bins=bins),
     "bins_value": bins_value,
 }
 
@@ -117,7 +117,7 @@ SHAPE_CALLS = {
     "evaluate": lambda r, s: irf.evaluate(r, s),
     "pair_stats": lambda r, s: irf.pair_stats(r, s),
     "score_registered": lambda r, s: score_registered(r, s, PairRequest(), model="translation", method="phase"),
-    "ssim_map": lambda r, s: irf.ssim_map(r, s),
+    "ssim_map": lambda r, s: irf.maps.ssim_map(r, s),
     "score_sequence registered": lambda r, s: _sequence(r, s, register="translation"),
 }
 

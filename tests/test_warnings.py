@@ -54,7 +54,7 @@ def test_reexports_are_the_errors_classes():
 
     assert EdgeWarning is errors.EdgeWarning and CurveUnitsWarning is errors.CurveUnitsWarning
     assert FromFuzzy is errors.AHPConsistencyWarning and NoiseWarning is errors.NoiseWarning
-    assert RegistrationWarning is errors.RegistrationWarning is irfidelity.RegistrationWarning
+    assert RegistrationWarning is errors.RegistrationWarning
 
 
 def test_the_fidelity_filter_catches_an_inconsistent_ahp_matrix():

@@ -63,7 +63,7 @@ def score_registered(real: Any, sim: Any, request: PairRequest, *, model: str | 
     memory budget ``max_bytes`` (default :data:`irfidelity.budget.DEFAULT_MAX_BYTES`).
 
     ``request.valid`` bounds the integer samples before they are resampled; a searched
-    registration of low confidence warns (:class:`~irfidelity.RegistrationWarning`).
+    registration of low confidence warns (:class:`~irfidelity.registration.RegistrationWarning`).
     """
     r, s = (np.ascontiguousarray(f) for f in _frame_pair(real, sim))
     if mask is not None:

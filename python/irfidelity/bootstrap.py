@@ -714,7 +714,7 @@ def psnr_noise_interval(mse: float, n: int, sigma: float, *, peak: float, level:
 
     Model: the real frame is ``scene + e`` with ``e`` independent Gaussian noise of known
     standard deviation ``sigma`` per pixel (e.g. the temporal noise σ_tvh of
-    :func:`irfidelity.noise3d`, or ``std(real_1 − real_2) / √2`` from two frames of a static
+    :func:`irfidelity.noise.noise3d`, or ``std(real_1 − real_2) / √2`` from two frames of a static
     scene). Over noise realisations, with ``m = mean((scene − sim)²)``, the MSE has mean
     ``m + σ²`` and variance ``(4σ²m + 2σ⁴) / n``; ``m`` is estimated by ``max(mse − σ², 0)``.
     The interval ``mse ± z·sd`` (normal, ``n`` is large; the lower end clipped at 0) covers the
@@ -785,7 +785,7 @@ def noise_interval(real: Any, sim: Any, sigma: float, score: Callable[[np.ndarra
     >>> y, x = np.mgrid[0:64, 0:64]
     >>> real = 3000 + 300 * np.sin(x / 5.0) * np.cos(y / 7.0)
     >>> sim = real + 20 * np.cos(x / 3.0)
-    >>> ci = noise_interval(real, sim, 2.0, lambda r, s: irf.psnr(r, s, peak=600.0), draws=100)
+    >>> ci = noise_interval(real, sim, 2.0, lambda r, s: irf.stats.psnr(r, s, peak=600.0), draws=100)
     >>> lo, hi = ci.ci["value"]
     >>> bool(lo < ci.estimate["value"] < hi), round(hi - lo, 2)
     (True, 0.07)

@@ -3,7 +3,7 @@ opt-in ``noise`` and ``mrtd`` components.
 
 A curve input is a :class:`~irfidelity.Curve`, an ``(x, y)`` pair, a CSV path, or — for the
 MTF — a slanted-edge image (array or path) measured with
-:func:`irfidelity.curves.mtf_from_edge`, bar frames (a :class:`~irfidelity.BarFrames` or a
+:func:`irfidelity.curves.mtf_from_edge`, bar frames (a :class:`~irfidelity.bar_frames.BarFrames` or a
 directory with a ``bars.csv``: the fundamental-amplitude MTF), or a CTF curve of
 :func:`irfidelity.curves.ctf_curve` (converted by Coltman's series). An MRTD input is a curve
 (e.g. :func:`irfidelity.curves.mrtd`, the model from MTF and NETD) or bar frames (the MRTD

@@ -233,7 +233,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         psnr, nmi, ssim.
     real_mtf, sim_mtf : Curve, (x, y), CSV path, edge image (2-D array or image path), or bar frames
         MTF curves of both cameras; an edge image goes through
-        :func:`irfidelity.curves.mtf_from_edge`; bar frames (:class:`~irfidelity.BarFrames` or a
+        :func:`irfidelity.curves.mtf_from_edge`; bar frames (:class:`~irfidelity.bar_frames.BarFrames` or a
         directory with a ``bars.csv``) give their fundamental-amplitude MTF, and a CTF curve of
         :func:`irfidelity.curves.ctf_curve` is converted by Coltman's series. Component f1.
     real_sitf, sim_sitf : Curve, (x, y) or CSV path
@@ -248,7 +248,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     real_mrtd, sim_mrtd : Curve, (x, y), CSV path, or bar frames, optional
         The opt-in ``mrtd`` component (weight 0 by default): MRTD curves (e.g. the model
         :func:`irfidelity.curves.mrtd` from MTF and NETD), or bar frames
-        (:class:`~irfidelity.BarFrames` or a directory with a ``bars.csv``) whose MRTD is
+        (:class:`~irfidelity.bar_frames.BarFrames` or a directory with a ``bars.csv``) whose MRTD is
         measured (:func:`irfidelity.curves.measured_mrtd`); compared by
         :func:`irfidelity.curves.mrtd_similarity` (docs/bars.md).
     mask : 2-D bool array or path, optional

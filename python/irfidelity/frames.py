@@ -160,7 +160,7 @@ def load_frame(
         float frame is taken as already in this unit and returned as it is.
     **overrides : float
         With ``unit``: calibration fields replacing the file's (``emissivity=0.98``,
-        ``reflected_temperature=20``, ...; see :class:`irfidelity.Radiometry`).
+        ``reflected_temperature=20``, ...; see :class:`irfidelity.radiometry.Radiometry`).
 
     Returns
     -------

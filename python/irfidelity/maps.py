@@ -1,7 +1,7 @@
 """Where two frames differ: the windowed SSIM map (Wang et al. 2004) and multi-scale SSIM
 (Wang, Simoncelli & Bovik 2003).
 
-The paper's component f5 is the *global* SSIM of the whole frame (:func:`irfidelity.ssim`).
+The paper's component f5 is the *global* SSIM of the whole frame (:func:`irfidelity.stats.ssim`).
 The literature usually quotes the mean of a windowed SSIM map instead; :func:`ssim_map` gives
 that number (scikit-image's ``structural_similarity`` with the paper's settings) and the map
 itself, which shows *where* the simulator departs from the camera. Both run in Rust
@@ -44,7 +44,7 @@ class SSIMMap:
     >>> import numpy as np, irfidelity as irf
     >>> y, x = np.mgrid[0:120, 0:160]
     >>> real = (8000 + 2000 * np.sin(x / 7.0) * np.cos(y / 11.0)).astype(np.uint16)
-    >>> m = irf.ssim_map(real, real // 2 + 4000, bits=14)         # half the contrast
+    >>> m = irf.maps.ssim_map(real, real // 2 + 4000, bits=14)    # half the contrast
     >>> m
     SSIMMap(mean=0.952503, shape=(120, 160), peak=16383)
     >>> m.map.dtype, m.settings()["win_size"], bool(m.map.min() < m.mean < m.map.max())
@@ -142,7 +142,7 @@ def ssim_map(
     k1, k2 : float
         Positive constants (0.01, 0.03 in the paper). With them the map is defined on flat
         regions: two flat windows of values a and b give ``(2ab + C1)/(a² + b² + C1)``
-        (1 when a = b). Use :func:`irfidelity.ssim` for the paper's constant-free global SSIM.
+        (1 when a = b). Use :func:`irfidelity.stats.ssim` for the paper's constant-free global SSIM.
     max_bytes : int, optional
         The memory budget (default :data:`irfidelity.budget.DEFAULT_MAX_BYTES`): the frames,
         the map (8 bytes a pixel) and each thread's band buffers must fit.
@@ -168,11 +168,11 @@ def ssim_map(
     >>> import numpy as np, irfidelity as irf
     >>> rng = np.random.default_rng(0)
     >>> real = rng.integers(0, 16384, size=(120, 160), dtype=np.uint16)
-    >>> m = irf.ssim_map(real, real, bits=14)
+    >>> m = irf.maps.ssim_map(real, real, bits=14)
     >>> m.map.shape, m.mean
     ((120, 160), 1.0)
     >>> noisy = np.clip(real + rng.normal(0, 800, real.shape), 0, 16383).astype(np.uint16)
-    >>> 0 < irf.ssim_map(real, noisy, bits=14).mean < 1
+    >>> 0 < irf.maps.ssim_map(real, noisy, bits=14).mean < 1
     True
 
     References
@@ -197,7 +197,7 @@ def sampled_ssim_map(real, sim, step: int, *, peak: float, max_bytes: int | None
     >>> import numpy as np, irfidelity as irf
     >>> real = np.random.default_rng(1).integers(0, 4096, (64, 80)).astype(np.uint16)
     >>> sim = real // 2 + 100
-    >>> whole, part = irf.ssim_map(real, sim, bits=12), sampled_ssim_map(real, sim, 3, peak=4095.0)
+    >>> whole, part = irf.maps.ssim_map(real, sim, bits=12), sampled_ssim_map(real, sim, 3, peak=4095.0)
     >>> bool(np.array_equal(whole.map[::3, ::3], part.map)), whole.mean == part.mean
     (True, True)
     """
@@ -267,9 +267,9 @@ def ms_ssim(
     >>> import numpy as np, irfidelity as irf
     >>> y, x = np.mgrid[0:120, 0:160]
     >>> real = (8000 + 2000 * np.sin(x / 7.0) * np.cos(y / 11.0)).astype(np.uint16)
-    >>> irf.ms_ssim(real, real, bits=14)
+    >>> irf.maps.ms_ssim(real, real, bits=14)
     1.0
-    >>> 0 < irf.ms_ssim(real, real // 2 + 1000, bits=14) < 1   # 4 scales on 160×120
+    >>> 0 < irf.maps.ms_ssim(real, real // 2 + 1000, bits=14) < 1   # 4 scales on 160×120
     True
 
     References

@@ -2,7 +2,7 @@
 
 These functions take the numbers a :class:`~irfidelity.PairStats` holds (MSE, moments,
 entropies) and apply the paper's formulas with the limits of docs/design.md §4, so that no
-degenerate frame pair produces NaN. The array-level functions ``irf.psnr`` etc. live
+degenerate frame pair produces NaN. The array-level functions ``irf.stats.psnr`` etc. live
 in :mod:`irfidelity.stats`, which computes the statistics first.
 """
 

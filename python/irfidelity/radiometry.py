@@ -77,9 +77,9 @@ class Radiometry:
     Thermimage's worked example (raw 17994.06 seen through a window at 96 % transmission):
 
     >>> import irfidelity as irf
-    >>> cal = irf.Radiometry(planck_r1=21106.77, planck_r2=0.012545258, planck_b=1501,
-    ...                      planck_f=1, planck_o=-7340, emissivity=0.95, object_distance=1,
-    ...                      window_transmission=0.96)
+    >>> cal = irf.radiometry.Radiometry(planck_r1=21106.77, planck_r2=0.012545258, planck_b=1501,
+    ...                                 planck_f=1, planck_o=-7340, emissivity=0.95, object_distance=1,
+    ...                                 window_transmission=0.96)
     >>> round(float(cal.temperature(17994.06)), 5)
     23.31223
     """
@@ -129,8 +129,8 @@ class Radiometry:
         Examples
         --------
         >>> import irfidelity as irf
-        >>> cal = irf.Radiometry(planck_r1=21106.77, planck_r2=0.012545258, planck_b=1501,
-        ...                      planck_f=1, planck_o=-7340)
+        >>> cal = irf.radiometry.Radiometry(planck_r1=21106.77, planck_r2=0.012545258, planck_b=1501,
+        ...                                 planck_f=1, planck_o=-7340)
         >>> cal.replace(emissivity=0.98).emissivity
         0.98
         """
@@ -201,8 +201,8 @@ class Radiometry:
         Examples
         --------
         >>> import numpy as np, irfidelity as irf
-        >>> cal = irf.Radiometry(planck_r1=21106.77, planck_r2=0.012545258, planck_b=1501,
-        ...                      planck_f=1, planck_o=-7340)
+        >>> cal = irf.radiometry.Radiometry(planck_r1=21106.77, planck_r2=0.012545258, planck_b=1501,
+        ...                                 planck_f=1, planck_o=-7340)
         >>> cal.temperature(np.array([17000, 19000], dtype=np.uint16), unit="K").round(2)
         array([290.57, 301.48])
         """
@@ -229,8 +229,8 @@ class Radiometry:
         Examples
         --------
         >>> import irfidelity as irf
-        >>> cal = irf.Radiometry(planck_r1=21106.77, planck_r2=0.012545258, planck_b=1501,
-        ...                      planck_f=1, planck_o=-7340)
+        >>> cal = irf.radiometry.Radiometry(planck_r1=21106.77, planck_r2=0.012545258, planck_b=1501,
+        ...                                 planck_f=1, planck_o=-7340)
         >>> round(float(cal.counts(cal.temperature(18000))), 6)
         18000.0
         """

@@ -190,7 +190,7 @@ def _model(value: Any, where: str) -> str:
     return value
 
 
-#: A registration applied to a pair (:meth:`irfidelity.Registration.to_dict`).
+#: A registration applied to a pair (:meth:`irfidelity.registration.Registration.to_dict`).
 registration = record(
     {"model": _model, "method": text, "shift": numbers_of(2), "angle": finite, "scale": finite,
      "confidence": number, "overlap": fraction},

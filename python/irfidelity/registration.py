@@ -164,7 +164,7 @@ class Registration:
         Examples
         --------
         >>> import numpy as np, irfidelity as irf
-        >>> reg = irf.Registration.from_dict({"model": "translation", "method": "phase",
+        >>> reg = irf.registration.Registration.from_dict({"model": "translation", "method": "phase",
         ...     "matrix": [[1, 0, 2], [0, 1, -1]], "confidence": 1.0, "overlap": 0.9,
         ...     "shape": [4, 5]})
         >>> out, valid = reg.apply(np.arange(20, dtype=np.uint16).reshape(4, 5))

@@ -187,7 +187,7 @@ class ReportBase:
         Each image component divided by its ceiling.
     transfer : dict or None
         The frame pair's transfer relative to the real camera
-        (:meth:`irfidelity.Transfer.to_dict`: the MTF ratio against frequency, its band,
+        (:meth:`irfidelity.system.Transfer.to_dict`: the MTF ratio against frequency, its band,
         gain, offset, noise ratio), when it was measured: the input of ``mtf``, ``sitf`` and
         ``noise`` without camera curves, and a cross-check beside them.
     sources : dict
@@ -310,7 +310,7 @@ class FidelityReport(ReportBase):
         ``membership``, ``component_grades``, ``grade``), derived from the fields above.
     registration : dict or None
         The registration applied before the image components (``config.register``):
-        :meth:`irfidelity.Registration.to_dict` — model, method, matrix, shift, angle, scale,
+        :meth:`irfidelity.registration.Registration.to_dict` — model, method, matrix, shift, angle, scale,
         confidence, overlap. The image components then count the overlap only.
     regions : dict
         With ``evaluate(..., regions=...)``, ``{name: entry}`` per labelled region (labels

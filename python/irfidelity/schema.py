@@ -129,7 +129,7 @@ RESULT_COLUMNS: tuple[tuple[str, str, str], ...] = (
 )
 
 #: A single pair's ``registration`` (``evaluate(..., register=MODEL)``; JSON only):
-#: :meth:`irfidelity.Registration.to_dict`.
+#: :meth:`irfidelity.registration.Registration.to_dict`.
 REGISTRATION: tuple[tuple[str, str, str], ...] = (
     ("model", "", " or ".join(", ".join(f"'{m}'" for m in _core.REGISTRATION_MODELS).rsplit(", ", 1))),
     ("method", "", "the method whose result was kept: 'phase' or 'nmi'"),

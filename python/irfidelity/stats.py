@@ -622,7 +622,7 @@ def mse(real, sim, *, mask=None) -> float:
     >>> import numpy as np, irfidelity as irf
     >>> real = np.array([[100, 200], [300, 400]], dtype=np.uint16)
     >>> sim = np.array([[101, 199], [302, 400]], dtype=np.uint16)
-    >>> irf.mse(real, sim)                        # (1 + 1 + 4 + 0) / 4
+    >>> irf.stats.mse(real, sim)                  # (1 + 1 + 4 + 0) / 4
     1.5
     """
     if mask is None:
@@ -646,16 +646,16 @@ def psnr(real, sim, *, bits: int | None = None, peak: float | str | None = None,
     >>> import numpy as np, irfidelity as irf
     >>> real = np.array([[100, 200], [300, 400]], dtype=np.uint16)
     >>> sim = np.array([[101, 199], [302, 400]], dtype=np.uint16)
-    >>> round(irf.psnr(real, sim, bits=14), 2)     # 10·log10(16383² / 1.5)
+    >>> round(irf.stats.psnr(real, sim, bits=14), 2)     # 10·log10(16383² / 1.5)
     82.53
-    >>> round(irf.psnr(real, sim, peak=300), 2)    # against the scene's range, 400 − 100
+    >>> round(irf.stats.psnr(real, sim, peak=300), 2)    # against the scene's range, 400 − 100
     47.78
-    >>> irf.psnr(real, real, bits=14)
+    >>> irf.stats.psnr(real, real, bits=14)
     inf
     >>> real = np.array([[100, 110], [120, 130]], dtype=np.uint16)
-    >>> round(irf.psnr(real, real + 3, peak="range"), 4)   # 10·log10(30² / 3²)
+    >>> round(irf.stats.psnr(real, real + 3, peak="range"), 4)   # 10·log10(30² / 3²)
     20.0
-    >>> round(irf.psnr(real, real + 3, bits=12, peak=100), 4)
+    >>> round(irf.stats.psnr(real, real + 3, bits=12, peak=100), 4)
     30.4576
     """
     if isinstance(peak, str):
@@ -712,7 +712,7 @@ def ssim(real, sim, *, alpha: float = 1.0, beta: float = 1.0, gamma: float = 1.0
     >>> import numpy as np, irfidelity as irf
     >>> real = np.array([[100, 200], [300, 400]], dtype=np.uint16)
     >>> sim = np.array([[101, 199], [302, 400]], dtype=np.uint16)
-    >>> s = irf.ssim(real, sim)
+    >>> s = irf.stats.ssim(real, sim)
     >>> round(s.value, 5), round(s.luminance, 5), round(s.contrast, 5), round(s.structure, 5)
     (0.99995, 1.0, 1.0, 0.99995)
     """
@@ -737,12 +737,12 @@ def nmi(real, sim, *, bins: int | str = 256, hist_range=DEFAULT_HIST_RANGE, bits
     >>> import numpy as np, irfidelity as irf
     >>> real = np.array([[100, 200], [300, 400]], dtype=np.uint16)
     >>> sim = np.array([[101, 199], [302, 400]], dtype=np.uint16)
-    >>> irf.nmi(real, sim).value               # each real grey level has its own simulated one
+    >>> irf.stats.nmi(real, sim).value         # each real grey level has its own simulated one
     1.0
-    >>> irf.nmi(real, 500 - real).value         # inverted: still one-to-one
+    >>> irf.stats.nmi(real, 500 - real).value   # inverted: still one-to-one
     1.0
     >>> merged = np.array([[100, 100], [300, 400]], dtype=np.uint16)     # two levels merged
-    >>> n = irf.nmi(real, merged)
+    >>> n = irf.stats.nmi(real, merged)
     >>> round(n.value, 4), n.h_real, n.h_sim, n.mi        # MI / ((H(R) + H(S)) / 2) = 1.5 / 1.75
     (0.8571, 2.0, 1.5, 1.5)
     """

@@ -54,7 +54,7 @@ impl SsimParams {
             if !(k.is_finite() && k > 0.0) {
                 return bad(format!(
                     "{name} must be positive and finite (its constant keeps the map defined on flat regions; \
-                     irf.ssim gives the constant-free global SSIM), got {k}"
+                     irf.stats.ssim gives the constant-free global SSIM), got {k}"
                 ));
             }
         }

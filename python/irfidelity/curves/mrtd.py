@@ -98,7 +98,8 @@ def noise_factor(noise: Any, f: np.ndarray, frames: float, bar_length: float, or
         return np.ones_like(f)
     sigma = getattr(noise, "sigma", None)
     if not isinstance(sigma, dict) or "tvh" not in sigma:
-        raise FidelityError(f"noise must be a Noise3D (irfidelity.noise3d), got {type(noise).__name__}", option="noise")
+        raise FidelityError(f"noise must be a Noise3D (irfidelity.noise.noise3d), got {type(noise).__name__}",
+                            option="noise")
     base = float(sigma["tvh"])
     if not base > 0:
         raise FidelityError("noise: the temporal random noise sigma_tvh is 0; the MRTD model needs it", option="noise")

@@ -91,7 +91,7 @@ class Noise3D:
     >>> rng = np.random.default_rng(0)
     >>> rows = rng.normal(0, 3, (1, 64, 1))
     >>> cube = np.round(1000 + rows + rng.normal(0, 2, (50, 64, 64))).astype(np.uint16)
-    >>> n = irf.noise3d(cube)
+    >>> n = irf.noise.noise3d(cube)
     >>> (n.frames, n.rows, n.cols), round(n.mean), round(n.sigma["tvh"], 2), round(n.total, 2)
     ((50, 64, 64), 1000, 2.02, 3.42)
     >>> low, high = n.ci["v"]                                  # 95 % interval of σ_v
@@ -227,7 +227,7 @@ def noise3d(frames: Any, options: NoiseOptions | None = None, **keywords: Any) -
     sitf : SiTFFit or float, optional
         The camera's SiTF (or its slope, signal units per kelvin): reports
         ``netd = σ_tvh / |slope|`` (:func:`irfidelity.curves.netd`) and lets
-        :func:`~irfidelity.noise_similarity` compare levels in temperature units.
+        :func:`~irfidelity.noise.noise_similarity` compare levels in temperature units.
     spectra : bool, default True
         Compute the noise spectra (:class:`~irfidelity.noise.NoiseSpectra`).
     spectra_pairs : int, default 16
@@ -273,15 +273,15 @@ def noise3d(frames: Any, options: NoiseOptions | None = None, **keywords: Any) -
     >>> rng = np.random.default_rng(0)
     >>> rows = rng.normal(0, 3, (1, 64, 1))                # fixed row pattern (v)
     >>> cube = np.round(1000 + rows + rng.normal(0, 2, (50, 64, 64))).astype(np.uint16)
-    >>> n = irf.noise3d(cube)
+    >>> n = irf.noise.noise3d(cube)
     >>> round(n.sigma["v"]), round(n.sigma["tvh"])
     (3, 2)
 
-    The settings as one object (the same as ``irf.noise3d(cube, bits=11, spectra=False)``):
+    The settings as one object (the same as ``irf.noise.noise3d(cube, bits=11, spectra=False)``):
 
     >>> from irfidelity.noise import NoiseOptions
     >>> settings = NoiseOptions(bits=11, spectra=False)
-    >>> irf.noise3d(cube, settings).sigma == irf.noise3d(cube, bits=11, spectra=False).sigma
+    >>> irf.noise.noise3d(cube, settings).sigma == irf.noise.noise3d(cube, bits=11, spectra=False).sigma
     True
 
     References

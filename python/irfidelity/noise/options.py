@@ -1,4 +1,4 @@
-"""How :func:`~irfidelity.noise3d` measures: :class:`NoiseOptions`, checked once when made."""
+"""How :func:`~irfidelity.noise.noise3d` measures: :class:`NoiseOptions`, checked once when made."""
 
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ def _level(confidence: Any) -> float:
 
 @dataclass(frozen=True)
 class NoiseOptions:
-    """The settings of a 3-D noise measurement (each described in :func:`irfidelity.noise3d`,
+    """The settings of a 3-D noise measurement (each described in :func:`irfidelity.noise.noise3d`,
     which takes them as ``options=NoiseOptions(...)`` or as keywords).
 
     Examples

@@ -83,8 +83,8 @@ def temporal_sigma(noise: Any) -> dict[str, float]:
 
     sigma = noise.sigma if isinstance(noise, Noise3D) else noise
     if not isinstance(sigma, Mapping) or not any(p in sigma for p in TEMPORAL_PARTS):
-        raise FidelityError(f"the real camera's noise must be a Noise3D (irfidelity.noise3d of a uniform source) or "
-                            f"a mapping of the temporal σ {list(TEMPORAL_PARTS)}, got {type(noise).__name__}",
+        raise FidelityError(f"the real camera's noise must be a Noise3D (irfidelity.noise.noise3d of a uniform "
+                            f"source) or a mapping of the temporal σ {list(TEMPORAL_PARTS)}, got {type(noise).__name__}",
                             option="real_noise")
     out = {}
     for part in TEMPORAL_PARTS:
@@ -224,7 +224,7 @@ def noise_ceiling(real: Any, noise: Any, components: tuple[str, ...], config: Sc
     real : 2-D array
         The real frame (in the units the noise was measured in).
     noise : Noise3D or mapping
-        The real camera's 3-D noise (:func:`irfidelity.noise3d` of a uniform source), or the
+        The real camera's 3-D noise (:func:`irfidelity.noise.noise3d` of a uniform source), or the
         temporal σ ``{"t", "tv", "th", "tvh"}`` (:func:`temporal_sigma`).
     components : tuple of str
         The components wanted; those of :data:`irfidelity.ceiling.CEILING_COMPONENTS` are given.

@@ -105,7 +105,7 @@ NOISE_METRICS = METRICS["noise"]
 def _levels(noise: Any, who: str, units: str) -> dict[str, float]:
     sigma = getattr(noise, "sigma", None)
     if not isinstance(sigma, dict) or set(sigma) != set(NOISE_PARTS):
-        raise FidelityError(f"{who} noise must be a Noise3D (irfidelity.noise3d), got {type(noise).__name__}")
+        raise FidelityError(f"{who} noise must be a Noise3D (irfidelity.noise.noise3d), got {type(noise).__name__}")
     scale = 1.0 if units == "frame" else abs(noise.sitf_slope)
     return {k: float(sigma[k]) / scale for k in NOISE_PARTS}
 
@@ -162,7 +162,7 @@ def noise_similarity(real_noise: Any, sim_noise: Any, *, alpha: float = 1.0, bet
     Parameters
     ----------
     real_noise, sim_noise : Noise3D
-        From :func:`irfidelity.noise3d` on frames of a uniform source (both with spectra,
+        From :func:`irfidelity.noise.noise3d` on frames of a uniform source (both with spectra,
         the same estimator (``corrected``) and the same units).
     alpha, beta : float
         Exponents, >= 0 (the paper's eq. 3 uses 1).
@@ -184,9 +184,9 @@ def noise_similarity(real_noise: Any, sim_noise: Any, *, alpha: float = 1.0, bet
     --------
     >>> import numpy as np, irfidelity as irf
     >>> rng = np.random.default_rng(1)
-    >>> real = irf.noise3d(rng.normal(100, 2, (8, 32, 32)))
-    >>> sim = irf.noise3d(rng.normal(100, 2, (8, 32, 32)))
-    >>> irf.noise_similarity(real, sim).value > 0.95
+    >>> real = irf.noise.noise3d(rng.normal(100, 2, (8, 32, 32)))
+    >>> sim = irf.noise.noise3d(rng.normal(100, 2, (8, 32, 32)))
+    >>> irf.noise.noise_similarity(real, sim).value > 0.95
     True
 
     References
@@ -196,8 +196,8 @@ def noise_similarity(real_noise: Any, sim_noise: Any, *, alpha: float = 1.0, bet
     """
     for who, noise in (("real", real_noise), ("simulated", sim_noise)):
         if getattr(noise, "spectra", None) is None:
-            raise FidelityError(f"{who} noise has no spectra: compute it with irfidelity.noise3d(frames, spectra=True) "
-                                f"(merged NoiseSums carry no frames for the temporal spectra)")
+            raise FidelityError(f"{who} noise has no spectra: compute it with irfidelity.noise.noise3d(frames, "
+                                f"spectra=True) (merged NoiseSums carry no frames for the temporal spectra)")
         if noise.spectra.temporal_row is None:
             raise FidelityError(f"{who} noise has no temporal spectra (computed from sums without frames)")
     if real_noise.corrected != sim_noise.corrected:

@@ -36,7 +36,7 @@ Region = tuple[int, int, int, int]
 _PY_CHUNK = 16
 
 #: Called with the analysed region's ``(rows, cols)`` and the sample type before a pass
-#: allocates anything (how :func:`irfidelity.noise3d` plans what follows the pass).
+#: allocates anything (how :func:`irfidelity.noise.noise3d` plans what follows the pass).
 Planner = Callable[[tuple[int, int], np.dtype], None]
 
 
@@ -51,7 +51,7 @@ def sums_bytes(pixels: int, dtype: np.dtype) -> int:
 class NoiseSums:
     """Sufficient statistics of a T × V × H recording for the 3-D noise decomposition.
 
-    Made by :func:`noise_sums`; turned into components by :func:`irfidelity.noise3d`.
+    Made by :func:`noise_sums`; turned into components by :func:`irfidelity.noise.noise3d`.
     ``a.merge(b)`` is the sums of ``a``'s frames followed by ``b``'s (same region and
     sample type): equal to one pass over both, exactly for integer frames. Picklable.
 

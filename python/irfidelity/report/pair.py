@@ -4,7 +4,7 @@ Memory (docs/design.md §14): whatever the frame size, the page needs display-si
 only. The difference's statistics and the fallback histograms are summed over bands of rows
 (:data:`BAND_PIXELS` at a time), the SSIM map is computed keeping only its displayed pixels
 (:func:`irfidelity.maps.sampled_ssim_map`, the same values and mean), so besides the frames
-the report holds a few bands, the coarser MS-SSIM scales (planned by :func:`~irfidelity.ms_ssim`)
+the report holds a few bands, the coarser MS-SSIM scales (planned by :func:`~irfidelity.maps.ms_ssim`)
 and, for float16 frames, the joint histogram's float32 copies.
 """
 
@@ -70,7 +70,7 @@ def render_pair_html(
         Valid pixels (``False`` = excluded from the metrics, e.g. outside a registration's
         overlap): shown grey in the difference and left out of the histograms.
     ssim : SSIMMap or 2-D array, optional
-        A precomputed SSIM map; default: :func:`irfidelity.ssim_map` of the frames.
+        A precomputed SSIM map; default: :func:`irfidelity.maps.ssim_map` of the frames.
     joint_histogram : (counts, real_edges, sim_edges), optional
         Default: :meth:`irfidelity.PairStats.joint_histogram` with the report's ``bins`` and
         ``hist_range`` settings (256 bins over the data range when it records none).

@@ -30,7 +30,7 @@ class FrameEntry(Mapping):
         The pair's result, as in :class:`~irfidelity.FidelityReport`; None and empty dicts
         when the pair has an ``error``.
     registration : dict or None
-        The registration applied to the pair (:meth:`irfidelity.Registration.to_dict`).
+        The registration applied to the pair (:meth:`irfidelity.registration.Registration.to_dict`).
     error : str or None
         Why the pair could not be scored, or None.
     extra : dict

@@ -27,7 +27,7 @@ class Outcome:
 
     ``real_extent`` is the real frame's (min, max) over the scored pixels, when the backend
     measured it (needed for ``peak="range"``); ``registration`` the pair's own
-    :class:`~irfidelity.Registration` (``register_each``); ``inputs`` the fingerprints of
+    :class:`~irfidelity.registration.Registration` (``register_each``); ``inputs`` the fingerprints of
     what was scored, ``{"real": ..., "sim": ...}`` (:mod:`.fingerprint`), when asked for and
     taken (a record is kept only with them); ``temperature`` the pair's
     :class:`~irfidelity.temperature.TemperatureErrors` when scored in a unit.

@@ -180,7 +180,7 @@ def frame_statistics(frames: Sequence[Mapping]) -> dict:
 
 def registration_summary(plan: SequencePlan, frames: Sequence[Mapping]) -> dict | None:
     """``report.registration`` of a sequence: the one registration applied to every pair
-    (:meth:`~irfidelity.Registration.to_dict`), or with ``register_each`` the spread of the frames' own —
+    (:meth:`~irfidelity.registration.Registration.to_dict`), or with ``register_each`` the spread of the frames' own —
     ``model``, ``method`` (asked), ``frames`` registered, ``unsure`` (indices below
     ``low_confidence``), and mean/percentiles/min/max of
     ``shift_dy``, ``shift_dx``, ``angle``, ``scale``, ``confidence``, ``overlap``."""

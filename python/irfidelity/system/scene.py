@@ -1,5 +1,5 @@
 """The camera components from the scene: ``mtf``, ``sitf`` and ``noise`` graded from the pair's
-:class:`~irfidelity.Transfer` when no camera curves or noise recordings are given, and
+:class:`~irfidelity.system.Transfer` when no camera curves or noise recordings are given, and
 the scene's estimate beside the curves when they are (a cross-check).
 
 Each component has the value its tolerance's cut is defined on (:mod:`irfidelity.tolerances`),
@@ -222,7 +222,7 @@ def scene_kinds(config: Any, given: Mapping[str, bool], *, frames: bool, real_no
 
 @dataclass(frozen=True)
 class SceneEstimate:
-    """The pair's :class:`~irfidelity.Transfer`, the components it stands in for, its
+    """The pair's :class:`~irfidelity.system.Transfer`, the components it stands in for, its
     ``scene_*`` metrics (with ``<component>_source`` = "scene"), and the components it could not
     give with why."""
 

@@ -42,7 +42,7 @@ def tiling(shape: tuple[int, int], tile: int) -> int:
 
 @dataclass
 class TransferSpectra:
-    """The sums a :class:`~irfidelity.Transfer` is estimated from, mergeable over the
+    """The sums a :class:`~irfidelity.system.Transfer` is estimated from, mergeable over the
     frames of a sequence.
 
     ``tiles`` per group; ``real``, ``sim``, ``cross`` (complex), ``difference`` (None without a
