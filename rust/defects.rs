@@ -639,8 +639,8 @@ mod tests {
         }
     }
 
-    /// The uint16-against-float64 AVX2 pass equals the portable one, with a mask, NaN and ±∞
-    /// (not scored), lengths off the 4-pixel step.
+    /// The uint16- and float64-against-float64 AVX2 passes equal the portable one, with a mask,
+    /// NaN and ±∞ (not scored) on either side, lengths off the 4-pixel step.
     #[test]
     fn uint16_against_float64_equals_the_portable_one() {
         let lengths: &[usize] = if cfg!(miri) { &[1, 3, 5, 9] } else { &[1, 3, 5, 4099] };
@@ -651,10 +651,17 @@ mod tests {
                 sim[i] = bad;
             }
             let mask: Vec<bool> = (0..n).map(|i| i % 7 != 3).collect();
+            let mut real_f: Vec<f64> = real.iter().map(|&r| f64::from(r) + 0.25).collect();
+            real_f[n / 3] = f64::NAN;
             for mask in [None, Some(&mask[..])] {
                 let pair = Pair { real: &real[..], sim: &sim[..], mask };
                 let (fast, portable) = (pair.chunk_sums((0, n)), pair.sums((0, n)));
                 assert_eq!((fast.count, fast.largest), (portable.count, portable.largest), "n={n}");
+                assert!((fast.total - portable.total).abs() <= 1e-12 * portable.total);
+                assert!((fast.squares - portable.squares).abs() <= 1e-12 * portable.squares);
+                let pair = Pair { real: &real_f[..], sim: &sim[..], mask };
+                let (fast, portable) = (pair.chunk_sums((0, n)), pair.sums((0, n)));
+                assert_eq!((fast.count, fast.largest), (portable.count, portable.largest), "float64, n={n}");
                 assert!((fast.total - portable.total).abs() <= 1e-12 * portable.total);
                 assert!((fast.squares - portable.squares).abs() <= 1e-12 * portable.squares);
             }

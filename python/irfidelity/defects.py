@@ -290,7 +290,9 @@ def _candidates(real: np.ndarray, sim: np.ndarray, scored: np.ndarray, median: f
     far = np.empty(real.shape, dtype=bool)
     with np.errstate(invalid="ignore"):
         for block in budget.row_blocks(real.shape):
-            np.greater(np.abs(sim[block].astype(np.float64) - real[block] - median), threshold, out=far[block])
+            distance = np.subtract(sim[block], real[block], dtype=np.float64)
+            distance -= median
+            np.greater(np.abs(distance, out=distance), threshold, out=far[block])
     far &= scored
     return far
 

@@ -5,12 +5,19 @@ use super::parallel::{cost, fold_chunks};
 use super::request::Request;
 use super::sample::Sample;
 
-/// Min and max of two runs of samples by plain compares, in the native width. `None` for
-/// empty runs. NaN is not ordered: callers check finiteness. Integers: one running min/max,
-/// which LLVM vectorises itself (pminuw & co.). Floats: sixteen independent lanes, since
-/// LLVM may not reorder float compares and a single running min/max stays a scalar `maxss`
-/// chain (2 ns per value); lanes vectorise to minps/maxps.
-pub(crate) fn min_max<T: Sample>(r: &[T], s: &[T]) -> Option<(T, T)> {
+avx2_copy! {
+    /// Min and max of two runs of samples by plain compares, in the native width. `None` for
+    /// empty runs. NaN is not ordered: callers check finiteness. Integers: one running min/max,
+    /// which LLVM vectorises itself (pminuw & co.). Floats: sixteen independent lanes, since
+    /// LLVM may not reorder float compares and a single running min/max stays a scalar `maxss`
+    /// chain (2 ns per value); lanes vectorise to minps/maxps (whole AVX2 registers in the
+    /// AVX2 copy).
+    pub(crate) fn min_max[T: Sample](r: &[T], s: &[T]) -> Option<(T, T)>
+    => min_max_avx2, min_max_portable
+}
+
+#[inline(always)]
+fn min_max_portable<T: Sample>(r: &[T], s: &[T]) -> Option<(T, T)> {
     const L: usize = 16;
     let first = *r.first()?;
     if T::IS_INT {
@@ -42,6 +49,36 @@ pub(crate) fn min_max<T: Sample>(r: &[T], s: &[T]) -> Option<(T, T)> {
     Some((fold(lo, |v, m| v < m), fold(hi, |v, m| v > m)))
 }
 
+avx2_copy! {
+    /// [`min_max`] of a float64 run (temperatures, resampled frames) in eight lanes of
+    /// `f64::min`/`f64::max`, which compile to whole-register `vminpd`/`vmaxpd` where
+    /// [`min_max`]'s generic compares do not. A NaN or ±Inf anywhere makes both ends NaN, so
+    /// the caller takes its careful loop.
+    fn float64_ends(values: &[f64]) -> Option<(f64, f64)>
+    => float64_ends_avx2, float64_ends_portable
+}
+
+#[inline(always)]
+fn float64_ends_portable(values: &[f64]) -> Option<(f64, f64)> {
+    const L: usize = 8;
+    let first = *values.first()?;
+    // v − v is 0 for a finite value and NaN for NaN or ±Inf, and a NaN stays in the sum
+    let (mut lo, mut hi, mut probe) = ([first; L], [first; L], [0.0; L]);
+    let lanes = values.chunks_exact(L);
+    for &v in lanes.remainder() {
+        (lo[0], hi[0], probe[0]) = (lo[0].min(v), hi[0].max(v), probe[0] + (v - v));
+    }
+    for c in lanes {
+        for k in 0..L {
+            (lo[k], hi[k], probe[k]) = (lo[k].min(c[k]), hi[k].max(c[k]), probe[k] + (c[k] - c[k]));
+        }
+    }
+    if probe.iter().any(|p| p.is_nan()) {
+        return Some((f64::NAN, f64::NAN));
+    }
+    Some((lo.iter().fold(first, |m, &v| m.min(v)), hi.iter().fold(first, |m, &v| m.max(v))))
+}
+
 /// Min and max over the counted pixels of both frames (f64 for floats, exact for ints).
 pub(super) fn data_range<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<(f64, f64)> {
     data_ranges(r, s, req).map(|(a, b)| (a.0.min(b.0), a.1.max(b.1)))
@@ -56,7 +93,10 @@ pub(super) fn data_ranges<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<
         if req.mask.is_none() {
             // a branch-free loop the compiler vectorises; for floats it is kept only when all
             // ends are finite (a NaN or ±Inf anywhere falls through to the careful loop)
-            let ends = |v: &[T]| min_max(v, &[]).map(|(lo, hi)| (lo.to_f64(), hi.to_f64()));
+            let ends = |v: &[T]| match T::as_f64(v) {
+                Some(v) => float64_ends(v),
+                None => min_max(v, &[]).map(|(lo, hi)| (lo.to_f64(), hi.to_f64())),
+            };
             match (ends(&r[a..b]), ends(&s[a..b])) {
                 (None, _) | (_, None) => return (EMPTY, EMPTY),
                 (Some(x), Some(y)) if T::IS_INT || [x.0, x.1, y.0, y.1].iter().all(|v| v.is_finite()) => return (x, y),
@@ -259,6 +299,22 @@ pub(super) fn robust_range<T: Sample>(bulk: Option<Bulk>, full: (f64, f64)) -> (
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn float64_ends_match_plain_extremes_and_flag_non_finite_values() {
+        let values: Vec<f64> = (0..1037).map(|i| ((i * 7919) % 1013) as f64 * 0.5 - 100.0).collect();
+        let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        assert_eq!(float64_ends(&values), Some((lo, hi)));
+        assert_eq!(float64_ends(&[]), None);
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            for at in [0, 5, 1036] {
+                let mut with_bad = values.clone();
+                with_bad[at] = bad;
+                let (a, b) = float64_ends(&with_bad).unwrap();
+                assert!(a.is_nan() && b.is_nan(), "{bad} at {at}");
+            }
+        }
+    }
 
     #[test]
     fn the_bulk_range_keeps_a_clean_frame_and_cuts_a_few_extremes() {

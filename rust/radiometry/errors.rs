@@ -38,10 +38,9 @@ pub fn error_sums(real: &[f64], sim: &[f64], mask: Option<&[bool]>, tolerance: f
             sim.len()
         )));
     }
-    let Ok(parts) =
-        map_chunks::<_, std::convert::Infallible>(real.len(), NS_PER_PX, |(a, b)| {
-            Ok(chunk(&real[a..b], &sim[a..b], mask.map(|m| &m[a..b]), tolerance))
-        });
+    let Ok(parts) = map_chunks::<_, std::convert::Infallible>(real.len(), NS_PER_PX, |(a, b)| {
+        Ok(chunk(&real[a..b], &sim[a..b], mask.map(|m| &m[a..b]), tolerance))
+    });
     let (mut sum, mut squares, mut magnitudes) = (Neumaier::default(), Neumaier::default(), Neumaier::default());
     let (mut n, mut within) = (0u64, 0u64);
     for part in &parts {
@@ -178,11 +177,8 @@ mod tests {
         sim[10] = f64::INFINITY;
         let mask: Vec<bool> = (0..1003).map(|i| i % 5 != 0).collect();
         let got = error_sums(&real, &sim, Some(&mask), 1.0).unwrap();
-        let kept: Vec<f64> = (0..1003)
-            .filter(|&i| mask[i])
-            .map(|i| sim[i] - real[i])
-            .filter(|d| d.is_finite())
-            .collect();
+        let kept: Vec<f64> =
+            (0..1003).filter(|&i| mask[i]).map(|i| sim[i] - real[i]).filter(|d| d.is_finite()).collect();
         assert_eq!(got.n, kept.len() as u64);
         assert_eq!(got.within, kept.iter().filter(|d| d.abs() <= 1.0).count() as u64);
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1.0);

@@ -207,18 +207,25 @@ pub trait Sample: Copy + Send + Sync {
 }
 
 macro_rules! sample {
-    ($is_integer:expr => $($t:ty),*) => {$(
+    (integer: $($t:ty),*) => {$(
         impl Sample for $t {
             #[inline]
             fn value(self) -> f64 { f64::from(self) }
             #[inline]
-            #[allow(clippy::cast_possible_truncation)]
-            fn integer(self) -> Option<i64> { $is_integer.then(|| f64::from(self) as i64) }
+            fn integer(self) -> Option<i64> { Some(i64::from(self)) }
+        }
+    )*};
+    (float: $($t:ty),*) => {$(
+        impl Sample for $t {
+            #[inline]
+            fn value(self) -> f64 { f64::from(self) }
+            #[inline]
+            fn integer(self) -> Option<i64> { None }
         }
     )*};
 }
-sample!(true => u8, u16, i16, u32);
-sample!(false => half::f16, f32, f64);
+sample!(integer: u8, u16, i16, u32);
+sample!(float: half::f16, f32, f64);
 
 /// The result of a conversion: one value per input, and how many became NaN.
 #[derive(Debug, Clone, PartialEq)]
@@ -241,17 +248,29 @@ fn convert<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync + Copy) -> Resu
     let (outside, nonfinite) = values
         .par_chunks_mut(CHUNK)
         .zip(input.par_chunks(CHUNK))
-        .map(|(out, inp)| {
-            match &table {
-                Some((low, t)) => inp.iter().zip(out.iter_mut()).for_each(|(x, o)| {
-                    *o = t[(x.integer().unwrap_or(*low) - low) as usize];
-                }),
-                None => apply(inp, out, f),
+        .map(|(out, inp)| match &table {
+            Some((low, t)) => (look_up(inp, out, *low, t), 0),
+            None => {
+                apply(inp, out, f);
+                count_nan(inp, out)
             }
-            count_nan(inp, out)
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     Ok(Converted { values, outside, nonfinite })
+}
+
+/// `out[i] = table[inp[i] − low]` for integer inputs within the table; the results that are
+/// NaN (counts outside the calibration's domain).
+fn look_up<T: Sample>(inp: &[T], out: &mut [f64], low: i64, table: &[f64]) -> usize {
+    let mut nan = 0;
+    for (x, o) in inp.iter().zip(out.iter_mut()) {
+        // every input lies within the table (it spans their min..=max)
+        let at = x.integer().map_or(usize::MAX, |v| v.wrapping_sub(low) as usize);
+        let v = table.get(at).copied().unwrap_or(f64::NAN);
+        nan += v.is_nan() as usize;
+        *o = v;
+    }
+    nan
 }
 
 avx2_copy! {
@@ -276,15 +295,36 @@ fn count_nan<T: Sample>(inp: &[T], out: &[f64]) -> (usize, usize) {
 
 /// `f` over `min..=max` of integer inputs, when that range is under a quarter of their count.
 fn integer_table<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync) -> Option<(i64, Vec<f64>)> {
+    input.first()?.integer()?; // float inputs: no table
     let (low, high) = input
         .par_chunks(CHUNK)
-        .map(|c| c.iter().filter_map(|x| x.integer()).fold((i64::MAX, i64::MIN), |(l, h), v| (l.min(v), h.max(v))))
-        .reduce(|| (i64::MAX, i64::MIN), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+        .map(value_range)
+        .reduce(|| (f64::INFINITY, f64::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+    // integer inputs: their values are whole numbers well within i64
+    let (low, high) = (low as i64, high as i64);
     let span = usize::try_from(high.checked_sub(low)?).ok()? + 1;
     if span > input.len() / 4 {
         return None;
     }
     Some((low, (0..span).into_par_iter().map(|i| f((low + i as i64) as f64)).collect()))
+}
+
+/// The min and max of a run's values, by plain compares in eight lanes (which vectorise).
+fn value_range<T: Sample>(values: &[T]) -> (f64, f64) {
+    const LANES: usize = 8;
+    let (mut lo, mut hi) = ([f64::INFINITY; LANES], [f64::NEG_INFINITY; LANES]);
+    let blocks = values.chunks_exact(LANES);
+    for (k, x) in blocks.remainder().iter().enumerate() {
+        (lo[k], hi[k]) = (x.value(), x.value());
+    }
+    for block in blocks {
+        for k in 0..LANES {
+            let v = block[k].value();
+            lo[k] = if v < lo[k] { v } else { lo[k] };
+            hi[k] = if v > hi[k] { v } else { hi[k] };
+        }
+    }
+    (lo.iter().fold(f64::INFINITY, |m, &v| m.min(v)), hi.iter().fold(f64::NEG_INFINITY, |m, &v| m.max(v)))
 }
 
 /// Temperatures (in `unit`) of raw counts.
