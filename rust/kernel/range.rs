@@ -62,15 +62,15 @@ avx2_copy! {
 fn float64_ends_portable(values: &[f64]) -> Option<(f64, f64)> {
     const L: usize = 8;
     let first = *values.first()?;
-    // v − v is 0 for a finite value and NaN for NaN or ±Inf, and a NaN stays in the sum
+    // v · 0 is 0 for a finite value and NaN for NaN or ±Inf, and a NaN stays in the sum
     let (mut lo, mut hi, mut probe) = ([first; L], [first; L], [0.0; L]);
     let lanes = values.chunks_exact(L);
     for &v in lanes.remainder() {
-        (lo[0], hi[0], probe[0]) = (lo[0].min(v), hi[0].max(v), probe[0] + (v - v));
+        (lo[0], hi[0], probe[0]) = (lo[0].min(v), hi[0].max(v), probe[0] + v * 0.0);
     }
     for c in lanes {
         for k in 0..L {
-            (lo[k], hi[k], probe[k]) = (lo[k].min(c[k]), hi[k].max(c[k]), probe[k] + (c[k] - c[k]));
+            (lo[k], hi[k], probe[k]) = (lo[k].min(c[k]), hi[k].max(c[k]), probe[k] + c[k] * 0.0);
         }
     }
     if probe.iter().any(|p| p.is_nan()) {
