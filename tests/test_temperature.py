@@ -77,6 +77,25 @@ def test_errors_equal_the_reference_with_a_mask():
     assert rep.fidelity == pytest.approx(math.fsum(rep.weights[k] * rep.components[k] for k in rep.components))
 
 
+def test_errors_of_strided_frames_over_several_blocks_equal_the_reference():
+    """One Rust pass a block of rows at a time: a frame larger than one block, a strided view
+    (copied a block at a time), NaN and ±inf on either side, a mask."""
+    from irfidelity.temperature import TemperatureErrors
+
+    rng = np.random.default_rng(7)
+    real = 300 + rng.normal(0, 2, (1100, 1001))
+    sim = real + rng.normal(0.3, 0.6, real.shape)
+    real[3, 4], sim[700, 10], sim[1099, 1000] = np.nan, np.inf, -np.inf
+    mask = rng.random(real.shape) > 0.2
+    for r, s, m in ((real, sim, mask), (real[:, ::2], sim[:, ::2], mask[:, ::2]), (real, sim, None)):
+        errors = TemperatureErrors.of_frames(r, s, tolerance=0.5, unit="K", mask=m)
+        ref = reference_errors(r, s, 0.5, m)
+        assert (errors.n, errors.within / errors.n) == (ref["n"], ref["within"])
+        assert errors.bias == pytest.approx(ref["bias"], rel=1e-12)
+        assert errors.rmse == pytest.approx(ref["rmse"], rel=1e-12)
+        assert errors.mae == pytest.approx(ref["mae"], rel=1e-12)
+
+
 def test_psnr_peak_is_the_real_temperature_range():
     real, sim = scene(2), scene(3)
     rep = irf.evaluate(real, sim, unit="C", weights="psnr=1")

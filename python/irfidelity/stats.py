@@ -8,6 +8,7 @@ frames are summed exactly, float frames with centred, compensated sums.
 
 from __future__ import annotations
 
+import math
 import numbers
 import os
 import reprlib
@@ -688,6 +689,10 @@ def real_range(real: np.ndarray, mask: Any, nonfinite: str) -> float | None:
     masks it makes are one byte a pixel: the memory plan of scoring counts them)."""
     values = np.asarray(real)
     where = None if mask is None else np.asarray(mask, dtype=bool)
+    if values.dtype.kind == "f" and where is None and values.size:
+        low, high = float(values.min()), float(values.max())  # NaN propagates: finite ends, finite frame
+        if math.isfinite(low) and math.isfinite(high):
+            return high - low
     if values.dtype.kind == "f":
         finite = np.isfinite(values)
         scored_finite = finite if where is None else finite | ~where

@@ -253,15 +253,21 @@ class TemperatureErrors:
 
     @classmethod
     def of_frames(cls, real: Any, sim: Any, *, tolerance: float, unit: str, mask: Any = None) -> TemperatureErrors:
-        """The errors over the pixel pairs where ``mask`` is true and both values are finite,
-        in one pass (``_core.temperature_errors``): no frame-sized temporary for frames that
-        are float64 already."""
+        """The errors over the pixel pairs where ``mask`` is true and both values are finite:
+        one Rust pass (``_core.temperature_errors``) a block of rows at a time, so frames that
+        are not C-contiguous float64 are copied a block at a time, not whole."""
         real, sim = np.broadcast_arrays(np.atleast_1d(real), np.atleast_1d(sim))
-        real, sim = (np.ascontiguousarray(x, dtype=np.float64) for x in (real, sim))
-        kept = None if mask is None else np.ascontiguousarray(np.broadcast_to(np.asarray(mask, dtype=bool), real.shape))
-        n, total, squares, magnitudes, within = _core.temperature_errors(real, sim, kept, tolerance=float(tolerance))
+        keep_all = None if mask is None else np.broadcast_to(np.asarray(mask, dtype=bool), real.shape)
+        n, within, sums = 0, 0, []
+        for block in budget.row_blocks(real.shape):
+            r, s = (np.ascontiguousarray(x[block], dtype=np.float64) for x in (real, sim))
+            kept = None if keep_all is None else np.ascontiguousarray(keep_all[block])
+            count, total, squares, magnitudes, close = _core.temperature_errors(r, s, kept, tolerance=float(tolerance))
+            n, within = n + count, within + close
+            sums.append((total, squares, magnitudes))
         if n == 0:
             raise FidelityError("no pixel pair with finite temperatures on both sides to compare", option="mask")
+        total, squares, magnitudes = (math.fsum(column) for column in zip(*sums))
         return cls(n=n, bias=total / n, rmse=math.sqrt(squares / n), mae=magnitudes / n, within=within,
                    tolerance=float(tolerance), unit=unit)
 

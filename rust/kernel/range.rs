@@ -49,34 +49,64 @@ fn min_max_portable<T: Sample>(r: &[T], s: &[T]) -> Option<(T, T)> {
     Some((fold(lo, |v, m| v < m), fold(hi, |v, m| v > m)))
 }
 
-avx2_copy! {
-    /// [`min_max`] of a float64 run (temperatures, resampled frames) in eight lanes of
-    /// `f64::min`/`f64::max`, which compile to whole-register `vminpd`/`vmaxpd` where
-    /// [`min_max`]'s generic compares do not. A NaN or ±Inf anywhere makes both ends NaN, so
-    /// the caller takes its careful loop.
-    fn float64_ends(values: &[f64]) -> Option<(f64, f64)>
-    => float64_ends_avx2, float64_ends_portable
+/// [`min_max`] of a float64 run (temperatures, resampled frames), through explicit AVX2
+/// `vminpd`/`vmaxpd` when the CPU has it (neither [`min_max`]'s generic compares nor
+/// `f64::min` vectorise to them). A NaN or ±Inf anywhere makes both ends NaN, so the caller
+/// takes its careful loop.
+fn float64_ends(values: &[f64]) -> Option<(f64, f64)> {
+    #[cfg(target_arch = "x86_64")]
+    if super::use_avx2() {
+        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+        return unsafe { float64_ends_avx2(values) };
+    }
+    float64_ends_portable(values)
 }
 
-#[inline(always)]
 fn float64_ends_portable(values: &[f64]) -> Option<(f64, f64)> {
-    const L: usize = 8;
     let first = *values.first()?;
     // v · 0 is 0 for a finite value and NaN for NaN or ±Inf, and a NaN stays in the sum
-    let (mut lo, mut hi, mut probe) = ([first; L], [first; L], [0.0; L]);
-    let lanes = values.chunks_exact(L);
-    for &v in lanes.remainder() {
-        (lo[0], hi[0], probe[0]) = (lo[0].min(v), hi[0].max(v), probe[0] + v * 0.0);
-    }
-    for c in lanes {
-        for k in 0..L {
-            (lo[k], hi[k], probe[k]) = (lo[k].min(c[k]), hi[k].max(c[k]), probe[k] + c[k] * 0.0);
+    let (lo, hi, probe) = values.iter().fold((first, first, 0.0), |(lo, hi, probe), &v| {
+        (if v < lo { v } else { lo }, if v > hi { v } else { hi }, probe + v * 0.0)
+    });
+    Some(if probe.is_nan() { (f64::NAN, f64::NAN) } else { (lo, hi) })
+}
+
+/// [`float64_ends`] eight values per step (two vectors per end), the remainder portably.
+///
+/// # Safety
+/// The CPU supports AVX2 (the loads stay within the slice for any length).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn float64_ends_avx2(values: &[f64]) -> Option<(f64, f64)> {
+    use std::arch::x86_64::*;
+    let first = *values.first()?;
+    let full = values.len() / 8 * 8;
+    let (zero, start) = (_mm256_setzero_pd(), _mm256_set1_pd(first));
+    let (mut lo, mut hi, mut probe) = ([start; 2], [start; 2], [zero; 2]);
+    for i in (0..full).step_by(8) {
+        for h in 0..2 {
+            // SAFETY: i + 4h + 4 <= i + 8 <= full <= values.len()
+            let v = unsafe { _mm256_loadu_pd(values.as_ptr().add(i + 4 * h)) };
+            lo[h] = _mm256_min_pd(lo[h], v);
+            hi[h] = _mm256_max_pd(hi[h], v);
+            probe[h] = _mm256_add_pd(probe[h], _mm256_mul_pd(v, zero));
         }
     }
-    if probe.iter().any(|p| p.is_nan()) {
+    let lanes = |v: [__m256d; 2]| {
+        let mut out = [0.0f64; 8];
+        // SAFETY: `out` holds 8 doubles, two 4-lane stores at 0 and 4
+        unsafe {
+            _mm256_storeu_pd(out.as_mut_ptr(), v[0]);
+            _mm256_storeu_pd(out.as_mut_ptr().add(4), v[1]);
+        }
+        out
+    };
+    let (lo, hi, probe) = (lanes(lo), lanes(hi), lanes(probe));
+    let (rest_lo, rest_hi) = float64_ends_portable(&values[full..]).unwrap_or((first, first));
+    if probe.iter().any(|p| p.is_nan()) || rest_lo.is_nan() {
         return Some((f64::NAN, f64::NAN));
     }
-    Some((lo.iter().fold(first, |m, &v| m.min(v)), hi.iter().fold(first, |m, &v| m.max(v))))
+    Some((lo.iter().fold(rest_lo, |m, &v| m.min(v)), hi.iter().fold(rest_hi, |m, &v| m.max(v))))
 }
 
 /// Min and max over the counted pixels of both frames (f64 for floats, exact for ints).
@@ -179,12 +209,20 @@ pub(super) fn bulk<T: Sample>(values: &[T], other: Option<&[T]>, req: &Request, 
     let kept = |i: usize| req.mask.is_none_or(|m| m[i]);
     if T::IS_INT {
         let level = |v: T| v.to_f64() as i64;
-        let sample = match req.mask {
-            None => whole_sample(values, level),
-            Some(_) => bulk_sample(values.len(), kept, |i| level(values[i])),
-        };
         let (lo, span) = (full.0 as i64, (full.1 - full.0) as usize);
-        let ranks = if span < 1 << 20 { counted_quantiles(&sample, lo, span) } else { quantiles(&mut { sample }) };
+        let ranks = match req.mask {
+            // every pixel counts, so every one lies within `full`: counted where it is read
+            None if span < 1 << 20 => whole_counts(values, lo, span),
+            None => quantiles(&mut whole_sample(values, level)),
+            Some(_) => {
+                let sample = bulk_sample(values.len(), kept, |i| level(values[i]));
+                if span < 1 << 20 {
+                    counted_quantiles(&sample, lo, span)
+                } else {
+                    quantiles(&mut { sample })
+                }
+            }
+        };
         return ranks.map(|[a, m, b]| Bulk { low: a as f64, median: m as f64, high: b as f64 });
     }
     let finite = |i: usize| values[i].to_f64().is_finite() && other.is_none_or(|o| o[i].to_f64().is_finite());
@@ -207,19 +245,30 @@ fn bucketed_quantiles(mut sample: Vec<f64>, (lo, hi): (f64, f64)) -> Option<[f64
     for &v in &sample {
         counts[bucket(v)] += 1;
     }
-    let mut out = [0.0; 3];
-    for (k, rank) in ranks(sample.len()).into_iter().enumerate() {
-        // the bucket holding rank `rank`, and the rank within it
+    // each rank's bucket, and its rank within that bucket
+    let found = ranks(sample.len()).map(|rank| {
         let (mut b, mut below) = (0usize, 0usize);
         while below + counts[b] <= rank {
             below += counts[b];
             b += 1;
         }
-        let mut inside: Vec<f64> = sample.iter().copied().filter(|&v| bucket(v) == b).collect();
-        let (_, &mut value, _) = inside.select_nth_unstable_by(rank - below, f64::total_cmp);
-        out[k] = value;
+        (b, rank - below)
+    });
+    // the three buckets' values, gathered in one pass over the sample
+    let mut inside = found.map(|(b, _)| Vec::with_capacity(counts[b]));
+    for &v in &sample {
+        let b = bucket(v);
+        for (members, &(wanted, _)) in inside.iter_mut().zip(&found) {
+            if b == wanted {
+                members.push(v);
+            }
+        }
     }
-    sample.clear();
+    let mut out = [0.0; 3];
+    for ((value, members), &(_, rank)) in out.iter_mut().zip(&mut inside).zip(&found) {
+        let (_, &mut selected, _) = members.select_nth_unstable_by(rank, f64::total_cmp);
+        *value = selected;
+    }
     Some(out)
 }
 
@@ -249,8 +298,34 @@ fn counted_quantiles(sample: &[i64], lo: i64, span: usize) -> Option<[i64; 3]> {
         };
         *count += 1;
     }
+    ranked_levels(&counts, lo, sample.len())
+}
+
+/// [`counted_quantiles`] of [`whole_sample`]'s pixels of an integer frame whose every value
+/// lies within `lo..=lo + span`, counted as they are read (no sample is stored).
+fn whole_counts<T: Sample>(values: &[T], lo: i64, span: usize) -> Option<[i64; 3]> {
+    let mut counts = vec![0u32; span + 1];
+    let mut sampled = 0;
+    for start in (0..values.len()).step_by(bulk_stride(values.len())) {
+        let run = &values[start..(start + BULK_RUN).min(values.len())];
+        for v in run {
+            // within the range by the caller's contract; a value outside it is left uncounted
+            if let Some(count) = usize::try_from(v.to_i64() - lo).ok().and_then(|k| counts.get_mut(k)) {
+                *count += 1;
+                sampled += 1;
+            }
+        }
+    }
+    if sampled < 2 {
+        return None;
+    }
+    ranked_levels(&counts, lo, sampled)
+}
+
+/// The 0.1 %, 50 % and 99.9 % quantiles of `n` values counted per level from `lo`.
+fn ranked_levels(counts: &[u32], lo: i64, n: usize) -> Option<[i64; 3]> {
     // the value of rank k (0-based) is the first level whose running count exceeds k
-    let wanted = ranks(sample.len());
+    let wanted = ranks(n);
     let (mut out, mut next, mut seen) = ([0i64; 3], 0usize, 0usize);
     for (level, &c) in counts.iter().enumerate() {
         seen += c as usize;
@@ -351,6 +426,10 @@ mod tests {
             .collect();
         let selected = quantiles(&mut sample.clone());
         assert_eq!(counted_quantiles(&sample, -300, 899), selected);
+        // counting a whole frame as it is read gives the same as counting its sample
+        let frame: Vec<i16> = sample.iter().map(|&v| v as i16).collect();
+        let whole = whole_sample(&frame, |v: i16| i64::from(v));
+        assert_eq!(whole_counts(&frame, -300, 899), counted_quantiles(&whole, -300, 899));
         assert_eq!(counted_quantiles(&sample, 0, 10), selected);
         assert_eq!(counted_quantiles(&sample[..1], -300, 899), None);
         // so does bucketing floats, clustered or spread, and with a value outside the range
