@@ -50,6 +50,16 @@ def alternated(calls: dict, repeat: int) -> dict:
     return times
 
 
+def timed(path: Path, repeat: int) -> dict:
+    """The alternated times of scoring ``path``'s simulated frame as counts and as kelvin."""
+    counts = irf.load_frame(path)
+    noise = np.random.default_rng(38).normal(0, 8, counts.shape)
+    sim_counts = np.clip(np.rint(counts * 1.01 + noise), 0, 65535).astype(counts.dtype)
+    sim_kelvin = irf.read_radiometry(path).temperature(sim_counts, unit="K")
+    return alternated({"counts": lambda: irf.evaluate(path, sim_counts),
+                       "kelvin": lambda: irf.evaluate(path, sim_kelvin, unit="K")}, repeat)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=40, help="timed calls of each (default 40)")
@@ -57,18 +67,12 @@ def main() -> None:
     print(f"irfidelity {irf.__version__}, numpy {np.__version__}; alternated calls, {args.repeat} of each")
     print(f"{'file':32s} {'counts ms':>16s} {'kelvin ms':>16s} {'kelvin/counts':>14s}")
     for name in FILES:
-        path = DATA / name
-        counts = irf.load_frame(path)
-        noise = np.random.default_rng(38).normal(0, 8, counts.shape)
-        sim_counts = np.clip(np.rint(counts * 1.01 + noise), 0, 65535).astype(counts.dtype)
-        sim_kelvin = irf.read_radiometry(path).temperature(sim_counts, unit="K")
-        times = alternated({"counts": lambda: irf.evaluate(path, sim_counts),
-                            "kelvin": lambda: irf.evaluate(path, sim_kelvin, unit="K")}, args.repeat)
+        times = timed(DATA / name, args.repeat)
         median = {k: statistics.median(v) for k, v in times.items()}
         least = {k: min(v) for k, v in times.items()}
+        cells = [f"{median[k] * 1e3:6.1f} ({least[k] * 1e3:5.1f})" for k in ("counts", "kelvin")]
         ratio, best_ratio = median["kelvin"] / median["counts"], least["kelvin"] / least["counts"]
-        cell = lambda k: f"{median[k] * 1e3:6.1f} ({least[k] * 1e3:5.1f})"  # noqa: E731
-        print(f"{name:32s} {cell('counts'):>16s} {cell('kelvin'):>16s} {ratio:8.2f} ({best_ratio:.2f})")
+        print(f"{name:32s} {cells[0]:>16s} {cells[1]:>16s} {ratio:8.2f} ({best_ratio:.2f})")
     print(f"times: median (best); ratio: of the medians (of the bests); goal ≤ {GOAL}")
 
 
