@@ -256,7 +256,7 @@ fn chunk_above<A: Sample, B: Sample>(pair: &Pair<'_, A, B>, range: (usize, usize
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::Sums;
-    use crate::kernel::int_avx2::{abs_diff, SquareSums, STEPS};
+    use crate::kernel::int_avx2::{abs_diff, kept_lanes, SquareSums, STEPS};
     use std::arch::x86_64::*;
 
     /// Steps per float32 partial sum of the fourth powers: each term is rounded once or twice
@@ -389,10 +389,7 @@ mod avx2 {
                 keep = _mm256_and_pd(keep, finite(x));
             }
             if let Some(m) = mask {
-                let bytes = (m.as_ptr().add(i) as *const u32).read_unaligned();
-                let kept =
-                    _mm256_cmpgt_epi64(_mm256_cvtepu8_epi64(_mm_cvtsi32_si128(bytes as i32)), _mm256_setzero_si256());
-                keep = _mm256_and_pd(keep, _mm256_castsi256_pd(kept));
+                keep = _mm256_and_pd(keep, kept_lanes(m, i));
             }
             let d = _mm256_sub_pd(y, x);
             let v = _mm256_and_pd(_mm256_mul_pd(d, d), keep);

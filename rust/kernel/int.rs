@@ -203,6 +203,20 @@ pub(crate) mod avx2 {
         lanes.iter().map(|&x| x as u128).sum()
     }
 
+    /// Four mask values from `at` as float64 lanes: all ones where the mask keeps the pixel,
+    /// zero where it does not (to `and` into a lane mask).
+    ///
+    /// # Safety
+    /// `at + 4 <= mask.len()`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(crate) unsafe fn kept_lanes(mask: &[bool], at: usize) -> __m256d {
+        // SAFETY: four bools (4 bytes) at `at`, within the mask by the caller's contract
+        let bytes = unsafe { (mask.as_ptr().add(at) as *const u32).read_unaligned() };
+        let kept = _mm256_cmpgt_epi64(_mm256_cvtepu8_epi64(_mm_cvtsi32_si128(bytes as i32)), _mm256_setzero_si256());
+        _mm256_castsi256_pd(kept)
+    }
+
     /// |x − y| of sixteen u16 lanes (two saturating subtractions).
     #[inline]
     #[target_feature(enable = "avx2")]

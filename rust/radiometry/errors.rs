@@ -105,6 +105,7 @@ fn chunk_portable(real: &[f64], sim: &[f64], mask: Option<&[bool]>, tolerance: f
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::{chunk_portable, ErrorSums};
+    use crate::kernel::int_avx2::kept_lanes;
     use std::arch::x86_64::*;
 
     /// [`chunk_portable`] four pairs per step: a pair counts when the mask keeps it and its
@@ -129,10 +130,7 @@ mod avx2 {
             // |d| < ∞ is false for ±∞ and NaN
             let mut keep = _mm256_cmp_pd::<_CMP_LT_OQ>(size, infinity);
             if let Some(m) = mask {
-                let bytes = (m.as_ptr().add(i) as *const u32).read_unaligned();
-                let kept =
-                    _mm256_cmpgt_epi64(_mm256_cvtepu8_epi64(_mm_cvtsi32_si128(bytes as i32)), _mm256_setzero_si256());
-                keep = _mm256_and_pd(keep, _mm256_castsi256_pd(kept));
+                keep = _mm256_and_pd(keep, kept_lanes(m, i));
             }
             let d = _mm256_and_pd(d, keep);
             let size = _mm256_and_pd(size, keep);
