@@ -160,6 +160,68 @@ pub fn merge_runs(a: &[(u64, u64)], b: &[(u64, u64)]) -> Vec<(u64, u64)> {
     out
 }
 
+/// The occupied cells of one row of a pass's table (key row `row_key`, columns from
+/// `offset`) appended to `runs` in column order, and zeroed.
+fn take_row(line: &mut [u32], row_key: u64, offset: u64, runs: &mut Vec<(u64, u64)>) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernel::use_avx2() {
+        // SAFETY: `use_avx2` is true only when the CPU reports AVX2.
+        return unsafe { take_row_avx2(line, row_key, offset, runs) };
+    }
+    take_cells_from(line, 0, row_key, offset, runs);
+}
+
+/// [`take_row`] from column `first` on, testing 16 cells at a time (most of a row is empty).
+fn take_cells_from(line: &mut [u32], first: usize, row_key: u64, offset: u64, runs: &mut Vec<(u64, u64)>) {
+    const BLOCK: usize = 16;
+    for (block, cells) in line[first..].chunks_mut(BLOCK).enumerate() {
+        if cells.iter().fold(0, |any, &c| any | c) == 0 {
+            continue;
+        }
+        for (k, cell) in cells.iter_mut().enumerate() {
+            if *cell > 0 {
+                runs.push((pack(row_key, (first + block * BLOCK + k) as u64 + offset), *cell as u64));
+                *cell = 0;
+            }
+        }
+    }
+}
+
+/// [`take_row`] eight cells per step: one compare finds a group's occupied cells, which are
+/// visited bit by bit; the rest of the row (fewer than eight cells) portably.
+///
+/// # Safety
+/// The CPU supports AVX2 (every load and store stays within `line`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn take_row_avx2(line: &mut [u32], row_key: u64, offset: u64, runs: &mut Vec<(u64, u64)>) {
+    use std::arch::x86_64::*;
+    let zero = _mm256_setzero_si256();
+    let groups = line.len() / 8;
+    for g in 0..groups {
+        let at = line[g * 8..g * 8 + 8].as_mut_ptr() as *mut __m256i;
+        // SAFETY: `at` points at eight u32 cells of `line` (unaligned load and store)
+        let cells = unsafe { _mm256_loadu_si256(at) };
+        let empty = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(cells, zero))) as u32;
+        let mut occupied = !empty & 0xff;
+        if occupied == 0 {
+            continue;
+        }
+        let mut values = [0u32; 8];
+        // SAFETY: both point at eight u32 cells
+        unsafe {
+            _mm256_storeu_si256(values.as_mut_ptr() as *mut __m256i, cells);
+            _mm256_storeu_si256(at, zero);
+        }
+        while occupied != 0 {
+            let k = occupied.trailing_zeros() as usize;
+            runs.push((pack(row_key, (g * 8 + k) as u64 + offset), values[k] as u64));
+            occupied &= occupied - 1;
+        }
+    }
+    take_cells_from(line, groups * 8, row_key, offset, runs);
+}
+
 impl PartialEq for Joint {
     fn eq(&self, other: &Joint) -> bool {
         match (self, other) {
@@ -182,26 +244,30 @@ impl Joint {
     /// A pass's `bins × bins` table of counts (row-major, `offset` as in [`Joint::Dense`]),
     /// kept dense when at least a quarter of its cells are occupied, else as runs of the
     /// occupied cells: a small frame fills few cells of a 256² table, and its runs take less
-    /// memory and give its entropies without a walk over every cell.
-    pub fn from_counts(bins: usize, offset: u64, counts: &[u32]) -> Joint {
-        const BLOCK: usize = 16; // cells tested together: most of a row is empty
-        let dense = || Joint::Dense { bins, offset, counts: counts.iter().map(|&c| c as u64).collect() };
+    /// memory and give its entropies without a walk over every cell. The table is left zeroed
+    /// for the next pass, writing only the cells that held a count.
+    pub fn take_counts(bins: usize, offset: u64, counts: &mut [u32]) -> Joint {
+        let row_len = bins.max(1);
         let mut runs = Vec::new();
-        for (row, line) in counts.chunks_exact(bins.max(1)).enumerate() {
-            for (block, cells) in line.chunks(BLOCK).enumerate() {
-                if cells.iter().fold(0, |any, &c| any | c) == 0 {
-                    continue;
-                }
-                for (k, &c) in cells.iter().enumerate().filter(|(_, &c)| c > 0) {
-                    let col = (block * BLOCK + k) as u64;
-                    runs.push((pack(row as u64 + offset, col + offset), c as u64));
-                }
-            }
+        for row in 0..counts.len() / row_len {
+            take_row(&mut counts[row * row_len..(row + 1) * row_len], row as u64 + offset, offset, &mut runs);
             if runs.len() * 4 >= counts.len() {
-                return dense();
+                return Joint::dense_from(bins, offset, &runs, counts);
             }
         }
         Joint::Sparse(runs) // row-major order is key order
+    }
+
+    /// The dense joint of a table whose first rows were taken into `runs` (the rest still in
+    /// `counts`, zeroed here).
+    fn dense_from(bins: usize, offset: u64, runs: &[(u64, u64)], counts: &mut [u32]) -> Joint {
+        let mut dense: Vec<u64> = counts.iter().map(|&c| c as u64).collect();
+        for &(key, c) in runs {
+            let (r, s) = ((key >> 32) - offset, (key & 0xffff_ffff) - offset);
+            dense[r as usize * bins + s as usize] = c;
+        }
+        counts.fill(0);
+        Joint::Dense { bins, offset, counts: dense }
     }
 
     /// Total count.
@@ -396,6 +462,7 @@ fn edges_text(spec: &HistSpec) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kernel::both_paths;
 
     #[test]
     fn entropy_of_uniform_and_constant() {
@@ -475,9 +542,18 @@ mod tests {
         }
         band[5 * bins + 39] = 3; // a lone cell past a block of empty ones
         let full: Vec<u32> = (0..bins * bins).map(|_| 1 + next() % 50).collect();
-        for (counts, offset, sparse) in [(&band, 0u64, true), (&band, 7, true), (&full, 0, false)] {
-            let kept = Joint::from_counts(bins, offset, counts);
+        // full from its fourth row on: dense after some rows were taken as runs
+        let mut late = band.clone();
+        late[4 * bins..].iter_mut().for_each(|c| *c = 1 + next() % 50);
+        for (counts, offset, sparse) in [(&band, 0u64, true), (&band, 7, true), (&full, 0, false), (&late, 3, false)] {
             let dense = Joint::Dense { bins, offset, counts: counts.iter().map(|&c| c as u64).collect() };
+            let [kept, portable] = both_paths(|| {
+                let mut table = counts.clone();
+                let kept = Joint::take_counts(bins, offset, &mut table);
+                assert!(table.iter().all(|&c| c == 0), "the table is left zeroed");
+                kept
+            });
+            assert_eq!(kept, portable);
             assert_eq!(matches!(kept, Joint::Sparse(_)), sparse);
             assert_eq!(kept.to_runs(), dense.to_runs());
             assert_eq!(kept, dense);
@@ -493,6 +569,6 @@ mod tests {
             }),
             vec![2, 1, 7]
         );
-        assert_eq!(Joint::from_counts(2, 0, &[0, 0, 0, 0]), Joint::Sparse(vec![]));
+        assert_eq!(Joint::take_counts(2, 0, &mut [0, 0, 0, 0]), Joint::Sparse(vec![]));
     }
 }

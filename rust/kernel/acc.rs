@@ -12,6 +12,7 @@ pub(crate) struct Acc {
     pub(super) n: u64,
     pub(super) int: IntSums,
     pub(super) dense: Vec<u32>, // per-worker counts; frames are < 2^32 pixels (checked)
+    dense_zeroed: bool,         // `dense` was taken (and zeroed) by `take_joint`
     pub(super) keys: Vec<u64>,
     pub(super) runs: Vec<(u64, u64)>,
     pub(super) max_abs: f64, // float frames: largest magnitude seen (underflow check)
@@ -29,6 +30,7 @@ impl Acc {
             n: 0,
             int: IntSums::default(),
             dense,
+            dense_zeroed: false,
             keys: Vec::new(),
             runs: Vec::new(),
             max_abs: 0.0,
@@ -43,6 +45,12 @@ impl Acc {
         } else {
             self.keys.push(hist::pack(br as u64, bs as u64));
         }
+    }
+
+    /// The dense counts as a joint histogram, leaving the table zeroed for the next pass.
+    pub(super) fn take_joint(&mut self, bins: usize, offset: u64) -> hist::Joint {
+        self.dense_zeroed = true;
+        hist::Joint::take_counts(bins, offset, &mut self.dense)
     }
 
     pub(super) fn flush_keys(&mut self) {
@@ -81,7 +89,12 @@ impl Acc {
 
 impl Drop for Acc {
     fn drop(&mut self) {
-        scratch::give_back_counts(std::mem::take(&mut self.dense));
+        let table = std::mem::take(&mut self.dense);
+        if self.dense_zeroed {
+            scratch::give_back_zeroed_counts(table);
+        } else {
+            scratch::give_back_counts(table);
+        }
     }
 }
 

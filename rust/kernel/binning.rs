@@ -116,7 +116,7 @@ impl Binner {
 
 impl Drop for Binner {
     fn drop(&mut self) {
-        scratch::give_back_lut(std::mem::take(&mut self.lut));
+        scratch::give_back_lut(std::mem::take(&mut self.lut), self.bins);
     }
 }
 
@@ -149,7 +149,7 @@ pub(super) fn plan_hist<T: Sample>(
             let (lo, hi) = data_range(r, s, req).unwrap_or((0.0, 0.0));
             let span = (hi - lo) as usize + 1;
             let dense = span <= DENSE_MAX_BINS;
-            let binner = dense.then(|| make_int_binner::<T>(span, IntEdges::levels(lo as i64, span)));
+            let binner = dense.then(|| make_int_binner::<T>(span, IntEdges::levels(lo as i64, span), None));
             Ok(HistPlan {
                 spec: HistSpec::Levels,
                 binner,
@@ -222,15 +222,16 @@ fn locked_binners<T: Sample>(
     // down to its own range
     let anchor = rlo + offset;
     let sim_lo = if width > 0.0 { anchor + ((slo - anchor) / width).floor() * width } else { slo };
-    (width_binner::<T>(bins, rlo, width), width_binner::<T>(bins, sim_lo, width))
+    (width_binner::<T>(bins, rlo, width, real_full), width_binner::<T>(bins, sim_lo, width, sim_full))
 }
 
 /// `bins` bins of `width` from `lo` (whole levels for integer frames), values beyond them in
-/// the edge bins.
-fn width_binner<T: Sample>(bins: usize, lo: f64, width: f64) -> Binner {
+/// the edge bins; `full` is the frame's min..max over the pixels the pass counts (an integer
+/// frame's table is written for those levels only).
+fn width_binner<T: Sample>(bins: usize, lo: f64, width: f64, full: (f64, f64)) -> Binner {
     if T::IS_INT {
         let edges = IntEdges::Small { lo: lo as i64, width: width as i64, top: bins as i64 - 1 };
-        return make_int_binner::<T>(bins, edges);
+        return make_int_binner::<T>(bins, edges, Some((full.0 as i64, full.1 as i64)));
     }
     let inv_width = if width > 0.0 { 1.0 / width } else { 0.0 };
     Binner { bins, lo, width, inv_width, edges: None, lut: Vec::new() }
@@ -264,14 +265,16 @@ fn explicit_range<T: Sample>((lo, hi): (f64, f64)) -> Result<(f64, f64)> {
 /// values, are exact in i128); for floats width = (hi − lo) / bins.
 fn uniform_binner<T: Sample>(bins: usize, lo: f64, hi: f64) -> Binner {
     if T::IS_INT {
-        return make_int_binner::<T>(bins, IntEdges::new(bins, lo as i128, hi as i128));
+        return make_int_binner::<T>(bins, IntEdges::new(bins, lo as i128, hi as i128), None);
     }
     let width = (hi - lo) / bins as f64;
     let inv_width = if width > 0.0 { 1.0 / width } else { 0.0 };
     Binner { bins, lo, width, inv_width, edges: None, lut: Vec::new() }
 }
 
-fn make_int_binner<T: Sample>(bins: usize, edges: IntEdges) -> Binner {
+/// The integer binner of `edges`; with a `window` (the lowest and highest level the pass will
+/// look up) only those levels' table entries are written.
+fn make_int_binner<T: Sample>(bins: usize, edges: IntEdges, window: Option<(i64, i64)>) -> Binner {
     let lo = match edges {
         IntEdges::Small { lo, .. } => lo as f64,
         IntEdges::Wide { lo, .. } => lo as f64,
@@ -280,20 +283,26 @@ fn make_int_binner<T: Sample>(bins: usize, edges: IntEdges) -> Binner {
     let inv_width = 1.0 / width;
     // value − MIN → bin for ≤ 16-bit types, filled run by run (a bin is `width` consecutive
     // levels): no division per entry. Bins above u16 (more than 65536 bins) use `IntEdges::bin`.
+    // Entries outside the window keep what a kept table held: values below `bins` all the same
+    // (`scratch::lut_below`), so no lookup can leave the dense table.
     let top = edges.top();
     let lut = if T::LUT > 0 && top <= u16::MAX as usize {
-        let mut lut = scratch::lut(T::LUT); // every entry is written below
-        let mut k = 0usize;
-        while k < T::LUT {
+        let mut lut = scratch::lut_below(T::LUT, bins);
+        let (first, end) = window.map_or((0, T::LUT), |(low, high)| {
+            let entry = |level: i64| (level - T::MIN).clamp(0, T::LUT as i64 - 1) as usize;
+            (entry(low), entry(high.max(low)) + 1)
+        });
+        let mut k = first;
+        while k < end {
             let b = edges.bin(k as i64 + T::MIN);
             // the entries up to the next bin's first level share bin b (the last bin: all)
-            let end = if b >= top {
-                T::LUT
+            let run_end = if b >= top {
+                end
             } else {
-                (edges.start(b + 1) - T::MIN as i128).clamp(k as i128 + 1, T::LUT as i128) as usize
+                (edges.start(b + 1) - T::MIN as i128).clamp(k as i128 + 1, end as i128) as usize
             };
-            lut[k..end].fill(b as u16);
-            k = end;
+            lut[k..run_end].fill(b as u16);
+            k = run_end;
         }
         lut
     } else {
@@ -312,7 +321,7 @@ mod tests {
     fn lut_matches_the_binning_rule() {
         for (bins, lo, hi) in [(256usize, 2000i128, 14000i128), (10, -100, -31), (3, 65000, 65599), (512, 0, 511)] {
             let edges = IntEdges::new(bins, lo, hi);
-            let bn = make_int_binner::<u16>(bins, edges);
+            let bn = make_int_binner::<u16>(bins, edges, None);
             let width = (hi - lo + 1 + bins as i128 - 1) / bins as i128;
             let top = (hi - lo) / width;
             for v in [0i64, 1, 1999, 2000, 2046, 2047, 14000, 65000, 65535] {
@@ -321,11 +330,29 @@ mod tests {
                 assert_eq!(edges.bin(v), want);
             }
         }
-        let bn = make_int_binner::<i16>(4, IntEdges::new(4, -10, 9));
+        let bn = make_int_binner::<i16>(4, IntEdges::new(4, -10, 9), None);
         assert_eq!(
             (bn.int_bin(-32768, i16::MIN as i64), bn.int_bin(-6, i16::MIN as i64), bn.int_bin(9, i16::MIN as i64)),
             (0, 0, 3)
         );
+    }
+
+    /// A table written over a window holds the rule's bins there, and every entry (written or
+    /// kept from an earlier pass) below `bins`: a table kept from a pass with more bins is not
+    /// reused.
+    #[test]
+    fn a_windowed_table_holds_the_rule_in_its_window_and_stays_below_bins() {
+        drop(make_int_binner::<u16>(512, IntEdges::Small { lo: 0, width: 1, top: 511 }, None));
+        for (lo, width, window) in
+            [(2600i64, 2i64, (2649i64, 2942i64)), (100, 3, (0, 65535)), (60000, 1, (65000, 65535))]
+        {
+            let edges = IntEdges::Small { lo, width, top: 255 };
+            let bn = make_int_binner::<u16>(256, edges, Some(window));
+            for v in window.0..=window.1 {
+                assert_eq!(bn.lut[v as usize] as usize, edges.bin(v), "lo {lo} width {width} v {v}");
+            }
+            assert!(bn.lut.iter().all(|&b| b < 256), "lo {lo} width {width}");
+        }
     }
 
     /// Every table entry is below `bins` (the bound the unchecked dense-table writes rely
@@ -352,7 +379,7 @@ mod tests {
             for &(lo, hi) in &ranges {
                 let edges = IntEdges::new(bins, lo, hi);
                 assert!(edges.top() < bins, "bins {bins} ({lo}, {hi})");
-                for bn in [make_int_binner::<u8>(bins, edges), make_int_binner::<i16>(bins, edges)] {
+                for bn in [make_int_binner::<u8>(bins, edges, None), make_int_binner::<i16>(bins, edges, None)] {
                     assert!(bn.lut.iter().all(|&b| (b as usize) < bins), "bins {bins} ({lo}, {hi})");
                 }
                 for v in [i32::MIN as i64, -32768, -1, 0, 1, 255, 65535, u32::MAX as i64] {

@@ -144,7 +144,7 @@ fn finish<T: Sample>(n: usize, req: &Request, plan: Plan, mut acc: Acc, nonfinit
     out.sums = if T::IS_INT { Sums::Int(acc.int) } else { Sums::Float(float_sums(n, &plan, &mut acc)?) };
     if let Some(p) = plan.hist {
         let joint = match p.dense_bins {
-            Some(b) => Joint::from_counts(b, p.offset, &acc.dense),
+            Some(b) => acc.take_joint(b, p.offset),
             None => Joint::Sparse(std::mem::take(&mut acc.runs)),
         };
         out.hist = Some((p.spec, joint));

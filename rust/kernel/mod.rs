@@ -25,6 +25,8 @@ mod request;
 mod sample;
 mod scratch;
 
+#[cfg(test)]
+pub(crate) use dispatch::tests::both_paths;
 pub(crate) use dispatch::use_avx2;
 pub use driver::pair_stats;
 #[cfg(target_arch = "x86_64")]

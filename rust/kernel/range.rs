@@ -303,15 +303,22 @@ fn counted_quantiles(sample: &[i64], lo: i64, span: usize) -> Option<[i64; 3]> {
 
 /// [`counted_quantiles`] of [`whole_sample`]'s pixels of an integer frame whose every value
 /// lies within `lo..=lo + span`, counted as they are read (no sample is stored).
+///
+/// Neighbouring pixels often share a level, and one table would then add to the same count
+/// pixel after pixel, each addition waiting for the last; [`COUNT_WAYS`] tables, one per
+/// pixel position modulo the ways, let the additions overlap (summed before ranking).
 fn whole_counts<T: Sample>(values: &[T], lo: i64, span: usize) -> Option<[i64; 3]> {
-    let mut counts = vec![0u32; span + 1];
+    let levels = span + 1;
+    let ways = if levels <= COUNT_WAYS_MAX_LEVELS { COUNT_WAYS } else { 1 };
+    let mut counts = vec![0u32; ways * levels];
     let mut sampled = 0;
     for start in (0..values.len()).step_by(bulk_stride(values.len())) {
         let run = &values[start..(start + BULK_RUN).min(values.len())];
-        for v in run {
+        for (k, v) in run.iter().enumerate() {
             // within the range by the caller's contract; a value outside it is left uncounted
-            if let Some(count) = usize::try_from(v.to_i64() - lo).ok().and_then(|k| counts.get_mut(k)) {
-                *count += 1;
+            let level = usize::try_from(v.to_i64() - lo).ok().filter(|&l| l < levels);
+            if let Some(level) = level {
+                counts[(k & (ways - 1)) * levels + level] += 1; // ways is a power of two
                 sampled += 1;
             }
         }
@@ -319,8 +326,17 @@ fn whole_counts<T: Sample>(values: &[T], lo: i64, span: usize) -> Option<[i64; 3
     if sampled < 2 {
         return None;
     }
-    ranked_levels(&counts, lo, sampled)
+    let (first, rest) = counts.split_at_mut(levels);
+    for table in rest.chunks_exact(levels) {
+        first.iter_mut().zip(table).for_each(|(total, &c)| *total += c);
+    }
+    ranked_levels(first, lo, sampled)
 }
+
+/// Count tables [`whole_counts`] interleaves ...
+const COUNT_WAYS: usize = 4;
+/// ... for spans of at most this many levels (larger tables would not stay in cache).
+const COUNT_WAYS_MAX_LEVELS: usize = 1 << 14;
 
 /// The 0.1 %, 50 % and 99.9 % quantiles of `n` values counted per level from `lo`.
 fn ranked_levels(counts: &[u32], lo: i64, n: usize) -> Option<[i64; 3]> {
@@ -430,6 +446,9 @@ mod tests {
         let frame: Vec<i16> = sample.iter().map(|&v| v as i16).collect();
         let whole = whole_sample(&frame, |v: i16| i64::from(v));
         assert_eq!(whole_counts(&frame, -300, 899), counted_quantiles(&whole, -300, 899));
+        // ... with one table per level span too wide to interleave
+        let wide = COUNT_WAYS_MAX_LEVELS + 10;
+        assert_eq!(whole_counts(&frame, -300, wide), counted_quantiles(&whole, -300, wide));
         assert_eq!(counted_quantiles(&sample, 0, 10), selected);
         assert_eq!(counted_quantiles(&sample[..1], -300, 899), None);
         // so does bucketing floats, clustered or spread, and with a value outside the range

@@ -1,7 +1,9 @@
 //! Tables a thread reuses from one pass to the next: the dense joint counts and the ≤ 16-bit
 //! lookup tables. A small frame pair (160 × 120) counts into a 256² table and bins through two
 //! 64 Ki-entry lookup tables: allocating them afresh costs more page faults and zeroing than
-//! the counting, and a sequence scores thousands of such pairs on each thread.
+//! the counting, and a sequence scores thousands of such pairs on each thread. A lookup table
+//! is kept with a bound its every entry is below, so a pass can write only the levels it will
+//! look up and still never index past its dense table.
 
 use std::cell::RefCell;
 
@@ -16,27 +18,29 @@ const MAX_KEPT_LEN: usize = DENSE_MAX_BINS * DENSE_MAX_BINS;
 
 thread_local! {
     static ZEROED_COUNTS: RefCell<Vec<Vec<u32>>> = const { RefCell::new(Vec::new()) };
-    static SPARE_LUTS: RefCell<Vec<Vec<u16>>> = const { RefCell::new(Vec::new()) };
+    /// each with a bound its every entry is below
+    static SPARE_LUTS: RefCell<Vec<(Vec<u16>, usize)>> = const { RefCell::new(Vec::new()) };
 }
 
-/// Take a kept table of exactly `len` entries, if this thread has one.
-fn take<T>(kept: &RefCell<Vec<Vec<T>>>, len: usize) -> Option<Vec<T>> {
+/// Take a kept table that `fits`, if this thread has one.
+fn take<E>(kept: &RefCell<Vec<E>>, fits: impl Fn(&E) -> bool) -> Option<E> {
     let mut kept = kept.borrow_mut();
-    let at = kept.iter().position(|t| t.len() == len)?;
+    let at = kept.iter().position(fits)?;
     Some(kept.swap_remove(at))
 }
 
-/// Keep `table` for a later pass on this thread (dropped when too large or enough are kept).
-fn keep<T>(kept: &RefCell<Vec<Vec<T>>>, table: Vec<T>) {
+/// Keep a table of `len` entries for a later pass on this thread (dropped when too large or
+/// enough are kept).
+fn keep<E>(kept: &RefCell<Vec<E>>, table: E, len: usize) {
     let mut kept = kept.borrow_mut();
-    if !table.is_empty() && table.len() <= MAX_KEPT_LEN && kept.len() < KEPT {
+    if len > 0 && len <= MAX_KEPT_LEN && kept.len() < KEPT {
         kept.push(table);
     }
 }
 
 /// `len` zero counts.
 pub(super) fn zeroed_counts(len: usize) -> Vec<u32> {
-    ZEROED_COUNTS.try_with(|k| take(k, len)).ok().flatten().unwrap_or_else(|| vec![0; len])
+    ZEROED_COUNTS.try_with(|k| take(k, |t| t.len() == len)).ok().flatten().unwrap_or_else(|| vec![0; len])
 }
 
 /// Give back a table of counts (zeroed here, so [`zeroed_counts`] hands it out as it is).
@@ -45,17 +49,27 @@ pub(super) fn give_back_counts(mut table: Vec<u32>) {
         return;
     }
     table.fill(0);
-    let _ = ZEROED_COUNTS.try_with(|k| keep(k, table)); // a thread being torn down keeps nothing
+    give_back_zeroed_counts(table);
 }
 
-/// A lookup table of `len` entries whose values are unspecified: the caller writes every one.
-pub(super) fn lut(len: usize) -> Vec<u16> {
-    SPARE_LUTS.try_with(|k| take(k, len)).ok().flatten().unwrap_or_else(|| vec![0; len])
+/// Give back a table of counts that is already zeroed.
+pub(super) fn give_back_zeroed_counts(table: Vec<u32>) {
+    debug_assert!(table.iter().all(|&c| c == 0));
+    let len = table.len();
+    let _ = ZEROED_COUNTS.try_with(|k| keep(k, table, len)); // a thread being torn down keeps nothing
 }
 
-/// Give back a lookup table.
-pub(super) fn give_back_lut(table: Vec<u16>) {
-    let _ = SPARE_LUTS.try_with(|k| keep(k, table));
+/// A lookup table of `len` entries, each below `bound`: a kept one whose entries are all
+/// below it, else a new one of zeros. The caller writes the entries it reads.
+pub(super) fn lut_below(len: usize, bound: usize) -> Vec<u16> {
+    let kept = SPARE_LUTS.try_with(|k| take(k, |(t, below)| t.len() == len && *below <= bound));
+    kept.ok().flatten().map_or_else(|| vec![0; len], |(table, _)| table)
+}
+
+/// Give back a lookup table whose every entry is below `bound`.
+pub(super) fn give_back_lut(table: Vec<u16>, bound: usize) {
+    let len = table.len();
+    let _ = SPARE_LUTS.try_with(|k| keep(k, (table, bound), len));
 }
 
 #[cfg(test)]
