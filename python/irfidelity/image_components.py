@@ -28,8 +28,8 @@ def image_components(stats: Any, components: tuple[str, ...], config: ScoringCon
     comps: dict[str, float] = {}
     mets: dict[str, Any] = {"n": int(stats.n), "masked": int(stats.masked), "nonfinite": int(stats.nonfinite)}
     if "psnr" in components:
-        db = stats.psnr()
-        mets.update(mse=float(stats.mse()), psnr_db=float(db), psnr_peak=float(stats.peak))
+        db = float(stats.psnr())
+        mets.update(mse=float(stats.mse()), psnr_db=db, psnr_peak=float(stats.peak))
         comps["psnr"] = float(normalize_psnr(db, anchors=config.psnr_anchors))
     if "nmi" in components:
         v = stats.nmi()
@@ -37,8 +37,8 @@ def image_components(stats: Any, components: tuple[str, ...], config: ScoringCon
                     h_joint=float(v.h_joint))
         comps["nmi"] = float(v.value)
     if "ssim" in components:
-        s = stats.ssim(*config.ssim_exponents)
-        mets.update(ssim=float(s.value), ssim_luminance=float(s.luminance), ssim_contrast=float(s.contrast),
-                    ssim_structure=float(s.structure))
-        comps["ssim"] = max(float(s.value), 0.0)
+        # the configuration checked the exponents
+        value, luminance, contrast, structure = map(float, stats.ssim_terms(*config.ssim_exponents))
+        mets.update(ssim=value, ssim_luminance=luminance, ssim_contrast=contrast, ssim_structure=structure)
+        comps["ssim"] = max(value, 0.0)
     return comps, mets

@@ -85,9 +85,11 @@ def signed_power(x: float, p: float) -> float:
     return math.copysign(abs(x) ** p, x)
 
 
-def _check_exponent(name: str, p: float) -> None:
-    if not (math.isfinite(p) and p >= 0):
-        raise FidelityError(f"{name} must be a finite number >= 0, got {p!r}")
+def check_exponents(alpha: float, beta: float, gamma: float) -> None:
+    """Raise unless the SSIM exponents are finite numbers >= 0."""
+    for name, p in (("alpha", alpha), ("beta", beta), ("gamma", gamma)):
+        if not (math.isfinite(p) and p >= 0):
+            raise FidelityError(f"{name} must be a finite number >= 0, got {p!r}")
 
 
 def _ratio_2ab(a: float, b: float, c: float) -> float:
@@ -125,8 +127,14 @@ def ssim_from_moments(
     Limits (docs/design.md §4): both means 0 → l = 1; both σ = 0 → c = s = 1; exactly one σ = 0 →
     s = 0. Factors are clipped to [-1, 1] against rounding; exponents apply sign-preserving.
     """
-    for name, p in (("alpha", alpha), ("beta", beta), ("gamma", gamma)):
-        _check_exponent(name, p)
+    check_exponents(alpha, beta, gamma)
+    return SSIM(*ssim_terms(mean_real, mean_sim, var_real, var_sim, cov, alpha, beta, gamma, c1, c2, c3))
+
+
+def ssim_terms(mean_real: float, mean_sim: float, var_real: float, var_sim: float, cov: float, alpha: float,
+               beta: float, gamma: float, c1: float, c2: float, c3: float | None) -> tuple[float, float, float, float]:
+    """:func:`ssim_from_moments` as ``(value, luminance, contrast, structure)``, the exponents
+    taken as checked (a configuration checks them once)."""
     c3 = c2 / 2.0 if c3 is None else c3
     lum = _ratio_2ab(mean_real, mean_sim, c1)
     var_real, var_sim = max(var_real, 0.0), max(var_sim, 0.0)
@@ -144,9 +152,9 @@ def ssim_from_moments(
         struct = 0.0
     else:
         struct = (cov + c3) / den_s
-    lum, con, struct = (min(max(v, -1.0), 1.0) for v in (lum, con, struct))
+    lum, con, struct = min(max(lum, -1.0), 1.0), min(max(con, -1.0), 1.0), min(max(struct, -1.0), 1.0)
     value = signed_power(lum, alpha) * signed_power(con, beta) * signed_power(struct, gamma)
-    return SSIM(value=value, luminance=lum, contrast=con, structure=struct)
+    return value, lum, con, struct
 
 
 def nmi_from_entropies(h_real: float, h_sim: float, h_joint: float, *, bins: object = None) -> NMI:

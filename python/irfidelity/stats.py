@@ -21,7 +21,7 @@ import numpy as np
 from . import _core
 from .errors import ConfigError, FidelityError, ShapeError
 from .frames import FRAME_DTYPES
-from .metrics import NMI, SSIM, nmi_from_entropies, psnr_from_mse, ssim_from_moments
+from .metrics import NMI, SSIM, check_exponents, nmi_from_entropies, psnr_from_mse, ssim_terms
 
 __all__ = ["PairStats", "pair_stats", "merge_all", "mse", "psnr", "ssim", "nmi", "plan_need", "peak_and_valid", "hist_params",
            "bins_value"]
@@ -194,6 +194,13 @@ class PairStats:
         c3: float | None = None,
     ) -> SSIM:
         """Global SSIM ``l^α·c^β·s^γ`` (eqs. 11–14) with the limits of docs/design.md §4."""
+        check_exponents(alpha, beta, gamma)
+        return SSIM(*self.ssim_terms(alpha, beta, gamma, c1=c1, c2=c2, c3=c3))
+
+    def ssim_terms(self, alpha: float, beta: float, gamma: float, *, c1: float = 0.0, c2: float = 0.0,
+                   c3: float | None = None) -> tuple[float, float, float, float]:
+        """:meth:`ssim` as ``(value, luminance, contrast, structure)``, the exponents taken as
+        checked (a :class:`~irfidelity.ScoringConfig` checks them once)."""
         self._nonempty()
         summary = self._summary()
         if summary.moments is None or summary.centred is None:
@@ -203,9 +210,7 @@ class PairStats:
             # Exact-integer route: c and s are ratios of the centred numerators, N cancels.
             d_r, d_s, d_rs = summary.centred
             var_r, var_s, cov = d_r, d_s, d_rs
-        return ssim_from_moments(
-            mean_r, mean_s, var_r, var_s, cov, alpha=alpha, beta=beta, gamma=gamma, c1=c1, c2=c2, c3=c3
-        )
+        return ssim_terms(mean_r, mean_s, var_r, var_s, cov, alpha, beta, gamma, c1, c2, c3)
 
     def nmi(self) -> NMI:
         """Normalised mutual information (eqs. 7–10) from the joint histogram."""

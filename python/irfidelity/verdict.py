@@ -429,7 +429,10 @@ def grade_level(value: float, cuts: tuple) -> int:
 def membership(component_grades: Mapping[str, str], weights: Weights | Mapping[str, float], names: tuple) -> dict:
     """``B = K·R`` with ``R`` one-hot in each component's grade: the share of the weight in each
     grade (sums to 1)."""
-    share = {g: math.fsum(weights[k] for k, grade in component_grades.items() if grade == g) for g in names}
+    graded: dict[str, list[float]] = {g: [] for g in names}
+    for k, grade in component_grades.items():
+        graded[grade].append(weights[k])
+    share = {g: math.fsum(w) for g, w in graded.items()}
     total = math.fsum(share.values()) or 1.0
     return {g: v / total for g, v in share.items()}
 
@@ -451,6 +454,7 @@ class Grader:
         self._weight = {k: weights[k] for k in COMPONENTS}
         self._cuts: dict[str, tuple[tuple, str]] = {}
         self._psnr_cuts: dict[tuple, tuple[tuple, str]] = {}
+        self._judged_of: dict[tuple, list[str]] = {}  # the graded components of each set of names
 
     def cuts(self, k: str, peak: Any, scene_range: float | None) -> tuple[tuple, str]:
         """The cuts of ``k`` and their basis (``peak`` and ``scene_range`` matter to psnr only)."""
@@ -483,13 +487,16 @@ class Grader:
         """``fidelity``, ``grade``, ``component_grades`` and ``membership`` of a score, as
         :func:`irfidelity.scoring.score_components` gives them."""
         peak, names, weight = metrics.get("psnr_peak"), self.names, self._weight
-        judged = self.judged(components)
-        if len(judged) != len(self.active):
-            fidelity_sum(self.weights, components)  # raises, naming the components without a value
+        judged = self._judged_of.get(tuple(components))
+        if judged is None:
+            judged = self.judged(components)
+            if len(judged) != len(self.active):
+                fidelity_sum(self.weights, components)  # raises, naming the components without a value
+            self._judged_of[tuple(components)] = judged
         values = [float(components[k]) for k in judged]
         levels = [grade_level(v, self.cuts(k, peak, scene_range)[0]) for k, v in zip(judged, values)]
         grades = {k: names[level] for k, level in zip(judged, levels)}
-        return {"fidelity": math.fsum(weight[k] * v for k, v in zip(judged, values)),
+        return {"fidelity": math.fsum([weight[k] * v for k, v in zip(judged, values)]),
                 "grade": names[max(levels)], "component_grades": grades,
                 "membership": membership(grades, weight, names)}
 

@@ -303,23 +303,46 @@ fn counted_quantiles(sample: &[i64], lo: i64, span: usize) -> Option<[i64; 3]> {
 
 /// [`counted_quantiles`] of [`whole_sample`]'s pixels of an integer frame whose every value
 /// lies within `lo..=lo + span`, counted as they are read (no sample is stored).
-///
-/// Neighbouring pixels often share a level, and one table would then add to the same count
-/// pixel after pixel, each addition waiting for the last; [`COUNT_WAYS`] tables, one per
-/// pixel position modulo the ways, let the additions overlap (summed before ranking).
 fn whole_counts<T: Sample>(values: &[T], lo: i64, span: usize) -> Option<[i64; 3]> {
-    let levels = span + 1;
-    let ways = if levels <= COUNT_WAYS_MAX_LEVELS { COUNT_WAYS } else { 1 };
-    let mut counts = vec![0u32; ways * levels];
+    if span < COUNT_WAYS_MAX_LEVELS {
+        whole_counts_in::<T, COUNT_WAYS>(values, lo, span + 1)
+    } else {
+        whole_counts_in::<T, 1>(values, lo, span + 1)
+    }
+}
+
+/// Count tables [`whole_counts`] interleaves ...
+const COUNT_WAYS: usize = 4;
+/// ... for spans of fewer levels than this (larger tables would not stay in cache).
+const COUNT_WAYS_MAX_LEVELS: usize = 1 << 14;
+
+/// [`whole_counts`] over `WAYS` tables of `levels` counts, pixel `k` of a run counted in table
+/// `k % WAYS`: neighbouring pixels often share a level, and in one table each addition would
+/// wait for the last; the tables are summed before ranking.
+fn whole_counts_in<T: Sample, const WAYS: usize>(values: &[T], lo: i64, levels: usize) -> Option<[i64; 3]> {
+    let mut counts = vec![0u32; WAYS * levels];
     let mut sampled = 0;
-    for start in (0..values.len()).step_by(bulk_stride(values.len())) {
-        let run = &values[start..(start + BULK_RUN).min(values.len())];
-        for (k, v) in run.iter().enumerate() {
-            // within the range by the caller's contract; a value outside it is left uncounted
-            let level = usize::try_from(v.to_i64() - lo).ok().filter(|&l| l < levels);
-            if let Some(level) = level {
-                counts[(k & (ways - 1)) * levels + level] += 1; // ways is a power of two
+    {
+        let mut split = counts.chunks_exact_mut(levels);
+        let mut tables: [&mut [u32]; WAYS] = std::array::from_fn(|_| split.next().unwrap_or_default());
+        // within the range by the caller's contract; a value outside it (wrapping to a level
+        // past the table) is left uncounted
+        let mut add = |table: &mut [u32], v: &T| {
+            if let Some(count) = table.get_mut((v.to_i64() - lo) as usize) {
+                *count += 1;
                 sampled += 1;
+            }
+        };
+        for start in (0..values.len()).step_by(bulk_stride(values.len())) {
+            let run = &values[start..(start + BULK_RUN).min(values.len())];
+            let mut groups = run.chunks_exact(WAYS);
+            for group in &mut groups {
+                for (table, v) in tables.iter_mut().zip(group) {
+                    add(table, v);
+                }
+            }
+            for (table, v) in tables.iter_mut().zip(groups.remainder()) {
+                add(table, v);
             }
         }
     }
@@ -332,11 +355,6 @@ fn whole_counts<T: Sample>(values: &[T], lo: i64, span: usize) -> Option<[i64; 3
     }
     ranked_levels(first, lo, sampled)
 }
-
-/// Count tables [`whole_counts`] interleaves ...
-const COUNT_WAYS: usize = 4;
-/// ... for spans of at most this many levels (larger tables would not stay in cache).
-const COUNT_WAYS_MAX_LEVELS: usize = 1 << 14;
 
 /// The 0.1 %, 50 % and 99.9 % quantiles of `n` values counted per level from `lo`.
 fn ranked_levels(counts: &[u32], lo: i64, n: usize) -> Option<[i64; 3]> {

@@ -53,7 +53,7 @@ from ..system.scene import unassessed
 from ..temperature import pooled_temperature_scores
 from .plan import SequencePlan
 
-__all__ = ["Pool", "pixel_mean", "frame_statistics", "registration_summary"]
+__all__ = ["Pool", "FrameColumns", "pixel_mean", "frame_statistics", "registration_summary"]
 
 #: The raw metrics pooled, like their component, as the pixel-weighted mean of the frames'.
 MEAN_METRICS = {"nmi": ("nmi", "mi", "h_real", "h_sim", "h_joint"),
@@ -111,21 +111,21 @@ class Pool:
             return plan.peak
         return psnr_peak(plan.config, plan.default_peak, self.scene_range(), where="the real sequence")
 
-    def result(self, frames: Sequence[Mapping]) -> tuple[Score | None, dict]:
+    def result(self, scored: FrameColumns) -> tuple[Score | None, dict]:
         """The pooled score (None when no frame was scored) and how it was pooled."""
         plan = self.plan
-        scored = [f for f in frames if f["error"] is None]
         pooling: dict[str, Any] = {"frames": len(scored), "n": 0}
         if self.merged is None or self.merged.n == 0:
             return None, pooling
         pooling["n"] = int(self.merged.n)
         psnr = tuple(c for c in plan.image if c == "psnr")
         comps, metrics = image_components(self.merged.with_peak(self._peak()), psnr, plan.config)
+        counts = scored.counts()
         for component in (c for c in plan.image if c in MEAN_METRICS):
             pooling[component] = "pixel_mean"
-            comps[component] = pixel_mean(scored, "components", component)
-            metrics.update({key: pixel_mean(scored, "metrics", key) for key in MEAN_METRICS[component]})
-        temperature = pooled_temperature_scores((f["metrics"] for f in scored), plan.weights)
+            comps[component] = pixel_mean(scored.column("components", component), counts)
+            metrics.update({key: pixel_mean(scored.column("metrics", key), counts) for key in MEAN_METRICS[component]})
+        temperature = pooled_temperature_scores((f["metrics"] for f in scored.frames), plan.weights)
         if temperature is not None:  # scored in a unit
             comps, metrics = comps | temperature[0], metrics | temperature[1]
         all_metrics = metrics | plan.camera_metrics
@@ -136,17 +136,84 @@ class Pool:
         return score, pooling
 
 
-def pixel_mean(frames: Sequence[Mapping], group: str, key: str) -> float:
-    """``Σ N_i·x_i / Σ N_i`` of value ``frames[i][group][key]`` weighted by the frame's pixel pairs
-    ``N_i`` (``metrics["n"]``): an exact sum (:func:`math.fsum`) rounded once, kept within
+def pixel_mean(values: np.ndarray, counts: np.ndarray) -> float:
+    """``Σ N_i·x_i / Σ N_i`` of the frames' ``values`` weighted by their pixel pairs ``counts``
+    (``metrics["n"]``): an exact sum (:func:`math.fsum`) rounded once, kept within
     ``[min, max]`` of the frames' values against that rounding."""
-    values = [float(f[group][key]) for f in frames]
-    counts = [int(f["metrics"]["n"]) for f in frames]
-    mean = math.fsum(n * v for n, v in zip(counts, values)) / sum(counts)
-    return min(max(mean, min(values)), max(values))
+    products = (counts.astype(float) * values).tolist()  # each N_i·x_i rounded once, as in Python
+    mean = math.fsum(products) / int(counts.sum())
+    return min(max(mean, float(values.min())), float(values.max()))
 
 
-def _percentiles(values: list[float]) -> dict:
+class FrameColumns:
+    """The scored frames of a sequence, and each number of their ``components`` and
+    ``metrics`` as a float64 column in frame order (made once, read by the pooling and the
+    frame statistics). ``fixed`` holds the values every scored frame shares (the camera's
+    components and metrics, by group): their columns are not read frame by frame."""
+
+    def __init__(self, frames: Sequence[Mapping], fixed: Mapping[str, Mapping[str, Any]] | None = None):
+        self.frames = [f for f in frames if f["error"] is None]
+        self.fixed = {group: dict((fixed or {}).get(group, {})) for group in ("components", "metrics")}
+        self.groups = {group: _numeric_columns([f[group] for f in self.frames], self.fixed[group])
+                       for group in ("components", "metrics")}
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def column(self, group: str, key: str) -> np.ndarray:
+        """The values of ``frame[group][key]``, one for each frame."""
+        values = self.groups[group][key]
+        if len(values) != len(self.frames):
+            raise ValueError(f"internal: {len(values)} of {len(self.frames)} frames have {group}[{key!r}]")
+        return values
+
+    def counts(self) -> np.ndarray:
+        """Each frame's pixel pairs ``metrics["n"]`` (int64)."""
+        return np.asarray([int(f["metrics"]["n"]) for f in self.frames], dtype=np.int64)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float))
+
+
+def _numeric_columns(rows: list[Mapping], fixed: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """Each key's numbers (``int`` or ``float``, bools as 0/1) over ``rows`` as float64, keys in
+    order of first use; a row without the key, or with another kind of value, is left out.
+    A key of ``fixed`` has that value in every row."""
+    keys = list(rows[0]) if rows else []
+    if not keys or any(len(row) != len(keys) for row in rows):
+        return _filtered_columns(rows)
+    out = {}
+    for key in keys:
+        if key in fixed:
+            if _is_number(fixed[key]):
+                out[key] = np.full(len(rows), float(fixed[key]))
+            continue
+        try:
+            values = [row[key] for row in rows]
+        except KeyError:  # rows with different keys
+            return _filtered_columns(rows)
+        column = np.asarray(values)
+        if column.dtype.kind in "biuf":
+            out[key] = column.astype(float)
+        elif column.dtype.kind != "U" or not all(isinstance(v, str) for v in values):
+            numbers = [v for v in values if _is_number(v)]
+            if numbers:
+                out[key] = np.asarray(numbers, dtype=float)
+    return out
+
+
+def _filtered_columns(rows: list[Mapping]) -> dict[str, np.ndarray]:
+    """:func:`_numeric_columns` of rows whose keys differ, value by value."""
+    columns: dict[str, list] = {}
+    for row in rows:
+        for k, v in row.items():
+            if _is_number(v):
+                columns.setdefault(k, []).append(v)
+    return {k: np.asarray(v, dtype=float) for k, v in columns.items()}
+
+
+def _percentiles(values: Sequence[float] | np.ndarray) -> dict:
     a = np.asarray(values, dtype=float)
     a = a[~np.isnan(a)]
     if a.size == 0:
@@ -159,22 +226,14 @@ def _percentiles(values: list[float]) -> dict:
     return out
 
 
-def frame_statistics(frames: Sequence[Mapping]) -> dict:
+def frame_statistics(scored: FrameColumns) -> dict:
     """Mean, percentiles, min and max over the scored frames of the fidelity, each component
     and each metric: ``{"fidelity": {...}, "components": {name: {...}}, "metrics": {name: {...}}}``."""
-    scored = [f for f in frames if f["error"] is None]
-    out: dict[str, Any] = {"fidelity": _percentiles([f["fidelity"] for f in scored]), "components": {},
-                           "metrics": {}}
-    for group in ("components", "metrics"):
-        columns: dict[str, list] = {}  # each number's values in frame order, keys in order of first use
-        for f in scored:
-            for k, v in f[group].items():
-                if isinstance(v, (int, float)):
-                    columns.setdefault(k, []).append(v)
-        for k, values in columns.items():
-            stats = _percentiles(values)
-            if stats:
-                out[group][k] = stats
+    out: dict[str, Any] = {"fidelity": _percentiles([f["fidelity"] for f in scored.frames])}
+    for group, columns in scored.groups.items():
+        fixed = scored.fixed[group]
+        out[group] = {k: stats for k, values in columns.items()
+                      if (stats := _percentiles(values[:1] if k in fixed else values))}
     return out
 
 

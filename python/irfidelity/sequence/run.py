@@ -20,7 +20,7 @@ from .options import RunOptions
 from .outcomes import Outcome, error_entry, flat_row, frame_entry
 from .pairing import Pairing
 from .plan import SequencePlan
-from .pooling import Pool, frame_statistics, registration_summary
+from .pooling import FrameColumns, Pool, frame_statistics, registration_summary
 from .progress import Progress
 from .report import SequenceReport
 from .resume import RecordBounds, Resumer
@@ -169,7 +169,8 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
         progress.close()
         if log is not None:
             log.close()
-    score, pooling = scorer.pool.result(frames)
+    scored = FrameColumns(frames, {"components": plan.camera_components, "metrics": plan.camera_metrics})
+    score, pooling = scorer.pool.result(scored)
     pooled = score.to_dict() if score is not None else {}
     if score is not None:
         pooled.update(verdict=score.verdict.to_dict(), ceiling=plan.ceiling,
@@ -179,7 +180,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
     return SequenceReport(
         frames=frames, weights=plan.weights, unpaired=unpaired,
         failed=[f["index"] for f in frames if f["error"] and f["index"] not in alone],
-        frame_stats=frame_statistics(frames), pooling=pooling, skipped=dict(plan.skipped), config=plan.config,
+        frame_stats=frame_statistics(scored), pooling=pooling, skipped=dict(plan.skipped), config=plan.config,
         notes=notes, inputs=dict(plan.inputs),
         registration=registration_summary(plan, frames),
         delay=None if pairing.delay is None else {**pairing.delay.to_dict(), "unpaired": pairing.unpaired},
