@@ -455,6 +455,7 @@ class Grader:
         self._cuts: dict[str, tuple[tuple, str]] = {}
         self._psnr_cuts: dict[tuple, tuple[tuple, str]] = {}
         self._judged_of: dict[tuple, list[str]] = {}  # the graded components of each set of names
+        self._judged_cuts: dict[tuple, list[tuple]] = {}  # their cuts, by (names, peak, scene range)
 
     def cuts(self, k: str, peak: Any, scene_range: float | None) -> tuple[tuple, str]:
         """The cuts of ``k`` and their basis (``peak`` and ``scene_range`` matter to psnr only)."""
@@ -487,14 +488,21 @@ class Grader:
         """``fidelity``, ``grade``, ``component_grades`` and ``membership`` of a score, as
         :func:`irfidelity.scoring.score_components` gives them."""
         peak, names, weight = metrics.get("psnr_peak"), self.names, self._weight
-        judged = self._judged_of.get(tuple(components))
+        given = tuple(components)
+        judged = self._judged_of.get(given)
         if judged is None:
             judged = self.judged(components)
             if len(judged) != len(self.active):
                 fidelity_sum(self.weights, components)  # raises, naming the components without a value
-            self._judged_of[tuple(components)] = judged
+            self._judged_of[given] = judged
         values = [float(components[k]) for k in judged]
-        levels = [grade_level(v, self.cuts(k, peak, scene_range)[0]) for k, v in zip(judged, values)]
+        cuts = self._judged_cuts.get((given, peak, scene_range))
+        if cuts is None:
+            if len(self._judged_cuts) >= _PSNR_CUTS_KEPT:
+                self._judged_cuts.clear()
+            cuts = [self.cuts(k, peak, scene_range)[0] for k in judged]
+            self._judged_cuts[(given, peak, scene_range)] = cuts
+        levels = [grade_level(v, cut) for v, cut in zip(values, cuts)]
         grades = {k: names[level] for k, level in zip(judged, levels)}
         return {"fidelity": math.fsum([weight[k] * v for k, v in zip(judged, values)]),
                 "grade": names[max(levels)], "component_grades": grades,

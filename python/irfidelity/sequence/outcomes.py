@@ -5,9 +5,8 @@ are None and the dicts empty)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, NamedTuple
 
 from ..errors import FidelityError
 from ..schema import registration_values
@@ -21,8 +20,7 @@ from .plan import SequencePlan
 __all__ = ["Outcome", "frame_entry", "error_entry"]
 
 
-@dataclass(frozen=True)
-class Outcome:
+class Outcome(NamedTuple):
     """What a backend reports for the pair at ``index``: its statistics or an error.
 
     ``real_extent`` is the real frame's (min, max) over the scored pixels, when the backend

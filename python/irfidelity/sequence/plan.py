@@ -113,7 +113,7 @@ class SequencePlan:
         """Grades every frame of the run (each component's cuts found once)."""
         return Grader(self.weights, self.config, self.ceiling)
 
-    @property
+    @cached_property
     def bin_label(self) -> Any:
         """The histogram's binning as reports name it (int, "levels" or None)."""
         if "nmi" not in self.image:

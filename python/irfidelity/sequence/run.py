@@ -85,12 +85,13 @@ class _Scorer:
 
     def _keep(self, entry: FrameEntry, stats: PairStats | None, extent: tuple | None, *, resumed: bool = False,
               pool: bool = True) -> None:
-        self.entries[entry["index"]] = entry
+        index = entry["index"]
+        self.entries[index] = entry
         sums = None if stats is None else stats.int_sums()
         if sums is not None:
-            self.sums[entry["index"]] = {"n": stats.n, **sums}  # type: ignore[union-attr]
+            self.sums[index] = {"n": stats.n, **sums}  # type: ignore[union-attr]
         if pool:
-            self.pool.add(entry["index"], stats, extent)
+            self.pool.add(index, stats, extent)
         while self.pool.next in self.deferred:
             reload, deferred_extent = self.deferred.pop(self.pool.next)
             self.pool.add(self.pool.next, reload(), deferred_extent)
