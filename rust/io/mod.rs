@@ -381,16 +381,17 @@ fn sniff_path(path: &Path) -> Option<Format> {
 }
 
 /// The read buffer for a file: small for a TIFF, whose decoder seeks to each directory and
-/// chunk it reads (every seek refills the buffer, and large chunks bypass it), larger for
+/// chunk it reads (every seek refills the buffer, and large chunks bypass it), smaller still
+/// to walk its `pages` (a few hundred bytes at each: an IFD and its next offset), larger for
 /// the formats read front to back.
-fn buffer_size(file: &File) -> usize {
+fn buffer_size(file: &File, pages: bool) -> usize {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileExt;
         let mut head = [0u8; 8];
         if let Ok(n) = file.read_at(&mut head, 0) {
             if sniff(&head[..n]) == Some(Format::Tiff) {
-                return 1 << 13;
+                return if pages { 1 << 9 } else { 1 << 13 };
             }
         }
     }
@@ -401,7 +402,7 @@ fn run_on_path(path: &Path, op: Op<'_>) -> Result<OpOut> {
     let name = path.display().to_string();
     let file = open_regular(path).map_err(|reason| frame_err(&name, reason))?;
     let key = file.metadata().map(|meta| FileKey::of(path, &meta)).ok();
-    let reader = BufReader::with_capacity(buffer_size(&file), file);
+    let reader = BufReader::with_capacity(buffer_size(&file, matches!(op, Op::Pages)), file);
     guarded(&name, || run_op(reader, &name, &op, key.as_ref()))
 }
 

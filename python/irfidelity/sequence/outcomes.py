@@ -6,7 +6,8 @@ are None and the dicts empty)."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, NamedTuple
+from dataclasses import dataclass
+from typing import Any
 
 from ..errors import FidelityError
 from ..schema import registration_values
@@ -20,7 +21,8 @@ from .plan import SequencePlan
 __all__ = ["Outcome", "frame_entry", "error_entry"]
 
 
-class Outcome(NamedTuple):
+@dataclass(frozen=True)
+class Outcome:
     """What a backend reports for the pair at ``index``: its statistics or an error.
 
     ``real_extent`` is the real frame's (min, max) over the scored pixels, when the backend

@@ -41,6 +41,7 @@ outside the frames' fidelities by at most those components' weighted spread over
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
@@ -51,6 +52,7 @@ from ..scoring import Score, image_components, psnr_peak, score_components
 from ..stats import PairStats, merge_all
 from ..system.scene import unassessed
 from ..temperature import pooled_temperature_scores
+from .entry import FrameEntry
 from .plan import SequencePlan
 
 __all__ = ["Pool", "FrameColumns", "pixel_mean", "frame_statistics", "registration_summary"]
@@ -125,7 +127,8 @@ class Pool:
             pooling[component] = "pixel_mean"
             comps[component] = pixel_mean(scored.column("components", component), counts)
             metrics.update({key: pixel_mean(scored.column("metrics", key), counts) for key in MEAN_METRICS[component]})
-        temperature = pooled_temperature_scores((f["metrics"] for f in scored.frames), plan.weights)
+        temperature = None if plan.config.unit is None else pooled_temperature_scores(
+            (f.metrics for f in scored.frames), plan.weights)
         if temperature is not None:  # scored in a unit
             comps, metrics = comps | temperature[0], metrics | temperature[1]
         all_metrics = metrics | plan.camera_metrics
@@ -151,11 +154,11 @@ class FrameColumns:
     frame statistics). ``fixed`` holds the values every scored frame shares (the camera's
     components and metrics, by group): their columns are not read frame by frame."""
 
-    def __init__(self, frames: Sequence[Mapping], fixed: Mapping[str, Mapping[str, Any]] | None = None):
-        self.frames = [f for f in frames if f["error"] is None]
+    def __init__(self, frames: Sequence[FrameEntry], fixed: Mapping[str, Mapping[str, Any]] | None = None):
+        self.frames = [f for f in frames if f.error is None]
         self.fixed = {group: dict((fixed or {}).get(group, {})) for group in ("components", "metrics")}
-        self.groups = {group: _numeric_columns([f[group] for f in self.frames], self.fixed[group])
-                       for group in ("components", "metrics")}
+        self.groups = {"components": _numeric_columns([f.components for f in self.frames], self.fixed["components"]),
+                       "metrics": _numeric_columns([f.metrics for f in self.frames], self.fixed["metrics"])}
 
     def __len__(self) -> int:
         return len(self.frames)
@@ -169,7 +172,7 @@ class FrameColumns:
 
     def counts(self) -> np.ndarray:
         """Each frame's pixel pairs ``metrics["n"]`` (int64)."""
-        return np.asarray([int(f["metrics"]["n"]) for f in self.frames], dtype=np.int64)
+        return self.column("metrics", "n").astype(np.int64)  # counts below 2^53: exact in float64
 
 
 def _is_number(value: Any) -> bool:
@@ -181,25 +184,39 @@ def _numeric_columns(rows: list[Mapping], fixed: Mapping[str, Any]) -> dict[str,
     order of first use; a row without the key, or with another kind of value, is left out.
     A key of ``fixed`` has that value in every row."""
     keys = list(rows[0]) if rows else []
-    if not keys or any(len(row) != len(keys) for row in rows):
+    if not keys or set(map(len, rows)) != {len(keys)}:
+        return _filtered_columns(rows)
+    varying = [k for k in keys if k not in fixed]
+    try:
+        table = _number_table(rows, varying)
+    except KeyError:  # rows with different keys
         return _filtered_columns(rows)
     out = {}
     for key in keys:
         if key in fixed:
             if _is_number(fixed[key]):
                 out[key] = np.full(len(rows), float(fixed[key]))
-            continue
-        try:
-            values = [row[key] for row in rows]
-        except KeyError:  # rows with different keys
-            return _filtered_columns(rows)
-        column = np.asarray(values)
-        if column.dtype.kind in "biuf":
-            out[key] = column.astype(float)
-        elif column.dtype.kind != "U" or not all(isinstance(v, str) for v in values):
-            numbers = [v for v in values if _is_number(v)]
+        elif key in table:
+            out[key] = table[key]
+        else:
+            numbers = [v for v in (row[key] for row in rows) if _is_number(v)]
             if numbers:
                 out[key] = np.asarray(numbers, dtype=float)
+    return out
+
+
+def _number_table(rows: list[Mapping], keys: list[str]) -> dict[str, np.ndarray]:
+    """The columns of ``keys`` in which every row holds a number, read in one pass when all of
+    them do (else key by key); a KeyError when a row lacks a key."""
+    if len(keys) > 1:
+        table = np.array(list(map(operator.itemgetter(*keys), rows)))
+        if table.dtype.kind in "biuf":
+            return dict(zip(keys, table.astype(float).T))
+    out = {}
+    for key in keys:
+        column = np.asarray([row[key] for row in rows])
+        if column.dtype.kind in "biuf":
+            out[key] = column.astype(float)
     return out
 
 
@@ -213,7 +230,7 @@ def _filtered_columns(rows: list[Mapping]) -> dict[str, np.ndarray]:
     return {k: np.asarray(v, dtype=float) for k, v in columns.items()}
 
 
-def _percentiles(values: Sequence[float] | np.ndarray) -> dict:
+def _percentiles(values: Sequence[Any] | np.ndarray) -> dict:
     a = np.asarray(values, dtype=float)
     a = a[~np.isnan(a)]
     if a.size == 0:
@@ -229,7 +246,7 @@ def _percentiles(values: Sequence[float] | np.ndarray) -> dict:
 def frame_statistics(scored: FrameColumns) -> dict:
     """Mean, percentiles, min and max over the scored frames of the fidelity, each component
     and each metric: ``{"fidelity": {...}, "components": {name: {...}}, "metrics": {name: {...}}}``."""
-    out: dict[str, Any] = {"fidelity": _percentiles([f["fidelity"] for f in scored.frames])}
+    out: dict[str, Any] = {"fidelity": _percentiles([f.fidelity for f in scored.frames])}
     for group, columns in scored.groups.items():
         fixed = scored.fixed[group]
         out[group] = {k: stats for k, values in columns.items()

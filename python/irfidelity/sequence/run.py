@@ -180,7 +180,7 @@ def execute(real: FrameSequence, sim: FrameSequence, pairing: Pairing, plan: Seq
     alone = set(unpaired)
     return SequenceReport(
         frames=frames, weights=plan.weights, unpaired=unpaired,
-        failed=[f["index"] for f in frames if f["error"] and f["index"] not in alone],
+        failed=[f.index for f in frames if f.error and f.index not in alone],
         frame_stats=frame_statistics(scored), pooling=pooling, skipped=dict(plan.skipped), config=plan.config,
         notes=notes, inputs=dict(plan.inputs),
         registration=registration_summary(plan, frames),
