@@ -54,9 +54,9 @@ def _file_sources(seq: FrameSequence) -> list[tuple[str, int]] | None:
     """(path, page) of every frame when the Rust engine can decode them all, else None."""
     if not seq.is_files:
         return None
-    sources = list(seq.sources)
     # (a sequence of files has a path for each frame; a multi-page file's pages share one)
-    if any(p is None or str(p).lower().endswith(".npy") for p in {p for p, _ in sources}):
+    sources = [(p, page) for p, page in seq.sources if p is not None]
+    if len(sources) < len(seq) or any(str(p).lower().endswith(".npy") for p in {p for p, _ in sources}):
         return None
     return sources
 
