@@ -512,3 +512,37 @@ def test_curves_are_planned_and_fail_before_any_frame(png_dirs, tmp_path):
         score_sequence(rdir, sdir, bits=14, progress=False, sim_sitf=ss)
     with pytest.raises(FidelityError, match="per-frame components"):
         score_sequence(rdir, sdir, bits=14, progress=False, weights="sitf=1", real_sitf=rs, sim_sitf=ss)
+
+
+def _reference_columns(rows):
+    """The numbers of each key, row by row (the definition FrameColumns reads faster)."""
+    columns = {}
+    for row in rows:
+        for k, v in row.items():
+            if isinstance(v, (int, float)):
+                columns.setdefault(k, []).append(float(v))
+    return columns
+
+
+@pytest.mark.parametrize("rows", [
+    [{"a": 1.5, "b": 2, "c": "scene", "d": True}, {"a": 2.5, "b": 3, "c": "scene", "d": False}],
+    [{"a": 1.0, "b": None}, {"a": 2.0, "b": 4.0}, {"a": 3.0, "b": "x"}],  # mixed kinds in one key
+    [{"a": 1.0, "b": "1.5"}, {"a": 2.0, "b": "2.5"}],  # number-like strings are not numbers
+    [{"a": 1.0}, {"b": 2.0}, {"a": 3.0, "b": 4.0}],  # keys that differ between rows
+    [{"a": 2 ** 70}, {"a": 1.0}],  # an integer past int64
+])
+def test_frame_columns_read_every_number_and_only_numbers(rows):
+    from irfidelity.sequence.entry import FrameEntry
+    from irfidelity.sequence.pooling import FrameColumns
+
+    frames = [FrameEntry(i, components={"x": float(i)}, metrics=row) for i, row in enumerate(rows)]
+    frames.append(FrameEntry(len(rows), error="unreadable"))  # a failed frame is left out
+    columns = FrameColumns(frames)
+    want = _reference_columns(rows)
+    assert list(columns.groups["metrics"]) == list(want)
+    for key, values in want.items():
+        assert columns.groups["metrics"][key].tolist() == values
+    # a key every frame shares from the plan is its value in each frame
+    fixed = FrameColumns(frames[:-1], {"metrics": {"a": rows[0].get("a")}} if "a" in rows[0] else None)
+    if "a" in rows[0] and all("a" in r for r in rows):
+        assert fixed.groups["metrics"]["a"].tolist() == [float(rows[0]["a"])] * len(rows)
