@@ -120,11 +120,14 @@ pub(super) fn int_chunk<T: Sample, const SSE: bool, const MOM: bool, const HIST:
                             for (&x, &y) in rr.iter().zip(sb) {
                                 let (i, j) = ((x.to_i64() - T::MIN) as usize, (y.to_i64() - T::MIN) as usize);
                                 // SAFETY: each table has one entry per value of T (len == T::LUT,
-                                // checked above), so `i, j` index them; every entry is at most the bin
-                                // of its range's top, which `IntEdges::new` proves below `bins` ==
-                                // dense_bins (asserted above), so `k < dense_bins² == dense.len()`.
-                                // Tested at the type's extreme levels and ranges by
-                                // `kernel::tests::int_bins_stay_below_bins_at_the_edges`.
+                                // checked above), so `i, j` index them; every entry is below `bins`
+                                // == dense_bins (asserted above): a written entry is at most the bin
+                                // of its range's top, which `IntEdges::new` proves below `bins`, and
+                                // an entry kept from an earlier pass is below the bound
+                                // `scratch::lut_below` took it with (≤ bins); so `k < dense_bins² ==
+                                // dense.len()`. Tested at the type's extreme levels and ranges by
+                                // `kernel::tests::int_bins_stay_below_bins_at_the_edges` and, for
+                                // kept entries, `a_windowed_table_holds_the_rule_in_its_window_and_stays_below_bins`.
                                 unsafe {
                                     let k = *lut.get_unchecked(i) as usize * dense_bins
                                         + *sim_lut.get_unchecked(j) as usize;
