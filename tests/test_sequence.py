@@ -530,6 +530,8 @@ def _reference_columns(rows):
     [{"a": 1.0, "b": "1.5"}, {"a": 2.0, "b": "2.5"}],  # number-like strings are not numbers
     [{"a": 1.0}, {"b": 2.0}, {"a": 3.0, "b": 4.0}],  # keys that differ between rows
     [{"a": 2 ** 70}, {"a": 1.0}],  # an integer past int64
+    [{"a": 1.0, "v": [1, 2]}, {"a": 2.0, "v": [3, 4]}],  # lists are not numbers
+    [{"a": 1.0, "v": [1, 2]}, {"a": 2.0, "v": [3]}],  # nor ragged ones
 ])
 def test_frame_columns_read_every_number_and_only_numbers(rows):
     from irfidelity.sequence.entry import FrameEntry

@@ -209,15 +209,25 @@ def _number_table(rows: list[Mapping], keys: list[str]) -> dict[str, np.ndarray]
     """The columns of ``keys`` in which every row holds a number, read in one pass when all of
     them do (else key by key); a KeyError when a row lacks a key."""
     if len(keys) > 1:
-        table = np.array(list(map(operator.itemgetter(*keys), rows)))
-        if table.dtype.kind in "biuf":
-            return dict(zip(keys, table.astype(float).T))
+        table = _numbers(list(map(operator.itemgetter(*keys), rows)), (len(rows), len(keys)))
+        if table is not None:
+            return dict(zip(keys, table.T))
     out = {}
     for key in keys:
-        column = np.asarray([row[key] for row in rows])
-        if column.dtype.kind in "biuf":
-            out[key] = column.astype(float)
+        column = _numbers([row[key] for row in rows], (len(rows),))
+        if column is not None:
+            out[key] = column
     return out
+
+
+def _numbers(values: list, shape: tuple[int, ...]) -> np.ndarray | None:
+    """``values`` as float64 of ``shape`` when every value is a number (bools as 0/1), else
+    None (a string, None, a list or an integer past int64 among them)."""
+    try:
+        array = np.array(values)
+    except ValueError:  # ragged: lists of different lengths
+        return None
+    return array.astype(float) if array.dtype.kind in "biuf" and array.shape == shape else None
 
 
 def _filtered_columns(rows: list[Mapping]) -> dict[str, np.ndarray]:
