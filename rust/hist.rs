@@ -576,7 +576,16 @@ mod tests {
                 assert_eq!(matches!(kept, Joint::Sparse(_)), sparse);
                 assert_eq!(kept.to_runs(), dense.to_runs());
                 assert_eq!(kept, dense);
-                assert_eq!(kept.entropies(), dense.entropies(), "the same terms in the same order");
+                let (taken, counted) = (kept.entropies(), dense.entropies());
+                if cfg!(miri) {
+                    // Miri gives each logarithm a few ulps of random error (a libm's freedom):
+                    // the same terms agree to rounding there, exactly everywhere else
+                    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
+                    assert!(close(taken.h_real, counted.h_real) && close(taken.h_sim, counted.h_sim));
+                    assert!(close(taken.h_joint, counted.h_joint), "{taken:?} against {counted:?}");
+                } else {
+                    assert_eq!(taken, counted, "the same terms in the same order");
+                }
             }
         }
         // columns spread far apart are counted by sorting, with the same result
