@@ -242,35 +242,45 @@ const CHUNK: usize = 1 << 14;
 /// `f` of every input, in parallel; integer inputs spanning a range much smaller than their
 /// count go through a table of `f` over that range (the same values, fewer logarithms).
 fn convert<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync + Copy) -> Result<Converted> {
+    match integer_table(input, f) {
+        Some((low, table)) => looked_up(input, low, &table),
+        None => computed(input, f),
+    }
+}
+
+/// `table[x − low]` of every integer input (the table spans their min..=max), each output
+/// written once; the NaN entries (counts outside the calibration's domain) counted only when
+/// the table has one.
+fn looked_up<T: Sample>(input: &[T], low: i64, table: &[f64]) -> Result<Converted> {
     // refused as an error, not an abort, when the memory is not there
+    let mut values = crate::budget::try_with_capacity(input.len())?;
+    input
+        .par_iter()
+        .map(|x| {
+            let at = x.integer().map_or(usize::MAX, |v| v.wrapping_sub(low) as usize);
+            table.get(at).copied().unwrap_or(f64::NAN)
+        })
+        .collect_into_vec(&mut values);
+    let outside = if table.iter().any(|v| v.is_nan()) {
+        values.par_chunks(CHUNK).map(|run| run.iter().filter(|v| v.is_nan()).count()).sum()
+    } else {
+        0
+    };
+    Ok(Converted { values, outside, nonfinite: 0 })
+}
+
+/// `f` of every input, a chunk at a time in AVX2 code when the CPU has it.
+fn computed<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync + Copy) -> Result<Converted> {
     let mut values = crate::budget::try_filled(input.len(), 0.0)?;
-    let table = integer_table(input, f);
     let (outside, nonfinite) = values
         .par_chunks_mut(CHUNK)
         .zip(input.par_chunks(CHUNK))
-        .map(|(out, inp)| match &table {
-            Some((low, t)) => (look_up(inp, out, *low, t), 0),
-            None => {
-                apply(inp, out, f);
-                count_nan(inp, out)
-            }
+        .map(|(out, inp)| {
+            apply(inp, out, f);
+            count_nan(inp, out)
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     Ok(Converted { values, outside, nonfinite })
-}
-
-/// `out[i] = table[inp[i] − low]` for integer inputs within the table; the results that are
-/// NaN (counts outside the calibration's domain).
-fn look_up<T: Sample>(inp: &[T], out: &mut [f64], low: i64, table: &[f64]) -> usize {
-    let mut nan = 0;
-    for (x, o) in inp.iter().zip(out.iter_mut()) {
-        // every input lies within the table (it spans their min..=max)
-        let at = x.integer().map_or(usize::MAX, |v| v.wrapping_sub(low) as usize);
-        let v = table.get(at).copied().unwrap_or(f64::NAN);
-        nan += v.is_nan() as usize;
-        *o = v;
-    }
-    nan
 }
 
 avx2_copy! {
