@@ -171,6 +171,40 @@ impl<A: Sample, B: Sample> Pair<'_, A, B> {
         (total.iter().sum(), count.iter().sum())
     }
 
+    /// The flat indices in `[a, b)`, ascending, of the scored pixels whose difference lies more
+    /// than `threshold` from `median` (see [`far_pixels`]); None once there are more than `most`.
+    fn far(
+        &self,
+        (a, b): (usize, usize),
+        median: f64,
+        threshold: f64,
+        most: usize,
+    ) -> crate::Result<Option<Vec<usize>>> {
+        let mut found = Vec::new();
+        let is_far = |i: usize| {
+            let d = self.sim[i].to_f64() - self.real[i].to_f64();
+            (d - median).abs() > threshold && self.mask.is_none_or(|m| m[i])
+        };
+        let mut start = a;
+        while start < b {
+            let end = (start + LANES).min(b);
+            // a block of eight tested without a branch each: far pixels are rare
+            if (start..end).fold(false, |any, i| any | is_far(i)) {
+                for i in (start..end).filter(|&i| is_far(i)) {
+                    if found.len() == most {
+                        return Ok(None);
+                    }
+                    found.try_reserve(1).map_err(|_| {
+                        crate::Error::Value(format!("not enough memory to list {} far pixels", found.len() + 1))
+                    })?;
+                    found.push(i);
+                }
+            }
+            start = end;
+        }
+        Ok(Some(found))
+    }
+
     /// Adds the squares of `[a, b)` that rank among the `top` largest so far to `found`.
     fn largest(&self, found: &mut Candidates, (a, b): (usize, usize), top: usize) -> crate::Result<()> {
         for i in a..b {
@@ -483,6 +517,39 @@ pub fn profile<A: Sample, B: Sample>(
     Ok(Profile { total, count, largest: sums.largest, border, top })
 }
 
+/// The flat indices, ascending, of the pixels `mask` scores whose difference lies more than
+/// `threshold` from `median`, `|(sim − real) − median| > threshold` in float64 (a NaN difference
+/// is never far): the candidate defects of `irfidelity.defects.find_defects`, listed without a
+/// frame-sized temporary. None when there are more than `most` (widespread error, no defects).
+pub fn far_pixels<A: Sample, B: Sample>(
+    real: &[A],
+    sim: &[B],
+    mask: Option<&[bool]>,
+    median: f64,
+    threshold: f64,
+    most: usize,
+) -> crate::Result<Option<Vec<usize>>> {
+    let n = real.len();
+    if sim.len() != n || mask.is_some_and(|m| m.len() != n) {
+        return Err(crate::Error::Shape(format!("the frames and mask must have {n} samples")));
+    }
+    let pair = Pair { real, sim, mask };
+    let parts = map_chunks(n, NS_PER_PX, |range| pair.far(range, median, threshold, most))?;
+    let mut all: Vec<usize> = Vec::new();
+    for part in parts {
+        match part {
+            Some(part) if all.len() + part.len() <= most => {
+                all.try_reserve(part.len()).map_err(|_| {
+                    crate::Error::Value(format!("not enough memory to list {} far pixels", all.len() + part.len()))
+                })?;
+                all.extend(part);
+            }
+            _ => return Ok(None),
+        }
+    }
+    Ok(Some(all))
+}
+
 /// Whether the `top` largest squares can sum to more than `limit`, by three bounds that need no
 /// search (a relative margin of 1e-9 covers their own rounding): `top × largest`;
 /// Cauchy–Schwarz, √(top · Σ v²); and, with τ = limit / (2·top), the sum of the squares above τ
@@ -563,6 +630,34 @@ mod tests {
         let top = got.top.expect("a dominating cluster is searched");
         assert_eq!(top.len(), 750);
         assert_eq!(top, squares[..750].to_vec());
+    }
+
+    #[test]
+    fn far_pixels_are_those_a_plain_pass_finds_in_order() {
+        let (rows, cols) = (300, 500); // three chunks
+        let n = rows * cols;
+        let real: Vec<u16> = noise(n, 5).iter().map(|v| (3000.0 + 100.0 * v) as u16).collect();
+        let mut sim: Vec<f64> = real.iter().zip(noise(n, 6)).map(|(&r, e)| f64::from(r) + 2.0 + e).collect();
+        let far_at = [7usize, 49_999, 50_000, 50_001, 100_003, n - 1];
+        for &i in &far_at {
+            sim[i] += if i % 2 == 0 { 40.0 } else { -40.0 };
+        }
+        sim[11] = f64::NAN; // never far
+        sim[12] = f64::INFINITY; // always far
+        let mask: Vec<bool> = (0..n).map(|i| i != 50_000).collect();
+        let plain = |mask: Option<&[bool]>| -> Vec<usize> {
+            (0..n)
+                .filter(|&i| ((sim[i] - f64::from(real[i])) - 2.0).abs() > 10.0 && mask.is_none_or(|m| m[i]))
+                .collect()
+        };
+        for m in [None, Some(&mask[..])] {
+            let want = plain(m);
+            assert_eq!(want.len(), if m.is_none() { 7 } else { 6 });
+            assert_eq!(far_pixels(&real, &sim, m, 2.0, 10.0, 100).unwrap(), Some(want.clone()));
+            assert_eq!(far_pixels(&real, &sim, m, 2.0, 10.0, want.len()).unwrap(), Some(want.clone()));
+            assert_eq!(far_pixels(&real, &sim, m, 2.0, 10.0, want.len() - 1).unwrap(), None, "more than most");
+        }
+        assert!(far_pixels(&real, &sim[1..], None, 2.0, 10.0, 100).is_err());
     }
 
     #[test]

@@ -90,20 +90,22 @@ def _core_calls(fn) -> list[str]:
 
 
 def test_a_registered_evaluate_makes_one_scoring_call():
-    # the pair's one path, the defects search on the frames as scored, the summary, the
+    # the pair's one path, the defects search on the frames as scored (the largest difference
+    # passes this pair's threshold, so the far pixels are listed), the summary, the
     # concentrated-error check, then the scene's transfer (its memory plan, block means, then
     # the tiles)
     real, sim = _pair(FRAMES[1])
     kw = dict(bits=16, peak="range", register="translation", register_method="phase")
     calls = _core_calls(lambda: irf.evaluate(real, sim, **kw))
     scene = ["check_budget", "low_spectrum", "cross_spectra"]
-    assert calls == ["score_registered", "error_profile", "PairStats.summary", "error_profile", *scene], calls
+    defects = ["error_profile", "far_pixels"]
+    assert calls == ["score_registered", *defects, "PairStats.summary", "error_profile", *scene], calls
     # unregistered: the memory plan is checked (no data crosses), then one pass and its summary
     calls = _core_calls(lambda: irf.evaluate(real, sim, bits=16, peak="range"))
-    assert calls == ["check_budget", "pair_stats", "error_profile", "PairStats.summary", "error_profile", *scene], calls
+    assert calls == ["check_budget", "pair_stats", *defects, "PairStats.summary", "error_profile", *scene], calls
     # without the scene, the pair alone
     calls = _core_calls(lambda: irf.evaluate(real, sim, bits=16, peak="range", transfer_options={"scene": False}))
-    assert calls == ["check_budget", "pair_stats", "error_profile", "PairStats.summary", "error_profile"], calls
+    assert calls == ["check_budget", "pair_stats", *defects, "PairStats.summary", "error_profile"], calls
 
 
 def test_the_array_loop_scores_as_the_engine(tmp_path):

@@ -436,6 +436,33 @@ def test_defects_equal_a_whole_frame_reference(case):
         assert tuple(box) == (0, 2, 0, real.shape[1] - 1)
 
 
+@pytest.mark.parametrize("kinds", [("uint16", "uint16"), ("uint16", "float64"), ("float32", "float32"),
+                                   ("float64", "float64"), ("int16", "int16"), ("float16", "float64")])
+def test_far_pixels_are_the_float64_differences_beyond_the_threshold(kinds):
+    # defect candidates listed in one Rust pass equal the numpy formula over the whole frame, in
+    # row-major order, across the pass's chunks (2^16 pixels), with a mask, NaN and infinity
+    from irfidelity import _core
+
+    rng = np.random.default_rng(41)
+    real = (3000 + rng.normal(0, 40, (300, 700))).astype(kinds[0])
+    sim = (real.astype(float) + 5 + rng.normal(0, 2, real.shape)).astype(kinds[1])
+    far_at = [(0, 0), (93, 439), (93, 440), (187, 279), (299, 699)]  # around the chunk boundaries
+    for k, (y, x) in enumerate(far_at):
+        sim[y, x] = sim[y, x] + 60 if k % 2 else sim[y, x] - 60
+    if sim.dtype.kind == "f":
+        sim[10, 10], sim[10, 11] = np.nan, np.inf
+    mask = rng.random(real.shape) > 0.05
+    for given in (None, mask):
+        d = np.abs(sim.astype(np.float64) - real.astype(np.float64) - 5.0)
+        with np.errstate(invalid="ignore"):
+            want = np.flatnonzero((d > 20.0) & (True if given is None else given))
+        got = _core.far_pixels(real, sim, given, median=5.0, threshold=20.0, most=want.size)
+        assert got is not None and got.dtype == np.int64 and np.array_equal(got, want)
+        assert _core.far_pixels(real, sim, given, median=5.0, threshold=20.0, most=want.size - 1) is None
+    with pytest.raises(irf.errors.ShapeError):
+        _core.far_pixels(real, sim[:-1], median=5.0, threshold=20.0, most=10)
+
+
 def test_a_defect_counts_the_pixels_that_carry_it(tmp_path, capsys):
     # identical frames but for a 5×5 cluster: 25 pixels carry the error, not the 0.5 % examined
     from irfidelity import defects

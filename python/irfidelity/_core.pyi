@@ -28,6 +28,7 @@ __all__ = [
     "default_max_bytes",
     "default_max_pixels",
     "error_profile",
+    "far_pixels",
     "file_digests",
     "list_channels",
     "load_frame",
@@ -342,6 +343,15 @@ def error_profile(
     tuple[float, int, list[int] | None],
     tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]] | None,
 ]: ...
+def far_pixels(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    mask: npt.NDArray[np.bool_] | None = None,
+    *,
+    median: float,
+    threshold: float,
+    most: int,
+) -> npt.NDArray[np.int64] | None: ...
 
 # ---- cross-spectra of a pair, for its transfer (rust/binding/transfer.rs) -----------------------
 def cross_spectra(

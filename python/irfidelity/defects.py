@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _core, budget
+from . import _core
 from .frames import FRAME_DTYPES
 
 __all__ = ["TOP_SHARE", "MOST", "concentrated_error", "Defects", "find_defects"]
@@ -284,19 +284,6 @@ def _cluster(real: np.ndarray, sim: np.ndarray, scored: np.ndarray, members: tup
             "rows": [int(rows.min()), int(rows.max())], "cols": [int(cols.min()), int(cols.max())]}
 
 
-def _candidates(real: np.ndarray, sim: np.ndarray, scored: np.ndarray, median: float, threshold: float) -> np.ndarray:
-    """The scored pixels whose difference lies beyond ``threshold`` from ``median``, found a
-    block of rows at a time (float64 differences of one block, not of the frame)."""
-    far = np.empty(real.shape, dtype=bool)
-    with np.errstate(invalid="ignore"):
-        for block in budget.row_blocks(real.shape):
-            distance = np.subtract(sim[block], real[block], dtype=np.float64)
-            distance -= median
-            np.greater(np.abs(distance, out=distance), threshold, out=far[block])
-    far &= scored
-    return far
-
-
 def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
     """Clusters of dead, hot or stuck pixels in either frame, before the image components.
 
@@ -311,8 +298,9 @@ def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
     :data:`MAX_CANDIDATES` of the scored pixels is widespread error: no defects are reported.
     The frame whose cluster departs from its own surroundings is the defective one.
 
-    One Rust pass (``_core.error_profile``) gives the largest difference; the frame is searched
-    only when it exceeds the candidates' threshold.
+    One Rust pass (``_core.error_profile``) gives the largest difference; only when it exceeds
+    the candidates' threshold does a second (``_core.far_pixels``) list them, without a
+    frame-sized temporary.
 
     Returns
     -------
@@ -331,16 +319,19 @@ def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
     ('simulated', 'dark', [20, 22], 9)
     """
     real, sim = _frames(real, sim)
-    scored = np.ones(real.shape, dtype=bool) if mask is None else np.ascontiguousarray(mask, dtype=bool)
-    median, threshold = _outlier_threshold(real, sim, None if mask is None else scored)
-    total, count, largest, _, _ = _core.error_profile(real, sim, None if mask is None else scored, top_share=TOP_SHARE,
-                                                      most=2.0, border=_BORDER)
+    given = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
+    median, threshold = _outlier_threshold(real, sim, given)
+    total, count, largest, _, _ = _core.error_profile(real, sim, given, top_share=TOP_SHARE, most=2.0, border=_BORDER)
     if count == 0 or not math.sqrt(largest) > threshold - abs(median):
         return None
-    far = _candidates(real, sim, scored, median, threshold)
-    rows, cols = np.nonzero(far)
-    if rows.size == 0 or rows.size > MAX_CANDIDATES * count:
+    flat = _core.far_pixels(real, sim, given, median=median, threshold=threshold,
+                            most=int(math.floor(MAX_CANDIDATES * count)))
+    if flat is None or flat.size == 0:
         return None
+    rows, cols = np.unravel_index(flat, real.shape)
+    far = np.zeros(real.shape, dtype=bool)
+    far.flat[flat] = True
+    scored = np.ones(real.shape, dtype=bool) if given is None else given
     found = [c for members in _clusters(rows, cols)
              if (c := _cluster(real, sim, scored, (rows[members], cols[members]), median)) is not None]
     if not found:

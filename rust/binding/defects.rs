@@ -1,5 +1,6 @@
 //! `error_profile`: where a frame pair's squared error sits (`crate::defects`), for
-//! `irfidelity.defects.concentrated_error`; one pass with the GIL released.
+//! `irfidelity.defects.concentrated_error`; `far_pixels`: the candidate defects of
+//! `irfidelity.defects.find_defects`. One pass each, with the GIL released.
 
 use numpy::{
     IntoPyArray, PyArray1, PyArrayDescrMethods, PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods,
@@ -35,11 +36,8 @@ fn error_profile<'py>(
 ) -> PyResult<ProfileTuple<'py>> {
     let shape = pair_shape(real, sim)?;
     let mask = mask_samples(mask.as_ref(), shape)?;
-    let question = Question { top_share, most, border };
-    let dtype = real.dtype();
-    let Profile { total, count, largest, border, top } =
-        with_frame_dtype!(py, &dtype, |T| typed::<T>(py, (real, sim), mask, shape, question))
-            .unwrap_or_else(|| Err(unsupported_dtype("real", &dtype).into()))?;
+    let work = ErrorProfile { mask, shape, question: Question { top_share, most, border } };
+    let Profile { total, count, largest, border, top } = on_pair(py, real, sim, &work)?;
     let top = top.map(|squares| {
         let (values, index): (Vec<f64>, Vec<i64>) = squares.into_iter().map(|(v, i)| (v, i as i64)).unzip();
         (values.into_pyarray(py), index.into_pyarray(py))
@@ -47,15 +45,77 @@ fn error_profile<'py>(
     Ok((total, count, largest, (border.total, border.count, border.bounds), top))
 }
 
-/// [`profile`] of a `T` frame against a `T` or float64 one (a registered pair's resampled
-/// frame), without the GIL.
-fn typed<T: numpy::Element + Sample>(
-    py: Python<'_>,
-    (real, sim): (&Bound<'_, PyUntypedArray>, &Bound<'_, PyUntypedArray>),
-    mask: Option<&[bool]>,
+/// `far_pixels(real, sim, mask=None, *, median, threshold, most)`: the flat indices (int64,
+/// ascending) of the scored pixels with `|(sim − real) − median| > threshold`, or None when
+/// there are more than `most` (`crate::defects::far_pixels`; frames as for `error_profile`).
+#[pyfunction]
+#[pyo3(signature = (real, sim, mask=None, *, median, threshold, most))]
+fn far_pixels<'py>(
+    py: Python<'py>,
+    real: &Bound<'py, PyUntypedArray>,
+    sim: &Bound<'py, PyUntypedArray>,
+    mask: Option<PyReadonlyArrayDyn<'py, bool>>,
+    median: f64,
+    threshold: f64,
+    most: usize,
+) -> PyResult<Option<Bound<'py, PyArray1<i64>>>> {
+    let shape = pair_shape(real, sim)?;
+    let mask = mask_samples(mask.as_ref(), shape)?;
+    let found = on_pair(py, real, sim, &FarPixels { mask, median, threshold, most })?;
+    Ok(found.map(|flat| flat.into_iter().map(|i| i as i64).collect::<Vec<_>>().into_pyarray(py)))
+}
+
+/// A computation on a frame pair of any supported sample types.
+trait PairWork: Sync {
+    type Output: Send;
+    fn run<A: Sample, B: Sample>(&self, real: &[A], sim: &[B]) -> crate::Result<Self::Output>;
+}
+
+struct ErrorProfile<'a> {
+    mask: Option<&'a [bool]>,
     shape: (usize, usize),
     question: Question,
-) -> PyResult<Profile> {
+}
+
+impl PairWork for ErrorProfile<'_> {
+    type Output = Profile;
+    fn run<A: Sample, B: Sample>(&self, real: &[A], sim: &[B]) -> crate::Result<Profile> {
+        profile(real, sim, self.mask, self.shape, self.question)
+    }
+}
+
+struct FarPixels<'a> {
+    mask: Option<&'a [bool]>,
+    median: f64,
+    threshold: f64,
+    most: usize,
+}
+
+impl PairWork for FarPixels<'_> {
+    type Output = Option<Vec<usize>>;
+    fn run<A: Sample, B: Sample>(&self, real: &[A], sim: &[B]) -> crate::Result<Self::Output> {
+        crate::defects::far_pixels(real, sim, self.mask, self.median, self.threshold, self.most)
+    }
+}
+
+/// `work` on a frame of a supported dtype against one of its dtype or float64 (a registered
+/// pair's resampled frame), without the GIL.
+fn on_pair<W: PairWork>(
+    py: Python<'_>,
+    real: &Bound<'_, PyUntypedArray>,
+    sim: &Bound<'_, PyUntypedArray>,
+    work: &W,
+) -> PyResult<W::Output> {
+    let dtype = real.dtype();
+    with_frame_dtype!(py, &dtype, |T| typed::<T, W>(py, (real, sim), work))
+        .unwrap_or_else(|| Err(unsupported_dtype("real", &dtype).into()))
+}
+
+fn typed<T: numpy::Element + Sample, W: PairWork>(
+    py: Python<'_>,
+    (real, sim): (&Bound<'_, PyUntypedArray>, &Bound<'_, PyUntypedArray>),
+    work: &W,
+) -> PyResult<W::Output> {
     let Ok(real_array) = real.cast::<PyArrayDyn<T>>() else {
         return Err(crate::Error::Value("internal: real frame dtype".into()).into());
     };
@@ -64,12 +124,12 @@ fn typed<T: numpy::Element + Sample>(
     if let Ok(sim) = sim.cast::<PyArrayDyn<T>>() {
         let sim = readonly(sim)?;
         let s = contiguous(&sim, "the simulated frame")?;
-        return detached(py, || profile(r, s, mask, shape, question));
+        return detached(py, || work.run(r, s));
     }
     if let Ok(sim) = sim.cast::<PyArrayDyn<f64>>() {
         let sim = readonly(sim)?;
         let s = contiguous(&sim, "the simulated frame")?;
-        return detached(py, || profile(r, s, mask, shape, question));
+        return detached(py, || work.run(r, s));
     }
     Err(crate::Error::Shape(format!(
         "sim: dtype {} with a {} real frame: expected the real frame's dtype or float64",
@@ -80,5 +140,6 @@ fn typed<T: numpy::Element + Sample>(
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(error_profile, m)?)
+    m.add_function(wrap_pyfunction!(error_profile, m)?)?;
+    m.add_function(wrap_pyfunction!(far_pixels, m)?)
 }
