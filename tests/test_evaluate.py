@@ -340,3 +340,28 @@ def test_sequence_style_use(frames):
     comps, _ = image_components(pair_stats(r, s, bits=14, hist_range=cfg.hist_range, need=image), image, cfg)
     rep = evaluate(r, s, config=cfg)
     assert comps == {k: v for k, v in rep.components.items() if k in image}
+
+
+def test_a_scorer_checks_its_configuration_once_and_scores_as_evaluate(frames, monkeypatch):
+    import pickle
+
+    from irfidelity import Scorer
+
+    real, sim = frames
+    with pytest.raises(FidelityError, match="bins"):
+        Scorer(bins=0)  # refused when built, before any pair
+    with pytest.raises(FidelityError, match="unknown scoring option"):
+        Scorer(weight="psnr=1")
+    scorer = Scorer(weights="psnr=0.4,nmi=0.3,ssim=0.3", bits=14)
+    checked = []
+    real_post_init = ScoringConfig.__post_init__
+    monkeypatch.setattr(ScoringConfig, "__post_init__", lambda self: checked.append(1) or real_post_init(self))
+    reports = [scorer.score(real, sim + k) for k in range(3)]
+    assert checked == []  # three pairs, no configuration built or checked again
+    for k, report in enumerate(reports):
+        want = evaluate(real, sim + k, weights="psnr=0.4,nmi=0.3,ssim=0.3", bits=14)
+        assert report.fidelity == want.fidelity and report.components == want.components
+        assert report.grade == want.grade and report.config == want.config
+    again = pickle.loads(pickle.dumps(scorer))
+    assert again.config == scorer.config and again.score(real, sim).fidelity == reports[0].fidelity
+    assert Scorer(unit="K").config.peak == "range"  # in a unit, each real frame's temperature range

@@ -24,7 +24,7 @@ from . import radiometry, registration, schema, sequence, stats, system, targets
 from .config import ScoringConfig
 from .curves import Curve
 from .errors import FidelityError, FidelityWarning, FrameError
-from .evaluation import evaluate
+from .evaluation import Scorer, evaluate
 from .frames import FrameSequence, load_frame
 from .fuzzy import Weights
 from .results import FidelityReport
@@ -40,6 +40,7 @@ from ._version import __version__  # noqa: F401
 __all__ = [
     # scoring
     "evaluate",
+    "Scorer",
     "score_sequence",
     "score_simulators",
     "ScoringConfig",

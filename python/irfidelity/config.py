@@ -11,6 +11,7 @@ clients, decoding limits). Those change how fast a score arrives, never its valu
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 import os
@@ -294,6 +295,13 @@ class ScoringConfig:
         """
         changes = self._known(changes)
         return dataclasses.replace(self, **changes) if changes else self
+
+    def _with_range_peak(self) -> ScoringConfig:
+        """A copy whose PSNR peak is each real frame's own range (``peak="range"``), the other
+        fields as checked already: none is checked again."""
+        out = copy.copy(self)
+        object.__setattr__(out, "peak", "range")
+        return out
 
     @classmethod
     def _known(cls, changes: Mapping[str, Any]) -> dict[str, Any]:

@@ -36,7 +36,7 @@ from .scoring import image_components, plan_with_scene, score_components
 from .temperature import TemperatureErrors, scoring_config, temperature_scores, to_temperature, tolerance_for
 from .system.scene import SceneEstimate, scene_estimate, scene_kinds, unassessed
 
-__all__ = ["evaluate", "SCORING_BYTES"]
+__all__ = ["evaluate", "Scorer", "SCORING_BYTES"]
 
 
 def _load(x: Any, which: str, channel: str | None, max_bytes: int | None) -> np.ndarray:
@@ -315,62 +315,113 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
     ----------
     Acta Photonica Sinica 41(5):547 (2012), doi:10.3788/gzxb20124105.0547.
     """
-    cfg = scoring_config(ScoringConfig.resolve(config, **options))
-    _check_frames_given(real, sim, real_ref, ceiling)
-    camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
-    given = camera.given()
-    scene = scene_kinds(cfg, given, frames=real is not None, real_noise_known=real_ref is not None or real_noise is not None)
-    weights, image_plan, skipped = plan_with_scene(cfg, given, scene, have_images=real is not None)
-    in_unit = cfg.unit is not None and real is not None
-    # the scene's transfer: for the components it stands in for, and as a cross-check beside
-    # camera curves when the frames are read anyway
-    transfer_wanted = bool(scene) or (bool(image_plan) or in_unit) and any(weights[k] > 0 for k in ("mtf", "sitf"))
-    regions = _region_input(regions, real, bool(image_plan) or in_unit)
-    span = defect = measured = None
-    ceiling = None if ceiling is None else {str(k): float(v) for k, v in dict(ceiling).items()}
-    ceiling_source = None if ceiling is None else "given"
-    with recorded_warnings() as notes:
-        components, metrics, inputs, compared = camera_components(camera, weights, cfg, scene=scene)
-        metrics.update({f"{k}_source": camera_source(k, camera) for k in ("mtf", "sitf", "noise") if k in components})
-        sources: dict[str, Any] = {"curves": compared}
-        if image_plan or in_unit or transfer_wanted:
-            st, span = _image_stats(real, sim, image_plan, cfg, mask, regions, inputs, sources, max_bytes)
-            image, image_metrics = image_components(st, image_plan, cfg)
-            components.update(image)
-            metrics.update(image_metrics)
-            if ceiling is None and image_plan:
-                ceiling, ceiling_source = _measured_ceiling(real_ref, real_noise, image_plan, cfg, st, sources,
-                                                            inputs, max_bytes)
-            defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"))
-        if transfer_wanted:
-            measured = _scene(sources, cfg, real_ref, real_noise, scene, components, metrics, max_bytes)
-            weights, image_plan, skipped = plan_with_scene(cfg, given, scene, have_images=real is not None,
-                                                           absent=measured.missing)
-        if in_unit:
-            errors = TemperatureErrors.of_frames(sources["real"], sources["sim"], mask=sources["mask"],
-                                                 tolerance=tolerance_for(cfg, metrics), unit=str(cfg.unit))
-            image, image_metrics = temperature_scores(errors, weights)
-            components.update(image)
-            metrics.update(image_metrics)
-        ref = sources.pop("real_ref", None)
-        missing = unassessed(skipped, metrics)
-        by_region = {} if regions is None else score_regions(regions, sources, image_plan, cfg, weights, components,
-                                                             metrics, ceiling=ceiling, real_ref=ref,
-                                                             ceiling_source=ceiling_source, unassessed=missing,
-                                                             max_bytes=max_bytes)
-    score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling,
-                             ceiling_source=ceiling_source, unassessed=missing)
-    registration = sources.get("registration")
-    return FidelityReport(fidelity=score.fidelity, grade=score.grade, components=score.components,
-                          weights=weights, metrics=score.metrics,
-                          component_grades=dict(score.grading.component_grades),
-                          membership=dict(score.grading.membership), skipped=skipped, config=cfg,
-                          matrix=score.grading.matrix, notes=notes, inputs=inputs, sources=sources,
-                          registration=None if registration is None else registration.to_dict(),
-                          verdict=_named_defects(score.verdict.to_dict(), defect, sources.get("defects")),
-                          ceiling=ceiling,
-                          relative=relative_to(ceiling, score.components), regions=by_region,
-                          transfer=None if measured is None or measured.transfer is None else measured.transfer.to_dict())
+    return Scorer(config, **options).score(
+        real, sim, real_mtf=real_mtf, sim_mtf=sim_mtf, real_sitf=real_sitf, sim_sitf=sim_sitf, real_noise=real_noise,
+        sim_noise=sim_noise, real_mrtd=real_mrtd, sim_mrtd=sim_mrtd, mask=mask, regions=regions, real_ref=real_ref,
+        ceiling=ceiling, max_bytes=max_bytes)
+
+
+class Scorer:
+    """Scores frame pairs with one configuration, checked once (docs/design.md §15).
+
+    :func:`evaluate` builds one per call; a loop over many pairs builds it once and calls
+    :meth:`score` for each pair, so no option is checked again.
+
+    Parameters
+    ----------
+    config : ScoringConfig, mapping or TOML/JSON path, optional
+        What decides the score, as for :func:`evaluate`; default: the defaults.
+    **options
+        Any :class:`~irfidelity.ScoringConfig` field, overriding ``config``.
+
+    Attributes
+    ----------
+    config : ScoringConfig
+        The configuration the pairs are scored with (in a temperature unit, the PSNR peak
+        defaults to the real frame's temperature range, ``peak="range"``).
+
+    Examples
+    --------
+    >>> import numpy as np, irfidelity as irf
+    >>> scorer = irf.Scorer(bits=14, peak="range", weights="psnr=0.5,ssim=0.5")
+    >>> real = np.arange(64, dtype=np.uint16).reshape(8, 8)
+    >>> [round(scorer.score(real, real + k).fidelity, 3) for k in (1, 2)]
+    [0.978, 0.949]
+    """
+
+    __slots__ = ("config",)
+
+    def __init__(self, config: ScoringConfig | Any = None, **options: Any) -> None:
+        self.config: ScoringConfig = scoring_config(ScoringConfig.resolve(config, **options))
+
+    def __repr__(self) -> str:
+        return f"Scorer({self.config!r})"
+
+    def __reduce__(self) -> tuple:
+        return (Scorer, (self.config,))
+
+    def score(self, real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf: Any = None,
+              real_sitf: Any = None, sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
+              real_mrtd: Any = None, sim_mrtd: Any = None, mask: Any = None, regions: Any = None,
+              real_ref: Any = None, ceiling: dict | None = None, max_bytes: int | None = None) -> FidelityReport:
+        """The fidelity of one pair: :func:`evaluate`'s inputs but the configuration, which is
+        this scorer's; the same report."""
+        cfg = self.config
+        _check_frames_given(real, sim, real_ref, ceiling)
+        camera = CameraInputs(real_mtf, sim_mtf, real_sitf, sim_sitf, real_noise, sim_noise, real_mrtd, sim_mrtd)
+        given = camera.given()
+        scene = scene_kinds(cfg, given, frames=real is not None, real_noise_known=real_ref is not None or real_noise is not None)
+        weights, image_plan, skipped = plan_with_scene(cfg, given, scene, have_images=real is not None)
+        in_unit = cfg.unit is not None and real is not None
+        # the scene's transfer: for the components it stands in for, and as a cross-check beside
+        # camera curves when the frames are read anyway
+        transfer_wanted = bool(scene) or (bool(image_plan) or in_unit) and any(weights[k] > 0 for k in ("mtf", "sitf"))
+        regions = _region_input(regions, real, bool(image_plan) or in_unit)
+        span = defect = measured = None
+        ceiling = None if ceiling is None else {str(k): float(v) for k, v in dict(ceiling).items()}
+        ceiling_source = None if ceiling is None else "given"
+        with recorded_warnings() as notes:
+            components, metrics, inputs, compared = camera_components(camera, weights, cfg, scene=scene)
+            metrics.update({f"{k}_source": camera_source(k, camera) for k in ("mtf", "sitf", "noise") if k in components})
+            sources: dict[str, Any] = {"curves": compared}
+            if image_plan or in_unit or transfer_wanted:
+                st, span = _image_stats(real, sim, image_plan, cfg, mask, regions, inputs, sources, max_bytes)
+                image, image_metrics = image_components(st, image_plan, cfg)
+                components.update(image)
+                metrics.update(image_metrics)
+                if ceiling is None and image_plan:
+                    ceiling, ceiling_source = _measured_ceiling(real_ref, real_noise, image_plan, cfg, st, sources,
+                                                                inputs, max_bytes)
+                defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"))
+            if transfer_wanted:
+                measured = _scene(sources, cfg, real_ref, real_noise, scene, components, metrics, max_bytes)
+                weights, image_plan, skipped = plan_with_scene(cfg, given, scene, have_images=real is not None,
+                                                               absent=measured.missing)
+            if in_unit:
+                errors = TemperatureErrors.of_frames(sources["real"], sources["sim"], mask=sources["mask"],
+                                                     tolerance=tolerance_for(cfg, metrics), unit=str(cfg.unit))
+                image, image_metrics = temperature_scores(errors, weights)
+                components.update(image)
+                metrics.update(image_metrics)
+            ref = sources.pop("real_ref", None)
+            missing = unassessed(skipped, metrics)
+            by_region = {} if regions is None else score_regions(regions, sources, image_plan, cfg, weights, components,
+                                                                 metrics, ceiling=ceiling, real_ref=ref,
+                                                                 ceiling_source=ceiling_source, unassessed=missing,
+                                                                 max_bytes=max_bytes)
+        score = score_components(components, metrics, weights, cfg, scene_range=span, ceiling=ceiling,
+                                 ceiling_source=ceiling_source, unassessed=missing)
+        registration = sources.get("registration")
+        return FidelityReport(fidelity=score.fidelity, grade=score.grade, components=score.components,
+                              weights=weights, metrics=score.metrics,
+                              component_grades=dict(score.grading.component_grades),
+                              membership=dict(score.grading.membership), skipped=skipped, config=cfg,
+                              matrix=score.grading.matrix, notes=notes, inputs=inputs, sources=sources,
+                              registration=None if registration is None else registration.to_dict(),
+                              verdict=_named_defects(score.verdict.to_dict(), defect, sources.get("defects")),
+                              ceiling=ceiling,
+                              relative=relative_to(ceiling, score.components), regions=by_region,
+                              transfer=None if measured is None or measured.transfer is None else measured.transfer.to_dict())
 
 
 def _named_defects(verdict: dict, defect: dict | None, found: Any) -> dict:

@@ -408,5 +408,5 @@ def scoring_config(config: Any) -> Any:
     """The configuration a run in a unit scores with: the PSNR peak defaults to the real
     frame's temperature range (``peak="range"``); unchanged without a unit."""
     if config.unit is not None and config.peak is None:
-        return config.replace(peak="range")
+        return config._with_range_peak()
     return config
