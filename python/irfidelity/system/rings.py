@@ -163,7 +163,8 @@ def ring_sums(spectra: TransferSpectra, geometry: Geometry, noise: np.ndarray | 
     cross = spectra.cross.real
     stack = [spectra.real, spectra.sim, cross, signal, cross * geometry.horizontal, signal * geometry.horizontal,
              cross * geometry.vertical, signal * geometry.vertical] + ([] if noise is None else [noise])
-    sums = geometry.sum_rings(np.stack(stack)).reshape(len(stack), groups, -1)
+    # each array on its own: a stacked copy of all of them would be megabytes of fresh pages a call
+    sums = [geometry.sum_rings(values).reshape(groups, -1) for values in stack]
     return RingSums(sums[0], sums[1], sums[2], None if noise is None else sums[8], (sums[4], sums[5]),
                     (sums[6], sums[7]), geometry.count, np.asarray(spectra.tiles))
 
