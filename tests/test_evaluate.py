@@ -365,3 +365,17 @@ def test_a_scorer_checks_its_configuration_once_and_scores_as_evaluate(frames, m
     again = pickle.loads(pickle.dumps(scorer))
     assert again.config == scorer.config and again.score(real, sim).fidelity == reports[0].fidelity
     assert Scorer(unit="K").config.peak == "range"  # in a unit, each real frame's temperature range
+
+
+def test_a_scorer_is_the_configuration_of_a_sequence_and_of_a_comparison(frames):
+    import irfidelity as irf
+
+    real, sim = frames
+    reals, sims = np.stack([real, real]), np.stack([sim, sim + 3])
+    scorer = irf.Scorer(weights="psnr=0.5,ssim=0.5", bits=14)
+    by_scorer = irf.score_sequence(reals, sims, config=scorer, progress=False)
+    by_options = irf.score_sequence(reals, sims, weights="psnr=0.5,ssim=0.5", bits=14, progress=False)
+    assert by_scorer.config == scorer.config and by_scorer.fidelity == by_options.fidelity
+    assert irf.Scorer(scorer, bits=16).config.bits == 16  # a scorer's options, overridden
+    compared = irf.score_simulators(reals, {"A": sims, "B": sims + 5}, config=scorer, progress=False, resamples=99)
+    assert compared.reports["A"].fidelity == by_scorer.fidelity and compared.reports["A"].config == scorer.config

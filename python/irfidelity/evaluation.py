@@ -270,7 +270,7 @@ def evaluate(real: Any = None, sim: Any = None, *, real_mtf: Any = None, sim_mtf
         ``ceiling``), instead of ``real_ref``. Where the ceiling came from is
         ``report.ceiling_source``: "given", "real_ref" or "noise3d" (``ceiling`` before
         ``real_ref`` before ``real_noise``; ``ceiling`` and ``real_ref`` together are an error).
-    config : ScoringConfig, mapping or TOML/JSON path, optional
+    config : ScoringConfig, Scorer, mapping or TOML/JSON path, optional
         What decides the score (weights, bits, peak, bins, ...); default: the defaults.
     max_bytes : int, optional
         The memory budget of the pair's work (default
@@ -325,12 +325,15 @@ class Scorer:
     """Scores frame pairs with one configuration, checked once (docs/design.md §15).
 
     :func:`evaluate` builds one per call; a loop over many pairs builds it once and calls
-    :meth:`score` for each pair, so no option is checked again.
+    :meth:`score` for each pair, so no option is checked again. :func:`irfidelity.score_sequence`
+    and :func:`irfidelity.score_simulators` take one as their ``config`` (every pair of theirs
+    is scored with its configuration).
 
     Parameters
     ----------
-    config : ScoringConfig, mapping or TOML/JSON path, optional
-        What decides the score, as for :func:`evaluate`; default: the defaults.
+    config : ScoringConfig, Scorer, mapping or TOML/JSON path, optional
+        What decides the score, as for :func:`evaluate` (a scorer: its configuration); default:
+        the defaults.
     **options
         Any :class:`~irfidelity.ScoringConfig` field, overriding ``config``.
 
@@ -351,7 +354,9 @@ class Scorer:
 
     __slots__ = ("config",)
 
-    def __init__(self, config: ScoringConfig | Any = None, **options: Any) -> None:
+    def __init__(self, config: ScoringConfig | Scorer | Any = None, **options: Any) -> None:
+        if isinstance(config, Scorer):
+            config = config.config
         self.config: ScoringConfig = scoring_config(ScoringConfig.resolve(config, **options))
 
     def __repr__(self) -> str:

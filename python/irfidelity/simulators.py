@@ -24,6 +24,7 @@ from .bootstrap import DEFAULT_RESAMPLES, check_level, check_resamples
 from .camera import CameraInputs
 from .config import ScoringConfig
 from .errors import FidelityError
+from .evaluation import Scorer
 from .masks import MaskSpec
 from .ranking import Ranking, rank
 from .reuse import RealMemo
@@ -36,7 +37,7 @@ from .sequence.plan import make_plan
 from .sequence.run import execute
 from .sequence.shared import SharedRun
 from .sequence.sources import as_sequence
-from .temperature import scoring_config, temperature_sequence
+from .temperature import temperature_sequence
 
 __all__ = ["score_simulators", "SimulatorComparison"]
 
@@ -244,7 +245,7 @@ def _prepare(real_seq: Any, sim: Any, name: str, cfg: ScoringConfig, run: RunOpt
 def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any = None, real_sitf: Any = None,
                      real_noise: Any = None, real_mrtd: Any = None, sim_mtf: Mapping[str, Any] | None = None,
                      sim_sitf: Mapping[str, Any] | None = None, sim_noise: Mapping[str, Any] | None = None,
-                     sim_mrtd: Mapping[str, Any] | None = None, config: ScoringConfig | None = None,
+                     sim_mrtd: Mapping[str, Any] | None = None, config: ScoringConfig | Scorer | None = None,
                      run: RunOptions | None = None, ci: bool | float = False, level: float = 0.95,
                      correction: str = "holm", resamples: int = DEFAULT_RESAMPLES, rng: Any = 0,
                      mask: Any = None, roi: Any = None, **options: Any) -> SimulatorComparison:
@@ -300,7 +301,7 @@ def score_simulators(real: Any, simulators: Mapping[str, Any], *, real_mtf: Any 
     if run.client is not None:
         raise FidelityError("score_simulators runs on this machine: no Dask client (score each simulator with "
                             "score_sequence(client=...) and rank them with compare_reports)", option="client")
-    cfg = scoring_config(ScoringConfig.resolve(config, **config_options))
+    cfg = Scorer(config, **config_options).config
     sims = _simulators(simulators)
     names = list(sims)
     check_level(level)

@@ -29,7 +29,8 @@ from ..errors import FidelityError
 from ..frames import FrameSequence
 from ..masks import MaskSpec
 from ..results import recorded_warnings
-from ..temperature import scoring_config, temperature_sequence
+from ..evaluation import Scorer
+from ..temperature import temperature_sequence
 from .delay import find_delay
 from .intervals import sequence_intervals
 from .pairing import Pairing, pair_frames, pair_with_delay
@@ -55,7 +56,7 @@ def _pairing(real: FrameSequence, sim: FrameSequence, cfg: ScoringConfig) -> Pai
 
 def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = None, real_sitf: Any = None,
                    sim_sitf: Any = None, real_noise: Any = None, sim_noise: Any = None,
-                   real_mrtd: Any = None, sim_mrtd: Any = None, config: ScoringConfig | None = None,
+                   real_mrtd: Any = None, sim_mrtd: Any = None, config: ScoringConfig | Scorer | None = None,
                    run: RunOptions | None = None, ci: bool | float = False, mask: Any = None, roi: Any = None,
                    **options: Any) -> SequenceReport:
     """Score a simulated sequence against the real one, frame by frame and pooled.
@@ -74,7 +75,7 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
         The camera curves, noise recordings and MRTD inputs, as in :func:`irfidelity.evaluate`: compared
         once, before any frame; their components enter every frame's and the pooled fidelity.
         ``real_noise`` (also alone) sets the ceiling instead of consecutive real frames.
-    config : ScoringConfig, mapping or TOML/JSON path, optional
+    config : ScoringConfig, Scorer, mapping or TOML/JSON path, optional
         What decides the score; ScoringConfig fields given as keywords override it.
     ci : bool or float
         Also compute ``report.ci``, the block-bootstrap intervals of the pooled fidelity and
@@ -132,7 +133,7 @@ def score_sequence(real: Any, sim: Any, *, real_mtf: Any = None, sim_mtf: Any = 
     (32, [0, 4, 0, 8])
     """
     run, config_options = split_options(run, options)
-    cfg = scoring_config(ScoringConfig.resolve(config, **config_options))
+    cfg = Scorer(config, **config_options).config
     real_seq = temperature_sequence(as_sequence(real, "real", cfg.real_channel, run.max_pixels, run.max_bytes),
                                     "real", cfg)
     sim_seq = temperature_sequence(as_sequence(sim, "sim", cfg.sim_channel, run.max_pixels, run.max_bytes), "sim",
