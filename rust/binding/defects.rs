@@ -2,15 +2,11 @@
 //! `irfidelity.defects.concentrated_error`; `far_pixels`: the candidate defects of
 //! `irfidelity.defects.find_defects`. One pass each, with the GIL released.
 
-use numpy::{
-    IntoPyArray, PyArray1, PyArrayDescrMethods, PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods,
-};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArrayDyn, PyUntypedArray};
 use pyo3::prelude::*;
 
-use super::detached;
-use super::dtypes::{contiguous, mask_samples, pair_shape, unsupported_dtype};
-use super::stats::readonly;
-use crate::defects::{profile, Profile, Question};
+use super::dtypes::{mask_samples, on_pair, pair_shape, PairWork};
+use crate::defects::{far_pixels as far_pixels_of, profile, Profile, Question};
 use crate::kernel::Sample;
 
 /// The `top` largest squares (largest first) and their flat indices.
@@ -37,7 +33,7 @@ fn error_profile<'py>(
     let shape = pair_shape(real, sim)?;
     let mask = mask_samples(mask.as_ref(), shape)?;
     let work = ErrorProfile { mask, shape, question: Question { top_share, most, border } };
-    let Profile { total, count, largest, border, top } = on_pair(py, real, sim, &work)?;
+    let Profile { total, count, largest, border, top } = on_pair(py, (real, sim, None), &work)?;
     let top = top.map(|squares| {
         let (values, index): (Vec<f64>, Vec<i64>) = squares.into_iter().map(|(v, i)| (v, i as i64)).unzip();
         (values.into_pyarray(py), index.into_pyarray(py))
@@ -61,14 +57,8 @@ fn far_pixels<'py>(
 ) -> PyResult<Option<Bound<'py, PyArray1<i64>>>> {
     let shape = pair_shape(real, sim)?;
     let mask = mask_samples(mask.as_ref(), shape)?;
-    let found = on_pair(py, real, sim, &FarPixels { mask, median, threshold, most })?;
+    let found = on_pair(py, (real, sim, None), &FarPixels { mask, median, threshold, most })?;
     Ok(found.map(|flat| flat.into_iter().map(|i| i as i64).collect::<Vec<_>>().into_pyarray(py)))
-}
-
-/// A computation on a frame pair of any supported sample types.
-trait PairWork: Sync {
-    type Output: Send;
-    fn run<A: Sample, B: Sample>(&self, real: &[A], sim: &[B]) -> crate::Result<Self::Output>;
 }
 
 struct ErrorProfile<'a> {
@@ -79,7 +69,7 @@ struct ErrorProfile<'a> {
 
 impl PairWork for ErrorProfile<'_> {
     type Output = Profile;
-    fn run<A: Sample, B: Sample>(&self, real: &[A], sim: &[B]) -> crate::Result<Profile> {
+    fn run<A: Sample, B: Sample>(&self, real: &[A], sim: &[B], _: Option<&[A]>) -> crate::Result<Profile> {
         profile(real, sim, self.mask, self.shape, self.question)
     }
 }
@@ -93,50 +83,9 @@ struct FarPixels<'a> {
 
 impl PairWork for FarPixels<'_> {
     type Output = Option<Vec<usize>>;
-    fn run<A: Sample, B: Sample>(&self, real: &[A], sim: &[B]) -> crate::Result<Self::Output> {
-        crate::defects::far_pixels(real, sim, self.mask, self.median, self.threshold, self.most)
+    fn run<A: Sample, B: Sample>(&self, real: &[A], sim: &[B], _: Option<&[A]>) -> crate::Result<Self::Output> {
+        far_pixels_of(real, sim, self.mask, self.median, self.threshold, self.most)
     }
-}
-
-/// `work` on a frame of a supported dtype against one of its dtype or float64 (a registered
-/// pair's resampled frame), without the GIL.
-fn on_pair<W: PairWork>(
-    py: Python<'_>,
-    real: &Bound<'_, PyUntypedArray>,
-    sim: &Bound<'_, PyUntypedArray>,
-    work: &W,
-) -> PyResult<W::Output> {
-    let dtype = real.dtype();
-    with_frame_dtype!(py, &dtype, |T| typed::<T, W>(py, (real, sim), work))
-        .unwrap_or_else(|| Err(unsupported_dtype("real", &dtype).into()))
-}
-
-fn typed<T: numpy::Element + Sample, W: PairWork>(
-    py: Python<'_>,
-    (real, sim): (&Bound<'_, PyUntypedArray>, &Bound<'_, PyUntypedArray>),
-    work: &W,
-) -> PyResult<W::Output> {
-    let Ok(real_array) = real.cast::<PyArrayDyn<T>>() else {
-        return Err(crate::Error::Value("internal: real frame dtype".into()).into());
-    };
-    let real_view = readonly(real_array)?;
-    let r = contiguous(&real_view, "the real frame")?;
-    if let Ok(sim) = sim.cast::<PyArrayDyn<T>>() {
-        let sim = readonly(sim)?;
-        let s = contiguous(&sim, "the simulated frame")?;
-        return detached(py, || work.run(r, s));
-    }
-    if let Ok(sim) = sim.cast::<PyArrayDyn<f64>>() {
-        let sim = readonly(sim)?;
-        let s = contiguous(&sim, "the simulated frame")?;
-        return detached(py, || work.run(r, s));
-    }
-    Err(crate::Error::Shape(format!(
-        "sim: dtype {} with a {} real frame: expected the real frame's dtype or float64",
-        sim.dtype(),
-        real.dtype()
-    ))
-    .into())
 }
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -101,3 +101,76 @@ pub(crate) fn mask_samples<'a>(
     }
     Ok(Some(samples))
 }
+
+/// A computation on a frame pair whose real frame (and second real frame, when there is one)
+/// has one supported sample type `A` and whose simulated frame has `A` or float64 (a registered
+/// pair's resampled frame): what [`on_pair`] runs once the sample types are known.
+pub(crate) trait PairWork: Sync {
+    type Output: Send;
+    fn run<A: crate::kernel::Sample, B: crate::kernel::Sample>(
+        &self,
+        real: &[A],
+        sim: &[B],
+        reference: Option<&[A]>,
+    ) -> crate::Result<Self::Output>;
+}
+
+/// Frames as a binding receives them: the real one, the simulated one, a second real one.
+pub(crate) type PairArrays<'a, 'py> = (
+    &'a pyo3::Bound<'py, numpy::PyUntypedArray>,
+    &'a pyo3::Bound<'py, numpy::PyUntypedArray>,
+    Option<&'a pyo3::Bound<'py, numpy::PyUntypedArray>>,
+);
+
+/// `work` on C-contiguous frames (shapes checked by the caller) with the GIL released: the one
+/// dispatch of a pair's sample types, naming a simulated or second real frame of another dtype.
+pub(crate) fn on_pair<W: PairWork>(
+    py: pyo3::Python<'_>,
+    frames: PairArrays<'_, '_>,
+    work: &W,
+) -> pyo3::PyResult<W::Output> {
+    use numpy::{PyArrayDescrMethods, PyUntypedArrayMethods};
+    let dtype = frames.0.dtype();
+    with_frame_dtype!(py, &dtype, |T| typed::<T, W>(py, frames, work))
+        .unwrap_or_else(|| Err(unsupported_dtype("real", &dtype).into()))
+}
+
+fn typed<R: numpy::Element + crate::kernel::Sample, W: PairWork>(
+    py: pyo3::Python<'_>,
+    (real, sim, reference): PairArrays<'_, '_>,
+    work: &W,
+) -> pyo3::PyResult<W::Output> {
+    use numpy::{PyArrayDyn, PyUntypedArrayMethods};
+    let Ok(real) = real.cast::<PyArrayDyn<R>>() else {
+        return Err(crate::Error::Value("internal: real frame dtype".into()).into());
+    };
+    let real_view = super::stats::readonly(real)?;
+    let real = contiguous(&real_view, "the real frame")?;
+    let reference_view = match reference {
+        None => None,
+        Some(r) => Some(super::stats::readonly(r.cast::<PyArrayDyn<R>>().map_err(|_| {
+            crate::Error::Shape(format!(
+                "real_ref: dtype {} with a {} real frame: expected the same dtype",
+                r.dtype(),
+                real_view.dtype()
+            ))
+        })?)?),
+    };
+    let reference = reference_view.as_ref().map(|view| contiguous(view, "the second real frame")).transpose()?;
+    if let Ok(sim) = sim.cast::<PyArrayDyn<R>>() {
+        let view = super::stats::readonly(sim)?;
+        let sim = contiguous(&view, "the simulated frame")?;
+        return super::detached(py, || work.run(real, sim, reference));
+    }
+    if let Ok(sim) = sim.cast::<PyArrayDyn<f64>>() {
+        let view = super::stats::readonly(sim)?;
+        let sim = contiguous(&view, "the simulated frame")?;
+        return super::detached(py, || work.run(real, sim, reference));
+    }
+    Err(crate::Error::Shape(format!(
+        "sim: dtype {} with a {} real frame: expected the real frame's dtype or float64",
+        sim.dtype(),
+        real_view.dtype()
+    ))
+    .into())
+}

@@ -4,15 +4,11 @@
 //! passes run with the GIL released.
 
 use numpy::ndarray::{Array2, Array3};
-use numpy::{
-    PyArray2, PyArray3, PyArrayDescrMethods, PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods,
-};
+use numpy::{PyArray2, PyArray3, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use super::detached;
-use super::dtypes::{contiguous, mask_samples, pair_shape, unsupported_dtype};
-use super::stats::readonly;
+use super::dtypes::{mask_samples, on_pair, pair_shape, PairArrays, PairWork};
 use crate::kernel::Sample;
 use crate::transfer::{self, Frames, LowSpectrum, TileSpectra, Tiling};
 use crate::Error;
@@ -28,64 +24,27 @@ enum Output {
     Low(LowSpectrum),
 }
 
-/// Runs `pass` on the frames as `R` (real, reference) and `R` or float64 (sim).
-fn typed<R: numpy::Element + Sample>(
-    py: Python<'_>,
-    (real, sim, reference): (
-        &Bound<'_, PyUntypedArray>,
-        &Bound<'_, PyUntypedArray>,
-        Option<&Bound<'_, PyUntypedArray>>,
-    ),
-    mask: Option<&[bool]>,
+/// A pass on the frames, scored pixels `mask`, of `shape`.
+struct Work<'a> {
+    mask: Option<&'a [bool]>,
     shape: (usize, usize),
-    pass: &Pass,
-) -> PyResult<Output> {
-    let Ok(real) = real.cast::<PyArrayDyn<R>>() else {
-        return Err(Error::Value("internal: real frame dtype".into()).into());
-    };
-    let real_view = readonly(real)?;
-    let real = contiguous(&real_view, "the real frame")?;
-    let reference_view = match reference {
-        None => None,
-        Some(r) => Some(readonly(r.cast::<PyArrayDyn<R>>().map_err(|_| {
-            Error::Shape(format!(
-                "real_ref: dtype {} with a {} real frame: expected the same dtype",
-                r.dtype(),
-                real_view.dtype()
-            ))
-        })?)?),
-    };
-    let reference = match reference_view.as_ref() {
-        None => None,
-        Some(view) => Some(contiguous(view, "the second real frame")?),
-    };
-    fn run<R: Sample, S: Sample>(frames: Frames<'_, R, S>, pass: &Pass) -> crate::Result<Output> {
-        match *pass {
+    pass: Pass,
+}
+
+impl PairWork for Work<'_> {
+    type Output = Output;
+    fn run<R: Sample, S: Sample>(&self, real: &[R], sim: &[S], reference: Option<&[R]>) -> crate::Result<Output> {
+        let frames = Frames { real, sim, reference, mask: self.mask, shape: self.shape };
+        match self.pass {
             Pass::Tiles(tiling) => transfer::tile_spectra(&frames, tiling).map(Output::Tiles),
             Pass::Low { factor } => transfer::low_spectrum(&frames, factor).map(Output::Low),
         }
     }
-    if let Ok(sim) = sim.cast::<PyArrayDyn<R>>() {
-        let view = readonly(sim)?;
-        let sim = contiguous(&view, "the simulated frame")?;
-        return detached(py, || run(Frames { real, sim, reference, mask, shape }, pass));
-    }
-    if let Ok(sim) = sim.cast::<PyArrayDyn<f64>>() {
-        let view = readonly(sim)?;
-        let sim = contiguous(&view, "the simulated frame")?;
-        return detached(py, || run(Frames { real, sim, reference, mask, shape }, pass));
-    }
-    Err(Error::Shape(format!(
-        "sim: dtype {} with a {} real frame: expected the real frame's dtype or float64",
-        sim.dtype(),
-        real_view.dtype()
-    ))
-    .into())
 }
 
 fn dispatch(
     py: Python<'_>,
-    frames: (&Bound<'_, PyUntypedArray>, &Bound<'_, PyUntypedArray>, Option<&Bound<'_, PyUntypedArray>>),
+    frames: PairArrays<'_, '_>,
     mask: Option<PyReadonlyArrayDyn<'_, bool>>,
     pass: Pass,
 ) -> PyResult<Output> {
@@ -96,9 +55,7 @@ fn dispatch(
         }
     }
     let mask = mask_samples(mask.as_ref(), shape)?;
-    let dtype = frames.0.dtype();
-    with_frame_dtype!(py, &dtype, |T| typed::<T>(py, frames, mask, shape, &pass))
-        .unwrap_or_else(|| Err(unsupported_dtype("real", &dtype).into()))
+    on_pair(py, frames, &Work { mask, shape, pass })
 }
 
 fn cube<'py>(py: Python<'py>, values: Vec<f64>, shape: (usize, usize, usize)) -> PyResult<Bound<'py, PyArray3<f64>>> {
