@@ -26,7 +26,7 @@ use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
 use crate::budget;
-use crate::kernel::Sample;
+use crate::kernel::{all_finite, Sample};
 use crate::{Error, Result};
 
 type C32 = Complex<f32>;
@@ -178,18 +178,15 @@ fn usable<R: Sample, S: Sample>(
     at: Option<(usize, usize)>,
     tile: usize,
 ) -> bool {
-    fn finite<T: Sample>(values: &[T]) -> bool {
-        T::IS_INT || values.iter().all(|v| v.to_f64().is_finite())
-    }
     let Some((sy, sx)) = at else { return false };
     let cols = frames.shape.1;
     (0..tile).all(|y| {
         let span = (y0 + y) * cols + x0..(y0 + y) * cols + x0 + tile;
         let moved = (sy + y) * cols + sx..(sy + y) * cols + sx + tile;
         frames.mask.is_none_or(|m| m[span.clone()].iter().all(|&k| k))
-            && finite(&frames.real[span.clone()])
-            && finite(&frames.sim[moved])
-            && frames.reference.is_none_or(|r| finite(&r[span.clone()]))
+            && all_finite(&frames.real[span.clone()])
+            && all_finite(&frames.sim[moved])
+            && frames.reference.is_none_or(|r| all_finite(&r[span.clone()]))
     })
 }
 
@@ -727,6 +724,22 @@ fn add_row<R: Sample, S: Sample>(
         totals.0 += sum_of(real) as f64;
         totals.1 += sum_of(sim) as f64;
         totals.2 += real.len() as u64;
+        return;
+    }
+    if keep.is_none() && all_finite(real) && all_finite(sim) {
+        // every pixel counts: plain sums per block, in the order of the general loop below
+        let chunks = real[..whole].chunks_exact(factor).zip(sim[..whole].chunks_exact(factor));
+        for (j, (r, s)) in chunks.enumerate() {
+            let r = r.iter().fold(0.0, |sum, v| sum + v.to_f64());
+            let s = s.iter().fold(0.0, |sum, v| sum + v.to_f64());
+            blocks.0[j] += r;
+            blocks.1[j] += s;
+            blocks.2[j] += factor as u32;
+            *totals = (totals.0 + r, totals.1 + s, totals.2 + factor as u64);
+        }
+        for (r, s) in real[whole..].iter().zip(&sim[whole..]) {
+            *totals = (totals.0 + r.to_f64(), totals.1 + s.to_f64(), totals.2 + 1);
+        }
         return;
     }
     // a pixel's values, 0 where it is not scored, and whether it is: no branch per pixel

@@ -159,7 +159,8 @@ pub(super) fn fff_frame<R: BufRead + Seek>(mut reader: R, max_bytes: u64) -> Res
             "corrupt or truncated radiometric JPEG: FLIR segments 0..={last} are each expected once, found {found:?}"
         ));
     }
-    let data: Vec<u8> = segments.into_iter().flat_map(|s| s.data).collect();
+    let mut data = Vec::with_capacity(segments.iter().map(|s| s.data.len()).sum());
+    segments.iter().for_each(|s| data.extend_from_slice(&s.data)); // one copy a segment, not a byte at a time
     if is_research_studio(&data) {
         return Err(Unread::ResearchStudioJpeg.reason());
     }

@@ -131,13 +131,14 @@ pub(crate) struct HistPlan {
     pub(super) offset: u64, // levels stored densely: key offset of bin 0
 }
 
-/// The histogram plan; `known` is the data range when a scan has already found it.
+/// The histogram plan; `known` is each frame's data range (real, simulated) when a scan has
+/// already found it.
 pub(super) fn plan_hist<T: Sample>(
     r: &[T],
     s: &[T],
     req: &Request,
     hreq: &HistRequest,
-    known: Option<(f64, f64)>,
+    known: Option<((f64, f64), (f64, f64))>,
 ) -> Result<HistPlan> {
     match hreq {
         HistRequest::Levels => {
@@ -162,7 +163,10 @@ pub(super) fn plan_hist<T: Sample>(
             let bins = checked_bins(*bins)?;
             let (lo, hi) = match range {
                 Some(range) => explicit_range::<T>(*range)?,
-                None => known.or_else(|| data_range(r, s, req)).unwrap_or((0.0, 0.0)),
+                None => known
+                    .map(|(a, b)| (a.0.min(b.0), a.1.max(b.1)))
+                    .or_else(|| data_range(r, s, req))
+                    .unwrap_or((0.0, 0.0)),
             };
             let binner = uniform_binner::<T>(bins, lo, hi);
             let spec = HistSpec::Binned { bins, lo, width: binner.width };
@@ -176,7 +180,8 @@ pub(super) fn plan_hist<T: Sample>(
         }
         HistRequest::Each { bins } => {
             let bins = checked_bins(*bins)?;
-            let (real_full, sim_full) = data_ranges(r, s, req).unwrap_or(((0.0, 0.0), (0.0, 0.0)));
+            let (real_full, sim_full) =
+                known.or_else(|| data_ranges(r, s, req)).unwrap_or(((0.0, 0.0), (0.0, 0.0)));
             // a finite scan (`known`) certified every float pair finite
             let finite = T::IS_INT || known.is_some();
             let real_bulk = bulk(r, (!finite).then_some(s), req, real_full);

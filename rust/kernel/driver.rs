@@ -91,7 +91,7 @@ impl Plan {
     fn new<T: Sample>(r: &[T], s: &[T], req: &Request) -> Result<Plan> {
         let scan = (!T::IS_INT && req.moments && req.mask.is_none() && !r.is_empty())
             .then(|| float_scan(r, s, req.hist.is_some()));
-        let known = scan.as_ref().filter(|sc| sc.finite()).map(|sc| (sc.lo, sc.hi));
+        let known = scan.as_ref().filter(|sc| sc.finite()).map(|sc| (sc.real_range, sc.sim_range));
         let hist = match &req.hist {
             Some(h) => Some(plan_hist(r, s, req, h, known)?),
             None => None,

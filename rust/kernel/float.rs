@@ -372,6 +372,7 @@ mod avx2 {
         let sign = _mm256_set1_pd(-0.0);
         let zero = _mm256_setzero_pd();
         let (mut lr, mut cr, mut ls, mut cs) = ([zero; 2], [zero; 2], [zero; 2], [zero; 2]);
+        // each frame's range in one vector per end (the two halves of a step compared first)
         let (mut big, mut lo, mut hi) =
             ([zero; 2], [_mm256_set1_pd(f64::INFINITY); 2], [_mm256_set1_pd(f64::NEG_INFINITY); 2]);
         /// # Safety
@@ -387,20 +388,24 @@ mod avx2 {
         }
         let mut i = 0;
         while i < full {
+            // SAFETY: i + 4h + 4 <= i + LANES <= full <= len of both runs (i steps by LANES = 8
+            // up to full, a multiple of 8; h < 2)
+            let x = [T::load4(p_r.add(i)), T::load4(p_r.add(i + 4))];
+            let y = [T::load4(p_s.add(i)), T::load4(p_s.add(i + 4))];
             for h in 0..2 {
-                // SAFETY: i + 4h + 4 <= i + LANES <= full <= len of both runs (i steps by
-                // LANES = 8 up to full, a multiple of 8; h < 2)
-                let x = T::load4(p_r.add(i + 4 * h));
-                let y = T::load4(p_s.add(i + 4 * h));
-                two_sum_into(&mut lr[h], &mut cr[h], _mm256_sub_pd(x, vpr));
-                two_sum_into(&mut ls[h], &mut cs[h], _mm256_sub_pd(y, vps));
-                if RANGE {
-                    lo[h] = _mm256_min_pd(_mm256_min_pd(x, y), lo[h]);
-                    hi[h] = _mm256_max_pd(_mm256_max_pd(x, y), hi[h]);
-                }
+                two_sum_into(&mut lr[h], &mut cr[h], _mm256_sub_pd(x[h], vpr));
+                two_sum_into(&mut ls[h], &mut cs[h], _mm256_sub_pd(y[h], vps));
                 if T::MAY_UNDERFLOW {
+                    let (x, y) = (x[h], y[h]);
                     big[h] = _mm256_max_pd(_mm256_andnot_pd(sign, y), _mm256_max_pd(_mm256_andnot_pd(sign, x), big[h]));
                 }
+            }
+            if RANGE {
+                // lo[0], hi[0]: the real run's; lo[1], hi[1]: the simulated run's
+                lo[0] = _mm256_min_pd(_mm256_min_pd(x[0], x[1]), lo[0]);
+                hi[0] = _mm256_max_pd(_mm256_max_pd(x[0], x[1]), hi[0]);
+                lo[1] = _mm256_min_pd(_mm256_min_pd(y[0], y[1]), lo[1]);
+                hi[1] = _mm256_max_pd(_mm256_max_pd(y[0], y[1]), hi[1]);
             }
             i += LANES;
         }
@@ -415,8 +420,11 @@ mod avx2 {
         store(&mut st.ls, ls);
         store(&mut st.cs, cs);
         store(&mut st.max_abs, big);
-        store(&mut st.lo, lo);
-        store(&mut st.hi, hi);
+        // SAFETY (the range's stores): each lane array holds LANES = 8 doubles; the four
+        // lanes not stored keep their empty-range start
+        for (dst, v) in [(&mut st.lo_r, lo[0]), (&mut st.lo_s, lo[1]), (&mut st.hi_r, hi[0]), (&mut st.hi_s, hi[1])] {
+            _mm256_storeu_pd(dst.as_mut_ptr(), v);
+        }
         st.finish::<T, RANGE>(&r[full..n], &s[full..n], (pr, ps))
     }
 
@@ -515,12 +523,14 @@ mod avx2 {
 }
 
 /// Σ(x − pivot_r), Σ(y − pivot_s) (compensated: both parts kept, so merging runs loses
-/// nothing), the range of both runs and max |value|.
+/// nothing), the range of each run and max |value|.
 pub(super) struct RunSums {
     pub(super) r: Neumaier,
     pub(super) s: Neumaier,
-    pub(super) lo: f64,
-    pub(super) hi: f64,
+    /// Min and max of the real run ...
+    pub(super) real_range: (f64, f64),
+    /// ... and of the simulated one.
+    pub(super) sim_range: (f64, f64),
     pub(super) max_abs: f64,
 }
 
@@ -529,15 +539,21 @@ impl RunSums {
         RunSums {
             r: Neumaier::default(),
             s: Neumaier::default(),
-            lo: f64::INFINITY,
-            hi: f64::NEG_INFINITY,
+            real_range: EMPTY_RANGE,
+            sim_range: EMPTY_RANGE,
             max_abs: 0.0,
         }
     }
     fn merge(mut self, o: RunSums) -> RunSums {
         self.r.merge(&o.r);
         self.s.merge(&o.s);
-        RunSums { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi), max_abs: self.max_abs.max(o.max_abs), ..self }
+        let union = |a: (f64, f64), b: (f64, f64)| (a.0.min(b.0), a.1.max(b.1));
+        RunSums {
+            real_range: union(self.real_range, o.real_range),
+            sim_range: union(self.sim_range, o.sim_range),
+            max_abs: self.max_abs.max(o.max_abs),
+            ..self
+        }
     }
     /// No NaN or ±Inf in the run: the sums stay finite (NaN and Inf propagate into them;
     /// values summing past f64's range are treated like non-finite ones, carefully).
@@ -564,6 +580,17 @@ fn float_sums<T: Sample, const RANGE: bool>(rr: &[T], sb: &[T], pivot: (f64, f64
     st.finish::<T, RANGE>(rem_r, rem_s, pivot)
 }
 
+/// The range of no value: any value's widens it.
+const EMPTY_RANGE: (f64, f64) = (f64::INFINITY, f64::NEG_INFINITY);
+
+fn fold_min(lanes: &[f64; LANES]) -> f64 {
+    lanes.iter().fold(EMPTY_RANGE.0, |m, &v| m.min(v))
+}
+
+fn fold_max(lanes: &[f64; LANES]) -> f64 {
+    lanes.iter().fold(EMPTY_RANGE.1, |m, &v| m.max(v))
+}
+
 /// The lanes of `float_sums`: element `k` of every group of `LANES` goes to lane `k`.
 struct SumLanes {
     lr: [f64; LANES],
@@ -571,8 +598,10 @@ struct SumLanes {
     ls: [f64; LANES],
     cs: [f64; LANES],
     max_abs: [f64; LANES],
-    lo: [f64; LANES],
-    hi: [f64; LANES],
+    lo_r: [f64; LANES],
+    hi_r: [f64; LANES],
+    lo_s: [f64; LANES],
+    hi_s: [f64; LANES],
 }
 
 impl SumLanes {
@@ -583,8 +612,10 @@ impl SumLanes {
             ls: [0.0; LANES],
             cs: [0.0; LANES],
             max_abs: [0.0; LANES],
-            lo: [f64::INFINITY; LANES],
-            hi: [f64::NEG_INFINITY; LANES],
+            lo_r: [EMPTY_RANGE.0; LANES],
+            hi_r: [EMPTY_RANGE.1; LANES],
+            lo_s: [EMPTY_RANGE.0; LANES],
+            hi_s: [EMPTY_RANGE.1; LANES],
         }
     }
 
@@ -598,9 +629,10 @@ impl SumLanes {
         self.cs[k] += e;
         if RANGE {
             // plain compares (minpd/maxpd): a NaN is caught by the sums, not the range
-            let (a, b) = (if x < y { x } else { y }, if x > y { x } else { y });
-            self.lo[k] = if a < self.lo[k] { a } else { self.lo[k] };
-            self.hi[k] = if b > self.hi[k] { b } else { self.hi[k] };
+            self.lo_r[k] = if x < self.lo_r[k] { x } else { self.lo_r[k] };
+            self.hi_r[k] = if x > self.hi_r[k] { x } else { self.hi_r[k] };
+            self.lo_s[k] = if y < self.lo_s[k] { y } else { self.lo_s[k] };
+            self.hi_s[k] = if y > self.hi_s[k] { y } else { self.hi_s[k] };
         }
         self.max_abs[k] = bigger::<T>(self.max_abs[k], x, y);
     }
@@ -621,8 +653,8 @@ impl SumLanes {
         RunSums {
             r: tr,
             s: ts,
-            lo: self.lo.iter().fold(f64::INFINITY, |m, &v| m.min(v)),
-            hi: self.hi.iter().fold(f64::NEG_INFINITY, |m, &v| m.max(v)),
+            real_range: (fold_min(&self.lo_r), fold_max(&self.hi_r)),
+            sim_range: (fold_min(&self.lo_s), fold_max(&self.hi_s)),
             max_abs: self.max_abs.iter().fold(0.0f64, |m, &v| m.max(v)),
         }
     }

@@ -34,7 +34,7 @@ pub(crate) use int::avx2 as int_avx2;
 pub(crate) use parallel::{fold_chunks, map_chunks};
 pub use parallel::{map_units, pool_busy, with_pool_busy};
 pub use request::{HistRequest, Request};
-pub use sample::Sample;
+pub use sample::{all_finite, Sample};
 
 /// Pixels per work unit: two chunks of u16/f32 fit in L2 with the histogram.
 pub(crate) const CHUNK: usize = 1 << 16;

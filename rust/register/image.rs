@@ -7,7 +7,7 @@ use super::normal::Normalisation;
 use super::pool::Buffer;
 use crate::budget;
 use crate::error::{Error, Result};
-use crate::kernel::Sample;
+use crate::kernel::{all_finite, Sample};
 
 /// A 2-D float64 image in row-major order with its valid-pixel mask.
 #[derive(Clone, Debug)]
@@ -272,23 +272,6 @@ fn lane_sum_range_impl<T: Sample>(values: &[T]) -> (f64, f64, f64) {
     (sum.iter().sum(), lo.into_iter().fold(f64::INFINITY, f64::min), hi.into_iter().fold(f64::NEG_INFINITY, f64::max))
 }
 
-/// Whether every value is finite: `v − v` is 0 for a finite value and NaN otherwise, and a
-/// NaN survives any sum (summed in eight lanes, vectorised).
-fn all_finite(values: &[f64]) -> bool {
-    let chunks = values.chunks_exact(8);
-    let tail = chunks.remainder();
-    let mut lanes = [0.0f64; 8];
-    for chunk in chunks {
-        for (acc, v) in lanes.iter_mut().zip(chunk) {
-            #[allow(clippy::eq_op)] // the point: 0 unless v is NaN or infinite
-            {
-                *acc += v - v;
-            }
-        }
-    }
-    lanes.iter().chain(tail).all(|v| v.is_finite())
-}
-
 /// Smallest and largest of `values` (infinities when empty), in four lanes.
 fn min_max(values: &[f64]) -> (f64, f64) {
     let (mut lo, mut hi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
@@ -371,21 +354,6 @@ mod tests {
         let (mean, std) = p.mean_std();
         assert!((mean - 3.0).abs() < 1e-15 && (std - (8.0f64 / 3.0).sqrt()).abs() < 1e-15);
         assert!(Plane::from_samples(&data, 3, 3, None, "real").is_err());
-    }
-
-    #[test]
-    fn any_nonfinite_value_is_found() {
-        for n in [1usize, 7, 8, 9, 100] {
-            let clean: Vec<f64> = (0..n).map(|i| i as f64 * 1e300).collect();
-            assert!(all_finite(&clean), "{n}");
-            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-                for at in [0, n / 2, n - 1] {
-                    let mut v = clean.clone();
-                    v[at] = bad;
-                    assert!(!all_finite(&v), "{n} {at} {bad}");
-                }
-            }
-        }
     }
 
     #[test]
