@@ -20,6 +20,7 @@
 //! The pixel loops use branch-free `ln` and `exp` (`math.rs`) so they compile to SIMD code.
 
 use rayon::prelude::*;
+use std::mem::MaybeUninit;
 
 use crate::{Error, Result};
 
@@ -253,20 +254,37 @@ fn convert<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync + Copy) -> Resu
 /// the table has one.
 fn looked_up<T: Sample>(input: &[T], low: i64, table: &[f64]) -> Result<Converted> {
     // refused as an error, not an abort, when the memory is not there
-    let mut values = crate::budget::try_with_capacity(input.len())?;
-    input
-        .par_iter()
-        .map(|x| {
-            let at = x.integer().map_or(usize::MAX, |v| v.wrapping_sub(low) as usize);
-            table.get(at).copied().unwrap_or(f64::NAN)
-        })
-        .collect_into_vec(&mut values);
+    let mut values: Vec<f64> = crate::budget::try_with_capacity(input.len())?;
+    let unwritten = &mut values.spare_capacity_mut()[..input.len()];
+    unwritten.par_chunks_mut(CHUNK).zip(input.par_chunks(CHUNK)).for_each(|(out, run)| look_up(run, low, table, out));
+    // SAFETY: the chunks of `unwritten` cover its input.len() values, each written above
+    unsafe { values.set_len(input.len()) };
     let outside = if table.iter().any(|v| v.is_nan()) {
         values.par_chunks(CHUNK).map(|run| run.iter().filter(|v| v.is_nan()).count()).sum()
     } else {
         0
     };
     Ok(Converted { values, outside, nonfinite: 0 })
+}
+
+avx2_copy! {
+    /// `out[i] = table[inp[i] − low]` (NaN for an input the table does not span), without a
+    /// branch per value (gathered in AVX2 code when the CPU has it).
+    fn look_up[T: Sample](inp: &[T], low: i64, table: &[f64], out: &mut [MaybeUninit<f64>])
+    => look_up_avx2, look_up_portable
+}
+
+#[inline(always)]
+fn look_up_portable<T: Sample>(inp: &[T], low: i64, table: &[f64], out: &mut [MaybeUninit<f64>]) {
+    let Some(last) = table.len().checked_sub(1) else {
+        out.iter_mut().for_each(|value| _ = value.write(f64::NAN));
+        return;
+    };
+    for (value, x) in out.iter_mut().zip(inp) {
+        let at = x.integer().map_or(usize::MAX, |v| v.wrapping_sub(low) as usize);
+        let found = table[at.min(last)];
+        value.write(if at <= last { found } else { f64::NAN });
+    }
 }
 
 /// `f` of every input, a chunk at a time in AVX2 code when the CPU has it.
@@ -319,8 +337,15 @@ fn integer_table<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync) -> Optio
     Some((low, (0..span).into_par_iter().map(|i| f((low + i as i64) as f64)).collect()))
 }
 
-/// The min and max of a run's values, by plain compares in eight lanes (which vectorise).
-fn value_range<T: Sample>(values: &[T]) -> (f64, f64) {
+avx2_copy! {
+    /// The min and max of a run's values, by plain compares in eight lanes (which vectorise;
+    /// to `vminpd`/`vmaxpd` in AVX2 code when the CPU has it).
+    fn value_range[T: Sample](values: &[T]) -> (f64, f64)
+    => value_range_avx2, value_range_portable
+}
+
+#[inline(always)]
+fn value_range_portable<T: Sample>(values: &[T]) -> (f64, f64) {
     const LANES: usize = 8;
     let (mut lo, mut hi) = ([f64::INFINITY; LANES], [f64::NEG_INFINITY; LANES]);
     let blocks = values.chunks_exact(LANES);
