@@ -609,3 +609,30 @@ print("ok")
 """
     res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0 and res.stdout.strip() == "ok", res.stderr
+
+
+@pytest.mark.parametrize("dtype", ["uint8", "uint16", "int16", "uint32", "float16", "float32", "float64"])
+def test_the_real_range_is_numpys_over_the_scored_finite_pixels(dtype):
+    from irfidelity.errors import ShapeError
+    from irfidelity.stats import real_range
+
+    rng = np.random.default_rng(7)
+    values = rng.integers(0, 200, (300, 257)).astype(dtype)
+    mask = rng.random(values.shape) < 0.7
+    assert real_range(values, None, "raise") == float(values.max()) - float(values.min())
+    kept = values[mask]
+    assert real_range(values, mask, "raise") == float(kept.max()) - float(kept.min())
+    # a view that is not C-contiguous, and a frame whose every pixel is left out
+    assert real_range(values[:, ::2], None, "raise") == float(values[:, ::2].max()) - float(values[:, ::2].min())
+    assert real_range(values, np.zeros_like(mask), "raise") is None
+    with pytest.raises(ShapeError, match=r"mask is \(2, 2\) and the frame \(300, 257\)"):
+        real_range(values, np.ones((2, 2), bool), "raise")
+    if values.dtype.kind == "f":
+        bad = values.copy()
+        bad[5, 7], bad[250, 3] = np.nan, -np.inf
+        finite = np.isfinite(bad)
+        assert real_range(bad, None, "raise") is None  # the kernel reports them
+        assert real_range(bad, None, "mask") == float(bad[finite].max()) - float(bad[finite].min())
+        left_out = np.ones(values.shape, bool)
+        left_out[5, 7] = left_out[250, 3] = False
+        assert real_range(bad, left_out, "raise") == float(bad[left_out].max()) - float(bad[left_out].min())

@@ -100,12 +100,14 @@ def test_a_registered_evaluate_makes_one_scoring_call():
     scene = ["check_budget", "low_spectrum", "cross_spectra"]
     defects = ["error_profile", "far_pixels"]
     assert calls == ["score_registered", *defects, "PairStats.summary", "error_profile", *scene], calls
-    # unregistered: the memory plan is checked (no data crosses), then one pass and its summary
+    # unregistered: the memory plan is checked (no data crosses), then one pass, the real
+    # frame's range (the PSNR peak "range") and the summary
     calls = _core_calls(lambda: irf.evaluate(real, sim, bits=16, peak="range"))
-    assert calls == ["check_budget", "pair_stats", *defects, "PairStats.summary", "error_profile", *scene], calls
+    pair = ["check_budget", "pair_stats", "scored_range"]
+    assert calls == [*pair, *defects, "PairStats.summary", "error_profile", *scene], calls
     # without the scene, the pair alone
     calls = _core_calls(lambda: irf.evaluate(real, sim, bits=16, peak="range", transfer_options={"scene": False}))
-    assert calls == ["check_budget", "pair_stats", *defects, "PairStats.summary", "error_profile"], calls
+    assert calls == [*pair, *defects, "PairStats.summary", "error_profile"], calls
 
 
 def test_the_array_loop_scores_as_the_engine(tmp_path):

@@ -48,6 +48,7 @@ __all__ = [
     "score_pairs",
     "score_registered",
     "score_shared",
+    "scored_range",
     "ssim_map",
     "temperature_errors",
     "tiff_ifds_read",
@@ -97,6 +98,12 @@ class PairStats:
     def to_bytes(self) -> bytes: ...
     @staticmethod
     def from_bytes(data: bytes) -> PairStats: ...
+
+def scored_range(
+    values: npt.NDArray[Any], mask: npt.NDArray[np.bool_] | None = None
+) -> tuple[tuple[float, float] | None, bool]:
+    """A frame's (min, max) over the pixels ``mask`` keeps whose values are finite (None when
+    there are none), and whether a kept pixel is NaN or infinite."""
 
 def plain_mse(real: object, sim: object) -> float | None:
     """MSE of two non-empty, aligned, 2-D C-contiguous arrays of one supported dtype and

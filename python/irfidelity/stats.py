@@ -690,26 +690,15 @@ def _psnr_over_range(real, sim, bits, rule: str, mask) -> float:
 
 def real_range(real: np.ndarray, mask: Any, nonfinite: str) -> float | None:
     """``max − min`` of the real frame over the pixels that are scored (finite, unmasked): the
-    PSNR peak ``"range"``; None when no pixel is scored. The values are not copied (the
-    masks it makes are one byte a pixel: the memory plan of scoring counts them)."""
-    values = np.asarray(real)
-    where = None if mask is None else np.asarray(mask, dtype=bool)
-    if values.dtype.kind == "f" and where is None and values.size:
-        low, high = float(values.min()), float(values.max())  # NaN propagates: finite ends, finite frame
-        if math.isfinite(low) and math.isfinite(high):
-            return high - low
-    if values.dtype.kind == "f":
-        finite = np.isfinite(values)
-        scored_finite = finite if where is None else finite | ~where
-        if nonfinite != "mask" and not scored_finite.all():
-            return None  # the kernel reports the non-finite values with their position
-        where = finite if where is None else finite & where
-    if values.size == 0 or (where is not None and not where.any()):
+    PSNR peak ``"range"``; None when no pixel is scored, or when a scored pixel is NaN or
+    infinite and ``nonfinite`` is not ``"mask"`` (the kernel reports those with their
+    position). One Rust pass (``_core.scored_range``); a frame that is not C-contiguous is copied."""
+    values = np.ascontiguousarray(real)
+    where = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
+    extent, nonfinite_scored = _core.scored_range(values, where)
+    if extent is None or (nonfinite_scored and nonfinite != "mask"):
         return None
-    if where is None:
-        return float(values.max()) - float(values.min())
-    bounds = np.finfo(values.dtype) if values.dtype.kind == "f" else np.iinfo(values.dtype)
-    return float(values.max(where=where, initial=bounds.min)) - float(values.min(where=where, initial=bounds.max))
+    return extent[1] - extent[0]
 
 
 def ssim(real, sim, *, alpha: float = 1.0, beta: float = 1.0, gamma: float = 1.0, mask=None, nonfinite="raise") -> SSIM:

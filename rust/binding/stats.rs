@@ -12,7 +12,7 @@ use pyo3::types::{PyBytes, PyDict, PyTuple};
 
 use super::args::{self, PairRequest};
 use super::detached;
-use super::dtypes::{pair_shape, shape_text, supported_dtypes, unsupported_dtype};
+use super::dtypes::{contiguous, pair_shape, shape_text, supported_dtypes, unsupported_dtype};
 use crate::hist::{Entropies, HistSpec, JointTable};
 use crate::stats::{self, Request, Sample, Sums};
 
@@ -303,7 +303,31 @@ fn plain_moments(py: Python<'_>, real: &Bound<'_, PyAny>, sim: &Bound<'_, PyAny>
     plain_stats(py, real, sim, false, true)
 }
 
+/// `scored_range(values, mask=None)` -> `((min, max) or None, any kept value not finite)`:
+/// one frame's range over the pixels `mask` keeps whose values are finite (C-contiguous, of a
+/// frame dtype; `crate::kernel::scored_range`), without the GIL.
+#[pyfunction]
+#[pyo3(signature = (values, mask=None))]
+fn scored_range(
+    py: Python<'_>,
+    values: &Bound<'_, PyUntypedArray>,
+    mask: Option<PyReadonlyArrayDyn<'_, bool>>,
+) -> PyResult<(Option<(f64, f64)>, bool)> {
+    if let Some(m) = mask.as_ref().filter(|m| m.shape() != values.shape()) {
+        let (mask_shape, frame_shape) = (shape_text(m.shape()), shape_text(values.shape()));
+        return Err(crate::Error::Shape(format!("the mask is {mask_shape} and the frame {frame_shape}")).into());
+    }
+    let keep = mask.as_ref().map(|m| contiguous(m, "the mask")).transpose()?;
+    with_frame_dtype!(py, values.dtype(), |T| {
+        let array = readonly(values.cast::<PyArrayDyn<T>>()?)?;
+        let run = contiguous(&array, "the frame")?;
+        Ok(py.detach(|| crate::kernel::scored_range(run, keep)))
+    })
+    .unwrap_or_else(|| Err(unsupported_dtype("the frame", values.dtype()).into()))
+}
+
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(scored_range, m)?)?;
     m.add_function(wrap_pyfunction!(plain_mse, m)?)?;
     m.add_function(wrap_pyfunction!(plain_moments, m)?)?;
     m.add_class::<PyPairStats>()?;

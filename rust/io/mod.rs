@@ -29,6 +29,7 @@ use crate::dtype::Dtype;
 use crate::{Error, Result};
 use tiff_pages::FileKey;
 
+mod calibrations;
 mod exr;
 mod flir;
 #[cfg(feature = "fuzzing")]
@@ -330,11 +331,11 @@ fn run_op<R: BufRead + Seek>(
         (Format::Tiff, Op::Pages) => {
             raster::tiff_page_chain(reader, key).map(|(pages, broken)| OpOut::Pages(pages, broken))
         }
-        (Format::Flir, Op::Decode(o)) => seq::decode(reader, o).map(OpOut::Frame),
+        (Format::Flir, Op::Decode(o)) => seq::decode(reader, o).map(|decoded| calibrated(decoded, key, o.page)),
         (Format::Flir, Op::Channels) => seq::page_chain(reader).map(|_| OpOut::Channels(vec!["Y".to_string()])),
         (Format::Flir, Op::Pages) => seq::page_chain(reader).map(|(pages, broken)| OpOut::Pages(pages, broken)),
         (Format::Flir, Op::Radiometry(o)) => seq::camera_info(reader, o).map(|c| OpOut::Radiometry(Box::new(c))),
-        (Format::Jpeg, Op::Decode(o)) => rjpeg::decode(reader, o).map(OpOut::Frame),
+        (Format::Jpeg, Op::Decode(o)) => rjpeg::decode(reader, o).map(|decoded| calibrated(decoded, key, o.page)),
         (Format::Jpeg, Op::Channels) => {
             rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Channels(vec!["Y".to_string()]))
         }
@@ -345,6 +346,15 @@ fn run_op<R: BufRead + Seek>(
         }
         (Format::Irg(_), _) => unreachable!("an IRG file is refused above"),
     }
+}
+
+/// A decoded radiometric frame, its calibration kept for the file `key` names
+/// (`calibrations`).
+fn calibrated((frame, info): (Frame, Option<CameraInfo>), key: Option<&FileKey>, page: usize) -> OpOut {
+    if let (Some(key), Some(info)) = (key, info) {
+        calibrations::keep(key, page, info);
+    }
+    OpOut::Frame(frame)
 }
 
 /// Refuse what is not a regular file: a directory, or a FIFO, socket or device (whose read
@@ -417,7 +427,12 @@ pub fn decode_frame(path: &Path, opts: &DecodeOptions) -> Result<Frame> {
     if opts.page > 0 && sniff_path(path) == Some(Format::Flir) {
         // later frames of a SEQ: the file's frame index is kept
         let name = path.display().to_string();
-        return guarded(&name, || seq::decode_cached(path, opts));
+        let decoded = guarded(&name, || seq::decode_cached(path, opts))?;
+        let key = std::fs::metadata(path).map(|meta| FileKey::of(path, &meta)).ok();
+        let OpOut::Frame(frame) = calibrated(decoded, key.as_ref(), opts.page) else {
+            unreachable!("calibrated returns a frame")
+        };
+        return Ok(frame);
     }
     match run_on_path(path, Op::Decode(opts))? {
         OpOut::Frame(f) => Ok(f),
@@ -436,6 +451,9 @@ pub fn decode_bytes(bytes: &[u8], name: &str, opts: &DecodeOptions) -> Result<Fr
 /// The calibration of a radiometric FLIR file (frame `opts.page` of a SEQ): a FrameError for
 /// files without one.
 pub fn read_camera_info(path: &Path, opts: &DecodeOptions) -> Result<CameraInfo> {
+    if let Some(info) = calibrations::find(path, opts.page) {
+        return Ok(info); // decoded with the frame's counts, and the file has not changed since
+    }
     match run_on_path(path, Op::Radiometry(opts))? {
         OpOut::Radiometry(c) => Ok(*c),
         _ => unreachable!("read_camera_info returns a calibration"),

@@ -167,10 +167,12 @@ pub(super) fn fff_frame<R: BufRead + Seek>(mut reader: R, max_bytes: u64) -> Res
     Ok(data)
 }
 
-/// The raw counts of a radiometric JPEG.
-pub(super) fn decode<R: BufRead + Seek>(reader: R, o: &DecodeOptions) -> Result<Frame, Reason> {
+/// The raw counts of a radiometric JPEG, and its calibration when its camera-info record
+/// reads (an error in it is reported when the calibration is asked for).
+pub(super) fn decode<R: BufRead + Seek>(reader: R, o: &DecodeOptions) -> Result<(Frame, Option<CameraInfo>), Reason> {
     let fff = fff_frame(reader, o.max_bytes)?;
-    FffFrame::parse(&fff)?.counts(o)
+    let frame = FffFrame::parse(&fff)?;
+    Ok((frame.counts(o)?, frame.camera_info().ok()))
 }
 
 /// The calibration of a radiometric JPEG.

@@ -114,10 +114,18 @@ fn frame_bytes<R: Read + Seek>(mut reader: R, o: &DecodeOptions) -> Result<Vec<u
     read_frame(&mut reader, span, o.page, o.max_bytes)
 }
 
-/// The counts of frame `o.page`.
-pub(super) fn decode<R: Read + Seek>(reader: R, o: &DecodeOptions) -> Result<Frame, Reason> {
+/// The counts of frame `o.page`, and its calibration when its camera-info record reads.
+pub(super) fn decode<R: Read + Seek>(reader: R, o: &DecodeOptions) -> Result<(Frame, Option<CameraInfo>), Reason> {
     let bytes = frame_bytes(reader, o)?;
-    FffFrame::parse(&bytes)?.counts(o).map_err(|reason| in_frame(o.page, reason))
+    counts_and_calibration(&bytes, o)
+}
+
+/// The counts of an FFF frame, and its calibration when its camera-info record reads (an
+/// error in it is reported when the calibration is asked for).
+fn counts_and_calibration(bytes: &[u8], o: &DecodeOptions) -> Result<(Frame, Option<CameraInfo>), Reason> {
+    let frame = FffFrame::parse(bytes)?;
+    let counts = frame.counts(o).map_err(|reason| in_frame(o.page, reason))?;
+    Ok((counts, frame.camera_info().ok()))
 }
 
 /// The calibration of frame `o.page`.
@@ -161,11 +169,11 @@ fn cached_index(path: &Path, file: &mut BufReader<File>) -> Result<Arc<Index>, R
 }
 
 /// Decode frame `o.page` of the FLIR file at `path`, with the file's cached frame index.
-pub(super) fn decode_cached(path: &Path, o: &DecodeOptions) -> Result<Frame, Reason> {
+pub(super) fn decode_cached(path: &Path, o: &DecodeOptions) -> Result<(Frame, Option<CameraInfo>), Reason> {
     let mut file = BufReader::with_capacity(1 << 16, super::open_regular(path)?);
     let span = cached_index(path, &mut file)?.span(o.page)?;
     let bytes = read_frame(&mut file, span, o.page, o.max_bytes)?;
-    FffFrame::parse(&bytes)?.counts(o).map_err(|reason| in_frame(o.page, reason))
+    counts_and_calibration(&bytes, o)
 }
 
 #[cfg(test)]
@@ -189,7 +197,7 @@ mod tests {
         let seq = [one.clone(), two.clone(), one.clone()].concat();
         assert_eq!(page_chain(Cursor::new(&seq)).unwrap(), (3, None));
         let page = |k| decode(Cursor::new(&seq), &DecodeOptions { page: k, ..Default::default() });
-        assert_eq!(page(1).unwrap().data, super::super::FrameData::U16(vec![9; 3]));
+        assert_eq!(page(1).unwrap().0.data, super::super::FrameData::U16(vec![9; 3]));
         assert_eq!(page(2).unwrap(), page(0).unwrap());
         assert!(page(3).unwrap_err().contains("page 3 out of range (3 frames)"));
         let mut cut = seq.clone();

@@ -467,3 +467,31 @@ fn unread_formats_are_refused_by_name() {
     let page = DecodeOptions { page: 1, ..Default::default() };
     assert!(decode_bytes(&irg([0xca, 0xac], [0xac, 0xca]), "x", &page).is_err_and(|e| e.to_string().contains("IRG")));
 }
+
+#[test]
+fn a_decoded_frames_calibration_is_kept_until_its_file_changes() {
+    let dir = std::env::temp_dir().join(format!("irfidelity-calibrations-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let copy = dir.join("frame.jpg");
+    let opts = DecodeOptions::default();
+    for (name, other) in [
+        ("radiometric/readthermal_flir_ax8.jpg", "radiometric/readthermal_zenmuse_xtr.jpg"),
+        ("radiometric/flirpy_frame_000000.fff", "radiometric/flirpy_frame_000000_le.fff"),
+    ] {
+        let read = |rel: &str| {
+            let bytes = std::fs::read(data(rel)).unwrap();
+            (read_camera_info_bytes(&bytes, rel, &opts).unwrap(), bytes)
+        };
+        let ((first, first_bytes), (second, second_bytes)) = (read(name), read(other));
+        assert_ne!(first, second, "{name}");
+        std::fs::write(&copy, &first_bytes).unwrap();
+        decode_frame(&copy, &opts).unwrap();
+        assert_eq!(read_camera_info(&copy, &opts).unwrap(), first, "{name}");
+        // rewritten in place: its key changes (size, times), so the new content is read
+        std::fs::write(&copy, &second_bytes).unwrap();
+        assert_eq!(read_camera_info(&copy, &opts).unwrap(), second, "{name}");
+        decode_frame(&copy, &opts).unwrap();
+        assert_eq!(read_camera_info(&copy, &opts).unwrap(), second, "{name}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

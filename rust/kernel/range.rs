@@ -3,7 +3,7 @@
 
 use super::parallel::{cost, fold_chunks};
 use super::request::Request;
-use super::sample::Sample;
+use super::sample::{all_finite, Sample};
 
 avx2_copy! {
     /// Min and max of two runs of samples by plain compares, in the native width. `None` for
@@ -157,6 +157,51 @@ pub(super) fn data_ranges<T: Sample>(r: &[T], s: &[T], req: &Request) -> Option<
         both,
     );
     (rr.0 <= rr.1 && ss.0 <= ss.1).then_some((rr, ss))
+}
+
+/// One frame's min and max over the pixels `mask` keeps whose values are finite (None when
+/// there are none), and whether a kept pixel is not finite.
+pub fn scored_range<T: Sample>(values: &[T], mask: Option<&[bool]>) -> (Option<(f64, f64)>, bool) {
+    type Part = ((f64, f64), bool);
+    const EMPTY: (f64, f64) = (f64::INFINITY, f64::NEG_INFINITY);
+    let fold = |(a, b): (usize, usize)| -> Part {
+        let run = &values[a..b];
+        if mask.is_none() {
+            // vectorised ends; a NaN or ±Inf makes them NaN, and the careful loop follows
+            let ends = match T::as_f64(run) {
+                Some(v) => float64_ends(v),
+                None if all_finite(run) => min_max(run, &[]).map(|(lo, hi)| (lo.to_f64(), hi.to_f64())),
+                None => Some((f64::NAN, f64::NAN)),
+            };
+            match ends {
+                None => return (EMPTY, false),
+                Some((lo, hi)) if lo.is_finite() && hi.is_finite() => return ((lo, hi), false),
+                _ => {}
+            }
+        }
+        let (mut range, mut bad) = (EMPTY, false);
+        for (i, v) in (a..b).zip(run) {
+            if mask.is_some_and(|m| !m[i]) {
+                continue;
+            }
+            let v = v.to_f64();
+            if v.is_finite() {
+                range = (range.0.min(v), range.1.max(v));
+            } else {
+                bad = true;
+            }
+        }
+        (range, bad)
+    };
+    let both = |(x, p): Part, (y, q): Part| ((x.0.min(y.0), x.1.max(y.1)), p || q);
+    let Ok((range, bad)) = fold_chunks::<_, std::convert::Infallible>(
+        values.len(),
+        cost::RANGE,
+        || (EMPTY, false),
+        |acc, range| Ok(both(acc, fold(range))),
+        both,
+    );
+    ((range.0 <= range.1).then_some(range), bad)
 }
 
 /// Most pixels sampled to find a frame's bulk for [`robust_range`] ...
@@ -423,6 +468,28 @@ mod tests {
                 assert!(a.is_nan() && b.is_nan(), "{bad} at {at}");
             }
         }
+    }
+
+    #[test]
+    fn a_scored_range_leaves_out_masked_and_non_finite_pixels_and_says_whether_one_was_kept() {
+        let values: Vec<f32> = (0..70_000).map(|i| ((i * 7919) % 1013) as f32 - 500.0).collect();
+        assert_eq!(scored_range(&values, None), (Some((-500.0, 512.0)), false));
+        let mut bad = values.clone();
+        bad[66_000] = f32::NAN;
+        bad[3] = 8_589_934_592.0; // 2^33, exact in float32
+        bad[4] = f32::NEG_INFINITY;
+        assert_eq!(scored_range(&bad, None), (Some((-500.0, 8_589_934_592.0)), true));
+        let mut mask = vec![true; values.len()];
+        mask[3] = false;
+        mask[4] = false;
+        mask[66_000] = false;
+        assert_eq!(scored_range(&bad, Some(&mask)), (Some((-500.0, 512.0)), false));
+        let doubles: Vec<f64> = bad.iter().map(|&v| f64::from(v)).collect();
+        assert_eq!(scored_range(&doubles, None), (Some((-500.0, 8_589_934_592.0)), true));
+        assert_eq!(scored_range(&[7u16, 3, 65535], None), (Some((3.0, 65535.0)), false));
+        assert_eq!(scored_range(&[1u8, 2], Some(&[false, false])), (None, false));
+        assert_eq!(scored_range::<f64>(&[], None), (None, false));
+        assert_eq!(scored_range(&[f64::NAN], None), (None, true));
     }
 
     #[test]
