@@ -550,6 +550,58 @@ pub fn far_pixels<A: Sample, B: Sample>(
     Ok(Some(all))
 }
 
+/// The robust spread of a sample of differences (finite values): their median, the median of
+/// their absolute deviations from it, and the 99th percentile of those deviations — numpy's
+/// `median`, and `quantile` with its default linear interpolation, to the last bit, by
+/// selection (`select_nth_unstable`, whose time does not depend on how the sample is
+/// ordered). None for an empty sample. Reorders `values` and leaves the deviations in it.
+pub fn robust_spread(values: &mut [f64]) -> Option<(f64, f64, f64)> {
+    let median = median_of(values)?;
+    values.iter_mut().for_each(|v| *v = (*v - median).abs());
+    let deviation = median_of(values)?;
+    Some((median, deviation, linear_quantile(values, 0.99)))
+}
+
+/// The `k`-th smallest value (`k < values.len()`), reordering `values` around it.
+fn select(values: &mut [f64], k: usize) -> f64 {
+    *values.select_nth_unstable_by(k, f64::total_cmp).1
+}
+
+/// numpy's median: the middle value, or the mean of the middle two, `(a + b) / 2`.
+fn median_of(values: &mut [f64]) -> Option<f64> {
+    let n = values.len();
+    if n == 0 {
+        return None;
+    }
+    let upper = select(values, n / 2);
+    if n % 2 == 1 {
+        return Some(upper);
+    }
+    // the lower middle value: the largest of those below the upper one after the selection
+    let lower = values[..n / 2].iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    Some((lower + upper) / 2.0)
+}
+
+/// numpy's `quantile(values, q)` (method "linear"): the order statistics around `(n − 1)·q`,
+/// `a + (b − a)·t`, or `b − (b − a)·(1 − t)` for `t ≥ ½`.
+fn linear_quantile(values: &mut [f64], q: f64) -> f64 {
+    let n = values.len();
+    let at = (n - 1) as f64 * q;
+    let below = at.floor();
+    if at >= (n - 1) as f64 {
+        return select(values, n - 1);
+    }
+    let k = below as usize;
+    let a = select(values, k);
+    let b = values[k + 1..].iter().copied().fold(f64::INFINITY, f64::min);
+    let (t, step) = (at - below, b - a);
+    if t >= 0.5 {
+        b - step * (1.0 - t)
+    } else {
+        a + step * t
+    }
+}
+
 /// Whether the `top` largest squares can sum to more than `limit`, by three bounds that need no
 /// search (a relative margin of 1e-9 covers their own rounding): `top × largest`;
 /// Cauchy–Schwarz, √(top · Σ v²); and, with τ = limit / (2·top), the sum of the squares above τ

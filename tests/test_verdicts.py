@@ -504,3 +504,18 @@ def test_a_sequence_frames_grades_equal_the_full_verdicts():
             assert lean == {k: full.to_dict()[k] for k in ("fidelity", "grade", "component_grades", "membership")}
     with pytest.raises(FidelityError, match="no value"):
         Grader(cfg.weights, cfg).summary({"psnr": 0.9}, {"psnr_peak": 255.0}, 100.0)
+
+
+def test_the_robust_spread_is_numpys_median_and_quantile_to_the_last_bit():
+    from irfidelity import _core
+
+    rng = np.random.default_rng(11)
+    samples = [rng.normal(0, 1, n) for n in (1, 2, 3, 4, 100, 101, 20480)]
+    samples += [np.rint(rng.normal(0, 8, 5001)), np.repeat([1.5, -2.0, 7.25], 33), np.sort(rng.normal(5, 2, 999)),
+                rng.normal(0, 1, 4096).cumsum()]  # ties, sorted and drifting differences
+    for d in samples:
+        median = np.median(d)
+        deviation = np.abs(d - median)
+        want = (float(median), float(np.median(deviation)), float(np.quantile(deviation, 0.99)))
+        assert _core.robust_spread(d) == want, d.size
+    assert _core.robust_spread(np.array([])) is None

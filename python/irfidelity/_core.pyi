@@ -45,6 +45,7 @@ __all__ = [
     "radiometric_conversion",
     "read_camera_info",
     "register_frames",
+    "robust_spread",
     "score_pairs",
     "score_registered",
     "score_shared",
@@ -361,6 +362,11 @@ def far_pixels(
 ) -> npt.NDArray[np.int64] | None: ...
 
 # ---- cross-spectra of a pair, for its transfer (rust/binding/transfer.rs) -----------------------
+def robust_spread(values: npt.NDArray[np.float64]) -> tuple[float, float, float] | None:
+    """(median, median absolute deviation, 99th percentile of the absolute deviations) of a
+    1-D sample of finite differences, equal to numpy's ``median`` and ``quantile``; None when
+    empty."""
+
 def cross_spectra(
     real: npt.NDArray[Any],
     sim: npt.NDArray[Any],

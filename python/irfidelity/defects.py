@@ -221,11 +221,11 @@ def _outlier_threshold(real: np.ndarray, sim: np.ndarray, mask: np.ndarray | Non
     d = d[keep]
     if d.size == 0:
         return 0.0, math.inf
-    median = float(np.median(d))
-    deviation = np.abs(d - median)
-    sigma = 1.4826 * float(np.median(deviation))
+    spread = _core.robust_spread(np.ascontiguousarray(d))  # numpy's median and quantile, by selection
+    assert spread is not None  # d is not empty
+    median, deviation, tail = spread
     floor = 0.5 if real.dtype.kind in "iu" and sim.dtype.kind in "iu" else 1e-9 * (abs(median) + float(np.std(d)) + 1e-300)
-    return median, max(OUTLIER * max(sigma, floor), TAIL * float(np.quantile(deviation, 0.99)))
+    return median, max(OUTLIER * max(1.4826 * deviation, floor), TAIL * tail)
 
 
 def _clusters(rows: np.ndarray, cols: np.ndarray) -> list[np.ndarray]:

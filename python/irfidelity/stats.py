@@ -8,7 +8,6 @@ frames are summed exactly, float frames with centred, compensated sums.
 
 from __future__ import annotations
 
-import math
 import numbers
 import os
 import reprlib

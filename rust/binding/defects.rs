@@ -1,12 +1,13 @@
 //! `error_profile`: where a frame pair's squared error sits (`crate::defects`), for
 //! `irfidelity.defects.concentrated_error`; `far_pixels`: the candidate defects of
-//! `irfidelity.defects.find_defects`. One pass each, with the GIL released.
+//! `irfidelity.defects.find_defects`, and `robust_spread` their threshold. One pass each, with
+//! the GIL released.
 
-use numpy::{IntoPyArray, PyArray1, PyReadonlyArrayDyn, PyUntypedArray};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArrayDyn, PyUntypedArray};
 use pyo3::prelude::*;
 
 use super::dtypes::{mask_samples, on_pair, pair_shape, PairWork};
-use crate::defects::{far_pixels as far_pixels_of, profile, Profile, Question};
+use crate::defects::{far_pixels as far_pixels_of, profile, robust_spread as robust_spread_of, Profile, Question};
 use crate::kernel::Sample;
 
 /// The `top` largest squares (largest first) and their flat indices.
@@ -61,6 +62,15 @@ fn far_pixels<'py>(
     Ok(found.map(|flat| flat.into_iter().map(|i| i as i64).collect::<Vec<_>>().into_pyarray(py)))
 }
 
+/// `robust_spread(values)` -> `(median, median absolute deviation, 99th percentile of the
+/// absolute deviations)` of a sample of finite float64 differences, as numpy's `median` and
+/// `quantile` give them, or None for an empty one (`crate::defects::robust_spread`).
+#[pyfunction]
+fn robust_spread(py: Python<'_>, values: PyReadonlyArray1<'_, f64>) -> PyResult<Option<(f64, f64, f64)>> {
+    let mut sample = values.as_array().to_vec();
+    Ok(py.detach(move || robust_spread_of(&mut sample)))
+}
+
 struct ErrorProfile<'a> {
     mask: Option<&'a [bool]>,
     shape: (usize, usize),
@@ -90,5 +100,6 @@ impl PairWork for FarPixels<'_> {
 
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(error_profile, m)?)?;
-    m.add_function(wrap_pyfunction!(far_pixels, m)?)
+    m.add_function(wrap_pyfunction!(far_pixels, m)?)?;
+    m.add_function(wrap_pyfunction!(robust_spread, m)?)
 }

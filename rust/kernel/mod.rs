@@ -33,6 +33,7 @@ pub use driver::pair_stats;
 pub(crate) use int::avx2 as int_avx2;
 pub(crate) use parallel::{fold_chunks, map_chunks};
 pub use parallel::{map_units, pool_busy, with_pool_busy};
+pub(crate) use range::min_max;
 pub use range::scored_range;
 pub use request::{HistRequest, Request};
 pub use sample::{all_finite, Sample};

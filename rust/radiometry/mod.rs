@@ -201,7 +201,7 @@ impl Model {
 }
 
 /// A sample type the conversions accept.
-pub trait Sample: Copy + Send + Sync {
+pub trait Sample: crate::kernel::Sample {
     fn value(self) -> f64;
     /// The value as an integer, for integer sample types (they may use a table of values).
     fn integer(self) -> Option<i64>;
@@ -321,45 +321,28 @@ fn count_nan<T: Sample>(inp: &[T], out: &[f64]) -> (usize, usize) {
     })
 }
 
+/// Tables of fewer entries are computed on the calling thread (a few microseconds).
+const PARALLEL_TABLE: usize = 1 << 12;
+
 /// `f` over `min..=max` of integer inputs, when that range is under a quarter of their count.
 fn integer_table<T: Sample>(input: &[T], f: impl Fn(f64) -> f64 + Sync) -> Option<(i64, Vec<f64>)> {
     input.first()?.integer()?; // float inputs: no table
-    let (low, high) = input
-        .par_chunks(CHUNK)
-        .map(value_range)
-        .reduce(|| (f64::INFINITY, f64::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
-    // integer inputs: their values are whole numbers well within i64
-    let (low, high) = (low as i64, high as i64);
+                               // one thread: a vectorised pass over integers is shorter than waking the pool
+    let (low, high) = crate::kernel::min_max(input, &[])?;
+    let (low, high) = (crate::kernel::Sample::to_i64(low), crate::kernel::Sample::to_i64(high));
     let span = usize::try_from(high.checked_sub(low)?).ok()? + 1;
     if span > input.len() / 4 {
         return None;
     }
-    Some((low, (0..span).into_par_iter().map(|i| f((low + i as i64) as f64)).collect()))
-}
-
-avx2_copy! {
-    /// The min and max of a run's values, by plain compares in eight lanes (which vectorise;
-    /// to `vminpd`/`vmaxpd` in AVX2 code when the CPU has it).
-    fn value_range[T: Sample](values: &[T]) -> (f64, f64)
-    => value_range_avx2, value_range_portable
-}
-
-#[inline(always)]
-fn value_range_portable<T: Sample>(values: &[T]) -> (f64, f64) {
-    const LANES: usize = 8;
-    let (mut lo, mut hi) = ([f64::INFINITY; LANES], [f64::NEG_INFINITY; LANES]);
-    let blocks = values.chunks_exact(LANES);
-    for (k, x) in blocks.remainder().iter().enumerate() {
-        (lo[k], hi[k]) = (x.value(), x.value());
-    }
-    for block in blocks {
-        for k in 0..LANES {
-            let v = block[k].value();
-            lo[k] = if v < lo[k] { v } else { lo[k] };
-            hi[k] = if v > hi[k] { v } else { hi[k] };
-        }
-    }
-    (lo.iter().fold(f64::INFINITY, |m, &v| m.min(v)), hi.iter().fold(f64::NEG_INFINITY, |m, &v| m.max(v)))
+    let entry = |i: usize| f((low + i as i64) as f64);
+    Some((
+        low,
+        if span < PARALLEL_TABLE {
+            (0..span).map(entry).collect()
+        } else {
+            (0..span).into_par_iter().map(entry).collect()
+        },
+    ))
 }
 
 /// Temperatures (in `unit`) of raw counts.
