@@ -90,15 +90,15 @@ def _core_calls(fn) -> list[str]:
 
 
 def test_a_registered_evaluate_makes_one_scoring_call():
-    # the pair's one path, the defects search on the frames as scored (the largest difference
-    # passes this pair's threshold, so the far pixels are listed), the summary, the
+    # the pair's one path, the defects search on the frames as scored (its threshold, then the
+    # largest difference passes it on this pair, so the far pixels are listed), the summary, the
     # concentrated-error check, then the scene's transfer (its memory plan, block means, then
     # the tiles)
     real, sim = _pair(FRAMES[1])
     kw = dict(bits=16, peak="range", register="translation", register_method="phase")
     calls = _core_calls(lambda: irf.evaluate(real, sim, **kw))
     scene = ["check_budget", "low_spectrum", "cross_spectra"]
-    defects = ["error_profile", "far_pixels"]
+    defects = ["robust_spread", "error_profile", "far_pixels"]
     assert calls == ["score_registered", *defects, "PairStats.summary", "error_profile", *scene], calls
     # unregistered: the memory plan is checked (no data crosses), then one pass, the real
     # frame's range (the PSNR peak "range") and the summary
