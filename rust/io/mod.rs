@@ -331,11 +331,15 @@ fn run_op<R: BufRead + Seek>(
         (Format::Tiff, Op::Pages) => {
             raster::tiff_page_chain(reader, key).map(|(pages, broken)| OpOut::Pages(pages, broken))
         }
-        (Format::Flir, Op::Decode(o)) => seq::decode(reader, o).map(|decoded| calibrated(decoded, key, o.page)),
+        (Format::Flir, Op::Decode(o)) => {
+            seq::decode(reader, o).map(|decoded| OpOut::Frame(calibrated(decoded, key, o.page)))
+        }
         (Format::Flir, Op::Channels) => seq::page_chain(reader).map(|_| OpOut::Channels(vec!["Y".to_string()])),
         (Format::Flir, Op::Pages) => seq::page_chain(reader).map(|(pages, broken)| OpOut::Pages(pages, broken)),
         (Format::Flir, Op::Radiometry(o)) => seq::camera_info(reader, o).map(|c| OpOut::Radiometry(Box::new(c))),
-        (Format::Jpeg, Op::Decode(o)) => rjpeg::decode(reader, o).map(|decoded| calibrated(decoded, key, o.page)),
+        (Format::Jpeg, Op::Decode(o)) => {
+            rjpeg::decode(reader, o).map(|decoded| OpOut::Frame(calibrated(decoded, key, o.page)))
+        }
         (Format::Jpeg, Op::Channels) => {
             rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Channels(vec!["Y".to_string()]))
         }
@@ -350,11 +354,11 @@ fn run_op<R: BufRead + Seek>(
 
 /// A decoded radiometric frame, its calibration kept for the file `key` names
 /// (`calibrations`).
-fn calibrated((frame, info): (Frame, Option<CameraInfo>), key: Option<&FileKey>, page: usize) -> OpOut {
+fn calibrated((frame, info): (Frame, Option<CameraInfo>), key: Option<&FileKey>, page: usize) -> Frame {
     if let (Some(key), Some(info)) = (key, info) {
         calibrations::keep(key, page, info);
     }
-    OpOut::Frame(frame)
+    frame
 }
 
 /// Refuse what is not a regular file: a directory, or a FIFO, socket or device (whose read
@@ -429,10 +433,7 @@ pub fn decode_frame(path: &Path, opts: &DecodeOptions) -> Result<Frame> {
         let name = path.display().to_string();
         let decoded = guarded(&name, || seq::decode_cached(path, opts))?;
         let key = std::fs::metadata(path).map(|meta| FileKey::of(path, &meta)).ok();
-        let OpOut::Frame(frame) = calibrated(decoded, key.as_ref(), opts.page) else {
-            unreachable!("calibrated returns a frame")
-        };
-        return Ok(frame);
+        return Ok(calibrated(decoded, key.as_ref(), opts.page));
     }
     match run_on_path(path, Op::Decode(opts))? {
         OpOut::Frame(f) => Ok(f),
