@@ -550,6 +550,46 @@ pub fn far_pixels<A: Sample, B: Sample>(
     Ok(Some(all))
 }
 
+/// The differences `sim − real` the defects' threshold is drawn from: every `step`-th pixel of
+/// every `step`-th row (`rows × cols`, row-major) that `mask` keeps and whose difference is
+/// finite, row by row — numpy's `(sim[::step, ::step] − real[::step, ::step])[kept]` in float64.
+pub fn sampled_differences<A: Sample, B: Sample>(
+    real: &[A],
+    sim: &[B],
+    mask: Option<&[bool]>,
+    (rows, cols): (usize, usize),
+    step: usize,
+) -> crate::Result<Vec<f64>> {
+    if step == 0 {
+        return Err(crate::Error::Value("step: expected at least 1 pixel".into()));
+    }
+    let n = rows.checked_mul(cols).filter(|&n| n == real.len() && n == sim.len());
+    if n.is_none() || mask.is_some_and(|m| m.len() != real.len()) {
+        return Err(crate::Error::Shape(format!("the frames and the mask must all be {rows} x {cols}")));
+    }
+    let mut out = crate::budget::try_with_capacity(rows.div_ceil(step) * cols.div_ceil(step))?;
+    for row in (0..rows).step_by(step) {
+        for at in (row * cols..(row + 1) * cols).step_by(step) {
+            let d = sim[at].to_f64() - real[at].to_f64();
+            if d.is_finite() && mask.is_none_or(|m| m[at]) {
+                out.push(d);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The root mean square deviation of `values` from their mean (numpy's `std`, to rounding);
+/// 0 for an empty sample.
+pub fn deviation(values: &[f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    (values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n).sqrt()
+}
+
 /// The robust spread of a sample of differences (finite values): their median, the median of
 /// their absolute deviations from it, and the 99th percentile of those deviations — numpy's
 /// `median`, and `quantile` with its default linear interpolation, to the last bit, by

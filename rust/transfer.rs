@@ -578,7 +578,7 @@ fn scale_of<R: Sample, S: Sample>(frames: &Frames<'_, R, S>) -> f64 {
 }
 
 /// Values of the real frame [`scale_of`] draws.
-const SCALE_SAMPLES: usize = 16384;
+const SCALE_SAMPLES: usize = 1024;
 
 /// Welch sums of a frame pair over the tiles of `tiling`, computed in parallel, one group per
 /// task.

@@ -17,7 +17,7 @@ import pytest
 import irfidelity as irf
 import ladders
 from irfidelity.cli import main
-from irfidelity.errors import FidelityError
+from irfidelity.errors import FidelityError, ShapeError
 from irfidelity.tolerances import Tolerances, component_cuts, mu_of_ratio
 from irfidelity.verdict import judge, mu_ratio
 from scene_off import NO_SCENE
@@ -420,6 +420,8 @@ def test_defects_equal_a_whole_frame_reference(case):
         real, sim = real[:3], sim[:3].copy()
         sim[:, :2] += 900
     found = defects.concentrated_error(real, sim, mask)
+    # a profile taken once for the defects search gives the same finding
+    assert defects.concentrated_error(real, sim, mask, profile=defects.error_profile(real, sim, mask)) == found
     want = _whole_frame_defect(real.astype(float), sim.astype(float), mask)
     if want is None:
         assert found is None
@@ -509,13 +511,31 @@ def test_a_sequence_frames_grades_equal_the_full_verdicts():
 def test_the_robust_spread_is_numpys_median_and_quantile_to_the_last_bit():
     from irfidelity import _core
 
+    def numpys(real, sim, mask, step):
+        d = sim[::step, ::step].astype(np.float64) - real[::step, ::step]
+        d = d[np.isfinite(d) & (True if mask is None else mask[::step, ::step])]
+        median = np.median(d)
+        deviation = np.abs(d - median)
+        return float(median), float(np.median(deviation)), float(np.quantile(deviation, 0.99)), float(np.std(d))
+
     rng = np.random.default_rng(11)
     samples = [rng.normal(0, 1, n) for n in (1, 2, 3, 4, 100, 101, 20480)]
     samples += [np.rint(rng.normal(0, 8, 5001)), np.repeat([1.5, -2.0, 7.25], 33), np.sort(rng.normal(5, 2, 999)),
                 rng.normal(0, 1, 4096).cumsum()]  # ties, sorted and drifting differences
-    for d in samples:
-        median = np.median(d)
-        deviation = np.abs(d - median)
-        want = (float(median), float(np.median(deviation)), float(np.quantile(deviation, 0.99)))
-        assert _core.robust_spread(d) == want, d.size
-    assert _core.robust_spread(np.array([])) is None
+    cases = [(np.zeros((1, d.size)), d[None, :], None, 1) for d in samples]
+    real = rng.integers(1000, 3000, (97, 131)).astype(np.uint16)
+    sim = real + rng.normal(0, 4, real.shape)
+    sim[5, 7], sim[9, 0] = np.nan, np.inf                        # not finite: left out
+    keep = rng.random(real.shape) > 0.3
+    cases += [(real, sim, None, 1), (real, sim, keep, 3), (real, sim, keep, 200),
+              (real, np.clip(np.rint(np.nan_to_num(sim, posinf=0)), 0, 65535).astype(np.uint16), keep, 2)]
+    for real, sim, mask, step in cases:
+        got = _core.robust_spread(real, sim, mask, step=step)
+        want = numpys(real, sim, mask, step)
+        assert got[:3] == want[:3], (real.shape, step)
+        assert got[3] == pytest.approx(want[3], rel=1e-12, abs=1e-300)
+    assert _core.robust_spread(real, sim, np.zeros(real.shape, dtype=bool), step=1) is None
+    with pytest.raises(ShapeError, match="mask"):
+        _core.robust_spread(real, sim, keep[:5], step=1)
+    with pytest.raises(FidelityError, match="step"):
+        _core.robust_spread(real, sim, None, step=0)

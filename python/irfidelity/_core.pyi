@@ -362,10 +362,17 @@ def far_pixels(
 ) -> npt.NDArray[np.int64] | None: ...
 
 # ---- cross-spectra of a pair, for its transfer (rust/binding/transfer.rs) -----------------------
-def robust_spread(values: npt.NDArray[np.float64]) -> tuple[float, float, float] | None:
-    """(median, median absolute deviation, 99th percentile of the absolute deviations) of a
-    1-D sample of finite differences, equal to numpy's ``median`` and ``quantile``; None when
-    empty."""
+def robust_spread(
+    real: npt.NDArray[Any],
+    sim: npt.NDArray[Any],
+    mask: npt.NDArray[np.bool_] | None = None,
+    *,
+    step: int,
+) -> tuple[float, float, float, float] | None:
+    """(median, median absolute deviation, 99th percentile of the absolute deviations, root mean
+    square deviation) of ``sim − real`` at every ``step``-th pixel of every ``step``-th row that
+    is scored and finite; the first three equal to numpy's ``median`` and ``quantile``; None
+    when there is no such pixel."""
 
 def cross_spectra(
     real: npt.NDArray[Any],

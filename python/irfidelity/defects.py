@@ -11,14 +11,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from . import _core
 from .frames import FRAME_DTYPES
 
-__all__ = ["TOP_SHARE", "MOST", "concentrated_error", "Defects", "find_defects"]
+__all__ = ["TOP_SHARE", "MOST", "concentrated_error", "Defects", "ErrorProfile", "error_profile", "find_defects"]
 
 #: The share of the scored pixels whose squared differences are examined (the largest ones).
 TOP_SHARE = 0.005
@@ -52,7 +52,29 @@ def _finding(pixels: int, count: int, share: float, rows: np.ndarray, cols: np.n
             "cols": [int(cols.min()), int(cols.max())], "text": text}
 
 
-def concentrated_error(real: Any, sim: Any, mask: Any = None) -> dict | None:
+class ErrorProfile(NamedTuple):
+    """Where a pair's squared error sits (:func:`error_profile`): its ``total`` over the ``scored``
+    pixels, the ``largest`` square, the ``border``'s ``(total, count, box or None)`` and
+    the ``top`` largest squares ``(values, flat indices)`` when bounds could not rule out that
+    they carry more than :data:`MOST` of the total (None otherwise)."""
+
+    total: float
+    scored: int
+    largest: float
+    border: tuple[float, int, list[int] | None]
+    top: tuple[np.ndarray, np.ndarray] | None
+
+
+def error_profile(real: Any, sim: Any, mask: Any = None) -> ErrorProfile:
+    """The squared error of a pair and where it sits, in one Rust pass (``_core.error_profile``):
+    what :func:`find_defects` and :func:`concentrated_error` both read, so a caller that runs
+    both on one pair can take it once."""
+    real, sim = _frames(real, sim)
+    mask = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
+    return ErrorProfile(*_core.error_profile(real, sim, mask, top_share=TOP_SHARE, most=MOST, border=_BORDER))
+
+
+def concentrated_error(real: Any, sim: Any, mask: Any = None, *, profile: ErrorProfile | None = None) -> dict | None:
     """Whether a few pixels carry most of the squared error, and where.
 
     Two places are examined: the largest :data:`TOP_SHARE` of the squared differences (a dead
@@ -70,6 +92,8 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None) -> dict | None:
         The frames as scored (the simulated one registered, when it was).
     mask : 2-D bool array, optional
         The scored pixels.
+    profile : ErrorProfile, optional
+        :func:`error_profile` of these frames and mask, when the caller has it.
 
     Returns
     -------
@@ -91,10 +115,9 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None) -> dict | None:
     >>> found["rows"], found["cols"], round(found["share"], 3)
     ([40, 45], [70, 75], 1.0)
     """
-    real, sim = _frames(real, sim)
-    mask = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
-    total, count, _, (ring_total, ring_count, ring_box), top = _core.error_profile(
-        real, sim, mask, top_share=TOP_SHARE, most=MOST, border=_BORDER)
+    real = np.asarray(real)
+    total, count, _, (ring_total, ring_count, ring_box), top = error_profile(real, sim, mask) if profile is None \
+        else profile
     if count == 0 or not total > 0:
         return None
     if top is not None:
@@ -216,15 +239,12 @@ def _outlier_threshold(real: np.ndarray, sim: np.ndarray, mask: np.ndarray | Non
     deviation is mostly 0) and leaves a Gaussian one at 10 σ (3 × 2.58 σ); defects, fewer than
     :data:`MAX_CANDIDATES` of the pixels, do not reach it."""
     step = max(1, int(math.sqrt(real.size / _SCALE_SAMPLES)))
-    d = sim[::step, ::step].astype(np.float64) - real[::step, ::step]
-    keep = np.isfinite(d) if mask is None else np.isfinite(d) & mask[::step, ::step]
-    d = d[keep]
-    if d.size == 0:
+    # sim[::step, ::step] − real[::step, ::step] where scored and finite; numpy's median and quantile
+    spread = _core.robust_spread(real, sim, mask, step=step)
+    if spread is None:
         return 0.0, math.inf
-    spread = _core.robust_spread(np.ascontiguousarray(d))  # numpy's median and quantile, by selection
-    assert spread is not None  # d is not empty
-    median, deviation, tail = spread
-    floor = 0.5 if real.dtype.kind in "iu" and sim.dtype.kind in "iu" else 1e-9 * (abs(median) + float(np.std(d)) + 1e-300)
+    median, deviation, tail, rms = spread
+    floor = 0.5 if real.dtype.kind in "iu" and sim.dtype.kind in "iu" else 1e-9 * (abs(median) + rms + 1e-300)
     return median, max(OUTLIER * max(1.4826 * deviation, floor), TAIL * tail)
 
 
@@ -284,7 +304,7 @@ def _cluster(real: np.ndarray, sim: np.ndarray, scored: np.ndarray, members: tup
             "rows": [int(rows.min()), int(rows.max())], "cols": [int(cols.min()), int(cols.max())]}
 
 
-def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
+def find_defects(real: Any, sim: Any, mask: Any = None, *, profile: ErrorProfile | None = None) -> Defects | None:
     """Clusters of dead, hot or stuck pixels in either frame, before the image components.
 
     A pixel is a candidate when ``sim − real`` lies more than :data:`OUTLIER` robust standard
@@ -298,7 +318,7 @@ def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
     :data:`MAX_CANDIDATES` of the scored pixels is widespread error: no defects are reported.
     The frame whose cluster departs from its own surroundings is the defective one.
 
-    One Rust pass (``_core.error_profile``) gives the largest difference; only when it exceeds
+    One Rust pass (:func:`error_profile`, or ``profile`` when given) gives the largest difference; only when it exceeds
     the candidates' threshold does a second (``_core.far_pixels``) list them, without a
     frame-sized temporary.
 
@@ -321,7 +341,7 @@ def find_defects(real: Any, sim: Any, mask: Any = None) -> Defects | None:
     real, sim = _frames(real, sim)
     given = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
     median, threshold = _outlier_threshold(real, sim, given)
-    total, count, largest, _, _ = _core.error_profile(real, sim, given, top_share=TOP_SHARE, most=2.0, border=_BORDER)
+    total, count, largest, _, _ = error_profile(real, sim, given) if profile is None else profile
     if count == 0 or not math.sqrt(largest) > threshold - abs(median):
         return None
     flat = _core.far_pixels(real, sim, given, median=median, threshold=threshold,

@@ -22,7 +22,7 @@ import numpy as np
 from . import budget
 from . import stats as _stats
 from .ceiling import relative_to
-from .defects import concentrated_error, find_defects
+from .defects import concentrated_error, error_profile, find_defects
 from .camera import CameraInputs, camera_components, camera_source, describe_input
 from .alignment import score_registered
 from .budget import SCORING_BYTES, WIDENED_BYTES
@@ -97,9 +97,11 @@ def _left_out_defects(sources: dict) -> bool:
     real, sim = np.asarray(sources["real"]), np.asarray(sources["sim"])
     if real.ndim != 2 or real.shape != sim.shape:
         return False
-    found = find_defects(real, sim, sources.get("mask"))
+    profile = error_profile(real, sim, sources.get("mask"))
+    found = find_defects(real, sim, sources.get("mask"), profile=profile)
     sources["defects"] = found
     if found is None:
+        sources["error_profile"] = profile  # of the pair and mask as they stay scored
         return False
     mask = sources.get("mask")
     sources["mask"] = ~found.mask if mask is None else np.asarray(mask, dtype=bool) & ~found.mask
@@ -397,7 +399,8 @@ class Scorer:
                 if ceiling is None and image_plan:
                     ceiling, ceiling_source = _measured_ceiling(real_ref, real_noise, image_plan, cfg, st, sources,
                                                                 inputs, max_bytes)
-                defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"))
+                defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"),
+                                            profile=sources.pop("error_profile", None))
             if transfer_wanted:
                 measured = _scene(sources, cfg, real_ref, real_noise, scene, components, metrics, max_bytes)
                 weights, image_plan, skipped = plan_with_scene(cfg, given, scene, have_images=real is not None,

@@ -3,11 +3,14 @@
 //! `irfidelity.defects.find_defects`, and `robust_spread` their threshold. One pass each, with
 //! the GIL released.
 
-use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArrayDyn, PyUntypedArray};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArrayDyn, PyUntypedArray};
 use pyo3::prelude::*;
 
 use super::dtypes::{mask_samples, on_pair, pair_shape, PairWork};
-use crate::defects::{far_pixels as far_pixels_of, profile, robust_spread as robust_spread_of, Profile, Question};
+use crate::defects::{
+    deviation, far_pixels as far_pixels_of, profile, robust_spread as robust_spread_of, sampled_differences, Profile,
+    Question,
+};
 use crate::kernel::Sample;
 
 /// The `top` largest squares (largest first) and their flat indices.
@@ -62,13 +65,23 @@ fn far_pixels<'py>(
     Ok(found.map(|flat| flat.into_iter().map(|i| i as i64).collect::<Vec<_>>().into_pyarray(py)))
 }
 
-/// `robust_spread(values)` -> `(median, median absolute deviation, 99th percentile of the
-/// absolute deviations)` of a sample of finite float64 differences, as numpy's `median` and
-/// `quantile` give them, or None for an empty one (`crate::defects::robust_spread`).
+/// `robust_spread(real, sim, mask=None, *, step)` -> `(median, median absolute deviation, 99th
+/// percentile of the absolute deviations, root mean square deviation)` of the differences
+/// `sim − real` at every `step`-th pixel of every `step`-th row that is scored and finite
+/// (`crate::defects::sampled_differences`; frames as for `error_profile`): the first three as
+/// numpy's `median` and `quantile` give them; None when no such pixel.
 #[pyfunction]
-fn robust_spread(py: Python<'_>, values: PyReadonlyArray1<'_, f64>) -> PyResult<Option<(f64, f64, f64)>> {
-    let mut sample = values.as_array().to_vec();
-    Ok(py.detach(move || robust_spread_of(&mut sample)))
+#[pyo3(signature = (real, sim, mask=None, *, step))]
+fn robust_spread<'py>(
+    py: Python<'py>,
+    real: &Bound<'py, PyUntypedArray>,
+    sim: &Bound<'py, PyUntypedArray>,
+    mask: Option<PyReadonlyArrayDyn<'py, bool>>,
+    step: usize,
+) -> PyResult<Option<(f64, f64, f64, f64)>> {
+    let shape = pair_shape(real, sim)?;
+    let mask = mask_samples(mask.as_ref(), shape)?;
+    on_pair(py, (real, sim, None), &Spread { mask, shape, step })
 }
 
 struct ErrorProfile<'a> {
@@ -95,6 +108,21 @@ impl PairWork for FarPixels<'_> {
     type Output = Option<Vec<usize>>;
     fn run<A: Sample, B: Sample>(&self, real: &[A], sim: &[B], _: Option<&[A]>) -> crate::Result<Self::Output> {
         far_pixels_of(real, sim, self.mask, self.median, self.threshold, self.most)
+    }
+}
+
+struct Spread<'a> {
+    mask: Option<&'a [bool]>,
+    shape: (usize, usize),
+    step: usize,
+}
+
+impl PairWork for Spread<'_> {
+    type Output = Option<(f64, f64, f64, f64)>;
+    fn run<A: Sample, B: Sample>(&self, real: &[A], sim: &[B], _: Option<&[A]>) -> crate::Result<Self::Output> {
+        let mut sample = sampled_differences(real, sim, self.mask, self.shape, self.step)?;
+        let rms = deviation(&sample);
+        Ok(robust_spread_of(&mut sample).map(|(median, mad, tail)| (median, mad, tail, rms)))
     }
 }
 
