@@ -581,6 +581,14 @@ def test_single_metric_fast_path_errors():
         irf.stats.psnr(f, f)
     with pytest.raises(irf.FidelityError, match="peak"):
         irf.stats.psnr(f, f + 1, peak=-1.0)
+    # a peak that is no number is named, not a bare ValueError from float(); "range" is psnr's
+    for peak in ("range", "abc", [1, 2], True, float("nan")):
+        with pytest.raises(irf.FidelityError, match="peak must be a positive finite number") as info:
+            irf.pair_stats(f, f, peak=peak)
+        assert info.value.option == "peak"
+    with pytest.raises(irf.FidelityError, match="is for irfidelity.stats.psnr, evaluate and ScoringConfig"):
+        irf.pair_stats(f, f, peak="range")
+    assert irf.pair_stats(f, f, peak=np.float32(3)).peak == 3.0
 
 
 def test_entropies_from_many_threads_at_once():

@@ -8,6 +8,7 @@ frames are summed exactly, float frames with centred, compensated sums.
 
 from __future__ import annotations
 
+import math
 import numbers
 import os
 import reprlib
@@ -428,10 +429,7 @@ def peak_and_valid(dtype: np.dtype, bits, peak):
         top = (1 << int(bits)) - 1
         valid = (0, top)
     if peak is not None:
-        peak = float(peak)
-        if not (peak > 0 and np.isfinite(peak)):
-            raise FidelityError(f"peak must be a positive finite number, got {peak!r}", option="peak")
-        return peak, valid
+        return _numeric_peak(peak), valid
     if top is not None:
         return float(top), valid
     if is_int:
@@ -439,6 +437,19 @@ def peak_and_valid(dtype: np.dtype, bits, peak):
         # unsigned: the dtype's maximum; signed: its full range (as scikit-image does)
         return float(info.max - min(info.min, 0)), None
     return None, None
+
+
+def _numeric_peak(peak: Any) -> float:
+    """``peak`` as a positive finite float, or a :class:`FidelityError` naming what was given."""
+    try:
+        value = float(peak) if not isinstance(peak, (str, bytes, bool)) else math.nan
+    except (TypeError, ValueError):
+        value = math.nan
+    if not (value > 0 and math.isfinite(value)):
+        hint = ("; peak='range' (the real frame's range over the scored pixels) is for irfidelity.stats.psnr, "
+                "evaluate and ScoringConfig: here give the number") if isinstance(peak, str) and peak == "range" else ""
+        raise FidelityError(f"peak must be a positive finite number, got {peak!r}{hint}", option="peak")
+    return value
 
 
 def full_range(dtype: np.dtype, bits: int | None, peak: float | None) -> tuple[float, float] | None:
