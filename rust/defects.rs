@@ -11,14 +11,17 @@
 use std::cmp::Ordering;
 
 use crate::kernel::{fold_chunks, map_chunks, Sample};
+use crate::radiometry::errors::{chunk as error_chunk, joined, ErrorSums};
 
 /// What is asked: the share of the scored pixels whose largest squares are examined, the share
-/// of the total they must carry to dominate, and the border's width in pixels.
+/// of the total they must carry to dominate, and the border's width in pixels; with a
+/// `tolerance`, also the pair's temperature errors (float64 frames).
 #[derive(Clone, Copy, Debug)]
 pub struct Question {
     pub top_share: f64,
     pub most: f64,
     pub border: usize,
+    pub tolerance: Option<f64>,
 }
 
 /// The border's squared error, scored pixels and their bounding box (row0, row1, col0, col1,
@@ -40,6 +43,10 @@ pub struct Profile {
     pub largest: f64,
     pub border: Border,
     pub top: Option<Vec<(f64, usize)>>,
+    /// The temperature errors over the scored pixels, as `crate::radiometry::error_sums` gives
+    /// them (the same chunks, joined the same way): when a tolerance was asked and both frames
+    /// are float64.
+    pub errors: Option<ErrorSums>,
 }
 
 /// Two frames of `rows × cols` samples (row-major) and the scored pixels (`mask`).
@@ -499,8 +506,14 @@ pub fn profile<A: Sample, B: Sample>(
         return Err(crate::Error::Shape(format!("the frames and mask must have {n} samples ({shape:?})")));
     }
     let pair = Pair { real, sim, mask };
-    let Ok(parts) = map_chunks::<_, std::convert::Infallible>(n, NS_PER_PX, |range| Ok(chunk_sums(&pair, range)));
-    let sums = parts.iter().fold(Sums::default(), |all, p| Sums {
+    // the temperature errors read each chunk while the profile's pass has it in cache
+    let temperatures = question.tolerance.and_then(|t| Some((A::as_f64(real)?, B::as_f64(sim)?, t)));
+    let Ok(parts) = map_chunks::<_, std::convert::Infallible>(n, NS_PER_PX, |(a, b)| {
+        let errors = temperatures.map(|(r, s, t)| error_chunk(&r[a..b], &s[a..b], mask.map(|m| &m[a..b]), t));
+        Ok((chunk_sums(&pair, (a, b)), errors))
+    });
+    let errors = temperatures.map(|_| joined(&parts.iter().filter_map(|p| p.1).collect::<Vec<_>>()));
+    let sums = parts.iter().map(|p| &p.0).fold(Sums::default(), |all, p| Sums {
         total: all.total + p.total,
         squares: all.squares + p.squares,
         count: all.count + p.count,
@@ -514,7 +527,7 @@ pub fn profile<A: Sample, B: Sample>(
         let top = ((question.top_share * count as f64).ceil() as usize).max(1);
         may_dominate(&pair, n, top, question.most * total, &sums).then(|| top_squares(&pair, n, top)).transpose()?
     };
-    Ok(Profile { total, count, largest: sums.largest, border, top })
+    Ok(Profile { total, count, largest: sums.largest, border, top, errors })
 }
 
 /// The flat indices, ascending, of the pixels `mask` scores whose difference lies more than
@@ -681,7 +694,7 @@ fn top_squares<A: Sample, B: Sample>(pair: &Pair<'_, A, B>, n: usize, top: usize
 mod tests {
     use super::*;
 
-    const ASKED: Question = Question { top_share: 0.005, most: 0.5, border: 2 };
+    const ASKED: Question = Question { top_share: 0.005, most: 0.5, border: 2, tolerance: None };
 
     fn noise(n: usize, seed: u64) -> Vec<f64> {
         let mut state = seed;

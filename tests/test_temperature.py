@@ -96,6 +96,38 @@ def test_errors_of_strided_frames_over_several_blocks_equal_the_reference():
         assert errors.mae == pytest.approx(ref["mae"], rel=1e-12)
 
 
+def test_the_error_profiles_temperature_sums_are_the_temperature_errors_pass():
+    """evaluate takes a pair's temperature errors from the defects' error profile (one read of
+    the pair): the same chunks joined the same way as ``_core.temperature_errors``, to the bit."""
+    from irfidelity import _core
+    from irfidelity.defects import error_profile
+    from irfidelity.temperature import TemperatureErrors
+
+    rng = np.random.default_rng(8)
+    real = 300 + rng.normal(0, 2, (700, 530))                   # several chunks
+    sim = real + rng.normal(0.3, 0.6, real.shape)
+    real[3, 4], sim[600, 10], sim[699, 529] = np.nan, np.inf, -np.inf
+    mask = rng.random(real.shape) > 0.2
+    for m in (mask, None):
+        got = error_profile(real, sim, m, tolerance=0.5).errors
+        assert got == _core.temperature_errors(real, sim, m, tolerance=0.5)
+        want = TemperatureErrors.of_frames(real, sim, mask=m, tolerance=0.5, unit="K")
+        assert TemperatureErrors.of_sums(got, tolerance=0.5, unit="K") == want
+    assert error_profile(real, sim, mask).errors is None                        # no tolerance asked
+    assert error_profile(real.astype(np.float32), sim.astype(np.float32), tolerance=0.5).errors is None
+    # evaluate's errors, from the profile without defects and from their own pass with them
+    clean = np.nan_to_num(sim, posinf=300.0, neginf=300.0)
+    real_clean = np.nan_to_num(real, nan=300.0)
+    dead = clean.copy()
+    dead[100:103, 200:203] = 250.0                                           # a dead 3x3 cluster
+    for pair in ((real_clean, clean), (real_clean, dead)):
+        rep = irf.evaluate(*pair, unit="K", weights=WEIGHTS, temperature_tolerance=0.5)
+        kept = None if rep.verdict["defects"] is None else rep.sources["mask"]
+        errors = TemperatureErrors.of_frames(*pair, mask=kept, tolerance=0.5, unit="K")
+        assert (rep.verdict["defects"] is None) == (pair[1] is clean)
+        assert {k: rep.metrics[k] for k in errors.metrics()} == errors.metrics()
+
+
 def test_psnr_peak_is_the_real_temperature_range():
     real, sim = scene(2), scene(3)
     rep = irf.evaluate(real, sim, unit="C", weights="psnr=1")

@@ -432,7 +432,7 @@ def test_defects_equal_a_whole_frame_reference(case):
         assert found["rows"] == want[2] and found["cols"] == want[3] and found["pixels"] == want[4]
     assert (want is None) == (case in ("spread", "three rows"))
     if case == "three rows":  # every pixel is on the border, counted once
-        total, count, _, (ring_total, ring_count, box), _ = _core.error_profile(real, sim, top_share=defects.TOP_SHARE,
+        total, count, _, (ring_total, ring_count, box), _, _ = _core.error_profile(real, sim, top_share=defects.TOP_SHARE,
                                                                              most=defects.MOST, border=2)
         assert ring_count == count == real.size and ring_total == pytest.approx(total, rel=1e-12)
         assert tuple(box) == (0, 2, 0, real.shape[1] - 1)

@@ -344,12 +344,14 @@ def error_profile(
     top_share: float,
     most: float,
     border: int,
+    tolerance: float | None = None,
 ) -> tuple[
     float,
     int,
     float,
     tuple[float, int, list[int] | None],
     tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]] | None,
+    tuple[int, float, float, float, int] | None,
 ]: ...
 def far_pixels(
     real: npt.NDArray[Any],

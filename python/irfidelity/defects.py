@@ -54,24 +54,29 @@ def _finding(pixels: int, count: int, share: float, rows: np.ndarray, cols: np.n
 
 class ErrorProfile(NamedTuple):
     """Where a pair's squared error sits (:func:`error_profile`): its ``total`` over the ``scored``
-    pixels, the ``largest`` square, the ``border``'s ``(total, count, box or None)`` and
-    the ``top`` largest squares ``(values, flat indices)`` when bounds could not rule out that
-    they carry more than :data:`MOST` of the total (None otherwise)."""
+    pixels, the ``largest`` square, the ``border``'s ``(total, count, box or None)``, the
+    ``top`` largest squares ``(values, flat indices)`` when bounds could not rule out that
+    they carry more than :data:`MOST` of the total (None otherwise), and with a tolerance on
+    float64 frames the temperature errors' sums ``(n, Σd, Σd², Σ|d|, within)`` (None otherwise;
+    :meth:`irfidelity.temperature.TemperatureErrors.of_sums`)."""
 
     total: float
     scored: int
     largest: float
     border: tuple[float, int, list[int] | None]
     top: tuple[np.ndarray, np.ndarray] | None
+    errors: tuple[int, float, float, float, int] | None
 
 
-def error_profile(real: Any, sim: Any, mask: Any = None) -> ErrorProfile:
+def error_profile(real: Any, sim: Any, mask: Any = None, *, tolerance: float | None = None) -> ErrorProfile:
     """The squared error of a pair and where it sits, in one Rust pass (``_core.error_profile``):
     what :func:`find_defects` and :func:`concentrated_error` both read, so a caller that runs
-    both on one pair can take it once."""
+    both on one pair can take it once; with ``tolerance`` (frames in temperature), the same
+    pass also sums the temperature errors."""
     real, sim = _frames(real, sim)
     mask = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
-    return ErrorProfile(*_core.error_profile(real, sim, mask, top_share=TOP_SHARE, most=MOST, border=_BORDER))
+    return ErrorProfile(*_core.error_profile(real, sim, mask, top_share=TOP_SHARE, most=MOST, border=_BORDER,
+                                             tolerance=tolerance))
 
 
 def concentrated_error(real: Any, sim: Any, mask: Any = None, *, profile: ErrorProfile | None = None) -> dict | None:
@@ -116,7 +121,7 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None, *, profile: ErrorP
     ([40, 45], [70, 75], 1.0)
     """
     real = np.asarray(real)
-    total, count, _, (ring_total, ring_count, ring_box), top = error_profile(real, sim, mask) if profile is None \
+    total, count, _, (ring_total, ring_count, ring_box), top, _ = error_profile(real, sim, mask) if profile is None \
         else profile
     if count == 0 or not total > 0:
         return None
@@ -341,7 +346,7 @@ def find_defects(real: Any, sim: Any, mask: Any = None, *, profile: ErrorProfile
     real, sim = _frames(real, sim)
     given = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
     median, threshold = _outlier_threshold(real, sim, given)
-    total, count, largest, _, _ = error_profile(real, sim, given) if profile is None else profile
+    total, count, largest, _, _, _ = error_profile(real, sim, given) if profile is None else profile
     if count == 0 or not math.sqrt(largest) > threshold - abs(median):
         return None
     flat = _core.far_pixels(real, sim, given, median=median, threshold=threshold,

@@ -91,13 +91,15 @@ def _load_ref(real_ref: Any, config: ScoringConfig, sources: dict, max_bytes: in
     return ref
 
 
-def _left_out_defects(sources: dict) -> bool:
+def _left_out_defects(sources: dict, tolerance: float | None) -> bool:
     """Finds clusters of defective pixels in the pair as scored (:func:`irfidelity.defects.find_defects`)
-    and leaves them out of ``sources["mask"]``; whether there were any."""
+    and leaves them out of ``sources["mask"]``; whether there were any. Without any, the pass's
+    error profile stays in ``sources["error_profile"]`` for the concentrated-error check and, with a
+    temperature ``tolerance``, the temperature errors."""
     real, sim = np.asarray(sources["real"]), np.asarray(sources["sim"])
     if real.ndim != 2 or real.shape != sim.shape:
         return False
-    profile = error_profile(real, sim, sources.get("mask"))
+    profile = error_profile(real, sim, sources.get("mask"), tolerance=tolerance)
     found = find_defects(real, sim, sources.get("mask"), profile=profile)
     sources["defects"] = found
     if found is None:
@@ -117,9 +119,11 @@ def _check_scoring(r: Any, s: Any, mask: Any, max_bytes: int | None) -> None:
 
 
 def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, mask: Any, regions: Any,
-                 inputs: dict, sources: dict, max_bytes: int | None) -> tuple[_stats.PairStats, float | None]:
+                 inputs: dict, sources: dict, max_bytes: int | None,
+                 tolerance: float | None = None) -> tuple[_stats.PairStats, float | None]:
     """The pair's statistics and the real frame's range over the scored pixels (``mask``, within
-    the union of ``regions``; a registration is searched within ``mask`` alone)."""
+    the union of ``regions``; a registration is searched within ``mask`` alone); ``tolerance``:
+    the temperature tolerance when scored in a unit (:func:`_left_out_defects`)."""
     r = _load(real, "real", config.real_channel, max_bytes)
     if config.unit is not None:  # converted before the simulated frame is decoded: one frame of counts at a time
         r = to_temperature(r, real, "real", config, max_bytes)
@@ -138,7 +142,7 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
     try:
         if config.register is not None:
             st, span = _registered(r, s, mask, components, config, sources, max_bytes)
-            if _left_out_defects(sources) and regions is None:
+            if _left_out_defects(sources, tolerance) and regions is None:
                 real_scored, sim_scored, _, _ = scored_frames(sources, config, max_bytes)
                 st, span = masked_stats(real_scored, sim_scored, components, config, sources["mask"],
                                         bits=None, peak=_psnr_peak(st, components))
@@ -149,7 +153,7 @@ def _image_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
         else:
             # checked against bits first: a defect is left out, a value out of range is an error
             st, span = masked_stats(r, s, components, config, scored, bits=config.bits, peak=config.numeric_peak)
-            if _left_out_defects(sources):
+            if _left_out_defects(sources, tolerance):
                 st, span = masked_stats(r, s, components, config, sources["mask"], bits=config.bits,
                                         peak=config.numeric_peak)
     except (ShapeError, RangeError) as exc:
@@ -391,23 +395,30 @@ class Scorer:
             components, metrics, inputs, compared = camera_components(camera, weights, cfg, scene=scene)
             metrics.update({f"{k}_source": camera_source(k, camera) for k in ("mtf", "sitf", "noise") if k in components})
             sources: dict[str, Any] = {"curves": compared}
+            # the camera's NETD (from its noise) is known by now: the tolerance of the whole call
+            tolerance = tolerance_for(cfg, metrics) if in_unit else None
+            profile = None
             if image_plan or in_unit or transfer_wanted:
-                st, span = _image_stats(real, sim, image_plan, cfg, mask, regions, inputs, sources, max_bytes)
+                st, span = _image_stats(real, sim, image_plan, cfg, mask, regions, inputs, sources, max_bytes,
+                                        tolerance)
                 image, image_metrics = image_components(st, image_plan, cfg)
                 components.update(image)
                 metrics.update(image_metrics)
                 if ceiling is None and image_plan:
                     ceiling, ceiling_source = _measured_ceiling(real_ref, real_noise, image_plan, cfg, st, sources,
                                                                 inputs, max_bytes)
-                defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"),
-                                            profile=sources.pop("error_profile", None))
+                profile = sources.pop("error_profile", None)
+                defect = concentrated_error(sources["real"], sources["sim"], sources.get("mask"), profile=profile)
             if transfer_wanted:
                 measured = _scene(sources, cfg, real_ref, real_noise, scene, components, metrics, max_bytes)
                 weights, image_plan, skipped = plan_with_scene(cfg, given, scene, have_images=real is not None,
                                                                absent=measured.missing)
             if in_unit:
-                errors = TemperatureErrors.of_frames(sources["real"], sources["sim"], mask=sources["mask"],
-                                                     tolerance=tolerance_for(cfg, metrics), unit=str(cfg.unit))
+                assert tolerance is not None
+                errors = TemperatureErrors.of_sums(profile.errors, tolerance=tolerance, unit=str(cfg.unit)) \
+                    if profile is not None and profile.errors is not None \
+                    else TemperatureErrors.of_frames(sources["real"], sources["sim"], mask=sources["mask"],
+                                                     tolerance=tolerance, unit=str(cfg.unit))
                 image, image_metrics = temperature_scores(errors, weights)
                 components.update(image)
                 metrics.update(image_metrics)

@@ -265,9 +265,16 @@ class TemperatureErrors:
             count, total, squares, magnitudes, close = _core.temperature_errors(r, s, kept, tolerance=float(tolerance))
             n, within = n + count, within + close
             sums.append((total, squares, magnitudes))
+        total, squares, magnitudes = (math.fsum(column) for column in zip(*sums))
+        return cls.of_sums((n, total, squares, magnitudes, within), tolerance=tolerance, unit=unit)
+
+    @classmethod
+    def of_sums(cls, sums: tuple[int, float, float, float, int], *, tolerance: float, unit: str) -> TemperatureErrors:
+        """The errors from their sums ``(n, Σd, Σd², Σ|d|, within)`` (``_core.temperature_errors``'
+        or an :func:`irfidelity.defects.error_profile` taken with ``tolerance``)."""
+        n, total, squares, magnitudes, within = sums
         if n == 0:
             raise FidelityError("no pixel pair with finite temperatures on both sides to compare", option="mask")
-        total, squares, magnitudes = (math.fsum(column) for column in zip(*sums))
         return cls(n=n, bias=total / n, rmse=math.sqrt(squares / n), mae=magnitudes / n, within=within,
                    tolerance=float(tolerance), unit=unit)
 

@@ -16,15 +16,20 @@ use crate::kernel::Sample;
 /// The `top` largest squares (largest first) and their flat indices.
 type Top<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>);
 
-/// `(total, count, largest, (border total, border count, border box), top)`.
-type ProfileTuple<'py> = (f64, u64, f64, (f64, u64, Option<[usize; 4]>), Option<Top<'py>>);
+/// The temperature errors `(n, Σd, Σd², Σ|d|, within)`, as `temperature_errors` gives them.
+type ErrorsTuple = (u64, f64, f64, f64, u64);
 
-/// `error_profile(real, sim, mask=None, *, top_share, most, border)`: the squared error of a
-/// pair (2-D, C-contiguous, one shape; `sim` of `real`'s dtype or float64), its border's
-/// share, its largest square, and its `top_share` largest squares when two bounds cannot rule out that they carry
-/// more than `most` of the total (see `crate::defects`).
+/// `(total, count, largest, (border total, border count, border box), top, errors)`.
+type ProfileTuple<'py> = (f64, u64, f64, (f64, u64, Option<[usize; 4]>), Option<Top<'py>>, Option<ErrorsTuple>);
+
+/// `error_profile(real, sim, mask=None, *, top_share, most, border, tolerance=None)`: the
+/// squared error of a pair (2-D, C-contiguous, one shape; `sim` of `real`'s dtype or float64),
+/// its border's share, its largest square, its `top_share` largest squares when two bounds
+/// cannot rule out that they carry more than `most` of the total (see `crate::defects`), and
+/// with a `tolerance` on two float64 frames the temperature errors of the same pass.
 #[pyfunction]
-#[pyo3(signature = (real, sim, mask=None, *, top_share, most, border))]
+#[pyo3(signature = (real, sim, mask=None, *, top_share, most, border, tolerance=None))]
+#[allow(clippy::too_many_arguments)]
 fn error_profile<'py>(
     py: Python<'py>,
     real: &Bound<'py, PyUntypedArray>,
@@ -33,16 +38,18 @@ fn error_profile<'py>(
     top_share: f64,
     most: f64,
     border: usize,
+    tolerance: Option<f64>,
 ) -> PyResult<ProfileTuple<'py>> {
     let shape = pair_shape(real, sim)?;
     let mask = mask_samples(mask.as_ref(), shape)?;
-    let work = ErrorProfile { mask, shape, question: Question { top_share, most, border } };
-    let Profile { total, count, largest, border, top } = on_pair(py, (real, sim, None), &work)?;
+    let work = ErrorProfile { mask, shape, question: Question { top_share, most, border, tolerance } };
+    let Profile { total, count, largest, border, top, errors } = on_pair(py, (real, sim, None), &work)?;
     let top = top.map(|squares| {
         let (values, index): (Vec<f64>, Vec<i64>) = squares.into_iter().map(|(v, i)| (v, i as i64)).unzip();
         (values.into_pyarray(py), index.into_pyarray(py))
     });
-    Ok((total, count, largest, (border.total, border.count, border.bounds), top))
+    let errors = errors.map(|e| (e.n, e.sum, e.squares, e.magnitudes, e.within));
+    Ok((total, count, largest, (border.total, border.count, border.bounds), top, errors))
 }
 
 /// `far_pixels(real, sim, mask=None, *, median, threshold, most)`: the flat indices (int64,

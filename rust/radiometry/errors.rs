@@ -41,20 +41,26 @@ pub fn error_sums(real: &[f64], sim: &[f64], mask: Option<&[bool]>, tolerance: f
     let Ok(parts) = map_chunks::<_, std::convert::Infallible>(real.len(), NS_PER_PX, |(a, b)| {
         Ok(chunk(&real[a..b], &sim[a..b], mask.map(|m| &m[a..b]), tolerance))
     });
+    Ok(joined(&parts))
+}
+
+/// The chunks' sums joined in chunk order, by compensated addition (the chunks of
+/// `crate::kernel::map_chunks`, whose bounds do not depend on the threads).
+pub(crate) fn joined(parts: &[ErrorSums]) -> ErrorSums {
     let (mut sum, mut squares, mut magnitudes) = (Neumaier::default(), Neumaier::default(), Neumaier::default());
     let (mut n, mut within) = (0u64, 0u64);
-    for part in &parts {
+    for part in parts {
         sum.add(part.sum);
         squares.add(part.squares);
         magnitudes.add(part.magnitudes);
         n += part.n;
         within += part.within;
     }
-    Ok(ErrorSums { n, sum: sum.value(), squares: squares.value(), magnitudes: magnitudes.value(), within })
+    ErrorSums { n, sum: sum.value(), squares: squares.value(), magnitudes: magnitudes.value(), within }
 }
 
 /// One chunk's sums, through explicit AVX2 when the CPU has it.
-fn chunk(real: &[f64], sim: &[f64], mask: Option<&[bool]>, tolerance: f64) -> ErrorSums {
+pub(crate) fn chunk(real: &[f64], sim: &[f64], mask: Option<&[bool]>, tolerance: f64) -> ErrorSums {
     #[cfg(target_arch = "x86_64")]
     if crate::kernel::use_avx2() {
         // SAFETY: `use_avx2` is true only when the CPU reports AVX2.

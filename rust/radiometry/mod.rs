@@ -24,7 +24,7 @@ use std::mem::MaybeUninit;
 
 use crate::{Error, Result};
 
-mod errors;
+pub(crate) mod errors;
 mod math;
 
 pub use errors::{error_sums, ErrorSums};
