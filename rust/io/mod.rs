@@ -341,9 +341,9 @@ fn run_op<R: BufRead + Seek>(
             rjpeg::decode(reader, o).map(|decoded| OpOut::Frame(calibrated(decoded, key, o.page)))
         }
         (Format::Jpeg, Op::Channels) => {
-            rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Channels(vec!["Y".to_string()]))
+            rjpeg::has_fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Channels(vec!["Y".to_string()]))
         }
-        (Format::Jpeg, Op::Pages) => rjpeg::fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Pages(1, None)),
+        (Format::Jpeg, Op::Pages) => rjpeg::has_fff_frame(reader, DEFAULT_MAX_BYTES).map(|_| OpOut::Pages(1, None)),
         (Format::Jpeg, Op::Radiometry(o)) => rjpeg::camera_info(reader, o).map(|c| OpOut::Radiometry(Box::new(c))),
         (Format::Exr | Format::Png | Format::Tiff, Op::Radiometry(_)) => {
             Err("no radiometric calibration: only FLIR files (FFF, SEQ, CSQ, radiometric JPEG) carry one".to_string())

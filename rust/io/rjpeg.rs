@@ -94,9 +94,24 @@ fn walk_segments<R: BufRead + Seek>(
     Ok(())
 }
 
-/// The FLIR segments of a JPEG, in file order; their data at most `max_bytes` in all.
-fn flir_segments<R: BufRead + Seek>(reader: &mut R, max_bytes: u64) -> Result<Vec<Segment>, Reason> {
+/// The FLIR segments of a JPEG, in file order; their data at most `max_bytes` in all. With
+/// `lead`, only the first `lead` bytes of each segment's data are read (the rest skipped).
+fn flir_segments<R: BufRead + Seek>(
+    reader: &mut R,
+    max_bytes: u64,
+    lead: Option<usize>,
+) -> Result<Vec<Segment>, Reason> {
     let (mut segments, mut held) = (Vec::new(), 0u64);
+    // a skipped segment is not read: the file's length tells whether it is whole
+    let file_len = match lead {
+        Some(_) => {
+            let start = reader.stream_position().map_err(|e| read_err(e, 0))?;
+            let len = reader.seek(SeekFrom::End(0)).map_err(|e| read_err(e, 0))?;
+            reader.seek(SeekFrom::Start(start)).map_err(|e| read_err(e, 0))?;
+            Some(len)
+        }
+        None => None,
+    };
     walk_segments(reader, |Header { marker, body, at }, reader| {
         if marker != APP1 || body < SEGMENT_HEADER as u64 {
             return Ok(0);
@@ -108,10 +123,17 @@ fn flir_segments<R: BufRead + Seek>(reader: &mut R, max_bytes: u64) -> Result<Ve
         }
         held += body;
         check_budget(Some(held), || format!("the FLIR segments ({held} bytes so far)"), max_bytes)?;
-        let mut data = vec![0u8; (body as usize) - SEGMENT_HEADER];
+        let kept = lead.map_or(body as usize - SEGMENT_HEADER, |lead| lead.min(body as usize - SEGMENT_HEADER));
+        let mut data = vec![0u8; kept];
         reader.read_exact(&mut data).map_err(|e| read_err(e, at))?;
+        if let Some(len) = file_len {
+            let end = reader.stream_position().map_err(|e| read_err(e, at))? + (body - (SEGMENT_HEADER + kept) as u64);
+            if end > len {
+                return Err(read_err(std::io::ErrorKind::UnexpectedEof.into(), at));
+            }
+        }
         segments.push(Segment { index: head[6], last: head[7], data });
-        Ok(body)
+        Ok((SEGMENT_HEADER + kept) as u64)
     })?;
     Ok(segments)
 }
@@ -140,9 +162,32 @@ fn not_flir<R: BufRead + Seek>(reader: &mut R) -> Reason {
 
 /// The FFF frame the JPEG's FLIR segments hold, joined in index order.
 pub(super) fn fff_frame<R: BufRead + Seek>(mut reader: R, max_bytes: u64) -> Result<Vec<u8>, Reason> {
-    let mut segments = flir_segments(&mut reader, max_bytes)?;
+    let segments = in_order(flir_segments(&mut reader, max_bytes, None)?, &mut reader)?;
+    let mut data = Vec::with_capacity(segments.iter().map(|s| s.data.len()).sum());
+    segments.iter().for_each(|s| data.extend_from_slice(&s.data)); // one copy a segment, not a byte at a time
+    if is_research_studio(&data) {
+        return Err(Unread::ResearchStudioJpeg.reason());
+    }
+    Ok(data)
+}
+
+/// Whether [`fff_frame`] reads the JPEG (its one page), from the FLIR segments' headers and the
+/// first one's leading bytes: the segments' data is joined only when it is no FFF frame, to tell
+/// why.
+pub(super) fn has_fff_frame<R: BufRead + Seek>(mut reader: R, max_bytes: u64) -> Result<(), Reason> {
+    let segments = in_order(flir_segments(&mut reader, max_bytes, Some(4))?, &mut reader)?;
+    if segments.first().is_some_and(|s| super::flir::is_fff(&s.data)) {
+        return Ok(());
+    }
+    reader.rewind().map_err(|e| read_err(e, 0))?;
+    fff_frame(reader, max_bytes).map(|_| ())
+}
+
+/// The FLIR segments in index order, each of `0..=last` once (the reason otherwise; `reader`
+/// tells why a JPEG without any is refused).
+fn in_order<R: BufRead + Seek>(mut segments: Vec<Segment>, reader: &mut R) -> Result<Vec<Segment>, Reason> {
     let Some(first) = segments.first() else {
-        return Err(not_flir(&mut reader));
+        return Err(not_flir(reader));
     };
     let last = first.last;
     if let Some(s) = segments.iter().find(|s| s.last != last) {
@@ -159,12 +204,7 @@ pub(super) fn fff_frame<R: BufRead + Seek>(mut reader: R, max_bytes: u64) -> Res
             "corrupt or truncated radiometric JPEG: FLIR segments 0..={last} are each expected once, found {found:?}"
         ));
     }
-    let mut data = Vec::with_capacity(segments.iter().map(|s| s.data.len()).sum());
-    segments.iter().for_each(|s| data.extend_from_slice(&s.data)); // one copy a segment, not a byte at a time
-    if is_research_studio(&data) {
-        return Err(Unread::ResearchStudioJpeg.reason());
-    }
-    Ok(data)
+    Ok(segments)
 }
 
 /// The raw counts of a radiometric JPEG, and its calibration when its camera-info record
@@ -255,6 +295,25 @@ mod tests {
         let mut hdri_not_after_eoi = jpeg(&[]);
         hdri_not_after_eoi.extend(b"\0HDRI");
         assert!(refusal(hdri_not_after_eoi).contains("without FLIR segments"));
+    }
+
+    #[test]
+    fn the_page_check_answers_as_the_whole_read() {
+        let fff = jpeg(&[segment(1, 2, &[5; 300]), segment(0, 2, b"FFF\0abcdefgh"), segment(2, 2, &[6; 200])]);
+        let mut files = vec![
+            fff.clone(),
+            jpeg(&[segment(0, 1, b"FF"), segment(1, 1, b"F\0xyz")]), // FFF only once joined: read whole
+            jpeg(&[segment(0, 2, b"FFF\0ab"), segment(2, 2, b"e")]),
+            jpeg(&[]),
+            jpeg(&[segment(0, 1, b"\0\0\0\x10FLIR ATS"), segment(1, 1, b"-US File\0\0FOV")]),
+        ];
+        // cut anywhere: inside a FLIR segment both are refused as truncated, after them both read
+        files.extend((3..fff.len()).step_by(7).map(|cut| fff[..cut].to_vec()));
+        for file in files {
+            let whole = fff_frame(Cursor::new(file.clone()), 1 << 20).map(|_| ());
+            assert_eq!(has_fff_frame(Cursor::new(file.clone()), 1 << 20), whole, "{} bytes", file.len());
+        }
+        assert!(has_fff_frame(Cursor::new(fff.clone()), 100).unwrap_err().contains("max_bytes"));
     }
 
     #[test]
