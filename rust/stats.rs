@@ -54,6 +54,10 @@ pub struct PairStats {
     pub has_moments: bool,
     pub sums: Sums,
     pub hist: Option<(HistSpec, Joint)>,
+    /// The real frame's min and max, when the pass's scan read every pixel of it (float
+    /// frames with moments and a histogram, no mask, every value finite); neither merged nor
+    /// encoded.
+    pub real_range: Option<(f64, f64)>,
 }
 
 /// Population moments (divided by N).
@@ -115,6 +119,7 @@ impl PairStats {
             has_moments: req.moments,
             sums: if T::IS_INT { Sums::Int(IntSums::default()) } else { Sums::Float(FloatSums::default()) },
             hist: None,
+            real_range: None,
         }
     }
 
@@ -221,6 +226,7 @@ impl PairStats {
             has_moments: self.has_moments && other.has_moments,
             sums,
             hist,
+            real_range: None,
         })
     }
 }
@@ -352,7 +358,8 @@ impl PairStats {
                 Some((spec, joint))
             }
         };
-        Ok(PairStats { n, masked, nonfinite, has_sse: flags & 1 != 0, has_moments: flags & 2 != 0, sums, hist })
+        let (has_sse, has_moments) = (flags & 1 != 0, flags & 2 != 0);
+        Ok(PairStats { n, masked, nonfinite, has_sse, has_moments, sums, hist, real_range: None })
     }
 }
 

@@ -644,3 +644,29 @@ def test_the_real_range_is_numpys_over_the_scored_finite_pixels(dtype):
         left_out = np.ones(values.shape, bool)
         left_out[5, 7] = left_out[250, 3] = False
         assert real_range(bad, left_out, "raise") == float(bad[left_out].max()) - float(bad[left_out].min())
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.float32, np.float64])
+def test_the_statistics_scan_gives_the_real_range_when_it_read_every_pixel(dtype):
+    # float frames with moments and a histogram, no mask, every value finite: the scan's range
+    # is the PSNR peak "range" (no pass of its own); otherwise the range's own pass
+    from irfidelity.stats import real_range
+
+    rng = np.random.default_rng(9)
+    real = (300 + 20 * rng.random((130, 97))).astype(dtype)
+    sim = (real + rng.normal(0, 0.5, real.shape)).astype(dtype)
+    want = float(real.max()) - float(real.min())
+    st = irf.pair_stats(real, sim, peak=1.0)
+    assert st._raw.real_range == (float(real.min()), float(real.max()))
+    assert real_range(real, None, "raise", st) == want
+    masked = irf.pair_stats(real, sim, peak=1.0, mask=np.ones(real.shape, bool))
+    without_hist = irf.pair_stats(real, sim, peak=1.0, need=("mse", "ssim"))
+    bad = real.copy()
+    bad[4, 4] = np.nan
+    for other in (masked, without_hist, irf.pair_stats(bad, sim, peak=1.0, nonfinite="mask"), st.merge(st),
+                  pickle.loads(pickle.dumps(st))):
+        assert other._raw.real_range is None
+    assert irf.pair_stats(real.astype(np.uint16), sim.astype(np.uint16))._raw.real_range is None
+    assert real_range(real, np.ones(real.shape, bool), "raise", masked) == want
+    report = irf.evaluate(real.astype(np.float64), sim.astype(np.float64), peak="range", weights="psnr=1")
+    assert report.metrics["psnr_peak"] == want

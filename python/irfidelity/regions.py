@@ -264,7 +264,7 @@ def masked_stats(real: Any, sim: Any, components: tuple, config: ScoringConfig, 
     resolved, and the real frame's range over the scored pixels."""
     st = _stats.pair_stats(real, sim, bits=bits, peak=peak, bins=config.bins, hist_range=config.hist_range,
                            mask=mask, need=components, nonfinite=config.nonfinite)
-    span = _stats.real_range(real, mask, config.nonfinite) if "psnr" in components else None
+    span = _stats.real_range(real, mask, config.nonfinite, st) if "psnr" in components else None
     return with_psnr_peak(st, span, components, config, where), span
 
 

@@ -698,11 +698,16 @@ def _psnr_over_range(real, sim, bits, rule: str, mask) -> float:
     return st.psnr(span)
 
 
-def real_range(real: np.ndarray, mask: Any, nonfinite: str) -> float | None:
+def real_range(real: np.ndarray, mask: Any, nonfinite: str, stats: PairStats | None = None) -> float | None:
     """``max − min`` of the real frame over the pixels that are scored (finite, unmasked): the
     PSNR peak ``"range"``; None when no pixel is scored, or when a scored pixel is NaN or
     infinite and ``nonfinite`` is not ``"mask"`` (the kernel reports those with their
-    position). One Rust pass (``_core.scored_range``); a frame that is not C-contiguous is copied."""
+    position). One Rust pass (``_core.scored_range``); a frame that is not C-contiguous is
+    copied. ``stats``: this frame's statistics over the same pixels, whose scan may have found
+    the range already (float frames without a mask, every value finite)."""
+    known = None if stats is None else stats._raw.real_range
+    if known is not None:
+        return known[1] - known[0]
     values = np.ascontiguousarray(real)
     where = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
     extent, nonfinite_scored = _core.scored_range(values, where)

@@ -264,6 +264,7 @@ fn merge_all(
                     has_moments: p.has_moments,
                     sums: p.sums,
                     hist: None,
+                    real_range: None,
                 })
                 .collect();
             sequence::merge_all(bare.iter())

@@ -71,6 +71,11 @@ impl PyPairStats {
     fn has_hist(&self) -> bool {
         self.inner.hist.is_some()
     }
+    /// The real frame's `(min, max)` when the pass's scan read all of it, else None.
+    #[getter]
+    fn real_range(&self) -> Option<(f64, f64)> {
+        self.inner.real_range
+    }
     fn sse(&self) -> Option<f64> {
         self.inner.sse()
     }

@@ -142,6 +142,8 @@ fn finish<T: Sample>(n: usize, req: &Request, plan: Plan, mut acc: Acc, nonfinit
     out.masked = req.mask.map_or(0, |m| m.iter().filter(|&&k| !k).count() as u64);
     out.nonfinite = nonfinite;
     out.sums = if T::IS_INT { Sums::Int(acc.int) } else { Sums::Float(float_sums(n, &plan, &mut acc)?) };
+    // the scan took each frame's range only for the histogram
+    out.real_range = plan.finite_scan().filter(|_| req.hist.is_some()).map(|sc| sc.real_range);
     if let Some(p) = plan.hist {
         let joint = match p.dense_bins {
             Some(b) => acc.take_joint(b, p.offset),
