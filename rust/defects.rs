@@ -15,13 +15,15 @@ use crate::radiometry::errors::{chunk as error_chunk, joined, ErrorSums};
 
 /// What is asked: the share of the scored pixels whose largest squares are examined, the share
 /// of the total they must carry to dominate, and the border's width in pixels; with a
-/// `tolerance`, also the pair's temperature errors (float64 frames).
+/// `tolerance`, also the pair's temperature errors (float64 frames); with a `spread_step`, also
+/// the spread of the differences sampled at that step ([`sampled_differences`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Question {
     pub top_share: f64,
     pub most: f64,
     pub border: usize,
     pub tolerance: Option<f64>,
+    pub spread_step: Option<usize>,
 }
 
 /// The border's squared error, scored pixels and their bounding box (row0, row1, col0, col1,
@@ -47,6 +49,8 @@ pub struct Profile {
     /// them (the same chunks, joined the same way): when a tolerance was asked and both frames
     /// are float64.
     pub errors: Option<ErrorSums>,
+    /// [`sample_spread`] of [`sampled_differences`] at the asked step, when asked.
+    pub spread: Option<(usize, Option<Spread>)>,
 }
 
 /// Two frames of `rows × cols` samples (row-major) and the scored pixels (`mask`).
@@ -508,11 +512,27 @@ pub fn profile<A: Sample, B: Sample>(
     let pair = Pair { real, sim, mask };
     // the temperature errors read each chunk while the profile's pass has it in cache
     let temperatures = question.tolerance.and_then(|t| Some((A::as_f64(real)?, B::as_f64(sim)?, t)));
-    let Ok(parts) = map_chunks::<_, std::convert::Infallible>(n, NS_PER_PX, |(a, b)| {
+    // ... and so does the sample of the defects' threshold
+    if question.spread_step == Some(0) {
+        return Err(crate::Error::Value("spread_step: expected at least 1 pixel".into()));
+    }
+    let parts = map_chunks(n, NS_PER_PX, |(a, b)| {
         let errors = temperatures.map(|(r, s, t)| error_chunk(&r[a..b], &s[a..b], mask.map(|m| &m[a..b]), t));
-        Ok((chunk_sums(&pair, (a, b)), errors))
-    });
+        let mut sample = Vec::new();
+        if let Some(step) = question.spread_step {
+            sample_into(&pair, shape.1, step, (a, b), &mut sample)?;
+        }
+        Ok::<_, crate::Error>((chunk_sums(&pair, (a, b)), errors, sample))
+    })?;
     let errors = temperatures.map(|_| joined(&parts.iter().filter_map(|p| p.1).collect::<Vec<_>>()));
+    let spread = match question.spread_step {
+        Some(_) => {
+            let mut sample: Vec<f64> = crate::budget::try_with_capacity(parts.iter().map(|p| p.2.len()).sum())?;
+            parts.iter().for_each(|p| sample.extend_from_slice(&p.2));
+            Some(sample_spread(&mut sample))
+        }
+        None => None,
+    };
     let sums = parts.iter().map(|p| &p.0).fold(Sums::default(), |all, p| Sums {
         total: all.total + p.total,
         squares: all.squares + p.squares,
@@ -527,7 +547,7 @@ pub fn profile<A: Sample, B: Sample>(
         let top = ((question.top_share * count as f64).ceil() as usize).max(1);
         may_dominate(&pair, n, top, question.most * total, &sums).then(|| top_squares(&pair, n, top)).transpose()?
     };
-    Ok(Profile { total, count, largest: sums.largest, border, top, errors })
+    Ok(Profile { total, count, largest: sums.largest, border, top, errors, spread })
 }
 
 /// The flat indices, ascending, of the pixels `mask` scores whose difference lies more than
@@ -581,15 +601,48 @@ pub fn sampled_differences<A: Sample, B: Sample>(
         return Err(crate::Error::Shape(format!("the frames and the mask must all be {rows} x {cols}")));
     }
     let mut out = crate::budget::try_with_capacity(rows.div_ceil(step) * cols.div_ceil(step))?;
-    for row in (0..rows).step_by(step) {
-        for at in (row * cols..(row + 1) * cols).step_by(step) {
-            let d = sim[at].to_f64() - real[at].to_f64();
-            if d.is_finite() && mask.is_none_or(|m| m[at]) {
+    sample_into(&Pair { real, sim, mask }, cols, step, (0, rows * cols), &mut out)?;
+    Ok(out)
+}
+
+/// [`sampled_differences`]' pixels within `[a, b)` appended to `out`, in the same order: the
+/// samples of consecutive ranges, joined, are the whole frame's.
+fn sample_into<A: Sample, B: Sample>(
+    pair: &Pair<'_, A, B>,
+    cols: usize,
+    step: usize,
+    (a, b): (usize, usize),
+    out: &mut Vec<f64>,
+) -> crate::Result<()> {
+    if a >= b || cols == 0 {
+        return Ok(());
+    }
+    for row in (a / cols..=(b - 1) / cols).filter(|row| row % step == 0) {
+        let (start, end) = ((row * cols).max(a), ((row + 1) * cols).min(b));
+        let first = row * cols + (start - row * cols).div_ceil(step) * step;
+        for at in (first..end).step_by(step) {
+            let d = pair.sim[at].to_f64() - pair.real[at].to_f64();
+            if d.is_finite() && pair.mask.is_none_or(|m| m[at]) {
+                out.try_reserve(1).map_err(|_| {
+                    crate::Error::Value(format!("not enough memory to sample {} differences", out.len() + 1))
+                })?;
                 out.push(d);
             }
         }
     }
-    Ok(out)
+    Ok(())
+}
+
+/// A sample's median, median absolute deviation, 99th percentile of the absolute deviations and
+/// root mean square deviation.
+pub type Spread = (f64, f64, f64, f64);
+
+/// The defects' threshold statistics of a sample of differences: its size and, when it is not
+/// empty, [`robust_spread`]'s median, median absolute deviation and 99th percentile with the
+/// [`deviation`] (reorders `values`).
+pub fn sample_spread(values: &mut [f64]) -> (usize, Option<Spread>) {
+    let rms = deviation(values);
+    (values.len(), robust_spread(values).map(|(median, mad, tail)| (median, mad, tail, rms)))
 }
 
 /// The root mean square deviation of `values` from their mean (numpy's `std`, to rounding);
@@ -694,7 +747,27 @@ fn top_squares<A: Sample, B: Sample>(pair: &Pair<'_, A, B>, n: usize, top: usize
 mod tests {
     use super::*;
 
-    const ASKED: Question = Question { top_share: 0.005, most: 0.5, border: 2, tolerance: None };
+    const ASKED: Question = Question { top_share: 0.005, most: 0.5, border: 2, tolerance: None, spread_step: None };
+
+    #[test]
+    fn a_sample_drawn_chunk_by_chunk_is_the_whole_frames() {
+        let (rows, cols) = (37, 29);
+        let real = noise(rows * cols, 3);
+        let mut sim = noise(rows * cols, 4);
+        sim[40] = f64::NAN;
+        let mask: Vec<bool> = (0..rows * cols).map(|i| i % 7 != 3).collect();
+        let pair = Pair { real: &real[..], sim: &sim[..], mask: Some(&mask[..]) };
+        for step in [1, 2, 3, 5, 40] {
+            let whole = sampled_differences(&real, &sim, Some(&mask), (rows, cols), step).unwrap();
+            for cut in [1, 10, 29, 64, 500] {
+                let mut joined = Vec::new();
+                for a in (0..rows * cols).step_by(cut) {
+                    sample_into(&pair, cols, step, (a, (a + cut).min(rows * cols)), &mut joined).unwrap();
+                }
+                assert_eq!(joined, whole, "step {step}, chunks of {cut}");
+            }
+        }
+    }
 
     fn noise(n: usize, seed: u64) -> Vec<f64> {
         let mut state = seed;

@@ -90,15 +90,15 @@ def _core_calls(fn) -> list[str]:
 
 
 def test_a_registered_evaluate_makes_one_scoring_call():
-    # the pair's one path, the defects search on the frames as scored (the error profile, the
-    # threshold, then the largest difference passes it on this pair, so the far pixels are
-    # listed; none is a defect, so the concentrated-error check reads the same profile), the
-    # summary, then the scene's transfer (its memory plan, block means, then the tiles)
+    # the pair's one path, the defects search on the frames as scored (the error profile with
+    # the threshold's sample; the largest difference passes the threshold on this pair, so the
+    # far pixels are listed; none is a defect, so the concentrated-error check reads the same
+    # profile), the summary, then the scene's transfer (its memory plan, block means, tiles)
     real, sim = _pair(FRAMES[1])
     kw = dict(bits=16, peak="range", register="translation", register_method="phase")
     calls = _core_calls(lambda: irf.evaluate(real, sim, **kw))
     scene = ["check_budget", "low_spectrum", "cross_spectra"]
-    defects = ["error_profile", "robust_spread", "far_pixels"]
+    defects = ["error_profile", "far_pixels"]
     assert calls == ["score_registered", *defects, "PairStats.summary", *scene], calls
     # unregistered: the memory plan is checked (no data crosses), then one pass, the real
     # frame's range (the PSNR peak "range") and the summary

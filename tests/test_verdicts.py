@@ -432,7 +432,7 @@ def test_defects_equal_a_whole_frame_reference(case):
         assert found["rows"] == want[2] and found["cols"] == want[3] and found["pixels"] == want[4]
     assert (want is None) == (case in ("spread", "three rows"))
     if case == "three rows":  # every pixel is on the border, counted once
-        total, count, _, (ring_total, ring_count, box), _, _ = _core.error_profile(real, sim, top_share=defects.TOP_SHARE,
+        total, count, _, (ring_total, ring_count, box), _, _, _ = _core.error_profile(real, sim, top_share=defects.TOP_SHARE,
                                                                              most=defects.MOST, border=2)
         assert ring_count == count == real.size and ring_total == pytest.approx(total, rel=1e-12)
         assert tuple(box) == (0, 2, 0, real.shape[1] - 1)
@@ -529,12 +529,27 @@ def test_the_robust_spread_is_numpys_median_and_quantile_to_the_last_bit():
     keep = rng.random(real.shape) > 0.3
     cases += [(real, sim, None, 1), (real, sim, keep, 3), (real, sim, keep, 200),
               (real, np.clip(np.rint(np.nan_to_num(sim, posinf=0)), 0, 65535).astype(np.uint16), keep, 2)]
+    big = 300 + rng.normal(0, 2, (700, 530))                     # several chunks of the profile's pass
+    big_sim = big + rng.normal(0, 0.5, big.shape)
+    big_sim[3, 8] = np.nan
+    cases += [(big, big_sim, None, 4), (big, big_sim, rng.random(big.shape) > 0.5, 5)]
     for real, sim, mask, step in cases:
         got = _core.robust_spread(real, sim, mask, step=step)
         want = numpys(real, sim, mask, step)
         assert got[:3] == want[:3], (real.shape, step)
         assert got[3] == pytest.approx(want[3], rel=1e-12, abs=1e-300)
+        # the error profile draws the same sample chunk by chunk: the same spread, to the bit
+        size = np.count_nonzero(np.isfinite(sim[::step, ::step] - real[::step, ::step])
+                                & (True if mask is None else mask[::step, ::step]))
+        _, _, _, _, _, _, spread = _core.error_profile(real, sim, mask, top_share=0.005, most=0.5, border=2,
+                                                       spread_step=step)
+        assert spread == (size, got)
     assert _core.robust_spread(real, sim, np.zeros(real.shape, dtype=bool), step=1) is None
+    nothing = np.zeros(real.shape, dtype=bool)
+    assert _core.error_profile(real, sim, nothing, top_share=0.005, most=0.5, border=2, spread_step=3)[6] == (0, None)
+    assert _core.error_profile(real, sim, top_share=0.005, most=0.5, border=2)[6] is None
+    with pytest.raises(FidelityError, match="spread_step"):
+        _core.error_profile(real, sim, top_share=0.005, most=0.5, border=2, spread_step=0)
     with pytest.raises(ShapeError, match="mask"):
         _core.robust_spread(real, sim, keep[:5], step=1)
     with pytest.raises(FidelityError, match="step"):

@@ -347,6 +347,7 @@ def error_profile(
     most: float,
     border: int,
     tolerance: float | None = None,
+    spread_step: int | None = None,
 ) -> tuple[
     float,
     int,
@@ -354,6 +355,7 @@ def error_profile(
     tuple[float, int, list[int] | None],
     tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]] | None,
     tuple[int, float, float, float, int] | None,
+    tuple[int, tuple[float, float, float, float] | None] | None,
 ]: ...
 def far_pixels(
     real: npt.NDArray[Any],

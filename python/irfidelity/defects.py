@@ -58,7 +58,9 @@ class ErrorProfile(NamedTuple):
     ``top`` largest squares ``(values, flat indices)`` when bounds could not rule out that
     they carry more than :data:`MOST` of the total (None otherwise), and with a tolerance on
     float64 frames the temperature errors' sums ``(n, Σd, Σd², Σ|d|, within)`` (None otherwise;
-    :meth:`irfidelity.temperature.TemperatureErrors.of_sums`)."""
+    :meth:`irfidelity.temperature.TemperatureErrors.of_sums`), and with ``spread`` the defects'
+    threshold sample: its size and ``(median, MAD, 99th percentile, RMS deviation)`` (None when
+    empty); None otherwise."""
 
     total: float
     scored: int
@@ -66,17 +68,21 @@ class ErrorProfile(NamedTuple):
     border: tuple[float, int, list[int] | None]
     top: tuple[np.ndarray, np.ndarray] | None
     errors: tuple[int, float, float, float, int] | None
+    spread: tuple[int, tuple[float, float, float, float] | None] | None
 
 
-def error_profile(real: Any, sim: Any, mask: Any = None, *, tolerance: float | None = None) -> ErrorProfile:
+def error_profile(real: Any, sim: Any, mask: Any = None, *, tolerance: float | None = None,
+                  spread: bool = False) -> ErrorProfile:
     """The squared error of a pair and where it sits, in one Rust pass (``_core.error_profile``):
     what :func:`find_defects` and :func:`concentrated_error` both read, so a caller that runs
     both on one pair can take it once; with ``tolerance`` (frames in temperature), the same
-    pass also sums the temperature errors."""
+    pass also sums the temperature errors, and with ``spread`` it draws the sample of
+    :func:`find_defects`' threshold."""
     real, sim = _frames(real, sim)
     mask = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
     return ErrorProfile(*_core.error_profile(real, sim, mask, top_share=TOP_SHARE, most=MOST, border=_BORDER,
-                                             tolerance=tolerance))
+                                             tolerance=tolerance,
+                                             spread_step=_spread_step(real.size) if spread else None))
 
 
 def concentrated_error(real: Any, sim: Any, mask: Any = None, *, profile: ErrorProfile | None = None) -> dict | None:
@@ -121,8 +127,8 @@ def concentrated_error(real: Any, sim: Any, mask: Any = None, *, profile: ErrorP
     ([40, 45], [70, 75], 1.0)
     """
     real = np.asarray(real)
-    total, count, _, (ring_total, ring_count, ring_box), top, _ = error_profile(real, sim, mask) if profile is None \
-        else profile
+    total, count, _, (ring_total, ring_count, ring_box), top, _, _ = error_profile(real, sim, mask) \
+        if profile is None else profile
     if count == 0 or not total > 0:
         return None
     if top is not None:
@@ -235,17 +241,25 @@ class Defects:
                 "text": self.text()}
 
 
-def _outlier_threshold(real: np.ndarray, sim: np.ndarray, mask: np.ndarray | None) -> tuple[float, float]:
+def _spread_step(pixels: int) -> int:
+    """The step of the threshold's sample: every step-th pixel of every step-th row, about
+    :data:`_SCALE_SAMPLES` of them."""
+    return max(1, int(math.sqrt(pixels / _SCALE_SAMPLES)))
+
+
+def _outlier_threshold(real: np.ndarray, sim: np.ndarray, mask: np.ndarray | None,
+                       sampled: tuple[int, tuple[float, float, float, float] | None] | None = None
+                       ) -> tuple[float, float]:
     """The median of ``sim − real`` over a regular subsample, and how far from it a difference
     makes a candidate: :data:`OUTLIER` robust standard deviations (1.4826 × the median absolute
     deviation, at least the frames' resolution: half a count for integer frames), and at least
     :data:`TAIL` × the 99th percentile of the absolute deviations. The percentile raises it for a
     heavy-tailed difference (a scene that moved between two frames of a quiet camera, whose
     deviation is mostly 0) and leaves a Gaussian one at 10 σ (3 × 2.58 σ); defects, fewer than
-    :data:`MAX_CANDIDATES` of the pixels, do not reach it."""
-    step = max(1, int(math.sqrt(real.size / _SCALE_SAMPLES)))
+    :data:`MAX_CANDIDATES` of the pixels, do not reach it. ``sampled``: the spread an
+    :func:`error_profile` drew (``spread=True``), when the caller has it."""
     # sim[::step, ::step] − real[::step, ::step] where scored and finite; numpy's median and quantile
-    spread = _core.robust_spread(real, sim, mask, step=step)
+    spread = _core.robust_spread(real, sim, mask, step=_spread_step(real.size)) if sampled is None else sampled[1]
     if spread is None:
         return 0.0, math.inf
     median, deviation, tail, rms = spread
@@ -323,9 +337,10 @@ def find_defects(real: Any, sim: Any, mask: Any = None, *, profile: ErrorProfile
     :data:`MAX_CANDIDATES` of the scored pixels is widespread error: no defects are reported.
     The frame whose cluster departs from its own surroundings is the defective one.
 
-    One Rust pass (:func:`error_profile`, or ``profile`` when given) gives the largest difference; only when it exceeds
-    the candidates' threshold does a second (``_core.far_pixels``) list them, without a
-    frame-sized temporary.
+    One Rust pass (:func:`error_profile` with ``spread=True``, or ``profile`` when given) gives
+    the largest difference and the threshold's sample; only when the largest exceeds the
+    threshold does a second (``_core.far_pixels``) list the candidates, without a frame-sized
+    temporary.
 
     Returns
     -------
@@ -345,8 +360,10 @@ def find_defects(real: Any, sim: Any, mask: Any = None, *, profile: ErrorProfile
     """
     real, sim = _frames(real, sim)
     given = None if mask is None else np.ascontiguousarray(mask, dtype=bool)
-    median, threshold = _outlier_threshold(real, sim, given)
-    total, count, largest, _, _, _ = error_profile(real, sim, given) if profile is None else profile
+    if profile is None:
+        profile = error_profile(real, sim, given, spread=True)
+    median, threshold = _outlier_threshold(real, sim, given, profile.spread)  # drawn now when the profile has none
+    total, count, largest = profile.total, profile.scored, profile.largest
     if count == 0 or not math.sqrt(largest) > threshold - abs(median):
         return None
     flat = _core.far_pixels(real, sim, given, median=median, threshold=threshold,

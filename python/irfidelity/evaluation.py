@@ -99,7 +99,7 @@ def _left_out_defects(sources: dict, tolerance: float | None) -> bool:
     real, sim = np.asarray(sources["real"]), np.asarray(sources["sim"])
     if real.ndim != 2 or real.shape != sim.shape:
         return False
-    profile = error_profile(real, sim, sources.get("mask"), tolerance=tolerance)
+    profile = error_profile(real, sim, sources.get("mask"), tolerance=tolerance, spread=True)
     found = find_defects(real, sim, sources.get("mask"), profile=profile)
     sources["defects"] = found
     if found is None:

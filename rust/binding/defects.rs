@@ -8,8 +8,7 @@ use pyo3::prelude::*;
 
 use super::dtypes::{mask_samples, on_pair, pair_shape, PairWork};
 use crate::defects::{
-    deviation, far_pixels as far_pixels_of, profile, robust_spread as robust_spread_of, sampled_differences, Profile,
-    Question,
+    far_pixels as far_pixels_of, profile, sample_spread, sampled_differences, Profile, Question, Spread,
 };
 use crate::kernel::Sample;
 
@@ -19,16 +18,26 @@ type Top<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i64>>);
 /// The temperature errors `(n, Σd, Σd², Σ|d|, within)`, as `temperature_errors` gives them.
 type ErrorsTuple = (u64, f64, f64, f64, u64);
 
-/// `(total, count, largest, (border total, border count, border box), top, errors)`.
-type ProfileTuple<'py> = (f64, u64, f64, (f64, u64, Option<[usize; 4]>), Option<Top<'py>>, Option<ErrorsTuple>);
+/// `(total, count, largest, (border total, border count, border box), top, errors, spread)`;
+/// `spread` is `(sample size, Spread or None when empty)`.
+type ProfileTuple<'py> = (
+    f64,
+    u64,
+    f64,
+    (f64, u64, Option<[usize; 4]>),
+    Option<Top<'py>>,
+    Option<ErrorsTuple>,
+    Option<(usize, Option<Spread>)>,
+);
 
-/// `error_profile(real, sim, mask=None, *, top_share, most, border, tolerance=None)`: the
-/// squared error of a pair (2-D, C-contiguous, one shape; `sim` of `real`'s dtype or float64),
-/// its border's share, its largest square, its `top_share` largest squares when two bounds
-/// cannot rule out that they carry more than `most` of the total (see `crate::defects`), and
-/// with a `tolerance` on two float64 frames the temperature errors of the same pass.
+/// `error_profile(real, sim, mask=None, *, top_share, most, border, tolerance=None,
+/// spread_step=None)`: the squared error of a pair (2-D, C-contiguous, one shape; `sim` of
+/// `real`'s dtype or float64), its border's share, its largest square, its `top_share` largest
+/// squares when two bounds cannot rule out that they carry more than `most` of the total (see
+/// `crate::defects`); with a `tolerance` on two float64 frames the temperature errors of the
+/// same pass, with a `spread_step` the spread `robust_spread` gives, from the same pass.
 #[pyfunction]
-#[pyo3(signature = (real, sim, mask=None, *, top_share, most, border, tolerance=None))]
+#[pyo3(signature = (real, sim, mask=None, *, top_share, most, border, tolerance=None, spread_step=None))]
 #[allow(clippy::too_many_arguments)]
 fn error_profile<'py>(
     py: Python<'py>,
@@ -39,17 +48,18 @@ fn error_profile<'py>(
     most: f64,
     border: usize,
     tolerance: Option<f64>,
+    spread_step: Option<usize>,
 ) -> PyResult<ProfileTuple<'py>> {
     let shape = pair_shape(real, sim)?;
     let mask = mask_samples(mask.as_ref(), shape)?;
-    let work = ErrorProfile { mask, shape, question: Question { top_share, most, border, tolerance } };
-    let Profile { total, count, largest, border, top, errors } = on_pair(py, (real, sim, None), &work)?;
+    let work = ErrorProfile { mask, shape, question: Question { top_share, most, border, tolerance, spread_step } };
+    let Profile { total, count, largest, border, top, errors, spread } = on_pair(py, (real, sim, None), &work)?;
     let top = top.map(|squares| {
         let (values, index): (Vec<f64>, Vec<i64>) = squares.into_iter().map(|(v, i)| (v, i as i64)).unzip();
         (values.into_pyarray(py), index.into_pyarray(py))
     });
     let errors = errors.map(|e| (e.n, e.sum, e.squares, e.magnitudes, e.within));
-    Ok((total, count, largest, (border.total, border.count, border.bounds), top, errors))
+    Ok((total, count, largest, (border.total, border.count, border.bounds), top, errors, spread))
 }
 
 /// `far_pixels(real, sim, mask=None, *, median, threshold, most)`: the flat indices (int64,
@@ -85,10 +95,10 @@ fn robust_spread<'py>(
     sim: &Bound<'py, PyUntypedArray>,
     mask: Option<PyReadonlyArrayDyn<'py, bool>>,
     step: usize,
-) -> PyResult<Option<(f64, f64, f64, f64)>> {
+) -> PyResult<Option<Spread>> {
     let shape = pair_shape(real, sim)?;
     let mask = mask_samples(mask.as_ref(), shape)?;
-    on_pair(py, (real, sim, None), &Spread { mask, shape, step })
+    on_pair(py, (real, sim, None), &ThresholdSample { mask, shape, step })
 }
 
 struct ErrorProfile<'a> {
@@ -118,18 +128,17 @@ impl PairWork for FarPixels<'_> {
     }
 }
 
-struct Spread<'a> {
+struct ThresholdSample<'a> {
     mask: Option<&'a [bool]>,
     shape: (usize, usize),
     step: usize,
 }
 
-impl PairWork for Spread<'_> {
-    type Output = Option<(f64, f64, f64, f64)>;
+impl PairWork for ThresholdSample<'_> {
+    type Output = Option<Spread>;
     fn run<A: Sample, B: Sample>(&self, real: &[A], sim: &[B], _: Option<&[A]>) -> crate::Result<Self::Output> {
         let mut sample = sampled_differences(real, sim, self.mask, self.shape, self.step)?;
-        let rms = deviation(&sample);
-        Ok(robust_spread_of(&mut sample).map(|(median, mad, tail)| (median, mad, tail, rms)))
+        Ok(sample_spread(&mut sample).1)
     }
 }
 
